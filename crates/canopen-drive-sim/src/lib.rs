@@ -1,0 +1,1 @@
+//! Simulation support (filled in below).

@@ -1,0 +1,7 @@
+//! The CiA 301 communication services of a slave: NMT, SDO server, heartbeat producer.
+
+pub mod heartbeat;
+pub mod nmt;
+pub mod sdo_server;
+
+pub use crate::wire::nmt::NmtState;

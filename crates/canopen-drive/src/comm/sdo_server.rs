@@ -1,0 +1,475 @@
+//! SDO server (CiA 301 §7.2.4, digest §5): expedited, segmented and block transfer in both
+//! directions, on the default server channel (requests 0x600+id, responses 0x580+id).
+//!
+//! The server is an explicit state enum. [`SdoServer::on_request`] advances it by one received
+//! frame and returns at most one response; [`SdoServer::poll`] yields the frames the server
+//! sends on its own (block-upload segments, timeout aborts), one per call, so the caller decides
+//! how many fit in its transmit queue. The server never touches the dictionary directly: it
+//! goes through [`ObjectAccess`], which the drive implements with its access rules.
+//!
+//! Decisions where the standard leaves room (digest §5, §17, §18):
+//! - A download is written to the dictionary only when complete (atomic; a refused write leaves
+//!   the old value). Its data is staged in a `BUF`-byte buffer; larger transfers are refused with
+//!   0x0504_0005 (out of memory).
+//! - An expedited download without size (e = 1, s = 0) takes the entry's size, at most 4 bytes.
+//! - Values of 1..=4 bytes are uploaded expedited; longer and empty values segmented, always
+//!   with the size indicated (an empty value: size 0, then one segment with c = 1, n = 7).
+//! - Block upload honours the protocol switch threshold: when the client allows it (pst > 0)
+//!   and the value is no longer than pst, the server answers with a normal upload.
+//! - Block download: a segment out of sequence is ignored; the sub-block acknowledgement names
+//!   the last segment received in order, so the client repeats from there (digest §5.5).
+//! - A new initiate while a transfer is in progress aborts it with 0x0504_0001.
+//! - Timeouts (default 1 s between frames of a transfer) abort with 0x0504_0000.
+
+use super::super::time::{Duration, Instant};
+use crate::od::AbortCode;
+use crate::wire::crc;
+use crate::wire::sdo::{BlockSegment, Download, Mux, Request, Response};
+
+/// Largest number of segments per block-download sub-block this server asks for.
+pub const MAX_BLOCK_SIZE: u8 = 127;
+
+/// The dictionary as the SDO server sees it: the drive implements this with its access rules
+/// (existence, access rights, NMT state, hooks).
+pub trait ObjectAccess {
+    /// Checks that `mux` may be uploaded and returns the length of its value.
+    fn upload_len(&mut self, mux: Mux) -> Result<usize, AbortCode>;
+    /// Copies value bytes from `offset` on into `buf`; returns the bytes copied.
+    fn read(&mut self, mux: Mux, offset: usize, buf: &mut [u8]) -> Result<usize, AbortCode>;
+    /// Checks that `mux` may be downloaded (with `size` bytes when known) and returns the size
+    /// of the entry's value when it has a fixed size.
+    fn download_check(&mut self, mux: Mux, size: Option<usize>) -> Result<Option<usize>, AbortCode>;
+    /// Writes a complete value.
+    fn write(&mut self, mux: Mux, data: &[u8]) -> Result<(), AbortCode>;
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct BlockUpload {
+    mux: Mux,
+    crc_on: bool,
+    size: usize,
+    block_size: u8,
+    /// Offset of the first byte of the current sub-block.
+    base: usize,
+    /// Last sequence number sent in the current sub-block.
+    sent: u8,
+    /// CRC over the acknowledged bytes.
+    crc: u16,
+}
+
+impl BlockUpload {
+    fn segments_left(&self) -> usize {
+        self.size.saturating_sub(self.base).div_ceil(7).max(1)
+    }
+    /// Sequence number of the last segment of this sub-block.
+    fn last_seq(&self) -> u8 {
+        self.segments_left().min(usize::from(self.block_size)) as u8
+    }
+}
+
+/// Where the server is in a transfer.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum State {
+    Idle,
+    SegmentedDownload { mux: Mux, toggle: bool, size: Option<usize>, len: usize },
+    SegmentedUpload { mux: Mux, toggle: bool, size: usize, offset: usize },
+    BlockDownload { mux: Mux, crc_on: bool, size: Option<usize>, len: usize, seq: u8, block_size: u8, done: bool },
+    BlockDownloadEnd { mux: Mux, crc_on: bool, size: Option<usize>, len: usize },
+    BlockUploadInitiated(BlockUpload),
+    BlockUploadSending(BlockUpload),
+    BlockUploadAwaitAck(BlockUpload),
+    BlockUploadEnd { mux: Mux },
+}
+
+/// The SDO server with a `BUF`-byte download buffer.
+pub struct SdoServer<const BUF: usize> {
+    state: State,
+    deadline: Option<Instant>,
+    timeout: Duration,
+    buf: [u8; BUF],
+}
+
+/// What a step of the state machine produces.
+type Step = (State, Option<Response>);
+
+fn abort(mux: Mux, code: AbortCode) -> Step {
+    (State::Idle, Some(Response::Abort { mux, code }))
+}
+
+impl<const BUF: usize> SdoServer<BUF> {
+    /// An idle server whose transfers time out after `timeout` without a frame.
+    pub const fn new(timeout: Duration) -> Self {
+        SdoServer { state: State::Idle, deadline: None, timeout, buf: [0; BUF] }
+    }
+
+    /// True when no transfer is in progress.
+    pub fn is_idle(&self) -> bool {
+        self.state == State::Idle
+    }
+
+    /// Drops any transfer without a frame (NMT reset, leaving the states that serve SDO).
+    pub fn reset(&mut self) {
+        self.state = State::Idle;
+        self.deadline = None;
+    }
+
+    /// The instant at which [`poll`](Self::poll) has something to do.
+    pub fn deadline(&self) -> Option<Instant> {
+        self.deadline
+    }
+
+    /// Handles one request frame's data received at `now`; returns the response to send.
+    pub fn on_request(&mut self, data: &[u8], now: Instant, od: &mut impl ObjectAccess) -> Option<[u8; 8]> {
+        let (state, response) = match self.state {
+            // In a block download, every frame but an abort is a sub-block segment.
+            State::BlockDownload { .. } if data.first() != Some(&0x80) => {
+                let segment = BlockSegment::parse(data)?;
+                self.block_segment(segment)
+            }
+            _ => {
+                let request = Request::parse(data)?;
+                self.step(request, od)
+            }
+        };
+        self.enter(state, now);
+        response.map(|r| r.emit())
+    }
+
+    /// Returns the next frame the server sends on its own at `now`, if any: a block-upload
+    /// segment, or a timeout abort. Call again until it returns `None`.
+    pub fn poll(&mut self, now: Instant, od: &mut impl ObjectAccess) -> Option<[u8; 8]> {
+        if let State::BlockUploadSending(upload) = self.state {
+            let (state, response) = self.send_segment(upload, od);
+            self.enter(state, now);
+            return response.map(|r| r.emit());
+        }
+        match self.deadline {
+            Some(deadline) if now >= deadline => {
+                let mux = self.mux()?;
+                self.enter(State::Idle, now);
+                Some(Response::Abort { mux, code: AbortCode::Timeout }.emit())
+            }
+            _ => None,
+        }
+    }
+
+    fn enter(&mut self, state: State, now: Instant) {
+        self.state = state;
+        self.deadline = match state {
+            State::Idle => None,
+            // Sending is work to do right away.
+            State::BlockUploadSending(_) => Some(now),
+            _ => Some(now + self.timeout),
+        };
+    }
+
+    fn mux(&self) -> Option<Mux> {
+        match self.state {
+            State::Idle => None,
+            State::SegmentedDownload { mux, .. }
+            | State::SegmentedUpload { mux, .. }
+            | State::BlockDownload { mux, .. }
+            | State::BlockDownloadEnd { mux, .. }
+            | State::BlockUploadEnd { mux } => Some(mux),
+            State::BlockUploadInitiated(u) | State::BlockUploadSending(u) | State::BlockUploadAwaitAck(u) => {
+                Some(u.mux)
+            }
+        }
+    }
+
+    /// The transition function for frames with a command specifier.
+    fn step(&mut self, request: Request, od: &mut impl ObjectAccess) -> Step {
+        let current = self.mux().unwrap_or(Mux { index: 0, sub: 0 });
+        match (self.state, request) {
+            // An abort ends any transfer and is never answered.
+            (_, Request::Abort { .. }) => (State::Idle, None),
+
+            (State::Idle, Request::InitiateDownload { mux, kind }) => self.initiate_download(mux, kind, od),
+            (State::Idle, Request::InitiateUpload { mux }) => self.initiate_upload(mux, od),
+            (State::Idle, Request::BlockUploadInitiate { mux, crc, block_size, pst }) => {
+                self.initiate_block_upload(mux, crc, block_size, pst, od)
+            }
+            (State::Idle, Request::BlockDownloadInitiate { mux, crc, size }) => {
+                let size = size.map(|s| s as usize);
+                match self.check_download(mux, size, od) {
+                    Err(code) => abort(mux, code),
+                    Ok(_) => (
+                        State::BlockDownload { mux, crc_on: crc, size, len: 0, seq: 0, block_size: self.block_size(0), done: false },
+                        Some(Response::BlockDownloadInitiated { mux, crc: true, block_size: self.block_size(0) }),
+                    ),
+                }
+            }
+            (State::Idle, Request::Unknown { .. }) => abort(current, AbortCode::InvalidCommandSpecifier),
+            // Segment or block continuation frames without a transfer.
+            (State::Idle, _) => abort(current, AbortCode::InvalidCommandSpecifier),
+
+            (State::SegmentedDownload { mux, toggle, size, len }, Request::DownloadSegment { toggle: t, data, len: n, last }) => {
+                if t != toggle {
+                    return abort(mux, AbortCode::ToggleBitNotAlternated);
+                }
+                let n = usize::from(n);
+                let Some(dst) = self.buf.get_mut(len..len + n) else {
+                    return abort(mux, AbortCode::OutOfMemory);
+                };
+                dst.copy_from_slice(data.get(..n).unwrap_or(&[]));
+                let len = len + n;
+                if size.is_some_and(|s| len > s) {
+                    return abort(mux, AbortCode::LengthTooHigh);
+                }
+                if !last {
+                    return (
+                        State::SegmentedDownload { mux, toggle: !toggle, size, len },
+                        Some(Response::DownloadSegmentAck { toggle }),
+                    );
+                }
+                if size.is_some_and(|s| len < s) {
+                    return abort(mux, AbortCode::LengthTooLow);
+                }
+                match self.finish_download(mux, len, od) {
+                    Ok(()) => (State::Idle, Some(Response::DownloadSegmentAck { toggle })),
+                    Err(code) => abort(mux, code),
+                }
+            }
+
+            (State::SegmentedUpload { mux, toggle, size, offset }, Request::UploadSegment { toggle: t }) => {
+                if t != toggle {
+                    return abort(mux, AbortCode::ToggleBitNotAlternated);
+                }
+                let mut data = [0u8; 7];
+                let want = size.saturating_sub(offset).min(7);
+                let got = match od.read(mux, offset, data.get_mut(..want).unwrap_or(&mut [])) {
+                    Ok(n) => n,
+                    Err(code) => return abort(mux, code),
+                };
+                let offset = offset + got;
+                let last = offset >= size || got < want;
+                let response = Response::UploadSegment { toggle, data, len: got as u8, last };
+                if last {
+                    (State::Idle, Some(response))
+                } else {
+                    (State::SegmentedUpload { mux, toggle: !toggle, size, offset }, Some(response))
+                }
+            }
+
+            (State::BlockDownloadEnd { mux, crc_on, size, len }, Request::BlockDownloadEnd { unused, crc: client_crc }) => {
+                // The last segment always carried 7 bytes; `unused` of them were padding.
+                let len = len.saturating_sub(usize::from(unused));
+                if size.is_some_and(|s| len > s) {
+                    return abort(mux, AbortCode::LengthTooHigh);
+                }
+                if size.is_some_and(|s| len < s) {
+                    return abort(mux, AbortCode::LengthTooLow);
+                }
+                if crc_on && crc::update(0, self.buf.get(..len).unwrap_or(&[])) != client_crc {
+                    return abort(mux, AbortCode::CrcError);
+                }
+                match self.finish_download(mux, len, od) {
+                    Ok(()) => (State::Idle, Some(Response::BlockDownloadEnd)),
+                    Err(code) => abort(mux, code),
+                }
+            }
+
+            (State::BlockUploadInitiated(upload), Request::BlockUploadStart) => {
+                (State::BlockUploadSending(BlockUpload { sent: 0, ..upload }), None)
+            }
+            (State::BlockUploadAwaitAck(upload), Request::BlockUploadAck { ack_seq, block_size }) => {
+                self.block_upload_ack(upload, ack_seq, block_size, od)
+            }
+            // The client may acknowledge early (while segments are still being sent).
+            (State::BlockUploadSending(upload), Request::BlockUploadAck { ack_seq, block_size }) => {
+                self.block_upload_ack(upload, ack_seq, block_size, od)
+            }
+            (State::BlockUploadEnd { .. }, Request::BlockUploadEnd) => (State::Idle, None),
+
+            // Anything else in the middle of a transfer is a protocol error (digest §5.9 item 7).
+            (
+                State::SegmentedDownload { .. }
+                | State::SegmentedUpload { .. }
+                | State::BlockDownload { .. }
+                | State::BlockDownloadEnd { .. }
+                | State::BlockUploadInitiated(_)
+                | State::BlockUploadSending(_)
+                | State::BlockUploadAwaitAck(_)
+                | State::BlockUploadEnd { .. },
+                _,
+            ) => abort(current, AbortCode::InvalidCommandSpecifier),
+        }
+    }
+
+    fn block_size(&self, len: usize) -> u8 {
+        (BUF.saturating_sub(len) / 7).clamp(1, usize::from(MAX_BLOCK_SIZE)) as u8
+    }
+
+    fn check_download(&self, mux: Mux, size: Option<usize>, od: &mut impl ObjectAccess) -> Result<Option<usize>, AbortCode> {
+        let fixed = od.download_check(mux, size)?;
+        if size.is_some_and(|s| s > BUF) {
+            return Err(AbortCode::OutOfMemory);
+        }
+        Ok(fixed)
+    }
+
+    fn finish_download(&mut self, mux: Mux, len: usize, od: &mut impl ObjectAccess) -> Result<(), AbortCode> {
+        od.write(mux, self.buf.get(..len).unwrap_or(&[]))
+    }
+
+    fn initiate_download(&mut self, mux: Mux, kind: Download, od: &mut impl ObjectAccess) -> Step {
+        match kind {
+            Download::Expedited { data, len, present } => {
+                let size = len.map(usize::from);
+                let fixed = match self.check_download(mux, size, od) {
+                    Ok(fixed) => fixed,
+                    Err(code) => return abort(mux, code),
+                };
+                // Without a size, the entry's own size says how many bytes count (at most 4).
+                let n = size.unwrap_or(fixed.unwrap_or(4).min(4));
+                if n > usize::from(present) {
+                    return abort(mux, AbortCode::LengthTooLow);
+                }
+                match od.write(mux, data.get(..n).unwrap_or(&[])) {
+                    Ok(()) => (State::Idle, Some(Response::DownloadInitiated { mux })),
+                    Err(code) => abort(mux, code),
+                }
+            }
+            Download::Segmented { size } => {
+                let size = size.map(|s| s as usize);
+                match self.check_download(mux, size, od) {
+                    Ok(_) => (
+                        State::SegmentedDownload { mux, toggle: false, size, len: 0 },
+                        Some(Response::DownloadInitiated { mux }),
+                    ),
+                    Err(code) => abort(mux, code),
+                }
+            }
+        }
+    }
+
+    fn initiate_upload(&mut self, mux: Mux, od: &mut impl ObjectAccess) -> Step {
+        let size = match od.upload_len(mux) {
+            Ok(size) => size,
+            Err(code) => return abort(mux, code),
+        };
+        if (1..=4).contains(&size) {
+            let mut data = [0u8; 4];
+            return match od.read(mux, 0, data.get_mut(..size).unwrap_or(&mut [])) {
+                Ok(n) if n > 0 => (State::Idle, Some(Response::UploadExpedited { mux, data, len: n as u8 })),
+                Ok(_) => abort(mux, AbortCode::NoDataAvailable),
+                Err(code) => abort(mux, code),
+            };
+        }
+        let Ok(wire_size) = u32::try_from(size) else {
+            return abort(mux, AbortCode::General);
+        };
+        (
+            State::SegmentedUpload { mux, toggle: false, size, offset: 0 },
+            Some(Response::UploadSegmented { mux, size: wire_size }),
+        )
+    }
+
+    fn initiate_block_upload(&mut self, mux: Mux, crc_on: bool, block_size: u8, pst: u8, od: &mut impl ObjectAccess) -> Step {
+        let size = match od.upload_len(mux) {
+            Ok(size) => size,
+            Err(code) => return abort(mux, code),
+        };
+        if !(1..=MAX_BLOCK_SIZE).contains(&block_size) {
+            return abort(mux, AbortCode::InvalidBlockSize);
+        }
+        if pst > 0 && size <= usize::from(pst) {
+            return self.initiate_upload(mux, od);
+        }
+        let Ok(wire_size) = u32::try_from(size) else {
+            return abort(mux, AbortCode::General);
+        };
+        let upload = BlockUpload { mux, crc_on, size, block_size, base: 0, sent: 0, crc: 0 };
+        (State::BlockUploadInitiated(upload), Some(Response::BlockUploadInitiated { mux, crc: true, size: wire_size }))
+    }
+
+    fn send_segment(&mut self, upload: BlockUpload, od: &mut impl ObjectAccess) -> Step {
+        let seq = upload.sent + 1;
+        let offset = upload.base + usize::from(upload.sent) * 7;
+        let mut data = [0u8; 7];
+        let want = upload.size.saturating_sub(offset).min(7);
+        if let Err(code) = od.read(upload.mux, offset, data.get_mut(..want).unwrap_or(&mut [])) {
+            return abort(upload.mux, code);
+        }
+        let last = offset + 7 >= upload.size;
+        let segment = BlockSegment { seq, last, data };
+        let next = BlockUpload { sent: seq, ..upload };
+        let state = if seq >= upload.last_seq() {
+            State::BlockUploadAwaitAck(next)
+        } else {
+            State::BlockUploadSending(next)
+        };
+        (state, Some(Response::BlockUploadSegment(segment)))
+    }
+
+    fn block_upload_ack(&mut self, upload: BlockUpload, ack_seq: u8, block_size: u8, od: &mut impl ObjectAccess) -> Step {
+        if ack_seq > upload.sent {
+            return abort(upload.mux, AbortCode::InvalidSequenceNumber);
+        }
+        if !(1..=MAX_BLOCK_SIZE).contains(&block_size) {
+            return abort(upload.mux, AbortCode::InvalidBlockSize);
+        }
+        // Feed the acknowledged bytes to the CRC once, in order.
+        let acked = (usize::from(ack_seq) * 7).min(upload.size.saturating_sub(upload.base));
+        let mut crc = upload.crc;
+        let mut offset = upload.base;
+        let mut chunk = [0u8; 7];
+        while offset < upload.base + acked {
+            let want = (upload.base + acked - offset).min(7);
+            match od.read(upload.mux, offset, chunk.get_mut(..want).unwrap_or(&mut [])) {
+                Ok(n) if n > 0 => {
+                    crc = crc::update(crc, chunk.get(..n).unwrap_or(&[]));
+                    offset += n;
+                }
+                Ok(_) => return abort(upload.mux, AbortCode::General),
+                Err(code) => return abort(upload.mux, code),
+            }
+        }
+        let next = BlockUpload { base: upload.base + acked, sent: 0, crc, block_size, ..upload };
+        if next.base >= upload.size && (acked > 0 || upload.size == 0) && ack_seq == upload.last_seq() {
+            let last_len = match upload.size % 7 {
+                0 if upload.size > 0 => 7,
+                rest => rest,
+            };
+            let unused = (7 - last_len) as u8;
+            let crc = if upload.crc_on { crc } else { 0 };
+            return (State::BlockUploadEnd { mux: upload.mux }, Some(Response::BlockUploadEnd { unused, crc }));
+        }
+        (State::BlockUploadSending(next), None)
+    }
+
+    /// A block-download sub-block segment.
+    fn block_segment(&mut self, segment: BlockSegment) -> Step {
+        let State::BlockDownload { mux, crc_on, size, len, seq, block_size, done } = self.state else {
+            return (self.state, None);
+        };
+        if segment.seq == 0 || segment.seq > MAX_BLOCK_SIZE {
+            return abort(mux, AbortCode::InvalidSequenceNumber);
+        }
+        let (mut len, mut seq, mut done) = (len, seq, done);
+        if !done && segment.seq == seq + 1 {
+            let Some(dst) = self.buf.get_mut(len..len + 7) else {
+                return abort(mux, AbortCode::OutOfMemory);
+            };
+            dst.copy_from_slice(&segment.data);
+            len += 7;
+            seq = segment.seq;
+            done = segment.last;
+            if size.is_some_and(|s| len > s + 6) {
+                return abort(mux, AbortCode::LengthTooHigh);
+            }
+        }
+        // End of the sub-block: the client sent its last segment (in order or not).
+        if segment.seq >= block_size || segment.last {
+            let ack = Response::BlockDownloadAck { ack_seq: seq, block_size: self.block_size(len) };
+            if done {
+                return (State::BlockDownloadEnd { mux, crc_on, size, len }, Some(ack));
+            }
+            return (
+                State::BlockDownload { mux, crc_on, size, len, seq: 0, block_size: self.block_size(len), done },
+                Some(ack),
+            );
+        }
+        (State::BlockDownload { mux, crc_on, size, len, seq, block_size, done }, None)
+    }
+}

@@ -1,0 +1,329 @@
+//! [`Drive`]: the object dictionary and every service composed behind the two entry points.
+//!
+//! ## Concurrency
+//!
+//! `Drive` is a plain value with `&mut self` entry points. Firmware that calls `tick` from a
+//! high-priority interrupt and `on_frame`/`poll` from a lower one shares it through a
+//! `critical_section::Mutex<RefCell<Drive>>`; every entry point does bounded work, so the time
+//! the tick can be held off is bounded by the longest single call (one frame, or one poll of at
+//! most [`TX_QUEUE`] frames).
+
+use core::fmt;
+
+use heapless::Deque;
+
+use crate::comm::heartbeat::HeartbeatProducer;
+use crate::comm::nmt::{transition, NmtAction, Services};
+use crate::comm::sdo_server::{ObjectAccess, SdoServer};
+use crate::frame::CanFrame;
+use crate::hal::{Demand, Sample};
+use crate::od::eds::{self, EdsInfo};
+use crate::od::standard::{self, PRODUCER_HEARTBEAT_TIME};
+use crate::od::{AbortCode, ConfigError, DeviceInfo, Dictionary, Entry, Object, ObjectHooks, WriteRule};
+use crate::time::{earliest, Duration, Instant};
+use crate::wire::nmt::{NmtState, NodeControl};
+use crate::wire::sdo::Mux;
+use crate::wire::{ERROR_CONTROL_BASE, NMT_COB_ID, SDO_RX_BASE, SDO_TX_BASE};
+
+/// Frames the drive can hold for transmission until [`Drive::pop_tx`] drains them.
+pub const TX_QUEUE: usize = 16;
+/// Bytes the SDO server can stage for one download.
+pub const SDO_BUFFER: usize = 256;
+/// Default size of the dictionary's value store in bytes.
+pub const DEFAULT_OD_BYTES: usize = 2048;
+
+/// Start-up configuration of a drive.
+#[derive(Clone, Copy, Debug)]
+pub struct Config {
+    /// Node-ID, 1..=127.
+    pub node_id: u8,
+    /// Identity and names (1000h, 1008h–100Ah, 1018h, the EDS of 1021h).
+    pub device: DeviceInfo,
+    /// Time without a frame after which an SDO transfer is aborted (0x0504_0000).
+    pub sdo_timeout: Duration,
+    /// The firmware's own objects (2000h–5FFFh), laid out with [`crate::od::layout`].
+    pub manufacturer_objects: &'static [Object],
+}
+
+impl Config {
+    /// A CiA 402 servo drive at `node_id` with the standard defaults.
+    pub const fn new(node_id: u8) -> Self {
+        Config {
+            node_id,
+            device: DeviceInfo::servo_drive(),
+            sdo_timeout: Duration::from_millis(1000),
+            manufacturer_objects: &[],
+        }
+    }
+}
+
+/// A CANopen CiA 402 drive: dictionary, NMT slave, SDO server, heartbeat.
+///
+/// `H` are the firmware's object hooks; `OD_BYTES` the size of the value store.
+pub struct Drive<H: ObjectHooks = (), const OD_BYTES: usize = DEFAULT_OD_BYTES> {
+    od: Dictionary<OD_BYTES>,
+    sdo: SdoServer<SDO_BUFFER>,
+    nmt: NmtState,
+    heartbeat: HeartbeatProducer,
+    tx: Deque<CanFrame, TX_QUEUE>,
+    tx_dropped: u32,
+    hooks: H,
+}
+
+impl Drive {
+    /// A drive without object hooks. It boots (sends its boot-up frame) at the first
+    /// [`poll`](Drive::poll) or [`on_frame`](Drive::on_frame).
+    pub fn new(config: Config) -> Result<Self, ConfigError> {
+        Drive::with_hooks(config, ())
+    }
+}
+
+impl<H: ObjectHooks, const OD_BYTES: usize> Drive<H, OD_BYTES> {
+    /// A drive whose manufacturer objects are served through `hooks`.
+    pub fn with_hooks(config: Config, hooks: H) -> Result<Self, ConfigError> {
+        if !(1..=127).contains(&config.node_id) {
+            return Err(ConfigError::InvalidNodeId);
+        }
+        let tables: [&'static [Object]; 2] = [&standard::COMMUNICATION, config.manufacturer_objects];
+        let od = Dictionary::new(&tables, config.device, config.node_id)?;
+        Ok(Drive {
+            od,
+            sdo: SdoServer::new(config.sdo_timeout),
+            nmt: NmtState::Initialising,
+            heartbeat: HeartbeatProducer::default(),
+            tx: Deque::new(),
+            tx_dropped: 0,
+            hooks,
+        })
+    }
+
+    /// The node-ID.
+    pub fn node_id(&self) -> u8 {
+        self.od.node_id()
+    }
+
+    /// The NMT state.
+    pub fn nmt_state(&self) -> NmtState {
+        self.nmt
+    }
+
+    /// The object dictionary (device-side access).
+    pub fn od(&self) -> &Dictionary<OD_BYTES> {
+        &self.od
+    }
+
+    /// The object dictionary, mutable (device-side access: no SDO access rules).
+    pub fn od_mut(&mut self) -> &mut Dictionary<OD_BYTES> {
+        &mut self.od
+    }
+
+    /// The firmware's hooks.
+    pub fn hooks_mut(&mut self) -> &mut H {
+        &mut self.hooks
+    }
+
+    /// Frames dropped because the transmit queue was full (the board did not drain it).
+    pub fn tx_dropped(&self) -> u32 {
+        self.tx_dropped
+    }
+
+    /// Writes the EDS of this drive's dictionary.
+    pub fn write_eds(&self, info: &EdsInfo, w: &mut impl fmt::Write) -> fmt::Result {
+        eds::write(&self.od, info, w)
+    }
+
+    /// Handles one received frame. Bounded work: at most one SDO step and a transmit queue's
+    /// worth of block-upload segments.
+    pub fn on_frame(&mut self, frame: &CanFrame, now: Instant) {
+        self.boot_if_pending(now);
+        if embedded_can::Frame::is_remote_frame(frame) {
+            return;
+        }
+        let Some(id) = frame.standard_id() else {
+            return;
+        };
+        let node_id = self.node_id();
+        let data = embedded_can::Frame::data(frame);
+        if id == NMT_COB_ID {
+            if let Some(control) = NodeControl::parse(data).filter(|c| c.addresses(node_id)) {
+                self.nmt_command(transition(self.nmt, control.command), now);
+            }
+        } else if id == SDO_RX_BASE + u16::from(node_id) && self.nmt.serves_sdo() {
+            let mut access = Access { od: &mut self.od, hooks: &mut self.hooks, nmt: self.nmt, written: None };
+            let response = self.sdo.on_request(data, now, &mut access);
+            let written = access.written;
+            if let Some(response) = response {
+                self.send(SDO_TX_BASE + u16::from(node_id), &response);
+            }
+            if let Some(mux) = written {
+                self.after_write(mux, now);
+            }
+            self.drain_sdo(now);
+        }
+    }
+
+    /// Runs the timers and background work due at `now`; returns when to call again
+    /// (`None`: only when a frame arrives).
+    pub fn poll(&mut self, now: Instant) -> Option<Instant> {
+        self.boot_if_pending(now);
+        if self.heartbeat.due(now, self.heartbeat_period()) {
+            self.send_error_control(self.nmt.heartbeat_byte());
+        }
+        self.drain_sdo(now);
+        earliest(self.heartbeat.deadline(), self.sdo.deadline())
+    }
+
+    /// The next frame to transmit.
+    pub fn pop_tx(&mut self) -> Option<CanFrame> {
+        self.tx.pop_front()
+    }
+
+    /// The next frame to transmit, left in the queue (for drivers that may refuse it).
+    pub fn peek_tx(&self) -> Option<&CanFrame> {
+        self.tx.front()
+    }
+
+    /// The control-loop tick. The CiA 402 layer is not part of this build yet: the power stage
+    /// stays off.
+    pub fn tick(&mut self, now: Instant, sample: &Sample) -> Demand {
+        let _ = (now, sample);
+        Demand::Off
+    }
+
+    fn heartbeat_period(&self) -> u16 {
+        self.od.get::<u16>(PRODUCER_HEARTBEAT_TIME, 0).unwrap_or(0)
+    }
+
+    fn boot_if_pending(&mut self, now: Instant) {
+        if self.nmt != NmtState::Initialising {
+            return;
+        }
+        // Initialisation ends with the boot-up frame; the first heartbeat follows one period
+        // later (digest §3.5).
+        self.send_error_control(NmtState::Initialising.heartbeat_byte());
+        self.nmt = NmtState::PreOperational;
+        let period = self.heartbeat_period();
+        self.heartbeat.restart(now + Duration::from_millis(u64::from(period)), period);
+    }
+
+    fn nmt_command(&mut self, action: NmtAction, now: Instant) {
+        match action {
+            NmtAction::None => {}
+            NmtAction::Enter(state) => {
+                if state != self.nmt {
+                    self.nmt = state;
+                    if !state.serves_sdo() {
+                        self.sdo.reset();
+                    }
+                    self.heartbeat.restart(now, self.heartbeat_period());
+                }
+            }
+            NmtAction::ResetApplication => {
+                self.od.reset(0x2000..=0xFFFF);
+                self.reset_communication(now);
+            }
+            NmtAction::ResetCommunication => self.reset_communication(now),
+        }
+    }
+
+    fn reset_communication(&mut self, now: Instant) {
+        self.od.reset(0x1000..=0x1FFF);
+        self.sdo.reset();
+        self.heartbeat.stop();
+        self.nmt = NmtState::Initialising;
+        self.boot_if_pending(now);
+    }
+
+    /// Side effects of a value written from the bus.
+    fn after_write(&mut self, mux: Mux, now: Instant) {
+        if mux.index == PRODUCER_HEARTBEAT_TIME {
+            self.heartbeat.restart(now, self.heartbeat_period());
+        }
+    }
+
+    fn drain_sdo(&mut self, now: Instant) {
+        let node_id = self.node_id();
+        while !self.tx.is_full() {
+            let mut access = Access { od: &mut self.od, hooks: &mut self.hooks, nmt: self.nmt, written: None };
+            match self.sdo.poll(now, &mut access) {
+                Some(frame) => self.send(SDO_TX_BASE + u16::from(node_id), &frame),
+                None => break,
+            }
+        }
+    }
+
+    fn send_error_control(&mut self, byte: u8) {
+        self.send(ERROR_CONTROL_BASE + u16::from(self.node_id()), &[byte]);
+    }
+
+    fn send(&mut self, id: u16, data: &[u8]) {
+        if let Some(frame) = CanFrame::new_standard(id, data) {
+            if self.tx.push_back(frame).is_err() {
+                self.tx_dropped = self.tx_dropped.saturating_add(1);
+            }
+        }
+    }
+}
+
+/// The dictionary with the access rules of the bus (CiA 301 §7.2.4, digest §5.9).
+struct Access<'a, H, const B: usize> {
+    od: &'a mut Dictionary<B>,
+    hooks: &'a mut H,
+    nmt: NmtState,
+    written: Option<Mux>,
+}
+
+impl<H: ObjectHooks, const B: usize> Access<'_, H, B> {
+    fn writable_entry(&self, mux: Mux) -> Result<Entry, AbortCode> {
+        let entry = self.od.entry(mux.index, mux.sub)?;
+        if !entry.var.access.writable() {
+            return Err(AbortCode::WriteOfReadOnly);
+        }
+        if entry.var.rule == WriteRule::NotOperational && self.nmt == NmtState::Operational {
+            return Err(AbortCode::CannotStoreDeviceState);
+        }
+        Ok(entry)
+    }
+}
+
+impl<H: ObjectHooks, const B: usize> ObjectAccess for Access<'_, H, B> {
+    fn upload_len(&mut self, mux: Mux) -> Result<usize, AbortCode> {
+        let entry = self.od.entry(mux.index, mux.sub)?;
+        if !entry.var.access.readable() {
+            return Err(AbortCode::ReadOfWriteOnly);
+        }
+        match self.hooks.read_len(mux.index, mux.sub) {
+            Some(result) => result,
+            None => Ok(self.od.value_len(&entry)),
+        }
+    }
+
+    fn read(&mut self, mux: Mux, offset: usize, buf: &mut [u8]) -> Result<usize, AbortCode> {
+        let entry = self.od.entry(mux.index, mux.sub)?;
+        match self.hooks.read_len(mux.index, mux.sub) {
+            Some(_) => self.hooks.read(mux.index, mux.sub, offset, buf),
+            None => Ok(self.od.read(&entry, offset, buf)),
+        }
+    }
+
+    fn download_check(&mut self, mux: Mux, size: Option<usize>) -> Result<Option<usize>, AbortCode> {
+        let entry = self.writable_entry(mux)?;
+        let fixed = entry.var.data_type.fixed_size();
+        match (fixed, size) {
+            (Some(n), Some(s)) if s > n => Err(AbortCode::LengthTooHigh),
+            (Some(n), Some(s)) if s < n => Err(AbortCode::LengthTooLow),
+            (None, Some(s)) if s > usize::from(entry.var.capacity) => Err(AbortCode::LengthTooHigh),
+            _ => Ok(fixed),
+        }
+    }
+
+    fn write(&mut self, mux: Mux, data: &[u8]) -> Result<(), AbortCode> {
+        let entry = self.writable_entry(mux)?;
+        self.od.check_write(&entry, data)?;
+        self.hooks.validate(mux.index, mux.sub, data)?;
+        self.od.commit(&entry, data);
+        self.hooks.written(mux.index, mux.sub, data);
+        self.written = Some(mux);
+        Ok(())
+    }
+}

@@ -1,0 +1,140 @@
+//! The core's CAN frame, and conversion to and from any `embedded_can::Frame`.
+//!
+//! Classic CAN only: up to 8 data bytes, 11- or 29-bit identifiers, data or remote frames.
+//! The core accepts frames of any driver through [`CanFrame::from_frame`] and hands its own
+//! frames back through [`CanFrame::to_frame`], so a board never copies bytes by hand.
+
+use embedded_can::{ExtendedId, Frame, Id, StandardId};
+
+/// A classic CAN frame (data or remote), owned and `Copy`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct CanFrame {
+    id: Id,
+    remote: bool,
+    dlc: u8,
+    data: [u8; 8],
+}
+
+impl CanFrame {
+    /// A data frame with an 11-bit identifier; `None` if `id > 0x7FF` or `data` is longer than 8.
+    pub fn new_standard(id: u16, data: &[u8]) -> Option<Self> {
+        Self::new(Id::Standard(StandardId::new(id)?), data)
+    }
+
+    /// A remote frame with an 11-bit identifier and data length code `dlc` (0..=8).
+    pub fn new_remote_standard(id: u16, dlc: u8) -> Option<Self> {
+        Self::new_remote(Id::Standard(StandardId::new(id)?), usize::from(dlc))
+    }
+
+    /// The 11-bit identifier, or `None` for an extended frame.
+    pub fn standard_id(&self) -> Option<u16> {
+        match self.id {
+            Id::Standard(id) => Some(id.as_raw()),
+            Id::Extended(_) => None,
+        }
+    }
+
+    /// Copies any `embedded_can::Frame` (data beyond 8 bytes is cut, which classic CAN
+    /// drivers never produce).
+    pub fn from_frame<F: Frame>(frame: &F) -> Self {
+        let mut data = [0u8; 8];
+        let src = frame.data();
+        let len = src.len().min(8);
+        if let (Some(dst), Some(src)) = (data.get_mut(..len), src.get(..len)) {
+            dst.copy_from_slice(src);
+        }
+        CanFrame {
+            id: frame.id(),
+            remote: frame.is_remote_frame(),
+            dlc: if frame.is_remote_frame() { frame.dlc().min(8) as u8 } else { len as u8 },
+            data,
+        }
+    }
+
+    /// Converts into the frame type of a driver.
+    pub fn to_frame<F: Frame>(&self) -> Option<F> {
+        if self.remote {
+            F::new_remote(self.id, usize::from(self.dlc))
+        } else {
+            F::new(self.id, self.data())
+        }
+    }
+}
+
+impl Frame for CanFrame {
+    fn new(id: impl Into<Id>, data: &[u8]) -> Option<Self> {
+        if data.len() > 8 {
+            return None;
+        }
+        let mut buf = [0u8; 8];
+        buf.get_mut(..data.len())?.copy_from_slice(data);
+        Some(CanFrame { id: id.into(), remote: false, dlc: data.len() as u8, data: buf })
+    }
+
+    fn new_remote(id: impl Into<Id>, dlc: usize) -> Option<Self> {
+        if dlc > 8 {
+            return None;
+        }
+        Some(CanFrame { id: id.into(), remote: true, dlc: dlc as u8, data: [0; 8] })
+    }
+
+    fn is_extended(&self) -> bool {
+        matches!(self.id, Id::Extended(_))
+    }
+
+    fn is_remote_frame(&self) -> bool {
+        self.remote
+    }
+
+    fn id(&self) -> Id {
+        self.id
+    }
+
+    fn dlc(&self) -> usize {
+        usize::from(self.dlc)
+    }
+
+    fn data(&self) -> &[u8] {
+        if self.remote {
+            &[]
+        } else {
+            self.data.get(..usize::from(self.dlc)).unwrap_or(&[])
+        }
+    }
+}
+
+/// Builds an extended-id data frame; `None` if `id` needs more than 29 bits.
+pub fn extended(id: u32, data: &[u8]) -> Option<CanFrame> {
+    CanFrame::new(Id::Extended(ExtendedId::new(id)?), data)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn standard_frame_round_trips_through_the_trait() {
+        let f = CanFrame::new_standard(0x601, &[0x40, 0x00, 0x10, 0x00]).unwrap();
+        assert_eq!(f.standard_id(), Some(0x601));
+        assert_eq!(f.data(), &[0x40, 0x00, 0x10, 0x00]);
+        let g: CanFrame = f.to_frame().unwrap();
+        assert_eq!(CanFrame::from_frame(&g), f);
+    }
+
+    #[test]
+    fn limits_are_refused() {
+        assert!(CanFrame::new_standard(0x800, &[]).is_none());
+        assert!(CanFrame::new_standard(0x100, &[0; 9]).is_none());
+        assert!(CanFrame::new_remote_standard(0x701, 9).is_none());
+        assert!(extended(1 << 29, &[]).is_none());
+    }
+
+    #[test]
+    fn remote_frame_has_no_data_but_keeps_dlc() {
+        let f = CanFrame::new_remote_standard(0x705, 1).unwrap();
+        assert!(f.is_remote_frame());
+        assert_eq!(f.dlc(), 1);
+        assert!(f.data().is_empty());
+        assert_eq!(f.standard_id(), Some(0x705));
+    }
+}

@@ -1,0 +1,246 @@
+//! EDS generation (CiA 306, digest §13) from the dictionary's own description.
+//!
+//! The generated file is the only EDS of a device: masters import it, 1021h serves it, and it
+//! cannot drift from the firmware because both come from the same tables. The writer streams
+//! into any [`core::fmt::Write`], so it runs without allocation (on the host it usually writes
+//! into a `String`).
+//!
+//! Rules followed for the two tools that matter (python-canopen, CANopenEditor): parent sections
+//! before sub-sections, lower-case `sub`, hex always with `0x`, decimal without leading zeros,
+//! no empty numeric keys, all seven `DummyNNNN` keys, `$NODEID+0x...` for node-relative values.
+
+use core::fmt::{self, Write};
+
+use super::{Access, Bound, DataType, DefaultValue, DeviceField, Dictionary, Kind, Object, PdoMapping, Var};
+
+/// Facts about the device that the EDS states but the dictionary does not hold.
+#[derive(Clone, Copy, Debug)]
+pub struct EdsInfo {
+    /// `[FileInfo] FileName`.
+    pub file_name: &'static str,
+    /// `[FileInfo] Description`.
+    pub description: &'static str,
+    /// `CreationDate`/`ModificationDate` as `mm-dd-yyyy`.
+    pub date: &'static str,
+    /// `CreationTime`/`ModificationTime` as `hh:mmAM`.
+    pub time: &'static str,
+    /// `CreatedBy`/`ModifiedBy`.
+    pub created_by: &'static str,
+    /// Supported bit rates in kbit/s among 10, 20, 50, 125, 250, 500, 800, 1000.
+    pub baud_rates: &'static [u16],
+    /// Number of RPDOs.
+    pub rpdo_count: u16,
+    /// Number of TPDOs.
+    pub tpdo_count: u16,
+    /// LSS slave supported.
+    pub lss_supported: bool,
+}
+
+impl Default for EdsInfo {
+    fn default() -> Self {
+        EdsInfo {
+            file_name: "canopen-drive.eds",
+            description: "CiA 402 drive built on canopen-drive",
+            date: "01-01-2026",
+            time: "12:00PM",
+            created_by: "canopen-drive",
+            baud_rates: &[125, 250, 500, 1000],
+            rpdo_count: 0,
+            tpdo_count: 0,
+            lss_supported: false,
+        }
+    }
+}
+
+const BAUD_RATES: [u16; 8] = [10, 20, 50, 125, 250, 500, 800, 1000];
+
+/// Writes the EDS of `od` into `w`.
+pub fn write<const B: usize>(od: &Dictionary<B>, info: &EdsInfo, w: &mut impl Write) -> fmt::Result {
+    let device = od.device();
+    writeln!(w, "[FileInfo]")?;
+    writeln!(w, "FileName={}", Clean(info.file_name))?;
+    writeln!(w, "FileVersion=1\nFileRevision=0\nEDSVersion=4.0")?;
+    writeln!(w, "Description={}", Clean(info.description))?;
+    for prefix in ["Creation", "Modification"] {
+        writeln!(w, "{prefix}Time={}\n{prefix}Date={}", Clean(info.time), Clean(info.date))?;
+    }
+    writeln!(w, "CreatedBy={}\nModifiedBy={}", Clean(info.created_by), Clean(info.created_by))?;
+    writeln!(w, "\n[DeviceInfo]")?;
+    writeln!(w, "VendorName={}", Clean(device.vendor_name))?;
+    writeln!(w, "VendorNumber=0x{:08X}", device.vendor_id)?;
+    writeln!(w, "ProductName={}", Clean(device.device_name))?;
+    writeln!(w, "ProductNumber=0x{:08X}", device.product_code)?;
+    writeln!(w, "RevisionNumber=0x{:08X}", device.revision_number)?;
+    writeln!(w, "OrderCode={}", Clean(device.device_name))?;
+    for rate in BAUD_RATES {
+        writeln!(w, "BaudRate_{rate}={}", u8::from(info.baud_rates.contains(&rate)))?;
+    }
+    writeln!(w, "SimpleBootUpMaster=0\nSimpleBootUpSlave=1\nGranularity=8")?;
+    writeln!(w, "DynamicChannelsSupported=0\nGroupMessaging=0")?;
+    writeln!(w, "NrOfRXPDO={}\nNrOfTXPDO={}", info.rpdo_count, info.tpdo_count)?;
+    writeln!(w, "LSS_Supported={}", u8::from(info.lss_supported))?;
+    writeln!(w, "\n[DummyUsage]")?;
+    for ty in 1..=7 {
+        // BOOLEAN (0001h) is not a dummy a byte-granular device accepts.
+        writeln!(w, "Dummy{ty:04X}={}", u8::from(ty != 1))?;
+    }
+    writeln!(w, "\n[Comments]\nLines=1\nLine1=Generated from the firmware's object dictionary")?;
+
+    let mandatory = |o: &&Object| matches!(o.index, 0x1000 | 0x1001 | 0x1018);
+    let manufacturer = |o: &&Object| (0x2000..=0x5FFF).contains(&o.index);
+    let lists: [(&str, &dyn Fn(&&Object) -> bool); 3] = [
+        ("MandatoryObjects", &mandatory),
+        ("OptionalObjects", &|o| !mandatory(o) && !manufacturer(o)),
+        ("ManufacturerObjects", &manufacturer),
+    ];
+    for (section, select) in lists {
+        writeln!(w, "\n[{section}]")?;
+        writeln!(w, "SupportedObjects={}", od.objects().filter(|o| select(o)).count())?;
+        for (n, object) in od.objects().filter(|o| select(o)).enumerate() {
+            writeln!(w, "{}=0x{:04X}", n + 1, object.index)?;
+        }
+    }
+
+    for object in od.objects() {
+        write_object(od, object, w)?;
+    }
+    Ok(())
+}
+
+fn write_object<const B: usize>(od: &Dictionary<B>, object: &Object, w: &mut impl Write) -> fmt::Result {
+    let index = object.index;
+    match &object.kind {
+        Kind::Var(var) => {
+            writeln!(w, "\n[{index:04X}]\nParameterName={}", Clean(object.name))?;
+            write_var(od, var, w)
+        }
+        Kind::Array { sub0, element, len } => {
+            writeln!(w, "\n[{index:04X}]\nParameterName={}", Clean(object.name))?;
+            writeln!(w, "ObjectType=0x8\nSubNumber=0x{:X}", u16::from(*len) + 1)?;
+            writeln!(w, "\n[{index:04X}sub0]\nParameterName={}", Clean(sub0.name))?;
+            write_var(od, sub0, w)?;
+            for sub in 1..=*len {
+                writeln!(w, "\n[{index:04X}sub{sub:X}]\nParameterName={} {sub}", Clean(element.name))?;
+                write_var(od, element, w)?;
+            }
+            Ok(())
+        }
+        Kind::Record(subs) => {
+            writeln!(w, "\n[{index:04X}]\nParameterName={}", Clean(object.name))?;
+            writeln!(w, "ObjectType=0x9\nSubNumber=0x{:X}", subs.len())?;
+            for (sub, var) in subs.iter() {
+                writeln!(w, "\n[{index:04X}sub{sub:X}]\nParameterName={}", Clean(var.name))?;
+                write_var(od, var, w)?;
+            }
+            Ok(())
+        }
+    }
+}
+
+fn write_var<const B: usize>(od: &Dictionary<B>, var: &Var, w: &mut impl Write) -> fmt::Result {
+    writeln!(w, "ObjectType=0x7\nDataType=0x{:04X}", var.data_type as u16)?;
+    let access = match (var.access, var.pdo) {
+        (Access::Const, _) => "const",
+        (Access::ReadOnly, _) => "ro",
+        (Access::WriteOnly, _) => "wo",
+        (Access::ReadWrite, PdoMapping::Rpdo) => "rww",
+        (Access::ReadWrite, PdoMapping::Tpdo) => "rwr",
+        (Access::ReadWrite, _) => "rw",
+    };
+    writeln!(w, "AccessType={access}")?;
+    write_default(od, var, w)?;
+    writeln!(w, "PDOMapping={}", u8::from(var.pdo != PdoMapping::No))?;
+    for (key, bound) in [("LowLimit", var.low), ("HighLimit", var.high)] {
+        match bound {
+            Bound::None => {}
+            Bound::Signed(v) => writeln!(w, "{key}={v}")?,
+            Bound::Unsigned(v) => writeln!(w, "{key}=0x{v:X}")?,
+            Bound::Real(v) => writeln!(w, "{key}={v}")?,
+        }
+    }
+    Ok(())
+}
+
+fn write_default<const B: usize>(od: &Dictionary<B>, var: &Var, w: &mut impl Write) -> fmt::Result {
+    let device = od.device();
+    let number = |value: u64| -> u64 {
+        // Numbers are shown in the entry's own width (a signed default as two's complement
+        // would otherwise print 16 hex digits).
+        match var.data_type.fixed_size() {
+            Some(n) if n < 8 => value & ((1u64 << (8 * n)) - 1),
+            _ => value,
+        }
+    };
+    match var.default {
+        _ if var.data_type == DataType::Domain => Ok(()),
+        DefaultValue::Zero => match var.data_type {
+            DataType::VisibleString | DataType::OctetString | DataType::UnicodeString => Ok(()),
+            DataType::Real32 | DataType::Real64 => writeln!(w, "DefaultValue=0"),
+            _ => writeln!(w, "DefaultValue=0x0"),
+        },
+        DefaultValue::Unsigned(v) => writeln!(w, "DefaultValue=0x{:X}", number(v)),
+        DefaultValue::Signed(v) => writeln!(w, "DefaultValue={v}"),
+        DefaultValue::Real(v) => writeln!(w, "DefaultValue={v}"),
+        DefaultValue::Text(s) => default_text(s, w),
+        DefaultValue::Bytes(b) => {
+            if b.is_empty() {
+                return Ok(());
+            }
+            write!(w, "DefaultValue=")?;
+            for byte in b {
+                write!(w, "{byte:02X}")?;
+            }
+            writeln!(w)
+        }
+        DefaultValue::NodeIdPlus(base) => writeln!(w, "DefaultValue=$NODEID+0x{base:X}"),
+        DefaultValue::Device(field) => {
+            let value = match field {
+                DeviceField::DeviceType => device.device_type,
+                DeviceField::VendorId => device.vendor_id,
+                DeviceField::ProductCode => device.product_code,
+                DeviceField::RevisionNumber => device.revision_number,
+                DeviceField::SerialNumber => device.serial_number,
+                DeviceField::DeviceName => return default_text(device.device_name, w),
+                DeviceField::HardwareVersion => return default_text(device.hardware_version, w),
+                DeviceField::SoftwareVersion => return default_text(device.software_version, w),
+                DeviceField::Eds => return Ok(()),
+            };
+            writeln!(w, "DefaultValue=0x{value:08X}")
+        }
+    }
+}
+
+fn default_text(s: &str, w: &mut impl Write) -> fmt::Result {
+    if s.is_empty() {
+        Ok(())
+    } else {
+        writeln!(w, "DefaultValue={}", Clean(s))
+    }
+}
+
+/// Text made safe for one INI value: control characters become spaces.
+struct Clean<'a>(&'a str);
+
+impl fmt::Display for Clean<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        for c in self.0.chars() {
+            f.write_char(if c.is_control() { ' ' } else { c })?;
+        }
+        Ok(())
+    }
+}
+
+/// Counts the bytes [`write`] produces (to size a buffer for 1021h).
+pub fn size<const B: usize>(od: &Dictionary<B>, info: &EdsInfo) -> usize {
+    struct Counter(usize);
+    impl Write for Counter {
+        fn write_str(&mut self, s: &str) -> fmt::Result {
+            self.0 += s.len();
+            Ok(())
+        }
+    }
+    let mut counter = Counter(0);
+    // Writing into a counter cannot fail.
+    let _ = write(od, info, &mut counter);
+    counter.0
+}

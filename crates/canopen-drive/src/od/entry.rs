@@ -1,0 +1,444 @@
+//! The description of an object: one `static` table of [`Object`]s is the single source of truth
+//! from which the dictionary's storage, its access checks and the EDS file are all derived.
+//!
+//! Tables are written with `const fn` builders and laid out by [`layout`] at compile time:
+//!
+//! ```
+//! use canopen_drive::od::{layout, Access, DataType, DefaultValue, Object, Var};
+//! static VENDOR_OBJECTS: [Object; 1] = layout([Object::var(
+//!     0x2000,
+//!     "Motor pole pairs",
+//!     Var::new("Motor pole pairs", DataType::Unsigned8)
+//!         .access(Access::ReadWrite)
+//!         .default(DefaultValue::Unsigned(4))
+//!         .limits_unsigned(1, 32),
+//! )]);
+//! # assert_eq!(VENDOR_OBJECTS[0].index, 0x2000);
+//! ```
+
+/// CiA 301 basic data types (§7.1.6, digest §2); the discriminant is the data-type index.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[repr(u16)]
+pub enum DataType {
+    /// 0x0001 BOOLEAN (one byte, 0 or 1).
+    Boolean = 0x0001,
+    /// 0x0002 INTEGER8.
+    Integer8 = 0x0002,
+    /// 0x0003 INTEGER16.
+    Integer16 = 0x0003,
+    /// 0x0004 INTEGER32.
+    Integer32 = 0x0004,
+    /// 0x0005 UNSIGNED8.
+    Unsigned8 = 0x0005,
+    /// 0x0006 UNSIGNED16.
+    Unsigned16 = 0x0006,
+    /// 0x0007 UNSIGNED32.
+    Unsigned32 = 0x0007,
+    /// 0x0008 REAL32 (IEEE 754 binary32).
+    Real32 = 0x0008,
+    /// 0x0009 VISIBLE_STRING (no terminator; length = transferred length).
+    VisibleString = 0x0009,
+    /// 0x000A OCTET_STRING.
+    OctetString = 0x000A,
+    /// 0x000B UNICODE_STRING (UTF-16 code units).
+    UnicodeString = 0x000B,
+    /// 0x000C TIME_OF_DAY (6 bytes).
+    TimeOfDay = 0x000C,
+    /// 0x000D TIME_DIFFERENCE (6 bytes).
+    TimeDifference = 0x000D,
+    /// 0x000F DOMAIN (opaque block).
+    Domain = 0x000F,
+    /// 0x0010 INTEGER24.
+    Integer24 = 0x0010,
+    /// 0x0011 REAL64 (IEEE 754 binary64).
+    Real64 = 0x0011,
+    /// 0x0012 INTEGER40.
+    Integer40 = 0x0012,
+    /// 0x0013 INTEGER48.
+    Integer48 = 0x0013,
+    /// 0x0014 INTEGER56.
+    Integer56 = 0x0014,
+    /// 0x0015 INTEGER64.
+    Integer64 = 0x0015,
+    /// 0x0016 UNSIGNED24.
+    Unsigned24 = 0x0016,
+    /// 0x0018 UNSIGNED40.
+    Unsigned40 = 0x0018,
+    /// 0x0019 UNSIGNED48.
+    Unsigned48 = 0x0019,
+    /// 0x001A UNSIGNED56.
+    Unsigned56 = 0x001A,
+    /// 0x001B UNSIGNED64.
+    Unsigned64 = 0x001B,
+}
+
+impl DataType {
+    /// Size in bytes of a fixed-size type; `None` for strings and DOMAIN.
+    pub const fn fixed_size(self) -> Option<usize> {
+        use DataType::*;
+        Some(match self {
+            Boolean | Integer8 | Unsigned8 => 1,
+            Integer16 | Unsigned16 => 2,
+            Integer24 | Unsigned24 => 3,
+            Integer32 | Unsigned32 | Real32 => 4,
+            Integer40 | Unsigned40 => 5,
+            Integer48 | Unsigned48 | TimeOfDay | TimeDifference => 6,
+            Integer56 | Unsigned56 => 7,
+            Integer64 | Unsigned64 | Real64 => 8,
+            VisibleString | OctetString | UnicodeString | Domain => return None,
+        })
+    }
+
+    /// True for the two's-complement integer types.
+    pub const fn is_signed(self) -> bool {
+        use DataType::*;
+        matches!(
+            self,
+            Integer8 | Integer16 | Integer24 | Integer32 | Integer40 | Integer48 | Integer56 | Integer64
+        )
+    }
+
+    /// True for the unsigned integer types and BOOLEAN.
+    pub const fn is_unsigned(self) -> bool {
+        use DataType::*;
+        matches!(
+            self,
+            Boolean | Unsigned8 | Unsigned16 | Unsigned24 | Unsigned32 | Unsigned40 | Unsigned48 | Unsigned56 | Unsigned64
+        )
+    }
+
+    /// True for the variable-length types whose writes may be shorter than the storage.
+    pub const fn is_variable(self) -> bool {
+        self.fixed_size().is_none()
+    }
+}
+
+/// SDO access of an entry (EDS `AccessType`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Access {
+    /// Read only; the device may change the value.
+    ReadOnly,
+    /// Write only.
+    WriteOnly,
+    /// Read and write.
+    ReadWrite,
+    /// Constant: read only, never changes, takes no RAM.
+    Const,
+}
+
+impl Access {
+    /// SDO upload allowed.
+    pub const fn readable(self) -> bool {
+        !matches!(self, Access::WriteOnly)
+    }
+    /// SDO download allowed.
+    pub const fn writable(self) -> bool {
+        matches!(self, Access::WriteOnly | Access::ReadWrite)
+    }
+}
+
+/// Whether an entry may be mapped into PDOs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum PdoMapping {
+    /// Not mappable.
+    No,
+    /// Receive PDOs only (the master writes it as process data).
+    Rpdo,
+    /// Transmit PDOs only (the drive sends it as process data).
+    Tpdo,
+    /// Both directions.
+    Both,
+}
+
+/// NMT states in which SDO writes to an entry are accepted (digest §5.9 item 10).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum WriteRule {
+    /// Whenever SDO is served.
+    Always,
+    /// Only outside Operational; in Operational the write is refused with 0x0800_0022.
+    NotOperational,
+}
+
+/// A low or high limit of a numeric entry.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Bound {
+    /// No limit beyond the data type's own range.
+    None,
+    /// A limit for a signed integer type.
+    Signed(i64),
+    /// A limit for an unsigned integer type.
+    Unsigned(u64),
+    /// A limit for REAL32/REAL64.
+    Real(f64),
+}
+
+/// Fields of the device description that defaults may refer to.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum DeviceField {
+    /// 1000h device type.
+    DeviceType,
+    /// 1018h sub 1 vendor-ID.
+    VendorId,
+    /// 1018h sub 2 product code.
+    ProductCode,
+    /// 1018h sub 3 revision number.
+    RevisionNumber,
+    /// 1018h sub 4 serial number.
+    SerialNumber,
+    /// 1008h manufacturer device name.
+    DeviceName,
+    /// 1009h manufacturer hardware version.
+    HardwareVersion,
+    /// 100Ah manufacturer software version.
+    SoftwareVersion,
+    /// 1021h the device's EDS file.
+    Eds,
+}
+
+/// The power-on value of an entry (before stored parameters are applied).
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum DefaultValue {
+    /// Zero / empty.
+    Zero,
+    /// An unsigned integer (also BOOLEAN).
+    Unsigned(u64),
+    /// A signed integer.
+    Signed(i64),
+    /// A REAL32 or REAL64 value.
+    Real(f64),
+    /// Text for VISIBLE_STRING.
+    Text(&'static str),
+    /// Bytes for OCTET_STRING and DOMAIN.
+    Bytes(&'static [u8]),
+    /// The node-ID plus this value (EDS `$NODEID+0x...`), e.g. 0x580 for the SDO tx COB-ID.
+    NodeIdPlus(u32),
+    /// A field of the device description given at start-up (identity, names, EDS).
+    Device(DeviceField),
+}
+
+/// One value of the dictionary: a VAR, or one sub-index of an ARRAY or RECORD.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Var {
+    /// Parameter name as written to the EDS.
+    pub name: &'static str,
+    /// CiA 301 data type.
+    pub data_type: DataType,
+    /// SDO access.
+    pub access: Access,
+    /// PDO mappability.
+    pub pdo: PdoMapping,
+    /// Lowest accepted value (numeric types).
+    pub low: Bound,
+    /// Highest accepted value (numeric types).
+    pub high: Bound,
+    /// Power-on value.
+    pub default: DefaultValue,
+    /// Storage in bytes for VISIBLE_STRING, OCTET_STRING, UNICODE_STRING and DOMAIN.
+    pub capacity: u16,
+    /// NMT states in which SDO writes are accepted.
+    pub rule: WriteRule,
+}
+
+impl Var {
+    /// A read-only entry of type `data_type` with default zero, no limits, not mappable.
+    pub const fn new(name: &'static str, data_type: DataType) -> Self {
+        Var {
+            name,
+            data_type,
+            access: Access::ReadOnly,
+            pdo: PdoMapping::No,
+            low: Bound::None,
+            high: Bound::None,
+            default: DefaultValue::Zero,
+            capacity: 0,
+            rule: WriteRule::Always,
+        }
+    }
+    /// Sets the SDO access.
+    pub const fn access(mut self, access: Access) -> Self {
+        self.access = access;
+        self
+    }
+    /// Sets the PDO mappability.
+    pub const fn pdo(mut self, pdo: PdoMapping) -> Self {
+        self.pdo = pdo;
+        self
+    }
+    /// Sets the power-on value.
+    pub const fn default(mut self, default: DefaultValue) -> Self {
+        self.default = default;
+        self
+    }
+    /// Sets inclusive limits for an unsigned type.
+    pub const fn limits_unsigned(mut self, low: u64, high: u64) -> Self {
+        self.low = Bound::Unsigned(low);
+        self.high = Bound::Unsigned(high);
+        self
+    }
+    /// Sets inclusive limits for a signed type.
+    pub const fn limits_signed(mut self, low: i64, high: i64) -> Self {
+        self.low = Bound::Signed(low);
+        self.high = Bound::Signed(high);
+        self
+    }
+    /// Sets the storage size of a string or DOMAIN entry.
+    pub const fn capacity(mut self, bytes: u16) -> Self {
+        self.capacity = bytes;
+        self
+    }
+    /// Sets the NMT states in which SDO writes are accepted.
+    pub const fn rule(mut self, rule: WriteRule) -> Self {
+        self.rule = rule;
+        self
+    }
+
+    /// True when the value is the default forever (constants and identity fields): such
+    /// entries take no RAM.
+    pub const fn is_fixed(&self) -> bool {
+        matches!(self.access, Access::Const) || matches!(self.default, DefaultValue::Device(_))
+    }
+
+    /// Bytes of RAM the entry takes in the dictionary's store.
+    pub const fn storage_size(&self) -> usize {
+        if self.is_fixed() {
+            return 0;
+        }
+        match self.data_type.fixed_size() {
+            Some(n) => n,
+            // A two-byte length prefix, then the capacity.
+            None => 2 + self.capacity as usize,
+        }
+    }
+}
+
+/// How an object's sub-indices are organised (EDS `ObjectType`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Kind {
+    /// A single value at sub-index 0 (object code 0x7).
+    Var(Var),
+    /// Sub 0 = count, subs 1..=len of the same type (object code 0x8). Element names get the
+    /// sub-index appended.
+    Array {
+        /// Sub-index 0.
+        sub0: Var,
+        /// Description shared by subs 1..=len.
+        element: Var,
+        /// Highest sub-index.
+        len: u8,
+    },
+    /// Sub-indices of different types, sorted by sub-index, sub 0 included (object code 0x9).
+    Record(&'static [(u8, Var)]),
+}
+
+/// One object (one index) of the dictionary.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Object {
+    /// Index (0x1000..=0xFFFF).
+    pub index: u16,
+    /// Object name as written to the EDS.
+    pub name: &'static str,
+    /// Sub-index organisation.
+    pub kind: Kind,
+    /// Offset of the object's first stored byte inside its table's region; set by [`layout`].
+    pub base: u16,
+}
+
+impl Object {
+    /// A VAR object.
+    pub const fn var(index: u16, name: &'static str, var: Var) -> Self {
+        Object { index, name, kind: Kind::Var(var), base: 0 }
+    }
+    /// An ARRAY object with a read-only sub 0 holding `len`.
+    pub const fn array(index: u16, name: &'static str, len: u8, element: Var) -> Self {
+        let sub0 = Var::new("Highest sub-index supported", DataType::Unsigned8)
+            .access(Access::Const)
+            .default(DefaultValue::Unsigned(len as u64));
+        Object { index, name, kind: Kind::Array { sub0, element, len }, base: 0 }
+    }
+    /// An ARRAY object with a custom sub 0 (e.g. a writable count).
+    pub const fn array_with_sub0(index: u16, name: &'static str, len: u8, sub0: Var, element: Var) -> Self {
+        Object { index, name, kind: Kind::Array { sub0, element, len }, base: 0 }
+    }
+    /// A RECORD object; `subs` sorted by sub-index, sub 0 included.
+    pub const fn record(index: u16, name: &'static str, subs: &'static [(u8, Var)]) -> Self {
+        Object { index, name, kind: Kind::Record(subs), base: 0 }
+    }
+
+    /// Bytes of RAM the whole object takes.
+    // The loop index is bounded by `subs.len()`; `get` is not usable in a const fn.
+    #[allow(clippy::indexing_slicing)]
+    pub const fn storage_size(&self) -> usize {
+        match &self.kind {
+            Kind::Var(v) => v.storage_size(),
+            Kind::Array { sub0, element, len } => sub0.storage_size() + element.storage_size() * (*len as usize),
+            Kind::Record(subs) => {
+                let mut total = 0;
+                let mut i = 0;
+                while i < subs.len() {
+                    total += subs[i].1.storage_size();
+                    i += 1;
+                }
+                total
+            }
+        }
+    }
+
+    /// The description of sub-index `sub` and its byte offset inside the object's storage.
+    pub fn sub(&self, sub: u8) -> Option<(&Var, usize)> {
+        match &self.kind {
+            Kind::Var(v) => (sub == 0).then_some((v, 0)),
+            Kind::Array { sub0, element, len } => match sub {
+                0 => Some((sub0, 0)),
+                s if s <= *len => {
+                    Some((element, sub0.storage_size() + element.storage_size() * usize::from(s - 1)))
+                }
+                _ => None,
+            },
+            Kind::Record(subs) => {
+                let mut offset = 0;
+                for (s, v) in subs.iter() {
+                    if *s == sub {
+                        return Some((v, offset));
+                    }
+                    offset += v.storage_size();
+                }
+                None
+            }
+        }
+    }
+
+    /// Highest sub-index (0 for a VAR).
+    pub fn highest_sub(&self) -> u8 {
+        match &self.kind {
+            Kind::Var(_) => 0,
+            Kind::Array { len, .. } => *len,
+            Kind::Record(subs) => subs.last().map_or(0, |(s, _)| *s),
+        }
+    }
+}
+
+/// Lays a table out: gives each object its storage offset inside the table's region.
+/// The dictionary refuses a table that was not laid out (see
+/// [`ConfigError::NotLaidOut`](super::ConfigError::NotLaidOut)).
+// The loop index is bounded by `N`; `get_mut` is not usable in a const fn.
+#[allow(clippy::indexing_slicing)]
+pub const fn layout<const N: usize>(mut objects: [Object; N]) -> [Object; N] {
+    let mut offset = 0usize;
+    let mut i = 0;
+    while i < N {
+        objects[i].base = offset as u16;
+        offset += objects[i].storage_size();
+        i += 1;
+    }
+    objects
+}

@@ -1,0 +1,560 @@
+//! The object dictionary (CiA 301 §7.4, digest §2, §10).
+//!
+//! The dictionary is a list of `static` tables of [`Object`]s (the description) plus one byte
+//! store owned by the dictionary (the values). Every value lives little-endian in the store,
+//! exactly as it travels in an SDO or a PDO, so reads, writes, PDO mapping and parameter storage
+//! are all byte copies. Constants and identity fields take no RAM: they are read from the
+//! description and the [`DeviceInfo`].
+//!
+//! Lookup is a binary search per table (tables cover disjoint, ascending index ranges), then a
+//! direct or short linear step to the sub-index: O(log n), no allocation.
+//!
+//! Access by the device itself ([`Dictionary::get`], [`Dictionary::set`]) bypasses SDO access
+//! rights; access from the bus goes through [`Dictionary::check_write`] and friends, which answer
+//! with the exact [`AbortCode`].
+
+mod abort;
+pub mod eds;
+mod entry;
+pub mod standard;
+
+pub use abort::AbortCode;
+pub use entry::{
+    layout, Access, Bound, DataType, DefaultValue, DeviceField, Kind, Object, PdoMapping, Var,
+    WriteRule,
+};
+
+use core::ops::RangeInclusive;
+
+/// Most tables one dictionary joins (communication, manufacturer, device profile, spare).
+pub const MAX_TABLES: usize = 4;
+
+/// Identity and descriptive data of the device, given by the firmware at start-up.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct DeviceInfo {
+    /// 1000h device type. CiA 402 servo drive: 0x0002_0192.
+    pub device_type: u32,
+    /// 1018h sub 1, assigned by CiA.
+    pub vendor_id: u32,
+    /// 1018h sub 2.
+    pub product_code: u32,
+    /// 1018h sub 3 (bits 31..16 major, 15..0 minor).
+    pub revision_number: u32,
+    /// 1018h sub 4.
+    pub serial_number: u32,
+    /// 1008h.
+    pub device_name: &'static str,
+    /// 1009h.
+    pub hardware_version: &'static str,
+    /// 100Ah.
+    pub software_version: &'static str,
+    /// EDS `[DeviceInfo] VendorName`.
+    pub vendor_name: &'static str,
+    /// Contents of 1021h (the device's EDS), when the `eds-object` feature serves it.
+    pub eds: &'static [u8],
+}
+
+impl DeviceInfo {
+    /// A CiA 402 servo drive (device type 0x0002_0192) with empty identity.
+    pub const fn servo_drive() -> Self {
+        DeviceInfo {
+            device_type: 0x0002_0192,
+            vendor_id: 0,
+            product_code: 0,
+            revision_number: 0,
+            serial_number: 0,
+            device_name: "canopen-drive",
+            hardware_version: "",
+            software_version: env!("CARGO_PKG_VERSION"),
+            vendor_name: "",
+            eds: &[],
+        }
+    }
+}
+
+impl Default for DeviceInfo {
+    fn default() -> Self {
+        Self::servo_drive()
+    }
+}
+
+/// Callbacks of the firmware for its own objects (manufacturer area 2000h–5FFFh, or refinements
+/// of any other entry). Every method has a default that does nothing, so a firmware implements
+/// only what it needs. Hooks run inside [`crate::Drive::on_frame`]: keep them short.
+pub trait ObjectHooks {
+    /// Length of a value the hook serves itself, or `None` to read the dictionary's store.
+    /// An `Err` refuses the upload with that code.
+    fn read_len(&mut self, index: u16, sub: u8) -> Option<Result<usize, AbortCode>> {
+        let _ = (index, sub);
+        None
+    }
+
+    /// Copies bytes of a value served by the hook (see [`read_len`](Self::read_len)) from
+    /// `offset` on into `buf`; returns the bytes copied.
+    fn read(&mut self, index: u16, sub: u8, offset: usize, buf: &mut [u8]) -> Result<usize, AbortCode> {
+        let _ = (index, sub, offset, buf);
+        Ok(0)
+    }
+
+    /// Checks a value the bus wants to write, after the dictionary's own checks (access, size,
+    /// limits). Refuse with the precise code, e.g. [`AbortCode::InvalidValue`].
+    fn validate(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        let _ = (index, sub, data);
+        Ok(())
+    }
+
+    /// Called after a value from the bus was stored.
+    fn written(&mut self, index: u16, sub: u8, data: &[u8]) {
+        let _ = (index, sub, data);
+    }
+}
+
+/// No hooks: every value lives in the dictionary.
+impl ObjectHooks for () {}
+
+/// Why a set of tables cannot form a dictionary.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum ConfigError {
+    /// A node-ID outside 1..=127.
+    InvalidNodeId,
+    /// More than [`MAX_TABLES`] tables.
+    TooManyTables,
+    /// Indices not strictly ascending inside a table or across consecutive tables.
+    NotSorted {
+        /// The first index out of order.
+        index: u16,
+    },
+    /// A table was not passed through [`layout`].
+    NotLaidOut {
+        /// The first object with a wrong offset.
+        index: u16,
+    },
+    /// The store is smaller than the tables need.
+    StorageTooSmall {
+        /// Bytes needed.
+        needed: usize,
+    },
+    /// A string or DOMAIN entry whose storage exceeds 65 535 bytes, or a default that does
+    /// not fit its entry.
+    BadEntry {
+        /// Index of the entry.
+        index: u16,
+    },
+}
+
+/// A resolved entry: one sub-index, its description and where its value lives.
+#[derive(Clone, Copy, Debug)]
+pub struct Entry {
+    /// The object the entry belongs to.
+    pub object: &'static Object,
+    /// The entry's description.
+    pub var: &'static Var,
+    /// Sub-index.
+    pub sub: u8,
+    offset: u16,
+}
+
+impl Entry {
+    /// Index of the entry's object.
+    pub fn index(&self) -> u16 {
+        self.object.index
+    }
+}
+
+/// A value type the device reads and writes with [`Dictionary::get`] / [`Dictionary::set`].
+pub trait Scalar: Copy {
+    /// Bytes on the wire.
+    const SIZE: usize;
+    /// Decodes `SIZE` little-endian bytes.
+    fn from_le(bytes: &[u8]) -> Self;
+    /// Encodes into `SIZE` little-endian bytes (`out.len() == SIZE`).
+    fn to_le(self, out: &mut [u8]);
+}
+
+macro_rules! scalar {
+    ($($t:ty),*) => {$(
+        impl Scalar for $t {
+            const SIZE: usize = core::mem::size_of::<$t>();
+            fn from_le(bytes: &[u8]) -> Self {
+                let mut raw = [0u8; core::mem::size_of::<$t>()];
+                let n = raw.len().min(bytes.len());
+                if let (Some(d), Some(s)) = (raw.get_mut(..n), bytes.get(..n)) {
+                    d.copy_from_slice(s);
+                }
+                <$t>::from_le_bytes(raw)
+            }
+            fn to_le(self, out: &mut [u8]) {
+                for (d, s) in out.iter_mut().zip(self.to_le_bytes()) {
+                    *d = s;
+                }
+            }
+        }
+    )*};
+}
+scalar!(u8, u16, u32, u64, i8, i16, i32, i64, f32, f64);
+
+/// The object dictionary: description tables plus a value store of `BYTES` bytes.
+pub struct Dictionary<const BYTES: usize> {
+    tables: [&'static [Object]; MAX_TABLES],
+    regions: [u16; MAX_TABLES],
+    table_count: usize,
+    store: [u8; BYTES],
+    device: DeviceInfo,
+    node_id: u8,
+}
+
+/// A default value resolved to bytes.
+enum DefaultBytes {
+    Number([u8; 8], usize),
+    Slice(&'static [u8]),
+}
+
+impl DefaultBytes {
+    fn bytes(&self) -> &[u8] {
+        match self {
+            DefaultBytes::Number(raw, n) => raw.get(..*n).unwrap_or(&[]),
+            DefaultBytes::Slice(s) => s,
+        }
+    }
+}
+
+impl<const BYTES: usize> Dictionary<BYTES> {
+    /// Joins `tables` (each laid out by [`layout`], covering disjoint ascending index ranges,
+    /// given in ascending order) into a dictionary with every value at its default.
+    pub fn new(tables: &[&'static [Object]], device: DeviceInfo, node_id: u8) -> Result<Self, ConfigError> {
+        if tables.len() > MAX_TABLES {
+            return Err(ConfigError::TooManyTables);
+        }
+        let mut dict = Dictionary {
+            tables: [&[]; MAX_TABLES],
+            regions: [0; MAX_TABLES],
+            table_count: tables.len(),
+            store: [0; BYTES],
+            device,
+            node_id,
+        };
+        let mut region = 0usize;
+        let mut previous: Option<u16> = None;
+        for (table, (slot, start)) in tables.iter().zip(dict.tables.iter_mut().zip(dict.regions.iter_mut())) {
+            *slot = table;
+            *start = u16::try_from(region).map_err(|_| ConfigError::StorageTooSmall { needed: region })?;
+            let mut offset = 0usize;
+            for object in table.iter() {
+                if previous.is_some_and(|p| p >= object.index) {
+                    return Err(ConfigError::NotSorted { index: object.index });
+                }
+                previous = Some(object.index);
+                if usize::from(object.base) != offset {
+                    return Err(ConfigError::NotLaidOut { index: object.index });
+                }
+                check_object(object)?;
+                offset += object.storage_size();
+            }
+            region += offset;
+        }
+        if region > BYTES || region > usize::from(u16::MAX) {
+            return Err(ConfigError::StorageTooSmall { needed: region });
+        }
+        dict.reset(0x0000..=0xFFFF);
+        Ok(dict)
+    }
+
+    /// Bytes of the store the tables use.
+    pub fn used_bytes(&self) -> usize {
+        self.tables().map(|t| t.iter().map(Object::storage_size).sum::<usize>()).sum()
+    }
+
+    /// The node-ID that `$NODEID` defaults resolve to.
+    pub fn node_id(&self) -> u8 {
+        self.node_id
+    }
+
+    /// Changes the node-ID used by `$NODEID` defaults (applied at the next reset).
+    pub fn set_node_id(&mut self, node_id: u8) {
+        self.node_id = node_id;
+    }
+
+    /// The device description.
+    pub fn device(&self) -> &DeviceInfo {
+        &self.device
+    }
+
+    fn tables(&self) -> impl Iterator<Item = &'static [Object]> + '_ {
+        self.tables.iter().take(self.table_count).copied()
+    }
+
+    /// Every object, in ascending index order.
+    pub fn objects(&self) -> impl Iterator<Item = &'static Object> + '_ {
+        self.tables().flat_map(|t| t.iter())
+    }
+
+    /// The object at `index`.
+    pub fn object(&self, index: u16) -> Option<(&'static Object, u16)> {
+        for (table, region) in self.tables().zip(self.regions.iter()) {
+            match (table.first(), table.last()) {
+                (Some(first), Some(last)) if first.index <= index && index <= last.index => {
+                    let pos = table.binary_search_by_key(&index, |o| o.index).ok()?;
+                    return table.get(pos).map(|o| (o, *region));
+                }
+                _ => {}
+            }
+        }
+        None
+    }
+
+    /// Resolves `index`/`sub`, or answers 0x0602_0000 / 0x0609_0011.
+    pub fn entry(&self, index: u16, sub: u8) -> Result<Entry, AbortCode> {
+        let (object, region) = self.object(index).ok_or(AbortCode::ObjectDoesNotExist)?;
+        let (var, offset) = object.sub(sub).ok_or(AbortCode::SubIndexDoesNotExist)?;
+        let offset = usize::from(region) + usize::from(object.base) + offset;
+        Ok(Entry { object, var, sub, offset: offset as u16 })
+    }
+
+    fn default_bytes(&self, var: &Var) -> DefaultBytes {
+        let number = |v: u64| {
+            let size = var.data_type.fixed_size().unwrap_or(0).min(8);
+            DefaultBytes::Number(v.to_le_bytes(), size)
+        };
+        match var.default {
+            DefaultValue::Zero => number(0),
+            DefaultValue::Unsigned(v) => number(v),
+            DefaultValue::Signed(v) => number(v as u64),
+            DefaultValue::Real(v) => match var.data_type {
+                DataType::Real32 => number(u64::from((v as f32).to_bits())),
+                _ => number(v.to_bits()),
+            },
+            DefaultValue::Text(s) => DefaultBytes::Slice(s.as_bytes()),
+            DefaultValue::Bytes(b) => DefaultBytes::Slice(b),
+            DefaultValue::NodeIdPlus(base) => number(u64::from(base.wrapping_add(u32::from(self.node_id)))),
+            DefaultValue::Device(field) => {
+                let d = &self.device;
+                match field {
+                    DeviceField::DeviceType => number(u64::from(d.device_type)),
+                    DeviceField::VendorId => number(u64::from(d.vendor_id)),
+                    DeviceField::ProductCode => number(u64::from(d.product_code)),
+                    DeviceField::RevisionNumber => number(u64::from(d.revision_number)),
+                    DeviceField::SerialNumber => number(u64::from(d.serial_number)),
+                    DeviceField::DeviceName => DefaultBytes::Slice(d.device_name.as_bytes()),
+                    DeviceField::HardwareVersion => DefaultBytes::Slice(d.hardware_version.as_bytes()),
+                    DeviceField::SoftwareVersion => DefaultBytes::Slice(d.software_version.as_bytes()),
+                    DeviceField::Eds => DefaultBytes::Slice(d.eds),
+                }
+            }
+        }
+    }
+
+    /// The stored bytes of `entry` (its current value), or `None` for a fixed entry.
+    fn stored(&self, entry: &Entry) -> Option<&[u8]> {
+        if entry.var.is_fixed() {
+            return None;
+        }
+        let start = usize::from(entry.offset);
+        match entry.var.data_type.fixed_size() {
+            Some(n) => self.store.get(start..start + n),
+            None => {
+                let len = u16::from_le_bytes([
+                    *self.store.get(start)?,
+                    *self.store.get(start + 1)?,
+                ]);
+                let len = usize::from(len.min(entry.var.capacity));
+                self.store.get(start + 2..start + 2 + len)
+            }
+        }
+    }
+
+    /// Current length of the value in bytes (what an SDO upload transfers).
+    pub fn value_len(&self, entry: &Entry) -> usize {
+        match self.stored(entry) {
+            Some(bytes) => bytes.len(),
+            None => self.default_bytes(entry.var).bytes().len(),
+        }
+    }
+
+    /// Copies the value of `entry` from byte `offset` on into `buf`; returns the bytes copied.
+    pub fn read(&self, entry: &Entry, offset: usize, buf: &mut [u8]) -> usize {
+        let default;
+        let value = match self.stored(entry) {
+            Some(bytes) => bytes,
+            None => {
+                default = self.default_bytes(entry.var);
+                default.bytes()
+            }
+        };
+        let rest = value.get(offset..).unwrap_or(&[]);
+        let n = rest.len().min(buf.len());
+        if let (Some(d), Some(s)) = (buf.get_mut(..n), rest.get(..n)) {
+            d.copy_from_slice(s);
+        }
+        n
+    }
+
+    /// Checks that `data` is an acceptable new value for `entry` from the bus: size and limits
+    /// (digest §5.9 items 5 and 10). Access rights and NMT rules are the caller's (they depend
+    /// on the service).
+    pub fn check_write(&self, entry: &Entry, data: &[u8]) -> Result<(), AbortCode> {
+        let var = entry.var;
+        match var.data_type.fixed_size() {
+            Some(n) if data.len() > n => return Err(AbortCode::LengthTooHigh),
+            Some(n) if data.len() < n => return Err(AbortCode::LengthTooLow),
+            Some(_) => {}
+            None if data.len() > usize::from(var.capacity) => return Err(AbortCode::LengthTooHigh),
+            None => return Ok(()),
+        }
+        check_limits(var, data)
+    }
+
+    /// Stores `data` as the value of `entry` (after [`check_write`](Self::check_write)).
+    /// Fixed entries are not changed.
+    pub fn commit(&mut self, entry: &Entry, data: &[u8]) {
+        if entry.var.is_fixed() {
+            return;
+        }
+        let start = usize::from(entry.offset);
+        match entry.var.data_type.fixed_size() {
+            Some(n) => {
+                if let Some(dst) = self.store.get_mut(start..start + n) {
+                    dst.fill(0);
+                    let k = data.len().min(n);
+                    if let (Some(d), Some(s)) = (dst.get_mut(..k), data.get(..k)) {
+                        d.copy_from_slice(s);
+                    }
+                }
+            }
+            None => {
+                let k = data.len().min(usize::from(entry.var.capacity));
+                if let Some(dst) = self.store.get_mut(start..start + 2 + k) {
+                    let (len, body) = dst.split_at_mut(2);
+                    len.copy_from_slice(&(k as u16).to_le_bytes());
+                    if let Some(s) = data.get(..k) {
+                        body.copy_from_slice(s);
+                    }
+                }
+            }
+        }
+    }
+
+    /// Reads a numeric value from the device side (no access check). Refuses a size mismatch
+    /// with 0x0607_0010.
+    pub fn get<T: Scalar>(&self, index: u16, sub: u8) -> Result<T, AbortCode> {
+        let entry = self.entry(index, sub)?;
+        if entry.var.data_type.fixed_size() != Some(T::SIZE) {
+            return Err(AbortCode::LengthMismatch);
+        }
+        let mut raw = [0u8; 8];
+        let n = self.read(&entry, 0, &mut raw);
+        Ok(T::from_le(raw.get(..n).unwrap_or(&[])))
+    }
+
+    /// Writes a numeric value from the device side (no access or limit check; fixed entries are
+    /// not changed). Refuses a size mismatch with 0x0607_0010.
+    pub fn set<T: Scalar>(&mut self, index: u16, sub: u8, value: T) -> Result<(), AbortCode> {
+        let entry = self.entry(index, sub)?;
+        if entry.var.data_type.fixed_size() != Some(T::SIZE) {
+            return Err(AbortCode::LengthMismatch);
+        }
+        let mut raw = [0u8; 8];
+        if let Some(bytes) = raw.get_mut(..T::SIZE) {
+            value.to_le(bytes);
+            self.commit(&entry, bytes);
+        }
+        Ok(())
+    }
+
+    /// Sets every stored value of the objects in `range` back to its default.
+    pub fn reset(&mut self, range: RangeInclusive<u16>) {
+        let tables = self.tables;
+        for (table, region) in tables.iter().take(self.table_count).zip(self.regions) {
+            for object in table.iter().filter(|o| range.contains(&o.index)) {
+                for sub in 0..=object.highest_sub() {
+                    if let Some((var, offset)) = object.sub(sub) {
+                        let offset = usize::from(region) + usize::from(object.base) + offset;
+                        let entry = Entry { object, var, sub, offset: offset as u16 };
+                        let default = self.default_bytes(var);
+                        self.commit(&entry, default.bytes());
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Configuration checks on one object that the type system cannot make.
+fn check_object(object: &Object) -> Result<(), ConfigError> {
+    let bad = ConfigError::BadEntry { index: object.index };
+    for sub in 0..=object.highest_sub() {
+        if let Some((var, _)) = object.sub(sub) {
+            if var.data_type.is_variable() && var.storage_size() > usize::from(u16::MAX) {
+                return Err(bad);
+            }
+            if let (DefaultValue::Text(s), false) = (var.default, var.is_fixed()) {
+                if s.len() > usize::from(var.capacity) {
+                    return Err(bad);
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Value range check of a numeric write (limits of the entry and of BOOLEAN).
+fn check_limits(var: &Var, data: &[u8]) -> Result<(), AbortCode> {
+    let ty = var.data_type;
+    let n = data.len().min(8);
+    if n == 0 {
+        return Ok(());
+    }
+    let mut raw = [0u8; 8];
+    if let (Some(d), Some(s)) = (raw.get_mut(..n), data.get(..n)) {
+        d.copy_from_slice(s);
+    }
+    let unsigned = u64::from_le_bytes(raw);
+    if ty.is_signed() {
+        let shift = 64 - 8 * n as u32;
+        let value = ((unsigned << shift) as i64) >> shift;
+        if let Bound::Signed(low) = var.low {
+            if value < low {
+                return Err(AbortCode::ValueTooLow);
+            }
+        }
+        if let Bound::Signed(high) = var.high {
+            if value > high {
+                return Err(AbortCode::ValueTooHigh);
+            }
+        }
+    } else if ty.is_unsigned() {
+        if ty == DataType::Boolean && unsigned > 1 {
+            return Err(AbortCode::ValueTooHigh);
+        }
+        if let Bound::Unsigned(low) = var.low {
+            if unsigned < low {
+                return Err(AbortCode::ValueTooLow);
+            }
+        }
+        if let Bound::Unsigned(high) = var.high {
+            if unsigned > high {
+                return Err(AbortCode::ValueTooHigh);
+            }
+        }
+    } else if matches!(ty, DataType::Real32 | DataType::Real64) {
+        let value = if ty == DataType::Real32 {
+            f64::from(f32::from_bits(unsigned as u32))
+        } else {
+            f64::from_bits(unsigned)
+        };
+        if value.is_nan() {
+            return Err(AbortCode::InvalidValue);
+        }
+        if let Bound::Real(low) = var.low {
+            if value < low {
+                return Err(AbortCode::ValueTooLow);
+            }
+        }
+        if let Bound::Real(high) = var.high {
+            if value > high {
+                return Err(AbortCode::ValueTooHigh);
+            }
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,118 @@
+//! The communication-profile objects the crate brings (CiA 301 §7.5, digest §10), and the
+//! index constants of every object the crate itself reads or writes.
+
+use super::{layout, Access, DataType, DefaultValue, DeviceField, Object, PdoMapping, Var};
+
+/// 1000h device type.
+pub const DEVICE_TYPE: u16 = 0x1000;
+/// 1001h error register.
+pub const ERROR_REGISTER: u16 = 0x1001;
+/// 1008h manufacturer device name.
+pub const DEVICE_NAME: u16 = 0x1008;
+/// 1009h manufacturer hardware version.
+pub const HARDWARE_VERSION: u16 = 0x1009;
+/// 100Ah manufacturer software version.
+pub const SOFTWARE_VERSION: u16 = 0x100A;
+/// 1017h producer heartbeat time (ms).
+pub const PRODUCER_HEARTBEAT_TIME: u16 = 0x1017;
+/// 1018h identity object.
+pub const IDENTITY: u16 = 0x1018;
+/// 1021h store EDS.
+pub const STORE_EDS: u16 = 0x1021;
+/// 1200h SDO server parameter.
+pub const SDO_SERVER_PARAMETER: u16 = 0x1200;
+
+const fn u32_const(name: &'static str, field: DeviceField) -> Var {
+    Var::new(name, DataType::Unsigned32).access(Access::ReadOnly).default(DefaultValue::Device(field))
+}
+
+const fn text(name: &'static str, field: DeviceField) -> Var {
+    Var::new(name, DataType::VisibleString).access(Access::Const).default(DefaultValue::Device(field))
+}
+
+const HIGHEST_SUB: &str = "Highest sub-index supported";
+
+const IDENTITY_SUBS: [(u8, Var); 5] = [
+    (0, Var::new(HIGHEST_SUB, DataType::Unsigned8).access(Access::Const).default(DefaultValue::Unsigned(4))),
+    (1, u32_const("Vendor-ID", DeviceField::VendorId)),
+    (2, u32_const("Product code", DeviceField::ProductCode)),
+    (3, u32_const("Revision number", DeviceField::RevisionNumber)),
+    (4, u32_const("Serial number", DeviceField::SerialNumber)),
+];
+
+const SDO_SERVER_SUBS: [(u8, Var); 3] = [
+    (0, Var::new(HIGHEST_SUB, DataType::Unsigned8).access(Access::Const).default(DefaultValue::Unsigned(2))),
+    (
+        1,
+        Var::new("COB-ID client to server (rx)", DataType::Unsigned32)
+            .access(Access::ReadOnly)
+            .default(DefaultValue::NodeIdPlus(0x600)),
+    ),
+    (
+        2,
+        Var::new("COB-ID server to client (tx)", DataType::Unsigned32)
+            .access(Access::ReadOnly)
+            .default(DefaultValue::NodeIdPlus(0x580)),
+    ),
+];
+
+// Loop indices are bounded by the array lengths; `get` is not usable in a const fn.
+#[allow(clippy::indexing_slicing)]
+const fn communication_objects<const N: usize>() -> [Object; N] {
+    let all = [
+        Object::var(
+            DEVICE_TYPE,
+            "Device type",
+            u32_const("Device type", DeviceField::DeviceType),
+        ),
+        Object::var(
+            ERROR_REGISTER,
+            "Error register",
+            Var::new("Error register", DataType::Unsigned8).pdo(PdoMapping::Tpdo),
+        ),
+        Object::var(DEVICE_NAME, "Manufacturer device name", text("Manufacturer device name", DeviceField::DeviceName)),
+        Object::var(
+            HARDWARE_VERSION,
+            "Manufacturer hardware version",
+            text("Manufacturer hardware version", DeviceField::HardwareVersion),
+        ),
+        Object::var(
+            SOFTWARE_VERSION,
+            "Manufacturer software version",
+            text("Manufacturer software version", DeviceField::SoftwareVersion),
+        ),
+        Object::var(
+            PRODUCER_HEARTBEAT_TIME,
+            "Producer heartbeat time",
+            Var::new("Producer heartbeat time", DataType::Unsigned16).access(Access::ReadWrite),
+        ),
+        Object::record(IDENTITY, "Identity object", &IDENTITY_SUBS),
+        Object::var(
+            STORE_EDS,
+            "Store EDS",
+            Var::new("Store EDS", DataType::Domain).access(Access::ReadOnly).default(DefaultValue::Device(DeviceField::Eds)),
+        ),
+        Object::record(SDO_SERVER_PARAMETER, "SDO server parameter", &SDO_SERVER_SUBS),
+    ];
+    // Keep the first N: the EDS object is last but one and left out without its feature.
+    let mut out = [Object::var(0, "", Var::new("", DataType::Unsigned8)); N];
+    let mut i = 0;
+    let mut j = 0;
+    while i < all.len() {
+        let keep = all[i].index != STORE_EDS || cfg!(feature = "eds-object");
+        if keep && j < N {
+            out[j] = all[i];
+            j += 1;
+        }
+        i += 1;
+    }
+    out
+}
+
+#[cfg(feature = "eds-object")]
+const COMMUNICATION_COUNT: usize = 9;
+#[cfg(not(feature = "eds-object"))]
+const COMMUNICATION_COUNT: usize = 8;
+
+/// The CiA 301 objects of the communication profile area (1000h–1FFFh) this crate implements.
+pub static COMMUNICATION: [Object; COMMUNICATION_COUNT] = layout(communication_objects());
