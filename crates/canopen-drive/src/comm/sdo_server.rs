@@ -38,7 +38,8 @@ pub trait ObjectAccess {
     fn read(&mut self, mux: Mux, offset: usize, buf: &mut [u8]) -> Result<usize, AbortCode>;
     /// Checks that `mux` may be downloaded (with `size` bytes when known) and returns the size
     /// of the entry's value when it has a fixed size.
-    fn download_check(&mut self, mux: Mux, size: Option<usize>) -> Result<Option<usize>, AbortCode>;
+    fn download_check(&mut self, mux: Mux, size: Option<usize>)
+        -> Result<Option<usize>, AbortCode>;
     /// Writes a complete value.
     fn write(&mut self, mux: Mux, data: &[u8]) -> Result<(), AbortCode>;
 }
@@ -71,14 +72,39 @@ impl BlockUpload {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum State {
     Idle,
-    SegmentedDownload { mux: Mux, toggle: bool, size: Option<usize>, len: usize },
-    SegmentedUpload { mux: Mux, toggle: bool, size: usize, offset: usize },
-    BlockDownload { mux: Mux, crc_on: bool, size: Option<usize>, len: usize, seq: u8, block_size: u8, done: bool },
-    BlockDownloadEnd { mux: Mux, crc_on: bool, size: Option<usize>, len: usize },
+    SegmentedDownload {
+        mux: Mux,
+        toggle: bool,
+        size: Option<usize>,
+        len: usize,
+    },
+    SegmentedUpload {
+        mux: Mux,
+        toggle: bool,
+        size: usize,
+        offset: usize,
+    },
+    BlockDownload {
+        mux: Mux,
+        crc_on: bool,
+        size: Option<usize>,
+        len: usize,
+        seq: u8,
+        block_size: u8,
+        done: bool,
+    },
+    BlockDownloadEnd {
+        mux: Mux,
+        crc_on: bool,
+        size: Option<usize>,
+        len: usize,
+    },
     BlockUploadInitiated(BlockUpload),
     BlockUploadSending(BlockUpload),
     BlockUploadAwaitAck(BlockUpload),
-    BlockUploadEnd { mux: Mux },
+    BlockUploadEnd {
+        mux: Mux,
+    },
 }
 
 /// The SDO server with a `BUF`-byte download buffer.
@@ -99,7 +125,12 @@ fn abort(mux: Mux, code: AbortCode) -> Step {
 impl<const BUF: usize> SdoServer<BUF> {
     /// An idle server whose transfers time out after `timeout` without a frame.
     pub const fn new(timeout: Duration) -> Self {
-        SdoServer { state: State::Idle, deadline: None, timeout, buf: [0; BUF] }
+        SdoServer {
+            state: State::Idle,
+            deadline: None,
+            timeout,
+            buf: [0; BUF],
+        }
     }
 
     /// True when no transfer is in progress.
@@ -119,7 +150,12 @@ impl<const BUF: usize> SdoServer<BUF> {
     }
 
     /// Handles one request frame's data received at `now`; returns the response to send.
-    pub fn on_request(&mut self, data: &[u8], now: Instant, od: &mut impl ObjectAccess) -> Option<[u8; 8]> {
+    pub fn on_request(
+        &mut self,
+        data: &[u8],
+        now: Instant,
+        od: &mut impl ObjectAccess,
+    ) -> Option<[u8; 8]> {
         let (state, response) = match self.state {
             // In a block download, every frame but an abort is a sub-block segment.
             State::BlockDownload { .. } if data.first() != Some(&0x80) => {
@@ -147,7 +183,13 @@ impl<const BUF: usize> SdoServer<BUF> {
             Some(deadline) if now >= deadline => {
                 let mux = self.mux()?;
                 self.enter(State::Idle, now);
-                Some(Response::Abort { mux, code: AbortCode::Timeout }.emit())
+                Some(
+                    Response::Abort {
+                        mux,
+                        code: AbortCode::Timeout,
+                    }
+                    .emit(),
+                )
             }
             _ => None,
         }
@@ -171,9 +213,9 @@ impl<const BUF: usize> SdoServer<BUF> {
             | State::BlockDownload { mux, .. }
             | State::BlockDownloadEnd { mux, .. }
             | State::BlockUploadEnd { mux } => Some(mux),
-            State::BlockUploadInitiated(u) | State::BlockUploadSending(u) | State::BlockUploadAwaitAck(u) => {
-                Some(u.mux)
-            }
+            State::BlockUploadInitiated(u)
+            | State::BlockUploadSending(u)
+            | State::BlockUploadAwaitAck(u) => Some(u.mux),
         }
     }
 
@@ -184,26 +226,61 @@ impl<const BUF: usize> SdoServer<BUF> {
             // An abort ends any transfer and is never answered.
             (_, Request::Abort { .. }) => (State::Idle, None),
 
-            (State::Idle, Request::InitiateDownload { mux, kind }) => self.initiate_download(mux, kind, od),
-            (State::Idle, Request::InitiateUpload { mux }) => self.initiate_upload(mux, od),
-            (State::Idle, Request::BlockUploadInitiate { mux, crc, block_size, pst }) => {
-                self.initiate_block_upload(mux, crc, block_size, pst, od)
+            (State::Idle, Request::InitiateDownload { mux, kind }) => {
+                self.initiate_download(mux, kind, od)
             }
+            (State::Idle, Request::InitiateUpload { mux }) => self.initiate_upload(mux, od),
+            (
+                State::Idle,
+                Request::BlockUploadInitiate {
+                    mux,
+                    crc,
+                    block_size,
+                    pst,
+                },
+            ) => self.initiate_block_upload(mux, crc, block_size, pst, od),
             (State::Idle, Request::BlockDownloadInitiate { mux, crc, size }) => {
                 let size = size.map(|s| s as usize);
                 match self.check_download(mux, size, od) {
                     Err(code) => abort(mux, code),
                     Ok(_) => (
-                        State::BlockDownload { mux, crc_on: crc, size, len: 0, seq: 0, block_size: self.block_size(0), done: false },
-                        Some(Response::BlockDownloadInitiated { mux, crc: true, block_size: self.block_size(0) }),
+                        State::BlockDownload {
+                            mux,
+                            crc_on: crc,
+                            size,
+                            len: 0,
+                            seq: 0,
+                            block_size: self.block_size(0),
+                            done: false,
+                        },
+                        Some(Response::BlockDownloadInitiated {
+                            mux,
+                            crc: true,
+                            block_size: self.block_size(0),
+                        }),
                     ),
                 }
             }
-            (State::Idle, Request::Unknown { .. }) => abort(current, AbortCode::InvalidCommandSpecifier),
+            (State::Idle, Request::Unknown { mux, .. }) => {
+                abort(mux, AbortCode::InvalidCommandSpecifier)
+            }
             // Segment or block continuation frames without a transfer.
             (State::Idle, _) => abort(current, AbortCode::InvalidCommandSpecifier),
 
-            (State::SegmentedDownload { mux, toggle, size, len }, Request::DownloadSegment { toggle: t, data, len: n, last }) => {
+            (
+                State::SegmentedDownload {
+                    mux,
+                    toggle,
+                    size,
+                    len,
+                },
+                Request::DownloadSegment {
+                    toggle: t,
+                    data,
+                    len: n,
+                    last,
+                },
+            ) => {
                 if t != toggle {
                     return abort(mux, AbortCode::ToggleBitNotAlternated);
                 }
@@ -218,7 +295,12 @@ impl<const BUF: usize> SdoServer<BUF> {
                 }
                 if !last {
                     return (
-                        State::SegmentedDownload { mux, toggle: !toggle, size, len },
+                        State::SegmentedDownload {
+                            mux,
+                            toggle: !toggle,
+                            size,
+                            len,
+                        },
                         Some(Response::DownloadSegmentAck { toggle }),
                     );
                 }
@@ -231,7 +313,15 @@ impl<const BUF: usize> SdoServer<BUF> {
                 }
             }
 
-            (State::SegmentedUpload { mux, toggle, size, offset }, Request::UploadSegment { toggle: t }) => {
+            (
+                State::SegmentedUpload {
+                    mux,
+                    toggle,
+                    size,
+                    offset,
+                },
+                Request::UploadSegment { toggle: t },
+            ) => {
                 if t != toggle {
                     return abort(mux, AbortCode::ToggleBitNotAlternated);
                 }
@@ -243,15 +333,39 @@ impl<const BUF: usize> SdoServer<BUF> {
                 };
                 let offset = offset + got;
                 let last = offset >= size || got < want;
-                let response = Response::UploadSegment { toggle, data, len: got as u8, last };
+                let response = Response::UploadSegment {
+                    toggle,
+                    data,
+                    len: got as u8,
+                    last,
+                };
                 if last {
                     (State::Idle, Some(response))
                 } else {
-                    (State::SegmentedUpload { mux, toggle: !toggle, size, offset }, Some(response))
+                    (
+                        State::SegmentedUpload {
+                            mux,
+                            toggle: !toggle,
+                            size,
+                            offset,
+                        },
+                        Some(response),
+                    )
                 }
             }
 
-            (State::BlockDownloadEnd { mux, crc_on, size, len }, Request::BlockDownloadEnd { unused, crc: client_crc }) => {
+            (
+                State::BlockDownloadEnd {
+                    mux,
+                    crc_on,
+                    size,
+                    len,
+                },
+                Request::BlockDownloadEnd {
+                    unused,
+                    crc: client_crc,
+                },
+            ) => {
                 // The last segment always carried 7 bytes; `unused` of them were padding.
                 let len = len.saturating_sub(usize::from(unused));
                 if size.is_some_and(|s| len > s) {
@@ -269,16 +383,25 @@ impl<const BUF: usize> SdoServer<BUF> {
                 }
             }
 
-            (State::BlockUploadInitiated(upload), Request::BlockUploadStart) => {
-                (State::BlockUploadSending(BlockUpload { sent: 0, ..upload }), None)
-            }
-            (State::BlockUploadAwaitAck(upload), Request::BlockUploadAck { ack_seq, block_size }) => {
-                self.block_upload_ack(upload, ack_seq, block_size, od)
-            }
+            (State::BlockUploadInitiated(upload), Request::BlockUploadStart) => (
+                State::BlockUploadSending(BlockUpload { sent: 0, ..upload }),
+                None,
+            ),
+            (
+                State::BlockUploadAwaitAck(upload),
+                Request::BlockUploadAck {
+                    ack_seq,
+                    block_size,
+                },
+            ) => self.block_upload_ack(upload, ack_seq, block_size, od),
             // The client may acknowledge early (while segments are still being sent).
-            (State::BlockUploadSending(upload), Request::BlockUploadAck { ack_seq, block_size }) => {
-                self.block_upload_ack(upload, ack_seq, block_size, od)
-            }
+            (
+                State::BlockUploadSending(upload),
+                Request::BlockUploadAck {
+                    ack_seq,
+                    block_size,
+                },
+            ) => self.block_upload_ack(upload, ack_seq, block_size, od),
             (State::BlockUploadEnd { .. }, Request::BlockUploadEnd) => (State::Idle, None),
 
             // Anything else in the middle of a transfer is a protocol error (digest §5.9 item 7).
@@ -300,7 +423,12 @@ impl<const BUF: usize> SdoServer<BUF> {
         (BUF.saturating_sub(len) / 7).clamp(1, usize::from(MAX_BLOCK_SIZE)) as u8
     }
 
-    fn check_download(&self, mux: Mux, size: Option<usize>, od: &mut impl ObjectAccess) -> Result<Option<usize>, AbortCode> {
+    fn check_download(
+        &self,
+        mux: Mux,
+        size: Option<usize>,
+        od: &mut impl ObjectAccess,
+    ) -> Result<Option<usize>, AbortCode> {
         let fixed = od.download_check(mux, size)?;
         if size.is_some_and(|s| s > BUF) {
             return Err(AbortCode::OutOfMemory);
@@ -308,7 +436,12 @@ impl<const BUF: usize> SdoServer<BUF> {
         Ok(fixed)
     }
 
-    fn finish_download(&mut self, mux: Mux, len: usize, od: &mut impl ObjectAccess) -> Result<(), AbortCode> {
+    fn finish_download(
+        &mut self,
+        mux: Mux,
+        len: usize,
+        od: &mut impl ObjectAccess,
+    ) -> Result<(), AbortCode> {
         od.write(mux, self.buf.get(..len).unwrap_or(&[]))
     }
 
@@ -334,7 +467,12 @@ impl<const BUF: usize> SdoServer<BUF> {
                 let size = size.map(|s| s as usize);
                 match self.check_download(mux, size, od) {
                     Ok(_) => (
-                        State::SegmentedDownload { mux, toggle: false, size, len: 0 },
+                        State::SegmentedDownload {
+                            mux,
+                            toggle: false,
+                            size,
+                            len: 0,
+                        },
                         Some(Response::DownloadInitiated { mux }),
                     ),
                     Err(code) => abort(mux, code),
@@ -351,7 +489,14 @@ impl<const BUF: usize> SdoServer<BUF> {
         if (1..=4).contains(&size) {
             let mut data = [0u8; 4];
             return match od.read(mux, 0, data.get_mut(..size).unwrap_or(&mut [])) {
-                Ok(n) if n > 0 => (State::Idle, Some(Response::UploadExpedited { mux, data, len: n as u8 })),
+                Ok(n) if n > 0 => (
+                    State::Idle,
+                    Some(Response::UploadExpedited {
+                        mux,
+                        data,
+                        len: n as u8,
+                    }),
+                ),
                 Ok(_) => abort(mux, AbortCode::NoDataAvailable),
                 Err(code) => abort(mux, code),
             };
@@ -360,12 +505,27 @@ impl<const BUF: usize> SdoServer<BUF> {
             return abort(mux, AbortCode::General);
         };
         (
-            State::SegmentedUpload { mux, toggle: false, size, offset: 0 },
-            Some(Response::UploadSegmented { mux, size: wire_size }),
+            State::SegmentedUpload {
+                mux,
+                toggle: false,
+                size,
+                offset: 0,
+            },
+            Some(Response::UploadSegmented {
+                mux,
+                size: wire_size,
+            }),
         )
     }
 
-    fn initiate_block_upload(&mut self, mux: Mux, crc_on: bool, block_size: u8, pst: u8, od: &mut impl ObjectAccess) -> Step {
+    fn initiate_block_upload(
+        &mut self,
+        mux: Mux,
+        crc_on: bool,
+        block_size: u8,
+        pst: u8,
+        od: &mut impl ObjectAccess,
+    ) -> Step {
         let size = match od.upload_len(mux) {
             Ok(size) => size,
             Err(code) => return abort(mux, code),
@@ -379,8 +539,23 @@ impl<const BUF: usize> SdoServer<BUF> {
         let Ok(wire_size) = u32::try_from(size) else {
             return abort(mux, AbortCode::General);
         };
-        let upload = BlockUpload { mux, crc_on, size, block_size, base: 0, sent: 0, crc: 0 };
-        (State::BlockUploadInitiated(upload), Some(Response::BlockUploadInitiated { mux, crc: true, size: wire_size }))
+        let upload = BlockUpload {
+            mux,
+            crc_on,
+            size,
+            block_size,
+            base: 0,
+            sent: 0,
+            crc: 0,
+        };
+        (
+            State::BlockUploadInitiated(upload),
+            Some(Response::BlockUploadInitiated {
+                mux,
+                crc: true,
+                size: wire_size,
+            }),
+        )
     }
 
     fn send_segment(&mut self, upload: BlockUpload, od: &mut impl ObjectAccess) -> Step {
@@ -393,7 +568,10 @@ impl<const BUF: usize> SdoServer<BUF> {
         }
         let last = offset + 7 >= upload.size;
         let segment = BlockSegment { seq, last, data };
-        let next = BlockUpload { sent: seq, ..upload };
+        let next = BlockUpload {
+            sent: seq,
+            ..upload
+        };
         let state = if seq >= upload.last_seq() {
             State::BlockUploadAwaitAck(next)
         } else {
@@ -402,7 +580,13 @@ impl<const BUF: usize> SdoServer<BUF> {
         (state, Some(Response::BlockUploadSegment(segment)))
     }
 
-    fn block_upload_ack(&mut self, upload: BlockUpload, ack_seq: u8, block_size: u8, od: &mut impl ObjectAccess) -> Step {
+    fn block_upload_ack(
+        &mut self,
+        upload: BlockUpload,
+        ack_seq: u8,
+        block_size: u8,
+        od: &mut impl ObjectAccess,
+    ) -> Step {
         if ack_seq > upload.sent {
             return abort(upload.mux, AbortCode::InvalidSequenceNumber);
         }
@@ -425,22 +609,43 @@ impl<const BUF: usize> SdoServer<BUF> {
                 Err(code) => return abort(upload.mux, code),
             }
         }
-        let next = BlockUpload { base: upload.base + acked, sent: 0, crc, block_size, ..upload };
-        if next.base >= upload.size && (acked > 0 || upload.size == 0) && ack_seq == upload.last_seq() {
+        let next = BlockUpload {
+            base: upload.base + acked,
+            sent: 0,
+            crc,
+            block_size,
+            ..upload
+        };
+        if next.base >= upload.size
+            && (acked > 0 || upload.size == 0)
+            && ack_seq == upload.last_seq()
+        {
             let last_len = match upload.size % 7 {
                 0 if upload.size > 0 => 7,
                 rest => rest,
             };
             let unused = (7 - last_len) as u8;
             let crc = if upload.crc_on { crc } else { 0 };
-            return (State::BlockUploadEnd { mux: upload.mux }, Some(Response::BlockUploadEnd { unused, crc }));
+            return (
+                State::BlockUploadEnd { mux: upload.mux },
+                Some(Response::BlockUploadEnd { unused, crc }),
+            );
         }
         (State::BlockUploadSending(next), None)
     }
 
     /// A block-download sub-block segment.
     fn block_segment(&mut self, segment: BlockSegment) -> Step {
-        let State::BlockDownload { mux, crc_on, size, len, seq, block_size, done } = self.state else {
+        let State::BlockDownload {
+            mux,
+            crc_on,
+            size,
+            len,
+            seq,
+            block_size,
+            done,
+        } = self.state
+        else {
             return (self.state, None);
         };
         if segment.seq == 0 || segment.seq > MAX_BLOCK_SIZE {
@@ -461,15 +666,45 @@ impl<const BUF: usize> SdoServer<BUF> {
         }
         // End of the sub-block: the client sent its last segment (in order or not).
         if segment.seq >= block_size || segment.last {
-            let ack = Response::BlockDownloadAck { ack_seq: seq, block_size: self.block_size(len) };
+            let ack = Response::BlockDownloadAck {
+                ack_seq: seq,
+                block_size: self.block_size(len),
+            };
             if done {
-                return (State::BlockDownloadEnd { mux, crc_on, size, len }, Some(ack));
+                return (
+                    State::BlockDownloadEnd {
+                        mux,
+                        crc_on,
+                        size,
+                        len,
+                    },
+                    Some(ack),
+                );
             }
             return (
-                State::BlockDownload { mux, crc_on, size, len, seq: 0, block_size: self.block_size(len), done },
+                State::BlockDownload {
+                    mux,
+                    crc_on,
+                    size,
+                    len,
+                    seq: 0,
+                    block_size: self.block_size(len),
+                    done,
+                },
                 Some(ack),
             );
         }
-        (State::BlockDownload { mux, crc_on, size, len, seq, block_size, done }, None)
+        (
+            State::BlockDownload {
+                mux,
+                crc_on,
+                size,
+                len,
+                seq,
+                block_size,
+                done,
+            },
+            None,
+        )
     }
 }

@@ -11,7 +11,9 @@
 
 use core::fmt::{self, Write};
 
-use super::{Access, Bound, DataType, DefaultValue, DeviceField, Dictionary, Kind, Object, PdoMapping, Var};
+use super::{
+    Access, Bound, DataType, DefaultValue, DeviceField, Dictionary, Kind, Object, PdoMapping, Var,
+};
 
 /// Facts about the device that the EDS states but the dictionary does not hold.
 #[derive(Clone, Copy, Debug)]
@@ -55,16 +57,30 @@ impl Default for EdsInfo {
 const BAUD_RATES: [u16; 8] = [10, 20, 50, 125, 250, 500, 800, 1000];
 
 /// Writes the EDS of `od` into `w`.
-pub fn write<const B: usize>(od: &Dictionary<B>, info: &EdsInfo, w: &mut impl Write) -> fmt::Result {
+pub fn write<const B: usize>(
+    od: &Dictionary<B>,
+    info: &EdsInfo,
+    w: &mut impl Write,
+) -> fmt::Result {
     let device = od.device();
     writeln!(w, "[FileInfo]")?;
     writeln!(w, "FileName={}", Clean(info.file_name))?;
     writeln!(w, "FileVersion=1\nFileRevision=0\nEDSVersion=4.0")?;
     writeln!(w, "Description={}", Clean(info.description))?;
     for prefix in ["Creation", "Modification"] {
-        writeln!(w, "{prefix}Time={}\n{prefix}Date={}", Clean(info.time), Clean(info.date))?;
+        writeln!(
+            w,
+            "{prefix}Time={}\n{prefix}Date={}",
+            Clean(info.time),
+            Clean(info.date)
+        )?;
     }
-    writeln!(w, "CreatedBy={}\nModifiedBy={}", Clean(info.created_by), Clean(info.created_by))?;
+    writeln!(
+        w,
+        "CreatedBy={}\nModifiedBy={}",
+        Clean(info.created_by),
+        Clean(info.created_by)
+    )?;
     writeln!(w, "\n[DeviceInfo]")?;
     writeln!(w, "VendorName={}", Clean(device.vendor_name))?;
     writeln!(w, "VendorNumber=0x{:08X}", device.vendor_id)?;
@@ -73,30 +89,41 @@ pub fn write<const B: usize>(od: &Dictionary<B>, info: &EdsInfo, w: &mut impl Wr
     writeln!(w, "RevisionNumber=0x{:08X}", device.revision_number)?;
     writeln!(w, "OrderCode={}", Clean(device.device_name))?;
     for rate in BAUD_RATES {
-        writeln!(w, "BaudRate_{rate}={}", u8::from(info.baud_rates.contains(&rate)))?;
+        writeln!(
+            w,
+            "BaudRate_{rate}={}",
+            u8::from(info.baud_rates.contains(&rate))
+        )?;
     }
-    writeln!(w, "SimpleBootUpMaster=0\nSimpleBootUpSlave=1\nGranularity=8")?;
+    writeln!(
+        w,
+        "SimpleBootUpMaster=0\nSimpleBootUpSlave=1\nGranularity=8"
+    )?;
     writeln!(w, "DynamicChannelsSupported=0\nGroupMessaging=0")?;
-    writeln!(w, "NrOfRXPDO={}\nNrOfTXPDO={}", info.rpdo_count, info.tpdo_count)?;
+    writeln!(
+        w,
+        "NrOfRXPDO={}\nNrOfTXPDO={}",
+        info.rpdo_count, info.tpdo_count
+    )?;
     writeln!(w, "LSS_Supported={}", u8::from(info.lss_supported))?;
     writeln!(w, "\n[DummyUsage]")?;
     for ty in 1..=7 {
         // BOOLEAN (0001h) is not a dummy a byte-granular device accepts.
         writeln!(w, "Dummy{ty:04X}={}", u8::from(ty != 1))?;
     }
-    writeln!(w, "\n[Comments]\nLines=1\nLine1=Generated from the firmware's object dictionary")?;
+    writeln!(
+        w,
+        "\n[Comments]\nLines=1\nLine1=Generated from the firmware's object dictionary"
+    )?;
 
-    let mandatory = |o: &&Object| matches!(o.index, 0x1000 | 0x1001 | 0x1018);
-    let manufacturer = |o: &&Object| (0x2000..=0x5FFF).contains(&o.index);
-    let lists: [(&str, &dyn Fn(&&Object) -> bool); 3] = [
-        ("MandatoryObjects", &mandatory),
-        ("OptionalObjects", &|o| !mandatory(o) && !manufacturer(o)),
-        ("ManufacturerObjects", &manufacturer),
-    ];
-    for (section, select) in lists {
-        writeln!(w, "\n[{section}]")?;
-        writeln!(w, "SupportedObjects={}", od.objects().filter(|o| select(o)).count())?;
-        for (n, object) in od.objects().filter(|o| select(o)).enumerate() {
+    for list in [List::Mandatory, List::Optional, List::Manufacturer] {
+        writeln!(w, "\n[{}]", list.section())?;
+        writeln!(
+            w,
+            "SupportedObjects={}",
+            od.objects().filter(|o| List::of(o) == list).count()
+        )?;
+        for (n, object) in od.objects().filter(|o| List::of(o) == list).enumerate() {
             writeln!(w, "{}=0x{:04X}", n + 1, object.index)?;
         }
     }
@@ -107,7 +134,37 @@ pub fn write<const B: usize>(od: &Dictionary<B>, info: &EdsInfo, w: &mut impl Wr
     Ok(())
 }
 
-fn write_object<const B: usize>(od: &Dictionary<B>, object: &Object, w: &mut impl Write) -> fmt::Result {
+/// The object lists of an EDS (CiA 306 §4.5).
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum List {
+    Mandatory,
+    Optional,
+    Manufacturer,
+}
+
+impl List {
+    fn of(object: &Object) -> List {
+        match object.index {
+            0x1000 | 0x1001 | 0x1018 => List::Mandatory,
+            0x2000..=0x5FFF => List::Manufacturer,
+            _ => List::Optional,
+        }
+    }
+
+    fn section(self) -> &'static str {
+        match self {
+            List::Mandatory => "MandatoryObjects",
+            List::Optional => "OptionalObjects",
+            List::Manufacturer => "ManufacturerObjects",
+        }
+    }
+}
+
+fn write_object<const B: usize>(
+    od: &Dictionary<B>,
+    object: &Object,
+    w: &mut impl Write,
+) -> fmt::Result {
     let index = object.index;
     match &object.kind {
         Kind::Var(var) => {
@@ -120,7 +177,11 @@ fn write_object<const B: usize>(od: &Dictionary<B>, object: &Object, w: &mut imp
             writeln!(w, "\n[{index:04X}sub0]\nParameterName={}", Clean(sub0.name))?;
             write_var(od, sub0, w)?;
             for sub in 1..=*len {
-                writeln!(w, "\n[{index:04X}sub{sub:X}]\nParameterName={} {sub}", Clean(element.name))?;
+                writeln!(
+                    w,
+                    "\n[{index:04X}sub{sub:X}]\nParameterName={} {sub}",
+                    Clean(element.name)
+                )?;
                 write_var(od, element, w)?;
             }
             Ok(())
@@ -129,7 +190,11 @@ fn write_object<const B: usize>(od: &Dictionary<B>, object: &Object, w: &mut imp
             writeln!(w, "\n[{index:04X}]\nParameterName={}", Clean(object.name))?;
             writeln!(w, "ObjectType=0x9\nSubNumber=0x{:X}", subs.len())?;
             for (sub, var) in subs.iter() {
-                writeln!(w, "\n[{index:04X}sub{sub:X}]\nParameterName={}", Clean(var.name))?;
+                writeln!(
+                    w,
+                    "\n[{index:04X}sub{sub:X}]\nParameterName={}",
+                    Clean(var.name)
+                )?;
                 write_var(od, var, w)?;
             }
             Ok(())

@@ -91,7 +91,13 @@ pub trait ObjectHooks {
 
     /// Copies bytes of a value served by the hook (see [`read_len`](Self::read_len)) from
     /// `offset` on into `buf`; returns the bytes copied.
-    fn read(&mut self, index: u16, sub: u8, offset: usize, buf: &mut [u8]) -> Result<usize, AbortCode> {
+    fn read(
+        &mut self,
+        index: u16,
+        sub: u8,
+        offset: usize,
+        buf: &mut [u8],
+    ) -> Result<usize, AbortCode> {
         let _ = (index, sub, offset, buf);
         Ok(0)
     }
@@ -222,7 +228,11 @@ impl DefaultBytes {
 impl<const BYTES: usize> Dictionary<BYTES> {
     /// Joins `tables` (each laid out by [`layout`], covering disjoint ascending index ranges,
     /// given in ascending order) into a dictionary with every value at its default.
-    pub fn new(tables: &[&'static [Object]], device: DeviceInfo, node_id: u8) -> Result<Self, ConfigError> {
+    pub fn new(
+        tables: &[&'static [Object]],
+        device: DeviceInfo,
+        node_id: u8,
+    ) -> Result<Self, ConfigError> {
         if tables.len() > MAX_TABLES {
             return Err(ConfigError::TooManyTables);
         }
@@ -236,17 +246,25 @@ impl<const BYTES: usize> Dictionary<BYTES> {
         };
         let mut region = 0usize;
         let mut previous: Option<u16> = None;
-        for (table, (slot, start)) in tables.iter().zip(dict.tables.iter_mut().zip(dict.regions.iter_mut())) {
+        for (table, (slot, start)) in tables
+            .iter()
+            .zip(dict.tables.iter_mut().zip(dict.regions.iter_mut()))
+        {
             *slot = table;
-            *start = u16::try_from(region).map_err(|_| ConfigError::StorageTooSmall { needed: region })?;
+            *start = u16::try_from(region)
+                .map_err(|_| ConfigError::StorageTooSmall { needed: region })?;
             let mut offset = 0usize;
             for object in table.iter() {
                 if previous.is_some_and(|p| p >= object.index) {
-                    return Err(ConfigError::NotSorted { index: object.index });
+                    return Err(ConfigError::NotSorted {
+                        index: object.index,
+                    });
                 }
                 previous = Some(object.index);
                 if usize::from(object.base) != offset {
-                    return Err(ConfigError::NotLaidOut { index: object.index });
+                    return Err(ConfigError::NotLaidOut {
+                        index: object.index,
+                    });
                 }
                 check_object(object)?;
                 offset += object.storage_size();
@@ -262,7 +280,9 @@ impl<const BYTES: usize> Dictionary<BYTES> {
 
     /// Bytes of the store the tables use.
     pub fn used_bytes(&self) -> usize {
-        self.tables().map(|t| t.iter().map(Object::storage_size).sum::<usize>()).sum()
+        self.tables()
+            .map(|t| t.iter().map(Object::storage_size).sum::<usize>())
+            .sum()
     }
 
     /// The node-ID that `$NODEID` defaults resolve to.
@@ -308,7 +328,12 @@ impl<const BYTES: usize> Dictionary<BYTES> {
         let (object, region) = self.object(index).ok_or(AbortCode::ObjectDoesNotExist)?;
         let (var, offset) = object.sub(sub).ok_or(AbortCode::SubIndexDoesNotExist)?;
         let offset = usize::from(region) + usize::from(object.base) + offset;
-        Ok(Entry { object, var, sub, offset: offset as u16 })
+        Ok(Entry {
+            object,
+            var,
+            sub,
+            offset: offset as u16,
+        })
     }
 
     fn default_bytes(&self, var: &Var) -> DefaultBytes {
@@ -326,7 +351,9 @@ impl<const BYTES: usize> Dictionary<BYTES> {
             },
             DefaultValue::Text(s) => DefaultBytes::Slice(s.as_bytes()),
             DefaultValue::Bytes(b) => DefaultBytes::Slice(b),
-            DefaultValue::NodeIdPlus(base) => number(u64::from(base.wrapping_add(u32::from(self.node_id)))),
+            DefaultValue::NodeIdPlus(base) => {
+                number(u64::from(base.wrapping_add(u32::from(self.node_id))))
+            }
             DefaultValue::Device(field) => {
                 let d = &self.device;
                 match field {
@@ -336,8 +363,12 @@ impl<const BYTES: usize> Dictionary<BYTES> {
                     DeviceField::RevisionNumber => number(u64::from(d.revision_number)),
                     DeviceField::SerialNumber => number(u64::from(d.serial_number)),
                     DeviceField::DeviceName => DefaultBytes::Slice(d.device_name.as_bytes()),
-                    DeviceField::HardwareVersion => DefaultBytes::Slice(d.hardware_version.as_bytes()),
-                    DeviceField::SoftwareVersion => DefaultBytes::Slice(d.software_version.as_bytes()),
+                    DeviceField::HardwareVersion => {
+                        DefaultBytes::Slice(d.hardware_version.as_bytes())
+                    }
+                    DeviceField::SoftwareVersion => {
+                        DefaultBytes::Slice(d.software_version.as_bytes())
+                    }
                     DeviceField::Eds => DefaultBytes::Slice(d.eds),
                 }
             }
@@ -353,10 +384,8 @@ impl<const BYTES: usize> Dictionary<BYTES> {
         match entry.var.data_type.fixed_size() {
             Some(n) => self.store.get(start..start + n),
             None => {
-                let len = u16::from_le_bytes([
-                    *self.store.get(start)?,
-                    *self.store.get(start + 1)?,
-                ]);
+                let len =
+                    u16::from_le_bytes([*self.store.get(start)?, *self.store.get(start + 1)?]);
                 let len = usize::from(len.min(entry.var.capacity));
                 self.store.get(start + 2..start + 2 + len)
             }
@@ -469,7 +498,12 @@ impl<const BYTES: usize> Dictionary<BYTES> {
                 for sub in 0..=object.highest_sub() {
                     if let Some((var, offset)) = object.sub(sub) {
                         let offset = usize::from(region) + usize::from(object.base) + offset;
-                        let entry = Entry { object, var, sub, offset: offset as u16 };
+                        let entry = Entry {
+                            object,
+                            var,
+                            sub,
+                            offset: offset as u16,
+                        };
                         let default = self.default_bytes(var);
                         self.commit(&entry, default.bytes());
                     }
@@ -481,7 +515,9 @@ impl<const BYTES: usize> Dictionary<BYTES> {
 
 /// Configuration checks on one object that the type system cannot make.
 fn check_object(object: &Object) -> Result<(), ConfigError> {
-    let bad = ConfigError::BadEntry { index: object.index };
+    let bad = ConfigError::BadEntry {
+        index: object.index,
+    };
     for sub in 0..=object.highest_sub() {
         if let Some((var, _)) = object.sub(sub) {
             if var.data_type.is_variable() && var.storage_size() > usize::from(u16::MAX) {

@@ -1,0 +1,133 @@
+//! Test harness: one drive (node 5, with the test objects) on the virtual bus, and a master
+//! port that sends frames and sees everything the drive sends.
+#![allow(dead_code)]
+
+pub mod objects;
+
+use canopen_drive::{CanFrame, Config, Drive, Duration, Instant};
+use embedded_can::Frame;
+
+pub use objects::*;
+
+pub const NODE: u8 = 5;
+pub const SDO_RX: u16 = 0x600 + NODE as u16;
+pub const SDO_TX: u16 = 0x580 + NODE as u16;
+pub const ERROR_CONTROL: u16 = 0x700 + NODE as u16;
+
+pub struct Bench {
+    pub drive: Drive<TestHooks>,
+    pub now: Instant,
+}
+
+impl Bench {
+    /// A booted drive; the boot-up frame has been consumed (and checked).
+    pub fn new() -> Self {
+        let config = Config {
+            manufacturer_objects: &TEST_OBJECTS,
+            ..Config::new(NODE)
+        };
+        let drive = Drive::with_hooks(config, TestHooks::default()).unwrap();
+        let mut bench = Bench {
+            drive,
+            now: Instant::ZERO,
+        };
+        let boot = bench.advance(Duration::ZERO);
+        assert_eq!(boot, vec![frame(ERROR_CONTROL, &[0x00])]);
+        bench
+    }
+
+    /// Sends `frame` from the master and returns what the drive sends in reply.
+    pub fn send(&mut self, frame: CanFrame) -> Vec<CanFrame> {
+        self.drive.on_frame(&frame, self.now);
+        let mut out = self.collect();
+        // As a board does: drain, and poll again while the drive has work due now.
+        while self.drive.poll(self.now).is_some_and(|at| at <= self.now) {
+            let more = self.collect();
+            if more.is_empty() {
+                break;
+            }
+            out.extend(more);
+        }
+        out.extend(self.collect());
+        out
+    }
+
+    /// Sends an SDO request and returns the data of the drive's SDO responses.
+    pub fn sdo(&mut self, request: &[u8]) -> Vec<[u8; 8]> {
+        let frames = self.send(frame(SDO_RX, request));
+        sdo_data(&frames)
+    }
+
+    /// Sends an SDO request that must get exactly one response, and returns it.
+    pub fn sdo1(&mut self, request: &[u8]) -> [u8; 8] {
+        let responses = self.sdo(request);
+        assert_eq!(
+            responses.len(),
+            1,
+            "request {request:02X?} got {responses:02X?}"
+        );
+        responses[0]
+    }
+
+    /// Lets `span` of virtual time pass, polling at every deadline; returns the frames sent.
+    pub fn advance(&mut self, span: Duration) -> Vec<CanFrame> {
+        let end = self.now + span;
+        let mut out = Vec::new();
+        loop {
+            let next = self.drive.poll(self.now);
+            out.extend(self.collect());
+            match next {
+                Some(at) if at <= end && at > self.now => self.now = at,
+                Some(at) if at <= self.now => continue,
+                _ => break,
+            }
+        }
+        self.now = end;
+        out
+    }
+
+    fn collect(&mut self) -> Vec<CanFrame> {
+        std::iter::from_fn(|| self.drive.pop_tx()).collect()
+    }
+}
+
+pub fn frame(id: u16, data: &[u8]) -> CanFrame {
+    CanFrame::new_standard(id, data).unwrap()
+}
+
+pub fn sdo_data(frames: &[CanFrame]) -> Vec<[u8; 8]> {
+    frames
+        .iter()
+        .filter(|f| f.standard_id() == Some(SDO_TX))
+        .map(|f| f.data().try_into().expect("SDO responses have DLC 8"))
+        .collect()
+}
+
+/// The abort frame the drive must send.
+pub fn abort(index: u16, sub: u8, code: u32) -> [u8; 8] {
+    let [lo, hi] = index.to_le_bytes();
+    let c = code.to_le_bytes();
+    [0x80, lo, hi, sub, c[0], c[1], c[2], c[3]]
+}
+
+/// An SDO request/response header: command, index, sub, then four data bytes.
+pub fn req(command: u8, index: u16, sub: u8, data: [u8; 4]) -> [u8; 8] {
+    let [lo, hi] = index.to_le_bytes();
+    [command, lo, hi, sub, data[0], data[1], data[2], data[3]]
+}
+
+/// CRC-16/XMODEM, computed independently of the crate's nibble-table version.
+pub fn crc16(data: &[u8]) -> u16 {
+    let mut crc = 0u16;
+    for &b in data {
+        crc ^= u16::from(b) << 8;
+        for _ in 0..8 {
+            crc = if crc & 0x8000 != 0 {
+                (crc << 1) ^ 0x1021
+            } else {
+                crc << 1
+            };
+        }
+    }
+    crc
+}
