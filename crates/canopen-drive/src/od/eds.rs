@@ -309,3 +309,116 @@ pub fn size<const B: usize>(od: &Dictionary<B>, info: &EdsInfo) -> usize {
     let _ = write(od, info, &mut counter);
     counter.0
 }
+
+#[cfg(test)]
+mod tests {
+    extern crate std;
+    use std::string::String;
+    use std::vec::Vec;
+
+    use super::*;
+    use crate::od::{layout, standard, DeviceInfo, Object};
+
+    static VENDOR: [Object; 2] = layout([
+        Object::var(
+            0x2000,
+            "Limited",
+            Var::new("Limited", DataType::Integer16)
+                .access(Access::ReadWrite)
+                .pdo(PdoMapping::Rpdo)
+                .limits_signed(-5, 5),
+        ),
+        Object::array(
+            0x2001,
+            "Gains",
+            2,
+            Var::new("Gain", DataType::Real32).access(Access::ReadWrite),
+        ),
+    ]);
+
+    fn eds() -> String {
+        let info = DeviceInfo {
+            vendor_id: 0x1234,
+            device_name: "Test drive",
+            ..DeviceInfo::servo_drive()
+        };
+        let od = Dictionary::<1024>::new(&[&standard::COMMUNICATION, &VENDOR], info, 1).unwrap();
+        let mut out = String::new();
+        write(&od, &EdsInfo::default(), &mut out).unwrap();
+        assert_eq!(size(&od, &EdsInfo::default()), out.len());
+        out
+    }
+
+    fn section<'a>(eds: &'a str, name: &str) -> Vec<&'a str> {
+        let header = std::format!("[{name}]");
+        eds.split("\n\n")
+            .find(|block| block.trim_start().starts_with(&header))
+            .map(|block| block.lines().skip(1).collect())
+            .unwrap_or_default()
+    }
+
+    #[test]
+    fn sections_follow_cia_306() {
+        let eds = eds();
+        assert!(section(&eds, "DeviceInfo").contains(&"VendorNumber=0x00001234"));
+        assert!(section(&eds, "DeviceInfo").contains(&"ProductName=Test drive"));
+        assert_eq!(section(&eds, "DummyUsage").len(), 7);
+        assert_eq!(
+            section(&eds, "MandatoryObjects"),
+            ["SupportedObjects=3", "1=0x1000", "2=0x1001", "3=0x1018"]
+        );
+        assert_eq!(
+            section(&eds, "ManufacturerObjects"),
+            ["SupportedObjects=2", "1=0x2000", "2=0x2001"]
+        );
+        assert_eq!(
+            section(&eds, "1000"),
+            [
+                "ParameterName=Device type",
+                "ObjectType=0x7",
+                "DataType=0x0007",
+                "AccessType=ro",
+                "DefaultValue=0x00020192",
+                "PDOMapping=0"
+            ]
+        );
+        assert_eq!(
+            section(&eds, "1018"),
+            [
+                "ParameterName=Identity object",
+                "ObjectType=0x9",
+                "SubNumber=0x5"
+            ]
+        );
+        assert!(section(&eds, "1200sub1").contains(&"DefaultValue=$NODEID+0x600"));
+        assert!(section(&eds, "2000").contains(&"AccessType=rww"));
+        assert!(section(&eds, "2000").contains(&"LowLimit=-5"));
+        assert_eq!(
+            section(&eds, "2001"),
+            ["ParameterName=Gains", "ObjectType=0x8", "SubNumber=0x3"]
+        );
+        assert!(section(&eds, "2001sub2").contains(&"ParameterName=Gain 2"));
+    }
+
+    #[test]
+    fn parents_come_before_their_sub_sections() {
+        let eds = eds();
+        let headers: Vec<&str> = eds.lines().filter(|l| l.starts_with('[')).collect();
+        for (i, h) in headers.iter().enumerate() {
+            if let Some(pos) = h.find("sub") {
+                let parent = std::format!("{}]", &h[..pos]);
+                assert!(
+                    headers[..i].contains(&parent.as_str()),
+                    "{h} before its parent"
+                );
+            }
+        }
+        // Every numeric key is either hex with 0x or plain decimal.
+        for line in eds
+            .lines()
+            .filter(|l| l.starts_with("DataType=") || l.starts_with("SubNumber="))
+        {
+            assert!(line.contains("=0x"), "{line}");
+        }
+    }
+}

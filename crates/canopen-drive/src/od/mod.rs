@@ -594,3 +594,183 @@ fn check_limits(var: &Var, data: &[u8]) -> Result<(), AbortCode> {
     }
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const SUBS: [(u8, Var); 3] = [
+        (
+            0,
+            Var::new("Highest sub-index supported", DataType::Unsigned8)
+                .access(Access::Const)
+                .default(DefaultValue::Unsigned(2)),
+        ),
+        (
+            1,
+            Var::new("Signed 24", DataType::Integer24)
+                .access(Access::ReadWrite)
+                .limits_signed(-1000, 1000)
+                .default(DefaultValue::Signed(-7)),
+        ),
+        (
+            2,
+            Var::new("Real", DataType::Real32)
+                .access(Access::ReadWrite)
+                .default(DefaultValue::Real(1.5)),
+        ),
+    ];
+
+    static TABLE: [Object; 4] = layout([
+        Object::var(
+            0x2000,
+            "Text",
+            Var::new("Text", DataType::VisibleString)
+                .access(Access::ReadWrite)
+                .capacity(8)
+                .default(DefaultValue::Text("abc")),
+        ),
+        Object::array(
+            0x2001,
+            "Array",
+            3,
+            Var::new("Element", DataType::Unsigned16)
+                .access(Access::ReadWrite)
+                .default(DefaultValue::Unsigned(0xBEEF)),
+        ),
+        Object::record(0x2002, "Record", &SUBS),
+        Object::var(
+            0x2003,
+            "Node",
+            Var::new("Node", DataType::Unsigned32).default(DefaultValue::NodeIdPlus(0x180)),
+        ),
+    ]);
+
+    fn dict() -> Dictionary<256> {
+        Dictionary::new(&[&TABLE], DeviceInfo::servo_drive(), 9).unwrap()
+    }
+
+    #[test]
+    fn defaults_and_typed_access() {
+        let mut od = dict();
+        assert_eq!(od.get::<u16>(0x2001, 3), Ok(0xBEEF));
+        assert_eq!(od.get::<u8>(0x2001, 0), Ok(3));
+        assert_eq!(od.get::<u32>(0x2003, 0), Ok(0x189));
+        assert_eq!(od.get::<f32>(0x2002, 2), Ok(1.5));
+        assert_eq!(od.get::<u32>(0x2001, 1), Err(AbortCode::LengthMismatch));
+        assert_eq!(
+            od.get::<u16>(0x2001, 4),
+            Err(AbortCode::SubIndexDoesNotExist)
+        );
+        assert_eq!(od.get::<u16>(0x2100, 0), Err(AbortCode::ObjectDoesNotExist));
+        od.set::<u16>(0x2001, 2, 7).unwrap();
+        assert_eq!(od.get::<u16>(0x2001, 1), Ok(0xBEEF), "neighbours untouched");
+        assert_eq!(od.get::<u16>(0x2001, 2), Ok(7));
+        // A constant never changes.
+        od.set::<u8>(0x2001, 0, 9).unwrap();
+        assert_eq!(od.get::<u8>(0x2001, 0), Ok(3));
+        od.reset(0x2001..=0x2001);
+        assert_eq!(od.get::<u16>(0x2001, 2), Ok(0xBEEF));
+    }
+
+    #[test]
+    fn strings_keep_their_length() {
+        let mut od = dict();
+        let entry = od.entry(0x2000, 0).unwrap();
+        assert_eq!(od.value_len(&entry), 3);
+        assert_eq!(
+            od.check_write(&entry, b"123456789"),
+            Err(AbortCode::LengthTooHigh)
+        );
+        od.check_write(&entry, b"12345").unwrap();
+        od.commit(&entry, b"12345");
+        let mut buf = [0u8; 16];
+        assert_eq!(od.read(&entry, 0, &mut buf), 5);
+        assert_eq!(&buf[..5], b"12345");
+        assert_eq!(od.read(&entry, 3, &mut buf), 2);
+        assert_eq!(&buf[..2], b"45");
+        assert_eq!(od.read(&entry, 9, &mut buf), 0);
+    }
+
+    #[test]
+    fn limits_of_signed_24_bit_and_real() {
+        let od = dict();
+        let s24 = od.entry(0x2002, 1).unwrap();
+        assert_eq!(
+            od.check_write(&s24, &1001i32.to_le_bytes()[..3]),
+            Err(AbortCode::ValueTooHigh)
+        );
+        assert_eq!(
+            od.check_write(&s24, &(-1001i32).to_le_bytes()[..3]),
+            Err(AbortCode::ValueTooLow)
+        );
+        assert_eq!(od.check_write(&s24, &(-1000i32).to_le_bytes()[..3]), Ok(()));
+        assert_eq!(od.check_write(&s24, &[0, 0]), Err(AbortCode::LengthTooLow));
+        let real = od.entry(0x2002, 2).unwrap();
+        assert_eq!(
+            od.check_write(&real, &f32::NAN.to_le_bytes()),
+            Err(AbortCode::InvalidValue)
+        );
+        assert_eq!(od.check_write(&real, &2.0f32.to_le_bytes()), Ok(()));
+    }
+
+    #[test]
+    fn bad_tables_are_refused() {
+        static UNSORTED: [Object; 2] = layout([
+            Object::var(0x2001, "b", Var::new("b", DataType::Unsigned8)),
+            Object::var(0x2000, "a", Var::new("a", DataType::Unsigned8)),
+        ]);
+        static NOT_LAID_OUT: [Object; 2] = [
+            Object::var(0x2000, "a", Var::new("a", DataType::Unsigned8)),
+            Object::var(0x2001, "b", Var::new("b", DataType::Unsigned8)),
+        ];
+        let info = DeviceInfo::servo_drive();
+        assert_eq!(
+            Dictionary::<64>::new(&[&UNSORTED], info, 1).err(),
+            Some(ConfigError::NotSorted { index: 0x2000 })
+        );
+        assert_eq!(
+            Dictionary::<64>::new(&[&NOT_LAID_OUT], info, 1).err(),
+            Some(ConfigError::NotLaidOut { index: 0x2001 })
+        );
+        assert_eq!(
+            Dictionary::<64>::new(&[&TABLE, &TABLE], info, 1).err(),
+            Some(ConfigError::NotSorted { index: 0x2000 })
+        );
+        assert_eq!(
+            Dictionary::<8>::new(&[&TABLE], info, 1).err(),
+            Some(ConfigError::StorageTooSmall { needed: 27 })
+        );
+        let too_many: [&'static [Object]; 5] = [&[], &[], &[], &[], &[]];
+        assert_eq!(
+            Dictionary::<8>::new(&too_many, info, 1).err(),
+            Some(ConfigError::TooManyTables)
+        );
+    }
+
+    #[test]
+    fn lookups_across_tables() {
+        let od = Dictionary::<4096>::new(
+            &[&standard::COMMUNICATION, &TABLE],
+            DeviceInfo::servo_drive(),
+            3,
+        )
+        .unwrap();
+        assert_eq!(od.get::<u32>(0x1000, 0), Ok(0x0002_0192));
+        assert_eq!(od.get::<u32>(0x1200, 2), Ok(0x583));
+        assert_eq!(od.get::<u16>(0x2001, 1), Ok(0xBEEF));
+        assert!(od.objects().map(|o| o.index).is_sorted());
+        assert_eq!(
+            od.entry(0x1FFF, 0).err(),
+            Some(AbortCode::ObjectDoesNotExist)
+        );
+        assert_eq!(
+            od.entry(0x0000, 0).err(),
+            Some(AbortCode::ObjectDoesNotExist)
+        );
+        assert_eq!(
+            od.entry(0xFFFF, 0).err(),
+            Some(AbortCode::ObjectDoesNotExist)
+        );
+    }
+}
