@@ -8,9 +8,7 @@ use std::collections::VecDeque;
 
 use canopen_drive::can_io;
 use canopen_drive::hal::Sample;
-use canopen_drive::od::{
-    layout, AbortCode, Access, DataType, DefaultValue, Object, ObjectHooks, Var,
-};
+use canopen_drive::od::{layout, AbortCode, Access, DataType, DefaultValue, Object, ObjectHooks, Var};
 use canopen_drive::{CanFrame, Config, Drive, Instant};
 use embedded_can::Frame;
 
@@ -24,11 +22,7 @@ static VENDOR_OBJECTS: [Object; 2] = layout([
             .default(DefaultValue::Unsigned(1000))
             .limits_unsigned(100, 5000),
     ),
-    Object::var(
-        0x2001,
-        "Board temperature",
-        Var::new("Board temperature", DataType::Integer16),
-    ),
+    Object::var(0x2001, "Board temperature", Var::new("Board temperature", DataType::Integer16)),
 ]);
 
 /// Hooks: refuse odd bandwidths, and serve the temperature from a sensor reading.
@@ -48,17 +42,13 @@ impl ObjectHooks for Board {
         (index == 0x2001).then_some(Ok(2))
     }
 
-    fn read(
-        &mut self,
-        _index: u16,
-        _sub: u8,
-        offset: usize,
-        buf: &mut [u8],
-    ) -> Result<usize, AbortCode> {
+    fn read(&mut self, _index: u16, _sub: u8, offset: usize, buf: &mut [u8]) -> Result<usize, AbortCode> {
         let bytes = self.temperature_decidegrees.to_le_bytes();
         let rest = bytes.get(offset..).unwrap_or(&[]);
         let n = rest.len().min(buf.len());
-        buf[..n].copy_from_slice(&rest[..n]);
+        for (dst, src) in buf.iter_mut().zip(rest) {
+            *dst = *src;
+        }
         Ok(n)
     }
 }
@@ -84,15 +74,10 @@ impl embedded_can::nb::Can for LoopbackCan {
     }
 }
 
-fn main() {
-    let config = Config {
-        manufacturer_objects: &VENDOR_OBJECTS,
-        ..Config::new(3)
-    };
-    let board = Board {
-        temperature_decidegrees: 412,
-    };
-    let mut drive = Drive::with_hooks(config, board).expect("the tables fit the dictionary");
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let config = Config { manufacturer_objects: &VENDOR_OBJECTS, ..Config::new(3) };
+    let board = Board { temperature_decidegrees: 412 };
+    let mut drive = Drive::with_hooks(config, board).map_err(|e| format!("dictionary: {e:?}"))?;
     let mut can = LoopbackCan::default();
 
     // A master writes 2000h = 2000 (accepted), then 2001 (odd: refused), then reads 2001h.
@@ -101,24 +86,20 @@ fn main() {
         [0x2B, 0x00, 0x20, 0x00, 0xD1, 0x07, 0, 0],
         [0x40, 0x01, 0x20, 0x00, 0, 0, 0, 0],
     ] {
-        can.rx
-            .push_back(CanFrame::new_standard(0x603, &request).expect("valid frame"));
+        can.rx.push_back(CanFrame::new_standard(0x603, &request).expect("valid frame"));
     }
 
     // The main loop: communication when frames arrive or the deadline comes, the control
     // tick at its own fixed rate (here 1 kHz, 10 ticks).
     for ms in 0..10u64 {
         let now = Instant::from_millis(ms);
-        can_io::service(&mut can, &mut drive, now).expect("loopback never fails");
+        can_io::service(&mut can, &mut drive, now).map_err(|e| format!("CAN: {e:?}"))?;
         let _demand = drive.tick(now, &Sample::default());
     }
 
     for frame in &can.tx {
-        println!(
-            "{:03X} {:02X?}",
-            frame.standard_id().unwrap_or(0),
-            frame.data()
-        );
+        println!("{:03X} {:02X?}", frame.standard_id().unwrap_or(0), frame.data());
     }
     assert_eq!(drive.od().get::<u16>(0x2000, 0), Ok(2000));
+    Ok(())
 }

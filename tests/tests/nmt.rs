@@ -20,10 +20,7 @@ fn heartbeat(state: u8) -> CanFrame {
 fn boot_up_then_pre_operational_and_silent_without_heartbeat() {
     let mut bench = Bench::new(); // checks the boot-up frame 0x705 [00], DLC 1
     assert_eq!(bench.drive.nmt_state(), NmtState::PreOperational);
-    assert!(
-        bench.advance(Duration::from_millis(5000)).is_empty(),
-        "1017h = 0: no heartbeat"
-    );
+    assert!(bench.advance(Duration::from_millis(5000)).is_empty(), "1017h = 0: no heartbeat");
 }
 
 #[test]
@@ -31,13 +28,7 @@ fn heartbeat_at_the_configured_period_with_the_state_byte() {
     let mut bench = Bench::new();
     // Writing 1017h takes effect at once: the response, then the first heartbeat.
     let frames = bench.send(frame(SDO_RX, &req(0x2B, 0x1017, 0, [100, 0, 0, 0])));
-    assert_eq!(
-        frames,
-        vec![
-            frame(SDO_TX, &req(0x60, 0x1017, 0, [0; 4])),
-            heartbeat(0x7F)
-        ]
-    );
+    assert_eq!(frames, vec![frame(SDO_TX, &req(0x60, 0x1017, 0, [0; 4])), heartbeat(0x7F)]);
     let start = bench.now;
     let mut times = Vec::new();
     for _ in 0..5 {
@@ -59,20 +50,10 @@ fn commands_change_state_and_the_heartbeat_reports_it() {
     // Each state change is reported at once.
     assert_eq!(nmt(&mut bench, 0x01, NODE), vec![heartbeat(0x05)]);
     assert_eq!(bench.drive.nmt_state(), NmtState::Operational);
-    assert_eq!(
-        bench.advance(Duration::from_millis(50)),
-        vec![heartbeat(0x05)]
-    );
-    assert_eq!(
-        nmt(&mut bench, 0x02, 0),
-        vec![heartbeat(0x04)],
-        "broadcast stop"
-    );
+    assert_eq!(bench.advance(Duration::from_millis(50)), vec![heartbeat(0x05)]);
+    assert_eq!(nmt(&mut bench, 0x02, 0), vec![heartbeat(0x04)], "broadcast stop");
     assert_eq!(bench.drive.nmt_state(), NmtState::Stopped);
-    assert_eq!(
-        bench.advance(Duration::from_millis(50)),
-        vec![heartbeat(0x04)]
-    );
+    assert_eq!(bench.advance(Duration::from_millis(50)), vec![heartbeat(0x04)]);
     // Stopped: no SDO answer at all, not even an abort.
     assert!(bench.sdo(&req(0x40, 0x1000, 0, [0; 4])).is_empty());
     assert!(bench.sdo(&req(0x40, 0x3000, 0, [0; 4])).is_empty());
@@ -107,20 +88,12 @@ fn reset_communication_restores_only_the_communication_area() {
     nmt(&mut bench, 0x01, NODE);
     bench.advance(Duration::ZERO);
     let frames = nmt(&mut bench, 0x82, NODE);
-    assert_eq!(
-        frames,
-        vec![frame(ERROR_CONTROL, &[0x00])],
-        "boot-up, no heartbeat"
-    );
+    assert_eq!(frames, vec![frame(ERROR_CONTROL, &[0x00])], "boot-up, no heartbeat");
     assert_eq!(frames[0].dlc(), 1);
     assert_eq!(bench.drive.nmt_state(), NmtState::PreOperational);
     assert_eq!(bench.drive.od().get::<u16>(0x1017, 0), Ok(0));
     assert!(bench.advance(Duration::from_millis(500)).is_empty());
-    assert_eq!(
-        bench.drive.od().get::<u8>(LIMITED, 0),
-        Ok(12),
-        "2000h–5FFFh kept"
-    );
+    assert_eq!(bench.drive.od().get::<u8>(LIMITED, 0), Ok(12), "2000h–5FFFh kept");
 }
 
 #[test]
@@ -145,9 +118,6 @@ fn leaving_the_sdo_states_drops_a_transfer_without_a_frame() {
     assert!(sdo_data(&nmt(&mut bench, 0x02, NODE)).is_empty());
     nmt(&mut bench, 0x80, NODE);
     // No transfer any more: a segment is a protocol error, and no timeout follows.
-    assert_eq!(
-        bench.sdo1(&[0x00, 1, 2, 3, 4, 5, 6, 7]),
-        abort(0, 0, 0x0504_0001)
-    );
+    assert_eq!(bench.sdo1(&[0x00, 1, 2, 3, 4, 5, 6, 7]), abort(0, 0, 0x0504_0001));
     assert!(sdo_data(&bench.advance(Duration::from_millis(2000))).is_empty());
 }

@@ -47,3 +47,53 @@ pub fn service<C: Can, H: ObjectHooks, const B: usize>(
     }
     Ok(deadline)
 }
+
+#[cfg(test)]
+mod tests {
+    extern crate std;
+    use std::collections::VecDeque;
+    use std::vec::Vec;
+
+    use super::*;
+    use crate::drive::Config;
+    use embedded_can::Frame;
+
+    /// A driver with `mailboxes` free transmit slots per call.
+    struct Mock {
+        rx: VecDeque<CanFrame>,
+        tx: Vec<CanFrame>,
+        mailboxes: usize,
+    }
+
+    impl Can for Mock {
+        type Frame = CanFrame;
+        type Error = embedded_can::ErrorKind;
+        fn transmit(&mut self, frame: &CanFrame) -> nb::Result<Option<CanFrame>, Self::Error> {
+            if self.mailboxes == 0 {
+                return Err(nb::Error::WouldBlock);
+            }
+            self.mailboxes -= 1;
+            self.tx.push(*frame);
+            Ok(None)
+        }
+        fn receive(&mut self) -> nb::Result<CanFrame, Self::Error> {
+            self.rx.pop_front().ok_or(nb::Error::WouldBlock)
+        }
+    }
+
+    #[test]
+    fn frames_wait_in_the_drive_while_the_mailboxes_are_full() {
+        let mut drive = Drive::new(Config::new(2)).unwrap();
+        let upload = CanFrame::new_standard(0x602, &[0x40, 0x00, 0x10, 0, 0, 0, 0, 0]).unwrap();
+        let mut can = Mock { rx: VecDeque::from([upload]), tx: Vec::new(), mailboxes: 1 };
+        let now = Instant::from_millis(1);
+        service(&mut can, &mut drive, now).unwrap();
+        // Boot-up went out; the SDO response waits for a free mailbox.
+        assert_eq!(can.tx.len(), 1);
+        assert_eq!(can.tx[0].standard_id(), Some(0x702));
+        can.mailboxes = 1;
+        service(&mut can, &mut drive, now).unwrap();
+        assert_eq!(can.tx[1].standard_id(), Some(0x582));
+        assert_eq!(can.tx[1].data(), &[0x43, 0x00, 0x10, 0x00, 0x92, 0x01, 0x02, 0x00]);
+    }
+}

@@ -19,9 +19,7 @@ use crate::frame::CanFrame;
 use crate::hal::{Demand, Sample};
 use crate::od::eds::{self, EdsInfo};
 use crate::od::standard::{self, PRODUCER_HEARTBEAT_TIME};
-use crate::od::{
-    AbortCode, ConfigError, DeviceInfo, Dictionary, Entry, Object, ObjectHooks, WriteRule,
-};
+use crate::od::{AbortCode, ConfigError, DeviceInfo, Dictionary, Entry, Object, ObjectHooks, WriteRule};
 use crate::time::{earliest, Duration, Instant};
 use crate::wire::nmt::{NmtState, NodeControl};
 use crate::wire::sdo::Mux;
@@ -95,8 +93,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize> Drive<H, OD_BYTES> {
         if !(1..=127).contains(&config.node_id) {
             return Err(ConfigError::InvalidNodeId);
         }
-        let tables: [&'static [Object]; 2] =
-            [&standard::COMMUNICATION, config.manufacturer_objects];
+        let tables: [&'static [Object]; 2] = [&standard::COMMUNICATION, config.manufacturer_objects];
         let od = Dictionary::new(&tables, config.device, config.node_id)?;
         Ok(Drive {
             od,
@@ -161,12 +158,8 @@ impl<H: ObjectHooks, const OD_BYTES: usize> Drive<H, OD_BYTES> {
                 self.nmt_command(transition(self.nmt, control.command), now);
             }
         } else if id == SDO_RX_BASE + u16::from(node_id) && self.nmt.serves_sdo() {
-            let mut access = Access {
-                od: &mut self.od,
-                hooks: &mut self.hooks,
-                nmt: self.nmt,
-                written: None,
-            };
+            let mut access =
+                Access { od: &mut self.od, hooks: &mut self.hooks, nmt: self.nmt, written: None };
             let response = self.sdo.on_request(data, now, &mut access);
             let written = access.written;
             if let Some(response) = response {
@@ -220,8 +213,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize> Drive<H, OD_BYTES> {
         self.send_error_control(NmtState::Initialising.heartbeat_byte());
         self.nmt = NmtState::PreOperational;
         let period = self.heartbeat_period();
-        self.heartbeat
-            .restart(now + Duration::from_millis(u64::from(period)), period);
+        self.heartbeat.restart(now + Duration::from_millis(u64::from(period)), period);
     }
 
     fn nmt_command(&mut self, action: NmtAction, now: Instant) {
@@ -262,12 +254,8 @@ impl<H: ObjectHooks, const OD_BYTES: usize> Drive<H, OD_BYTES> {
     fn drain_sdo(&mut self, now: Instant) {
         let node_id = self.node_id();
         while !self.tx.is_full() {
-            let mut access = Access {
-                od: &mut self.od,
-                hooks: &mut self.hooks,
-                nmt: self.nmt,
-                written: None,
-            };
+            let mut access =
+                Access { od: &mut self.od, hooks: &mut self.hooks, nmt: self.nmt, written: None };
             match self.sdo.poll(now, &mut access) {
                 Some(frame) => self.send(SDO_TX_BASE + u16::from(node_id), &frame),
                 None => break,
@@ -329,11 +317,7 @@ impl<H: ObjectHooks, const B: usize> ObjectAccess for Access<'_, H, B> {
         }
     }
 
-    fn download_check(
-        &mut self,
-        mux: Mux,
-        size: Option<usize>,
-    ) -> Result<Option<usize>, AbortCode> {
+    fn download_check(&mut self, mux: Mux, size: Option<usize>) -> Result<Option<usize>, AbortCode> {
         let entry = self.writable_entry(mux)?;
         let fixed = entry.var.data_type.fixed_size();
         match (fixed, size) {

@@ -46,11 +46,7 @@ impl CanFrame {
         CanFrame {
             id: frame.id(),
             remote: frame.is_remote_frame(),
-            dlc: if frame.is_remote_frame() {
-                frame.dlc().min(8) as u8
-            } else {
-                len as u8
-            },
+            dlc: if frame.is_remote_frame() { frame.dlc().min(8) as u8 } else { len as u8 },
             data,
         }
     }
@@ -72,24 +68,14 @@ impl Frame for CanFrame {
         }
         let mut buf = [0u8; 8];
         buf.get_mut(..data.len())?.copy_from_slice(data);
-        Some(CanFrame {
-            id: id.into(),
-            remote: false,
-            dlc: data.len() as u8,
-            data: buf,
-        })
+        Some(CanFrame { id: id.into(), remote: false, dlc: data.len() as u8, data: buf })
     }
 
     fn new_remote(id: impl Into<Id>, dlc: usize) -> Option<Self> {
         if dlc > 8 {
             return None;
         }
-        Some(CanFrame {
-            id: id.into(),
-            remote: true,
-            dlc: dlc as u8,
-            data: [0; 8],
-        })
+        Some(CanFrame { id: id.into(), remote: true, dlc: dlc as u8, data: [0; 8] })
     }
 
     fn is_extended(&self) -> bool {

@@ -100,10 +100,7 @@ mod tests {
         let end = Instant::from_micros(u64::MAX);
         assert_eq!(end + Duration::from_millis(5), end);
         assert_eq!(Instant::ZERO - end, Duration::ZERO);
-        assert_eq!(
-            Instant::from_millis(3) - Instant::from_millis(1),
-            Duration::from_micros(2000)
-        );
+        assert_eq!(Instant::from_millis(3) - Instant::from_millis(1), Duration::from_micros(2000));
     }
 
     #[test]
@@ -111,10 +108,7 @@ mod tests {
         let a = Some(Instant::from_micros(5));
         assert_eq!(earliest(a, None), a);
         assert_eq!(earliest(None, a), a);
-        assert_eq!(
-            earliest(a, Some(Instant::from_micros(3))),
-            Some(Instant::from_micros(3))
-        );
+        assert_eq!(earliest(a, Some(Instant::from_micros(3))), Some(Instant::from_micros(3)));
         assert_eq!(earliest(None, None), None);
     }
 }

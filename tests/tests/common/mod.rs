@@ -22,15 +22,9 @@ pub struct Bench {
 impl Bench {
     /// A booted drive; the boot-up frame has been consumed (and checked).
     pub fn new() -> Self {
-        let config = Config {
-            manufacturer_objects: &TEST_OBJECTS,
-            ..Config::new(NODE)
-        };
+        let config = Config { manufacturer_objects: &TEST_OBJECTS, ..Config::new(NODE) };
         let drive = Drive::with_hooks(config, TestHooks::default()).unwrap();
-        let mut bench = Bench {
-            drive,
-            now: Instant::ZERO,
-        };
+        let mut bench = Bench { drive, now: Instant::ZERO };
         let boot = bench.advance(Duration::ZERO);
         assert_eq!(boot, vec![frame(ERROR_CONTROL, &[0x00])]);
         bench
@@ -61,11 +55,7 @@ impl Bench {
     /// Sends an SDO request that must get exactly one response, and returns it.
     pub fn sdo1(&mut self, request: &[u8]) -> [u8; 8] {
         let responses = self.sdo(request);
-        assert_eq!(
-            responses.len(),
-            1,
-            "request {request:02X?} got {responses:02X?}"
-        );
+        assert_eq!(responses.len(), 1, "request {request:02X?} got {responses:02X?}");
         responses[0]
     }
 
@@ -122,11 +112,7 @@ pub fn crc16(data: &[u8]) -> u16 {
     for &b in data {
         crc ^= u16::from(b) << 8;
         for _ in 0..8 {
-            crc = if crc & 0x8000 != 0 {
-                (crc << 1) ^ 0x1021
-            } else {
-                crc << 1
-            };
+            crc = if crc & 0x8000 != 0 { (crc << 1) ^ 0x1021 } else { crc << 1 };
         }
     }
     crc

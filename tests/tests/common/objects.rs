@@ -45,12 +45,7 @@ const RECORD_SUBS: [(u8, Var); 3] = [
             .default(DefaultValue::Signed(-5))
             .limits_signed(-100, 100),
     ),
-    (
-        2,
-        Var::new("Mode", DataType::Unsigned16)
-            .access(Access::ReadWrite)
-            .rule(WriteRule::NotOperational),
-    ),
+    (2, Var::new("Mode", DataType::Unsigned16).access(Access::ReadWrite).rule(WriteRule::NotOperational)),
 ];
 
 pub static TEST_OBJECTS: [Object; 7] = layout([
@@ -75,26 +70,14 @@ pub static TEST_OBJECTS: [Object; 7] = layout([
         "Write only",
         Var::new("Write only", DataType::Unsigned32).access(Access::WriteOnly),
     ),
-    Object::var(
-        BIG,
-        "Big",
-        Var::new("Big", DataType::OctetString)
-            .access(Access::ReadWrite)
-            .capacity(1000),
-    ),
+    Object::var(BIG, "Big", Var::new("Big", DataType::OctetString).access(Access::ReadWrite).capacity(1000)),
     Object::record(RECORD, "Record", &RECORD_SUBS),
     Object::var(
         TABLE,
         "Table",
-        Var::new("Table", DataType::Domain)
-            .access(Access::Const)
-            .default(DefaultValue::Bytes(&TABLE_BYTES)),
+        Var::new("Table", DataType::Domain).access(Access::Const).default(DefaultValue::Bytes(&TABLE_BYTES)),
     ),
-    Object::var(
-        REFUSED,
-        "Refused",
-        Var::new("Refused", DataType::Unsigned32).access(Access::ReadWrite),
-    ),
+    Object::var(REFUSED, "Refused", Var::new("Refused", DataType::Unsigned32).access(Access::ReadWrite)),
 ]);
 
 /// The firmware side of the test objects.

@@ -66,30 +66,12 @@ mod tests {
     #[test]
     fn transition_table() {
         for state in [PreOperational, Operational, Stopped] {
-            assert_eq!(
-                transition(state, NmtCommand::Start),
-                NmtAction::Enter(Operational)
-            );
-            assert_eq!(
-                transition(state, NmtCommand::Stop),
-                NmtAction::Enter(Stopped)
-            );
-            assert_eq!(
-                transition(state, NmtCommand::EnterPreOperational),
-                NmtAction::Enter(PreOperational)
-            );
-            assert_eq!(
-                transition(state, NmtCommand::ResetNode),
-                NmtAction::ResetApplication
-            );
-            assert_eq!(
-                transition(state, NmtCommand::ResetCommunication),
-                NmtAction::ResetCommunication
-            );
-            assert_eq!(
-                transition(state, NmtCommand::Unknown(0x55)),
-                NmtAction::None
-            );
+            assert_eq!(transition(state, NmtCommand::Start), NmtAction::Enter(Operational));
+            assert_eq!(transition(state, NmtCommand::Stop), NmtAction::Enter(Stopped));
+            assert_eq!(transition(state, NmtCommand::EnterPreOperational), NmtAction::Enter(PreOperational));
+            assert_eq!(transition(state, NmtCommand::ResetNode), NmtAction::ResetApplication);
+            assert_eq!(transition(state, NmtCommand::ResetCommunication), NmtAction::ResetCommunication);
+            assert_eq!(transition(state, NmtCommand::Unknown(0x55)), NmtAction::None);
         }
         assert_eq!(transition(Initialising, NmtCommand::Start), NmtAction::None);
     }

@@ -38,8 +38,7 @@ pub trait ObjectAccess {
     fn read(&mut self, mux: Mux, offset: usize, buf: &mut [u8]) -> Result<usize, AbortCode>;
     /// Checks that `mux` may be downloaded (with `size` bytes when known) and returns the size
     /// of the entry's value when it has a fixed size.
-    fn download_check(&mut self, mux: Mux, size: Option<usize>)
-        -> Result<Option<usize>, AbortCode>;
+    fn download_check(&mut self, mux: Mux, size: Option<usize>) -> Result<Option<usize>, AbortCode>;
     /// Writes a complete value.
     fn write(&mut self, mux: Mux, data: &[u8]) -> Result<(), AbortCode>;
 }
@@ -125,12 +124,7 @@ fn abort(mux: Mux, code: AbortCode) -> Step {
 impl<const BUF: usize> SdoServer<BUF> {
     /// An idle server whose transfers time out after `timeout` without a frame.
     pub const fn new(timeout: Duration) -> Self {
-        SdoServer {
-            state: State::Idle,
-            deadline: None,
-            timeout,
-            buf: [0; BUF],
-        }
+        SdoServer { state: State::Idle, deadline: None, timeout, buf: [0; BUF] }
     }
 
     /// True when no transfer is in progress.
@@ -150,12 +144,7 @@ impl<const BUF: usize> SdoServer<BUF> {
     }
 
     /// Handles one request frame's data received at `now`; returns the response to send.
-    pub fn on_request(
-        &mut self,
-        data: &[u8],
-        now: Instant,
-        od: &mut impl ObjectAccess,
-    ) -> Option<[u8; 8]> {
+    pub fn on_request(&mut self, data: &[u8], now: Instant, od: &mut impl ObjectAccess) -> Option<[u8; 8]> {
         let (state, response) = match self.state {
             // In a block download, every frame but an abort is a sub-block segment.
             State::BlockDownload { .. } if data.first() != Some(&0x80) => {
@@ -183,13 +172,7 @@ impl<const BUF: usize> SdoServer<BUF> {
             Some(deadline) if now >= deadline => {
                 let mux = self.mux()?;
                 self.enter(State::Idle, now);
-                Some(
-                    Response::Abort {
-                        mux,
-                        code: AbortCode::Timeout,
-                    }
-                    .emit(),
-                )
+                Some(Response::Abort { mux, code: AbortCode::Timeout }.emit())
             }
             _ => None,
         }
@@ -213,9 +196,9 @@ impl<const BUF: usize> SdoServer<BUF> {
             | State::BlockDownload { mux, .. }
             | State::BlockDownloadEnd { mux, .. }
             | State::BlockUploadEnd { mux } => Some(mux),
-            State::BlockUploadInitiated(u)
-            | State::BlockUploadSending(u)
-            | State::BlockUploadAwaitAck(u) => Some(u.mux),
+            State::BlockUploadInitiated(u) | State::BlockUploadSending(u) | State::BlockUploadAwaitAck(u) => {
+                Some(u.mux)
+            }
         }
     }
 
@@ -226,19 +209,11 @@ impl<const BUF: usize> SdoServer<BUF> {
             // An abort ends any transfer and is never answered.
             (_, Request::Abort { .. }) => (State::Idle, None),
 
-            (State::Idle, Request::InitiateDownload { mux, kind }) => {
-                self.initiate_download(mux, kind, od)
-            }
+            (State::Idle, Request::InitiateDownload { mux, kind }) => self.initiate_download(mux, kind, od),
             (State::Idle, Request::InitiateUpload { mux }) => self.initiate_upload(mux, od),
-            (
-                State::Idle,
-                Request::BlockUploadInitiate {
-                    mux,
-                    crc,
-                    block_size,
-                    pst,
-                },
-            ) => self.initiate_block_upload(mux, crc, block_size, pst, od),
+            (State::Idle, Request::BlockUploadInitiate { mux, crc, block_size, pst }) => {
+                self.initiate_block_upload(mux, crc, block_size, pst, od)
+            }
             (State::Idle, Request::BlockDownloadInitiate { mux, crc, size }) => {
                 let size = size.map(|s| s as usize);
                 match self.check_download(mux, size, od) {
@@ -261,25 +236,13 @@ impl<const BUF: usize> SdoServer<BUF> {
                     ),
                 }
             }
-            (State::Idle, Request::Unknown { mux, .. }) => {
-                abort(mux, AbortCode::InvalidCommandSpecifier)
-            }
+            (State::Idle, Request::Unknown { mux, .. }) => abort(mux, AbortCode::InvalidCommandSpecifier),
             // Segment or block continuation frames without a transfer.
             (State::Idle, _) => abort(current, AbortCode::InvalidCommandSpecifier),
 
             (
-                State::SegmentedDownload {
-                    mux,
-                    toggle,
-                    size,
-                    len,
-                },
-                Request::DownloadSegment {
-                    toggle: t,
-                    data,
-                    len: n,
-                    last,
-                },
+                State::SegmentedDownload { mux, toggle, size, len },
+                Request::DownloadSegment { toggle: t, data, len: n, last },
             ) => {
                 if t != toggle {
                     return abort(mux, AbortCode::ToggleBitNotAlternated);
@@ -295,12 +258,7 @@ impl<const BUF: usize> SdoServer<BUF> {
                 }
                 if !last {
                     return (
-                        State::SegmentedDownload {
-                            mux,
-                            toggle: !toggle,
-                            size,
-                            len,
-                        },
+                        State::SegmentedDownload { mux, toggle: !toggle, size, len },
                         Some(Response::DownloadSegmentAck { toggle }),
                     );
                 }
@@ -313,15 +271,7 @@ impl<const BUF: usize> SdoServer<BUF> {
                 }
             }
 
-            (
-                State::SegmentedUpload {
-                    mux,
-                    toggle,
-                    size,
-                    offset,
-                },
-                Request::UploadSegment { toggle: t },
-            ) => {
+            (State::SegmentedUpload { mux, toggle, size, offset }, Request::UploadSegment { toggle: t }) => {
                 if t != toggle {
                     return abort(mux, AbortCode::ToggleBitNotAlternated);
                 }
@@ -333,38 +283,17 @@ impl<const BUF: usize> SdoServer<BUF> {
                 };
                 let offset = offset + got;
                 let last = offset >= size || got < want;
-                let response = Response::UploadSegment {
-                    toggle,
-                    data,
-                    len: got as u8,
-                    last,
-                };
+                let response = Response::UploadSegment { toggle, data, len: got as u8, last };
                 if last {
                     (State::Idle, Some(response))
                 } else {
-                    (
-                        State::SegmentedUpload {
-                            mux,
-                            toggle: !toggle,
-                            size,
-                            offset,
-                        },
-                        Some(response),
-                    )
+                    (State::SegmentedUpload { mux, toggle: !toggle, size, offset }, Some(response))
                 }
             }
 
             (
-                State::BlockDownloadEnd {
-                    mux,
-                    crc_on,
-                    size,
-                    len,
-                },
-                Request::BlockDownloadEnd {
-                    unused,
-                    crc: client_crc,
-                },
+                State::BlockDownloadEnd { mux, crc_on, size, len },
+                Request::BlockDownloadEnd { unused, crc: client_crc },
             ) => {
                 // The last segment always carried 7 bytes; `unused` of them were padding.
                 let len = len.saturating_sub(usize::from(unused));
@@ -383,25 +312,16 @@ impl<const BUF: usize> SdoServer<BUF> {
                 }
             }
 
-            (State::BlockUploadInitiated(upload), Request::BlockUploadStart) => (
-                State::BlockUploadSending(BlockUpload { sent: 0, ..upload }),
-                None,
-            ),
-            (
-                State::BlockUploadAwaitAck(upload),
-                Request::BlockUploadAck {
-                    ack_seq,
-                    block_size,
-                },
-            ) => self.block_upload_ack(upload, ack_seq, block_size, od),
+            (State::BlockUploadInitiated(upload), Request::BlockUploadStart) => {
+                (State::BlockUploadSending(BlockUpload { sent: 0, ..upload }), None)
+            }
+            (State::BlockUploadAwaitAck(upload), Request::BlockUploadAck { ack_seq, block_size }) => {
+                self.block_upload_ack(upload, ack_seq, block_size, od)
+            }
             // The client may acknowledge early (while segments are still being sent).
-            (
-                State::BlockUploadSending(upload),
-                Request::BlockUploadAck {
-                    ack_seq,
-                    block_size,
-                },
-            ) => self.block_upload_ack(upload, ack_seq, block_size, od),
+            (State::BlockUploadSending(upload), Request::BlockUploadAck { ack_seq, block_size }) => {
+                self.block_upload_ack(upload, ack_seq, block_size, od)
+            }
             (State::BlockUploadEnd { .. }, Request::BlockUploadEnd) => (State::Idle, None),
 
             // Anything else in the middle of a transfer is a protocol error (digest §5.9 item 7).
@@ -436,12 +356,7 @@ impl<const BUF: usize> SdoServer<BUF> {
         Ok(fixed)
     }
 
-    fn finish_download(
-        &mut self,
-        mux: Mux,
-        len: usize,
-        od: &mut impl ObjectAccess,
-    ) -> Result<(), AbortCode> {
+    fn finish_download(&mut self, mux: Mux, len: usize, od: &mut impl ObjectAccess) -> Result<(), AbortCode> {
         od.write(mux, self.buf.get(..len).unwrap_or(&[]))
     }
 
@@ -467,12 +382,7 @@ impl<const BUF: usize> SdoServer<BUF> {
                 let size = size.map(|s| s as usize);
                 match self.check_download(mux, size, od) {
                     Ok(_) => (
-                        State::SegmentedDownload {
-                            mux,
-                            toggle: false,
-                            size,
-                            len: 0,
-                        },
+                        State::SegmentedDownload { mux, toggle: false, size, len: 0 },
                         Some(Response::DownloadInitiated { mux }),
                     ),
                     Err(code) => abort(mux, code),
@@ -489,14 +399,7 @@ impl<const BUF: usize> SdoServer<BUF> {
         if (1..=4).contains(&size) {
             let mut data = [0u8; 4];
             return match od.read(mux, 0, data.get_mut(..size).unwrap_or(&mut [])) {
-                Ok(n) if n > 0 => (
-                    State::Idle,
-                    Some(Response::UploadExpedited {
-                        mux,
-                        data,
-                        len: n as u8,
-                    }),
-                ),
+                Ok(n) if n > 0 => (State::Idle, Some(Response::UploadExpedited { mux, data, len: n as u8 })),
                 Ok(_) => abort(mux, AbortCode::NoDataAvailable),
                 Err(code) => abort(mux, code),
             };
@@ -505,16 +408,8 @@ impl<const BUF: usize> SdoServer<BUF> {
             return abort(mux, AbortCode::General);
         };
         (
-            State::SegmentedUpload {
-                mux,
-                toggle: false,
-                size,
-                offset: 0,
-            },
-            Some(Response::UploadSegmented {
-                mux,
-                size: wire_size,
-            }),
+            State::SegmentedUpload { mux, toggle: false, size, offset: 0 },
+            Some(Response::UploadSegmented { mux, size: wire_size }),
         )
     }
 
@@ -539,22 +434,10 @@ impl<const BUF: usize> SdoServer<BUF> {
         let Ok(wire_size) = u32::try_from(size) else {
             return abort(mux, AbortCode::General);
         };
-        let upload = BlockUpload {
-            mux,
-            crc_on,
-            size,
-            block_size,
-            base: 0,
-            sent: 0,
-            crc: 0,
-        };
+        let upload = BlockUpload { mux, crc_on, size, block_size, base: 0, sent: 0, crc: 0 };
         (
             State::BlockUploadInitiated(upload),
-            Some(Response::BlockUploadInitiated {
-                mux,
-                crc: true,
-                size: wire_size,
-            }),
+            Some(Response::BlockUploadInitiated { mux, crc: true, size: wire_size }),
         )
     }
 
@@ -568,10 +451,7 @@ impl<const BUF: usize> SdoServer<BUF> {
         }
         let last = offset + 7 >= upload.size;
         let segment = BlockSegment { seq, last, data };
-        let next = BlockUpload {
-            sent: seq,
-            ..upload
-        };
+        let next = BlockUpload { sent: seq, ..upload };
         let state = if seq >= upload.last_seq() {
             State::BlockUploadAwaitAck(next)
         } else {
@@ -609,17 +489,8 @@ impl<const BUF: usize> SdoServer<BUF> {
                 Err(code) => return abort(upload.mux, code),
             }
         }
-        let next = BlockUpload {
-            base: upload.base + acked,
-            sent: 0,
-            crc,
-            block_size,
-            ..upload
-        };
-        if next.base >= upload.size
-            && (acked > 0 || upload.size == 0)
-            && ack_seq == upload.last_seq()
-        {
+        let next = BlockUpload { base: upload.base + acked, sent: 0, crc, block_size, ..upload };
+        if next.base >= upload.size && (acked > 0 || upload.size == 0) && ack_seq == upload.last_seq() {
             let last_len = match upload.size % 7 {
                 0 if upload.size > 0 => 7,
                 rest => rest,
@@ -636,16 +507,7 @@ impl<const BUF: usize> SdoServer<BUF> {
 
     /// A block-download sub-block segment.
     fn block_segment(&mut self, segment: BlockSegment) -> Step {
-        let State::BlockDownload {
-            mux,
-            crc_on,
-            size,
-            len,
-            seq,
-            block_size,
-            done,
-        } = self.state
-        else {
+        let State::BlockDownload { mux, crc_on, size, len, seq, block_size, done } = self.state else {
             return (self.state, None);
         };
         if segment.seq == 0 || segment.seq > MAX_BLOCK_SIZE {
@@ -666,20 +528,9 @@ impl<const BUF: usize> SdoServer<BUF> {
         }
         // End of the sub-block: the client sent its last segment (in order or not).
         if segment.seq >= block_size || segment.last {
-            let ack = Response::BlockDownloadAck {
-                ack_seq: seq,
-                block_size: self.block_size(len),
-            };
+            let ack = Response::BlockDownloadAck { ack_seq: seq, block_size: self.block_size(len) };
             if done {
-                return (
-                    State::BlockDownloadEnd {
-                        mux,
-                        crc_on,
-                        size,
-                        len,
-                    },
-                    Some(ack),
-                );
+                return (State::BlockDownloadEnd { mux, crc_on, size, len }, Some(ack));
             }
             return (
                 State::BlockDownload {
@@ -694,17 +545,6 @@ impl<const BUF: usize> SdoServer<BUF> {
                 Some(ack),
             );
         }
-        (
-            State::BlockDownload {
-                mux,
-                crc_on,
-                size,
-                len,
-                seq,
-                block_size,
-                done,
-            },
-            None,
-        )
+        (State::BlockDownload { mux, crc_on, size, len, seq, block_size, done }, None)
     }
 }

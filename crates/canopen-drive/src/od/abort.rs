@@ -159,19 +159,9 @@ mod tests {
 
     #[test]
     fn codes_round_trip() {
-        for raw in [
-            0x0503_0000,
-            0x0504_0005,
-            0x0602_0000,
-            0x0609_0011,
-            0x0800_0024,
-            0x1234_5678,
-        ] {
+        for raw in [0x0503_0000, 0x0504_0005, 0x0602_0000, 0x0609_0011, 0x0800_0024, 0x1234_5678] {
             assert_eq!(AbortCode::from_code(raw).code(), raw);
         }
-        assert_eq!(
-            AbortCode::from_code(0x1234_5678),
-            AbortCode::Unknown(0x1234_5678)
-        );
+        assert_eq!(AbortCode::from_code(0x1234_5678), AbortCode::Unknown(0x1234_5678));
     }
 }

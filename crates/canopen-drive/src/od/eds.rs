@@ -11,9 +11,7 @@
 
 use core::fmt::{self, Write};
 
-use super::{
-    Access, Bound, DataType, DefaultValue, DeviceField, Dictionary, Kind, Object, PdoMapping, Var,
-};
+use super::{Access, Bound, DataType, DefaultValue, DeviceField, Dictionary, Kind, Object, PdoMapping, Var};
 
 /// Facts about the device that the EDS states but the dictionary does not hold.
 #[derive(Clone, Copy, Debug)]
@@ -57,30 +55,16 @@ impl Default for EdsInfo {
 const BAUD_RATES: [u16; 8] = [10, 20, 50, 125, 250, 500, 800, 1000];
 
 /// Writes the EDS of `od` into `w`.
-pub fn write<const B: usize>(
-    od: &Dictionary<B>,
-    info: &EdsInfo,
-    w: &mut impl Write,
-) -> fmt::Result {
+pub fn write<const B: usize>(od: &Dictionary<B>, info: &EdsInfo, w: &mut impl Write) -> fmt::Result {
     let device = od.device();
     writeln!(w, "[FileInfo]")?;
     writeln!(w, "FileName={}", Clean(info.file_name))?;
     writeln!(w, "FileVersion=1\nFileRevision=0\nEDSVersion=4.0")?;
     writeln!(w, "Description={}", Clean(info.description))?;
     for prefix in ["Creation", "Modification"] {
-        writeln!(
-            w,
-            "{prefix}Time={}\n{prefix}Date={}",
-            Clean(info.time),
-            Clean(info.date)
-        )?;
+        writeln!(w, "{prefix}Time={}\n{prefix}Date={}", Clean(info.time), Clean(info.date))?;
     }
-    writeln!(
-        w,
-        "CreatedBy={}\nModifiedBy={}",
-        Clean(info.created_by),
-        Clean(info.created_by)
-    )?;
+    writeln!(w, "CreatedBy={}\nModifiedBy={}", Clean(info.created_by), Clean(info.created_by))?;
     writeln!(w, "\n[DeviceInfo]")?;
     writeln!(w, "VendorName={}", Clean(device.vendor_name))?;
     writeln!(w, "VendorNumber=0x{:08X}", device.vendor_id)?;
@@ -89,40 +73,22 @@ pub fn write<const B: usize>(
     writeln!(w, "RevisionNumber=0x{:08X}", device.revision_number)?;
     writeln!(w, "OrderCode={}", Clean(device.device_name))?;
     for rate in BAUD_RATES {
-        writeln!(
-            w,
-            "BaudRate_{rate}={}",
-            u8::from(info.baud_rates.contains(&rate))
-        )?;
+        writeln!(w, "BaudRate_{rate}={}", u8::from(info.baud_rates.contains(&rate)))?;
     }
-    writeln!(
-        w,
-        "SimpleBootUpMaster=0\nSimpleBootUpSlave=1\nGranularity=8"
-    )?;
+    writeln!(w, "SimpleBootUpMaster=0\nSimpleBootUpSlave=1\nGranularity=8")?;
     writeln!(w, "DynamicChannelsSupported=0\nGroupMessaging=0")?;
-    writeln!(
-        w,
-        "NrOfRXPDO={}\nNrOfTXPDO={}",
-        info.rpdo_count, info.tpdo_count
-    )?;
+    writeln!(w, "NrOfRXPDO={}\nNrOfTXPDO={}", info.rpdo_count, info.tpdo_count)?;
     writeln!(w, "LSS_Supported={}", u8::from(info.lss_supported))?;
     writeln!(w, "\n[DummyUsage]")?;
     for ty in 1..=7 {
         // BOOLEAN (0001h) is not a dummy a byte-granular device accepts.
         writeln!(w, "Dummy{ty:04X}={}", u8::from(ty != 1))?;
     }
-    writeln!(
-        w,
-        "\n[Comments]\nLines=1\nLine1=Generated from the firmware's object dictionary"
-    )?;
+    writeln!(w, "\n[Comments]\nLines=1\nLine1=Generated from the firmware's object dictionary")?;
 
     for list in [List::Mandatory, List::Optional, List::Manufacturer] {
         writeln!(w, "\n[{}]", list.section())?;
-        writeln!(
-            w,
-            "SupportedObjects={}",
-            od.objects().filter(|o| List::of(o) == list).count()
-        )?;
+        writeln!(w, "SupportedObjects={}", od.objects().filter(|o| List::of(o) == list).count())?;
         for (n, object) in od.objects().filter(|o| List::of(o) == list).enumerate() {
             writeln!(w, "{}=0x{:04X}", n + 1, object.index)?;
         }
@@ -160,11 +126,7 @@ impl List {
     }
 }
 
-fn write_object<const B: usize>(
-    od: &Dictionary<B>,
-    object: &Object,
-    w: &mut impl Write,
-) -> fmt::Result {
+fn write_object<const B: usize>(od: &Dictionary<B>, object: &Object, w: &mut impl Write) -> fmt::Result {
     let index = object.index;
     match &object.kind {
         Kind::Var(var) => {
@@ -177,11 +139,7 @@ fn write_object<const B: usize>(
             writeln!(w, "\n[{index:04X}sub0]\nParameterName={}", Clean(sub0.name))?;
             write_var(od, sub0, w)?;
             for sub in 1..=*len {
-                writeln!(
-                    w,
-                    "\n[{index:04X}sub{sub:X}]\nParameterName={} {sub}",
-                    Clean(element.name)
-                )?;
+                writeln!(w, "\n[{index:04X}sub{sub:X}]\nParameterName={} {sub}", Clean(element.name))?;
                 write_var(od, element, w)?;
             }
             Ok(())
@@ -190,11 +148,7 @@ fn write_object<const B: usize>(
             writeln!(w, "\n[{index:04X}]\nParameterName={}", Clean(object.name))?;
             writeln!(w, "ObjectType=0x9\nSubNumber=0x{:X}", subs.len())?;
             for (sub, var) in subs.iter() {
-                writeln!(
-                    w,
-                    "\n[{index:04X}sub{sub:X}]\nParameterName={}",
-                    Clean(var.name)
-                )?;
+                writeln!(w, "\n[{index:04X}sub{sub:X}]\nParameterName={}", Clean(var.name))?;
                 write_var(od, var, w)?;
             }
             Ok(())
@@ -328,20 +282,11 @@ mod tests {
                 .pdo(PdoMapping::Rpdo)
                 .limits_signed(-5, 5),
         ),
-        Object::array(
-            0x2001,
-            "Gains",
-            2,
-            Var::new("Gain", DataType::Real32).access(Access::ReadWrite),
-        ),
+        Object::array(0x2001, "Gains", 2, Var::new("Gain", DataType::Real32).access(Access::ReadWrite)),
     ]);
 
     fn eds() -> String {
-        let info = DeviceInfo {
-            vendor_id: 0x1234,
-            device_name: "Test drive",
-            ..DeviceInfo::servo_drive()
-        };
+        let info = DeviceInfo { vendor_id: 0x1234, device_name: "Test drive", ..DeviceInfo::servo_drive() };
         let od = Dictionary::<1024>::new(&[&standard::COMMUNICATION, &VENDOR], info, 1).unwrap();
         let mut out = String::new();
         write(&od, &EdsInfo::default(), &mut out).unwrap();
@@ -367,10 +312,7 @@ mod tests {
             section(&eds, "MandatoryObjects"),
             ["SupportedObjects=3", "1=0x1000", "2=0x1001", "3=0x1018"]
         );
-        assert_eq!(
-            section(&eds, "ManufacturerObjects"),
-            ["SupportedObjects=2", "1=0x2000", "2=0x2001"]
-        );
+        assert_eq!(section(&eds, "ManufacturerObjects"), ["SupportedObjects=2", "1=0x2000", "2=0x2001"]);
         assert_eq!(
             section(&eds, "1000"),
             [
@@ -384,19 +326,12 @@ mod tests {
         );
         assert_eq!(
             section(&eds, "1018"),
-            [
-                "ParameterName=Identity object",
-                "ObjectType=0x9",
-                "SubNumber=0x5"
-            ]
+            ["ParameterName=Identity object", "ObjectType=0x9", "SubNumber=0x5"]
         );
         assert!(section(&eds, "1200sub1").contains(&"DefaultValue=$NODEID+0x600"));
         assert!(section(&eds, "2000").contains(&"AccessType=rww"));
         assert!(section(&eds, "2000").contains(&"LowLimit=-5"));
-        assert_eq!(
-            section(&eds, "2001"),
-            ["ParameterName=Gains", "ObjectType=0x8", "SubNumber=0x3"]
-        );
+        assert_eq!(section(&eds, "2001"), ["ParameterName=Gains", "ObjectType=0x8", "SubNumber=0x3"]);
         assert!(section(&eds, "2001sub2").contains(&"ParameterName=Gain 2"));
     }
 
@@ -407,17 +342,11 @@ mod tests {
         for (i, h) in headers.iter().enumerate() {
             if let Some(pos) = h.find("sub") {
                 let parent = std::format!("{}]", &h[..pos]);
-                assert!(
-                    headers[..i].contains(&parent.as_str()),
-                    "{h} before its parent"
-                );
+                assert!(headers[..i].contains(&parent.as_str()), "{h} before its parent");
             }
         }
         // Every numeric key is either hex with 0x or plain decimal.
-        for line in eds
-            .lines()
-            .filter(|l| l.starts_with("DataType=") || l.starts_with("SubNumber="))
-        {
+        for line in eds.lines().filter(|l| l.starts_with("DataType=") || l.starts_with("SubNumber=")) {
             assert!(line.contains("=0x"), "{line}");
         }
     }

@@ -95,14 +95,7 @@ impl DataType {
         use DataType::*;
         matches!(
             self,
-            Integer8
-                | Integer16
-                | Integer24
-                | Integer32
-                | Integer40
-                | Integer48
-                | Integer56
-                | Integer64
+            Integer8 | Integer16 | Integer24 | Integer32 | Integer40 | Integer48 | Integer56 | Integer64
         )
     }
 
@@ -371,48 +364,22 @@ pub struct Object {
 impl Object {
     /// A VAR object.
     pub const fn var(index: u16, name: &'static str, var: Var) -> Self {
-        Object {
-            index,
-            name,
-            kind: Kind::Var(var),
-            base: 0,
-        }
+        Object { index, name, kind: Kind::Var(var), base: 0 }
     }
     /// An ARRAY object with a read-only sub 0 holding `len`.
     pub const fn array(index: u16, name: &'static str, len: u8, element: Var) -> Self {
         let sub0 = Var::new("Highest sub-index supported", DataType::Unsigned8)
             .access(Access::Const)
             .default(DefaultValue::Unsigned(len as u64));
-        Object {
-            index,
-            name,
-            kind: Kind::Array { sub0, element, len },
-            base: 0,
-        }
+        Object { index, name, kind: Kind::Array { sub0, element, len }, base: 0 }
     }
     /// An ARRAY object with a custom sub 0 (e.g. a writable count).
-    pub const fn array_with_sub0(
-        index: u16,
-        name: &'static str,
-        len: u8,
-        sub0: Var,
-        element: Var,
-    ) -> Self {
-        Object {
-            index,
-            name,
-            kind: Kind::Array { sub0, element, len },
-            base: 0,
-        }
+    pub const fn array_with_sub0(index: u16, name: &'static str, len: u8, sub0: Var, element: Var) -> Self {
+        Object { index, name, kind: Kind::Array { sub0, element, len }, base: 0 }
     }
     /// A RECORD object; `subs` sorted by sub-index, sub 0 included.
     pub const fn record(index: u16, name: &'static str, subs: &'static [(u8, Var)]) -> Self {
-        Object {
-            index,
-            name,
-            kind: Kind::Record(subs),
-            base: 0,
-        }
+        Object { index, name, kind: Kind::Record(subs), base: 0 }
     }
 
     /// Bytes of RAM the whole object takes.
@@ -442,10 +409,9 @@ impl Object {
             Kind::Var(v) => (sub == 0).then_some((v, 0)),
             Kind::Array { sub0, element, len } => match sub {
                 0 => Some((sub0, 0)),
-                s if s <= *len => Some((
-                    element,
-                    sub0.storage_size() + element.storage_size() * usize::from(s - 1),
-                )),
+                s if s <= *len => {
+                    Some((element, sub0.storage_size() + element.storage_size() * usize::from(s - 1)))
+                }
                 _ => None,
             },
             Kind::Record(subs) => {

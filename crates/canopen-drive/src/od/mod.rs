@@ -20,8 +20,7 @@ pub mod standard;
 
 pub use abort::AbortCode;
 pub use entry::{
-    layout, Access, Bound, DataType, DefaultValue, DeviceField, Kind, Object, PdoMapping, Var,
-    WriteRule,
+    layout, Access, Bound, DataType, DefaultValue, DeviceField, Kind, Object, PdoMapping, Var, WriteRule,
 };
 
 use core::ops::RangeInclusive;
@@ -91,13 +90,7 @@ pub trait ObjectHooks {
 
     /// Copies bytes of a value served by the hook (see [`read_len`](Self::read_len)) from
     /// `offset` on into `buf`; returns the bytes copied.
-    fn read(
-        &mut self,
-        index: u16,
-        sub: u8,
-        offset: usize,
-        buf: &mut [u8],
-    ) -> Result<usize, AbortCode> {
+    fn read(&mut self, index: u16, sub: u8, offset: usize, buf: &mut [u8]) -> Result<usize, AbortCode> {
         let _ = (index, sub, offset, buf);
         Ok(0)
     }
@@ -228,11 +221,7 @@ impl DefaultBytes {
 impl<const BYTES: usize> Dictionary<BYTES> {
     /// Joins `tables` (each laid out by [`layout`], covering disjoint ascending index ranges,
     /// given in ascending order) into a dictionary with every value at its default.
-    pub fn new(
-        tables: &[&'static [Object]],
-        device: DeviceInfo,
-        node_id: u8,
-    ) -> Result<Self, ConfigError> {
+    pub fn new(tables: &[&'static [Object]], device: DeviceInfo, node_id: u8) -> Result<Self, ConfigError> {
         if tables.len() > MAX_TABLES {
             return Err(ConfigError::TooManyTables);
         }
@@ -246,25 +235,17 @@ impl<const BYTES: usize> Dictionary<BYTES> {
         };
         let mut region = 0usize;
         let mut previous: Option<u16> = None;
-        for (table, (slot, start)) in tables
-            .iter()
-            .zip(dict.tables.iter_mut().zip(dict.regions.iter_mut()))
-        {
+        for (table, (slot, start)) in tables.iter().zip(dict.tables.iter_mut().zip(dict.regions.iter_mut())) {
             *slot = table;
-            *start = u16::try_from(region)
-                .map_err(|_| ConfigError::StorageTooSmall { needed: region })?;
+            *start = u16::try_from(region).map_err(|_| ConfigError::StorageTooSmall { needed: region })?;
             let mut offset = 0usize;
             for object in table.iter() {
                 if previous.is_some_and(|p| p >= object.index) {
-                    return Err(ConfigError::NotSorted {
-                        index: object.index,
-                    });
+                    return Err(ConfigError::NotSorted { index: object.index });
                 }
                 previous = Some(object.index);
                 if usize::from(object.base) != offset {
-                    return Err(ConfigError::NotLaidOut {
-                        index: object.index,
-                    });
+                    return Err(ConfigError::NotLaidOut { index: object.index });
                 }
                 check_object(object)?;
                 offset += object.storage_size();
@@ -280,9 +261,7 @@ impl<const BYTES: usize> Dictionary<BYTES> {
 
     /// Bytes of the store the tables use.
     pub fn used_bytes(&self) -> usize {
-        self.tables()
-            .map(|t| t.iter().map(Object::storage_size).sum::<usize>())
-            .sum()
+        self.tables().map(|t| t.iter().map(Object::storage_size).sum::<usize>()).sum()
     }
 
     /// The node-ID that `$NODEID` defaults resolve to.
@@ -328,12 +307,7 @@ impl<const BYTES: usize> Dictionary<BYTES> {
         let (object, region) = self.object(index).ok_or(AbortCode::ObjectDoesNotExist)?;
         let (var, offset) = object.sub(sub).ok_or(AbortCode::SubIndexDoesNotExist)?;
         let offset = usize::from(region) + usize::from(object.base) + offset;
-        Ok(Entry {
-            object,
-            var,
-            sub,
-            offset: offset as u16,
-        })
+        Ok(Entry { object, var, sub, offset: offset as u16 })
     }
 
     fn default_bytes(&self, var: &Var) -> DefaultBytes {
@@ -351,9 +325,7 @@ impl<const BYTES: usize> Dictionary<BYTES> {
             },
             DefaultValue::Text(s) => DefaultBytes::Slice(s.as_bytes()),
             DefaultValue::Bytes(b) => DefaultBytes::Slice(b),
-            DefaultValue::NodeIdPlus(base) => {
-                number(u64::from(base.wrapping_add(u32::from(self.node_id))))
-            }
+            DefaultValue::NodeIdPlus(base) => number(u64::from(base.wrapping_add(u32::from(self.node_id)))),
             DefaultValue::Device(field) => {
                 let d = &self.device;
                 match field {
@@ -363,12 +335,8 @@ impl<const BYTES: usize> Dictionary<BYTES> {
                     DeviceField::RevisionNumber => number(u64::from(d.revision_number)),
                     DeviceField::SerialNumber => number(u64::from(d.serial_number)),
                     DeviceField::DeviceName => DefaultBytes::Slice(d.device_name.as_bytes()),
-                    DeviceField::HardwareVersion => {
-                        DefaultBytes::Slice(d.hardware_version.as_bytes())
-                    }
-                    DeviceField::SoftwareVersion => {
-                        DefaultBytes::Slice(d.software_version.as_bytes())
-                    }
+                    DeviceField::HardwareVersion => DefaultBytes::Slice(d.hardware_version.as_bytes()),
+                    DeviceField::SoftwareVersion => DefaultBytes::Slice(d.software_version.as_bytes()),
                     DeviceField::Eds => DefaultBytes::Slice(d.eds),
                 }
             }
@@ -384,8 +352,7 @@ impl<const BYTES: usize> Dictionary<BYTES> {
         match entry.var.data_type.fixed_size() {
             Some(n) => self.store.get(start..start + n),
             None => {
-                let len =
-                    u16::from_le_bytes([*self.store.get(start)?, *self.store.get(start + 1)?]);
+                let len = u16::from_le_bytes([*self.store.get(start)?, *self.store.get(start + 1)?]);
                 let len = usize::from(len.min(entry.var.capacity));
                 self.store.get(start + 2..start + 2 + len)
             }
@@ -498,12 +465,7 @@ impl<const BYTES: usize> Dictionary<BYTES> {
                 for sub in 0..=object.highest_sub() {
                     if let Some((var, offset)) = object.sub(sub) {
                         let offset = usize::from(region) + usize::from(object.base) + offset;
-                        let entry = Entry {
-                            object,
-                            var,
-                            sub,
-                            offset: offset as u16,
-                        };
+                        let entry = Entry { object, var, sub, offset: offset as u16 };
                         let default = self.default_bytes(var);
                         self.commit(&entry, default.bytes());
                     }
@@ -515,9 +477,7 @@ impl<const BYTES: usize> Dictionary<BYTES> {
 
 /// Configuration checks on one object that the type system cannot make.
 fn check_object(object: &Object) -> Result<(), ConfigError> {
-    let bad = ConfigError::BadEntry {
-        index: object.index,
-    };
+    let bad = ConfigError::BadEntry { index: object.index };
     for sub in 0..=object.highest_sub() {
         if let Some((var, _)) = object.sub(sub) {
             if var.data_type.is_variable() && var.storage_size() > usize::from(u16::MAX) {
@@ -613,12 +573,7 @@ mod tests {
                 .limits_signed(-1000, 1000)
                 .default(DefaultValue::Signed(-7)),
         ),
-        (
-            2,
-            Var::new("Real", DataType::Real32)
-                .access(Access::ReadWrite)
-                .default(DefaultValue::Real(1.5)),
-        ),
+        (2, Var::new("Real", DataType::Real32).access(Access::ReadWrite).default(DefaultValue::Real(1.5))),
     ];
 
     static TABLE: [Object; 4] = layout([
@@ -658,10 +613,7 @@ mod tests {
         assert_eq!(od.get::<u32>(0x2003, 0), Ok(0x189));
         assert_eq!(od.get::<f32>(0x2002, 2), Ok(1.5));
         assert_eq!(od.get::<u32>(0x2001, 1), Err(AbortCode::LengthMismatch));
-        assert_eq!(
-            od.get::<u16>(0x2001, 4),
-            Err(AbortCode::SubIndexDoesNotExist)
-        );
+        assert_eq!(od.get::<u16>(0x2001, 4), Err(AbortCode::SubIndexDoesNotExist));
         assert_eq!(od.get::<u16>(0x2100, 0), Err(AbortCode::ObjectDoesNotExist));
         od.set::<u16>(0x2001, 2, 7).unwrap();
         assert_eq!(od.get::<u16>(0x2001, 1), Ok(0xBEEF), "neighbours untouched");
@@ -678,10 +630,7 @@ mod tests {
         let mut od = dict();
         let entry = od.entry(0x2000, 0).unwrap();
         assert_eq!(od.value_len(&entry), 3);
-        assert_eq!(
-            od.check_write(&entry, b"123456789"),
-            Err(AbortCode::LengthTooHigh)
-        );
+        assert_eq!(od.check_write(&entry, b"123456789"), Err(AbortCode::LengthTooHigh));
         od.check_write(&entry, b"12345").unwrap();
         od.commit(&entry, b"12345");
         let mut buf = [0u8; 16];
@@ -696,21 +645,12 @@ mod tests {
     fn limits_of_signed_24_bit_and_real() {
         let od = dict();
         let s24 = od.entry(0x2002, 1).unwrap();
-        assert_eq!(
-            od.check_write(&s24, &1001i32.to_le_bytes()[..3]),
-            Err(AbortCode::ValueTooHigh)
-        );
-        assert_eq!(
-            od.check_write(&s24, &(-1001i32).to_le_bytes()[..3]),
-            Err(AbortCode::ValueTooLow)
-        );
+        assert_eq!(od.check_write(&s24, &1001i32.to_le_bytes()[..3]), Err(AbortCode::ValueTooHigh));
+        assert_eq!(od.check_write(&s24, &(-1001i32).to_le_bytes()[..3]), Err(AbortCode::ValueTooLow));
         assert_eq!(od.check_write(&s24, &(-1000i32).to_le_bytes()[..3]), Ok(()));
         assert_eq!(od.check_write(&s24, &[0, 0]), Err(AbortCode::LengthTooLow));
         let real = od.entry(0x2002, 2).unwrap();
-        assert_eq!(
-            od.check_write(&real, &f32::NAN.to_le_bytes()),
-            Err(AbortCode::InvalidValue)
-        );
+        assert_eq!(od.check_write(&real, &f32::NAN.to_le_bytes()), Err(AbortCode::InvalidValue));
         assert_eq!(od.check_write(&real, &2.0f32.to_le_bytes()), Ok(()));
     }
 
@@ -742,35 +682,19 @@ mod tests {
             Some(ConfigError::StorageTooSmall { needed: 27 })
         );
         let too_many: [&'static [Object]; 5] = [&[], &[], &[], &[], &[]];
-        assert_eq!(
-            Dictionary::<8>::new(&too_many, info, 1).err(),
-            Some(ConfigError::TooManyTables)
-        );
+        assert_eq!(Dictionary::<8>::new(&too_many, info, 1).err(), Some(ConfigError::TooManyTables));
     }
 
     #[test]
     fn lookups_across_tables() {
-        let od = Dictionary::<4096>::new(
-            &[&standard::COMMUNICATION, &TABLE],
-            DeviceInfo::servo_drive(),
-            3,
-        )
-        .unwrap();
+        let od = Dictionary::<4096>::new(&[&standard::COMMUNICATION, &TABLE], DeviceInfo::servo_drive(), 3)
+            .unwrap();
         assert_eq!(od.get::<u32>(0x1000, 0), Ok(0x0002_0192));
         assert_eq!(od.get::<u32>(0x1200, 2), Ok(0x583));
         assert_eq!(od.get::<u16>(0x2001, 1), Ok(0xBEEF));
         assert!(od.objects().map(|o| o.index).is_sorted());
-        assert_eq!(
-            od.entry(0x1FFF, 0).err(),
-            Some(AbortCode::ObjectDoesNotExist)
-        );
-        assert_eq!(
-            od.entry(0x0000, 0).err(),
-            Some(AbortCode::ObjectDoesNotExist)
-        );
-        assert_eq!(
-            od.entry(0xFFFF, 0).err(),
-            Some(AbortCode::ObjectDoesNotExist)
-        );
+        assert_eq!(od.entry(0x1FFF, 0).err(), Some(AbortCode::ObjectDoesNotExist));
+        assert_eq!(od.entry(0x0000, 0).err(), Some(AbortCode::ObjectDoesNotExist));
+        assert_eq!(od.entry(0xFFFF, 0).err(), Some(AbortCode::ObjectDoesNotExist));
     }
 }

@@ -23,26 +23,17 @@ pub const STORE_EDS: u16 = 0x1021;
 pub const SDO_SERVER_PARAMETER: u16 = 0x1200;
 
 const fn u32_const(name: &'static str, field: DeviceField) -> Var {
-    Var::new(name, DataType::Unsigned32)
-        .access(Access::ReadOnly)
-        .default(DefaultValue::Device(field))
+    Var::new(name, DataType::Unsigned32).access(Access::ReadOnly).default(DefaultValue::Device(field))
 }
 
 const fn text(name: &'static str, field: DeviceField) -> Var {
-    Var::new(name, DataType::VisibleString)
-        .access(Access::Const)
-        .default(DefaultValue::Device(field))
+    Var::new(name, DataType::VisibleString).access(Access::Const).default(DefaultValue::Device(field))
 }
 
 const HIGHEST_SUB: &str = "Highest sub-index supported";
 
 const IDENTITY_SUBS: [(u8, Var); 5] = [
-    (
-        0,
-        Var::new(HIGHEST_SUB, DataType::Unsigned8)
-            .access(Access::Const)
-            .default(DefaultValue::Unsigned(4)),
-    ),
+    (0, Var::new(HIGHEST_SUB, DataType::Unsigned8).access(Access::Const).default(DefaultValue::Unsigned(4))),
     (1, u32_const("Vendor-ID", DeviceField::VendorId)),
     (2, u32_const("Product code", DeviceField::ProductCode)),
     (3, u32_const("Revision number", DeviceField::RevisionNumber)),
@@ -50,12 +41,7 @@ const IDENTITY_SUBS: [(u8, Var); 5] = [
 ];
 
 const SDO_SERVER_SUBS: [(u8, Var); 3] = [
-    (
-        0,
-        Var::new(HIGHEST_SUB, DataType::Unsigned8)
-            .access(Access::Const)
-            .default(DefaultValue::Unsigned(2)),
-    ),
+    (0, Var::new(HIGHEST_SUB, DataType::Unsigned8).access(Access::Const).default(DefaultValue::Unsigned(2))),
     (
         1,
         Var::new("COB-ID client to server (rx)", DataType::Unsigned32)
@@ -74,11 +60,7 @@ const SDO_SERVER_SUBS: [(u8, Var); 3] = [
 #[allow(clippy::indexing_slicing)]
 const fn communication_objects<const N: usize>() -> [Object; N] {
     let all = [
-        Object::var(
-            DEVICE_TYPE,
-            "Device type",
-            u32_const("Device type", DeviceField::DeviceType),
-        ),
+        Object::var(DEVICE_TYPE, "Device type", u32_const("Device type", DeviceField::DeviceType)),
         Object::var(
             ERROR_REGISTER,
             "Error register",
@@ -92,18 +74,12 @@ const fn communication_objects<const N: usize>() -> [Object; N] {
         Object::var(
             HARDWARE_VERSION,
             "Manufacturer hardware version",
-            text(
-                "Manufacturer hardware version",
-                DeviceField::HardwareVersion,
-            ),
+            text("Manufacturer hardware version", DeviceField::HardwareVersion),
         ),
         Object::var(
             SOFTWARE_VERSION,
             "Manufacturer software version",
-            text(
-                "Manufacturer software version",
-                DeviceField::SoftwareVersion,
-            ),
+            text("Manufacturer software version", DeviceField::SoftwareVersion),
         ),
         Object::var(
             PRODUCER_HEARTBEAT_TIME,
@@ -118,11 +94,7 @@ const fn communication_objects<const N: usize>() -> [Object; N] {
                 .access(Access::ReadOnly)
                 .default(DefaultValue::Device(DeviceField::Eds)),
         ),
-        Object::record(
-            SDO_SERVER_PARAMETER,
-            "SDO server parameter",
-            &SDO_SERVER_SUBS,
-        ),
+        Object::record(SDO_SERVER_PARAMETER, "SDO server parameter", &SDO_SERVER_SUBS),
     ];
     // Keep the first N: the EDS object is last but one and left out without its feature.
     let mut out = [Object::var(0, "", Var::new("", DataType::Unsigned8)); N];

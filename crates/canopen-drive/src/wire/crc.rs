@@ -11,11 +11,7 @@ const TABLE: [u16; 16] = {
         let mut crc = (n as u16) << 12;
         let mut bit = 0;
         while bit < 4 {
-            crc = if crc & 0x8000 != 0 {
-                (crc << 1) ^ 0x1021
-            } else {
-                crc << 1
-            };
+            crc = if crc & 0x8000 != 0 { (crc << 1) ^ 0x1021 } else { crc << 1 };
             bit += 1;
         }
         table[n] = crc;

@@ -90,10 +90,7 @@ impl NodeControl {
     /// (digest §3.2).
     pub fn parse(data: &[u8]) -> Option<Self> {
         match data {
-            [cs, node] => Some(NodeControl {
-                command: NmtCommand::from_code(*cs),
-                node_id: *node,
-            }),
+            [cs, node] => Some(NodeControl { command: NmtCommand::from_code(*cs), node_id: *node }),
             _ => None,
         }
     }
@@ -117,10 +114,7 @@ mod tests {
     fn parse_requires_dlc_two() {
         assert_eq!(
             NodeControl::parse(&[0x01, 0x05]),
-            Some(NodeControl {
-                command: NmtCommand::Start,
-                node_id: 5
-            })
+            Some(NodeControl { command: NmtCommand::Start, node_id: 5 })
         );
         assert_eq!(NodeControl::parse(&[0x01]), None);
         assert_eq!(NodeControl::parse(&[0x01, 0x05, 0x00]), None);
@@ -131,10 +125,7 @@ mod tests {
         for raw in 0..=255u8 {
             assert_eq!(NmtCommand::from_code(raw).code(), raw);
         }
-        let c = NodeControl {
-            command: NmtCommand::ResetCommunication,
-            node_id: 0,
-        };
+        let c = NodeControl { command: NmtCommand::ResetCommunication, node_id: 0 };
         assert_eq!(NodeControl::parse(&c.emit()), Some(c));
         assert!(c.addresses(17));
     }

@@ -27,10 +27,7 @@ pub struct Mux {
 impl Mux {
     fn parse(data: &[u8]) -> Option<Self> {
         match data {
-            [_, lo, hi, sub, ..] => Some(Mux {
-                index: u16::from_le_bytes([*lo, *hi]),
-                sub: *sub,
-            }),
+            [_, lo, hi, sub, ..] => Some(Mux { index: u16::from_le_bytes([*lo, *hi]), sub: *sub }),
             _ => None,
         }
     }
@@ -185,24 +182,14 @@ impl Request {
                     let present = present.get(..present.len().min(4)).unwrap_or(&[]);
                     bytes.get_mut(..present.len())?.copy_from_slice(present);
                     let len = sized.then_some(4 - ((command >> 2) & 0x03));
-                    Download::Expedited {
-                        data: bytes,
-                        len,
-                        present: present.len() as u8,
-                    }
+                    Download::Expedited { data: bytes, len, present: present.len() as u8 }
                 } else {
-                    Download::Segmented {
-                        size: if sized { Some(u32_at(data)?) } else { None },
-                    }
+                    Download::Segmented { size: if sized { Some(u32_at(data)?) } else { None } }
                 };
                 Request::InitiateDownload { mux, kind }
             }
-            2 => Request::InitiateUpload {
-                mux: Mux::parse(data)?,
-            },
-            3 => Request::UploadSegment {
-                toggle: command & 0x10 != 0,
-            },
+            2 => Request::InitiateUpload { mux: Mux::parse(data)? },
+            3 => Request::UploadSegment { toggle: command & 0x10 != 0 },
             4 => Request::Abort {
                 mux: Mux::parse(data)?,
                 code: AbortCode::from_code(u32_at(data).unwrap_or(0)),
@@ -215,21 +202,14 @@ impl Request {
                     pst: data.get(5).copied().unwrap_or(0),
                 },
                 1 => Request::BlockUploadEnd,
-                2 => Request::BlockUploadAck {
-                    ack_seq: *data.get(1)?,
-                    block_size: *data.get(2)?,
-                },
+                2 => Request::BlockUploadAck { ack_seq: *data.get(1)?, block_size: *data.get(2)? },
                 _ => Request::BlockUploadStart,
             },
             6 => match command & 0x01 {
                 0 => Request::BlockDownloadInitiate {
                     mux: Mux::parse(data)?,
                     crc: command & 0x04 != 0,
-                    size: if command & 0x02 != 0 {
-                        Some(u32_at(data)?)
-                    } else {
-                        None
-                    },
+                    size: if command & 0x02 != 0 { Some(u32_at(data)?) } else { None },
                 },
                 _ => Request::BlockDownloadEnd {
                     unused: (command >> 2) & 0x07,
@@ -239,10 +219,7 @@ impl Request {
                     ]),
                 },
             },
-            _ => Request::Unknown {
-                command,
-                mux: Mux::parse(data).unwrap_or(Mux { index: 0, sub: 0 }),
-            },
+            _ => Request::Unknown { command, mux: Mux::parse(data).unwrap_or(Mux { index: 0, sub: 0 }) },
         })
     }
 }
@@ -267,11 +244,7 @@ impl BlockSegment {
         let body = data.get(1..).unwrap_or(&[]);
         let n = body.len().min(7);
         bytes.get_mut(..n)?.copy_from_slice(body.get(..n)?);
-        Some(BlockSegment {
-            seq: head & 0x7F,
-            last: head & 0x80 != 0,
-            data: bytes,
-        })
+        Some(BlockSegment { seq: head & 0x7F, last: head & 0x80 != 0, data: bytes })
     }
 
     /// The frame data of the segment.
@@ -388,12 +361,7 @@ impl Response {
                 mux.emit(&mut out);
                 out[4..].copy_from_slice(&size.to_le_bytes());
             }
-            Response::UploadSegment {
-                toggle,
-                data,
-                len,
-                last,
-            } => {
+            Response::UploadSegment { toggle, data, len, last } => {
                 out[0] = (u8::from(toggle) << 4) | ((7 - len.min(7)) << 1) | u8::from(last);
                 out[1..].copy_from_slice(&data);
             }
@@ -402,19 +370,12 @@ impl Response {
                 mux.emit(&mut out);
                 out[4..].copy_from_slice(&code.code().to_le_bytes());
             }
-            Response::BlockDownloadInitiated {
-                mux,
-                crc,
-                block_size,
-            } => {
+            Response::BlockDownloadInitiated { mux, crc, block_size } => {
                 out[0] = 0xA0 | (u8::from(crc) << 2);
                 mux.emit(&mut out);
                 out[4] = block_size;
             }
-            Response::BlockDownloadAck {
-                ack_seq,
-                block_size,
-            } => {
+            Response::BlockDownloadAck { ack_seq, block_size } => {
                 out[0] = 0xA2;
                 out[1] = ack_seq;
                 out[2] = block_size;
@@ -439,10 +400,7 @@ impl Response {
 mod tests {
     use super::*;
 
-    const MUX: Mux = Mux {
-        index: 0x1017,
-        sub: 0,
-    };
+    const MUX: Mux = Mux { index: 0x1017, sub: 0 };
 
     #[test]
     fn parses_expedited_download_with_size() {
@@ -451,11 +409,7 @@ mod tests {
             r,
             Request::InitiateDownload {
                 mux: MUX,
-                kind: Download::Expedited {
-                    data: [0xE8, 0x03, 0, 0],
-                    len: Some(2),
-                    present: 4
-                }
+                kind: Download::Expedited { data: [0xE8, 0x03, 0, 0], len: Some(2), present: 4 }
             }
         );
     }
@@ -464,13 +418,7 @@ mod tests {
     fn short_frames_are_accepted_when_complete() {
         // A 6-byte expedited write of a 2-byte value (old PLCs do this).
         let r = Request::parse(&[0x2B, 0x17, 0x10, 0x00, 0xE8, 0x03]).unwrap();
-        assert!(matches!(
-            r,
-            Request::InitiateDownload {
-                kind: Download::Expedited { present: 2, .. },
-                ..
-            }
-        ));
+        assert!(matches!(r, Request::InitiateDownload { kind: Download::Expedited { present: 2, .. }, .. }));
         // An upload request needs the multiplexer.
         assert_eq!(Request::parse(&[0x40, 0x17]), None);
         // A segment announcing 7 bytes must carry them.
@@ -479,38 +427,16 @@ mod tests {
 
     #[test]
     fn responses_have_the_documented_command_bytes() {
-        assert_eq!(
-            Response::DownloadInitiated { mux: MUX }.emit(),
-            [0x60, 0x17, 0x10, 0, 0, 0, 0, 0]
-        );
-        assert_eq!(
-            Response::DownloadSegmentAck { toggle: true }.emit()[0],
-            0x30
-        );
-        let up = Response::UploadExpedited {
-            mux: MUX,
-            data: [0xE8, 0x03, 0, 0],
-            len: 2,
-        };
+        assert_eq!(Response::DownloadInitiated { mux: MUX }.emit(), [0x60, 0x17, 0x10, 0, 0, 0, 0, 0]);
+        assert_eq!(Response::DownloadSegmentAck { toggle: true }.emit()[0], 0x30);
+        let up = Response::UploadExpedited { mux: MUX, data: [0xE8, 0x03, 0, 0], len: 2 };
         assert_eq!(up.emit(), [0x4B, 0x17, 0x10, 0, 0xE8, 0x03, 0, 0]);
-        let seg = Response::UploadSegment {
-            toggle: true,
-            data: [1, 2, 3, 0, 0, 0, 0],
-            len: 3,
-            last: true,
-        };
+        let seg = Response::UploadSegment { toggle: true, data: [1, 2, 3, 0, 0, 0, 0], len: 3, last: true };
         assert_eq!(seg.emit(), [0x19, 1, 2, 3, 0, 0, 0, 0]);
-        let abort = Response::Abort {
-            mux: MUX,
-            code: AbortCode::ObjectDoesNotExist,
-        };
+        let abort = Response::Abort { mux: MUX, code: AbortCode::ObjectDoesNotExist };
         assert_eq!(abort.emit(), [0x80, 0x17, 0x10, 0, 0x00, 0x00, 0x02, 0x06]);
         assert_eq!(
-            Response::BlockUploadEnd {
-                unused: 3,
-                crc: 0x31C3
-            }
-            .emit(),
+            Response::BlockUploadEnd { unused: 3, crc: 0x31C3 }.emit(),
             [0xCD, 0xC3, 0x31, 0, 0, 0, 0, 0]
         );
     }
@@ -520,54 +446,33 @@ mod tests {
         assert_eq!(
             Request::parse(&[0xA4, 0x21, 0x10, 0, 127, 0, 0, 0]),
             Some(Request::BlockUploadInitiate {
-                mux: Mux {
-                    index: 0x1021,
-                    sub: 0
-                },
+                mux: Mux { index: 0x1021, sub: 0 },
                 crc: true,
                 block_size: 127,
                 pst: 0
             })
         );
-        assert_eq!(
-            Request::parse(&[0xA3, 0, 0, 0, 0, 0, 0, 0]),
-            Some(Request::BlockUploadStart)
-        );
+        assert_eq!(Request::parse(&[0xA3, 0, 0, 0, 0, 0, 0, 0]), Some(Request::BlockUploadStart));
         assert_eq!(
             Request::parse(&[0xA2, 5, 10, 0, 0, 0, 0, 0]),
-            Some(Request::BlockUploadAck {
-                ack_seq: 5,
-                block_size: 10
-            })
+            Some(Request::BlockUploadAck { ack_seq: 5, block_size: 10 })
         );
-        assert_eq!(
-            Request::parse(&[0xA1, 0, 0, 0, 0, 0, 0, 0]),
-            Some(Request::BlockUploadEnd)
-        );
+        assert_eq!(Request::parse(&[0xA1, 0, 0, 0, 0, 0, 0, 0]), Some(Request::BlockUploadEnd));
         assert_eq!(
             Request::parse(&[0xC6, 0x00, 0x20, 1, 10, 0, 0, 0]),
             Some(Request::BlockDownloadInitiate {
-                mux: Mux {
-                    index: 0x2000,
-                    sub: 1
-                },
+                mux: Mux { index: 0x2000, sub: 1 },
                 crc: true,
                 size: Some(10)
             })
         );
         assert_eq!(
             Request::parse(&[0xC1 | (3 << 2), 0xC3, 0x31, 0, 0, 0, 0, 0]),
-            Some(Request::BlockDownloadEnd {
-                unused: 3,
-                crc: 0x31C3
-            })
+            Some(Request::BlockDownloadEnd { unused: 3, crc: 0x31C3 })
         );
         assert_eq!(
             Request::parse(&[0xE0, 0, 0, 0, 0, 0, 0, 0]),
-            Some(Request::Unknown {
-                command: 0xE0,
-                mux: Mux { index: 0, sub: 0 }
-            })
+            Some(Request::Unknown { command: 0xE0, mux: Mux { index: 0, sub: 0 } })
         );
     }
 }
