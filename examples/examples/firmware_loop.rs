@@ -86,7 +86,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         [0x2B, 0x00, 0x20, 0x00, 0xD1, 0x07, 0, 0],
         [0x40, 0x01, 0x20, 0x00, 0, 0, 0, 0],
     ] {
-        can.rx.push_back(CanFrame::new_standard(0x603, &request).expect("valid frame"));
+        can.rx.extend(CanFrame::new_standard(0x603, &request));
     }
 
     // The main loop: communication when frames arrive or the deadline comes, the control

@@ -313,7 +313,7 @@ fn aborts_during_segmented_transfers() {
     assert_eq!(bench.sdo1(&[0x70, 0, 0, 0, 0, 0, 0, 0]), abort(TEXT, 0, TOGGLE));
     // Fewer bytes than indicated.
     bench.sdo1(&req(0x21, TEXT, 0, [10, 0, 0, 0]));
-    assert_eq!(bench.sdo1(&[0x00 | (4 << 1) | 1, 1, 2, 3, 0, 0, 0, 0]), abort(TEXT, 0, TOO_SHORT));
+    assert_eq!(bench.sdo1(&[(4 << 1) | 1, 1, 2, 3, 0, 0, 0, 0]), abort(TEXT, 0, TOO_SHORT));
     // More bytes than indicated.
     bench.sdo1(&req(0x21, TEXT, 0, [3, 0, 0, 0]));
     assert_eq!(bench.sdo1(&[0x00, 1, 2, 3, 4, 5, 6, 7]), abort(TEXT, 0, TOO_LONG));
