@@ -12,15 +12,20 @@ use core::fmt;
 
 use heapless::Deque;
 
+use crate::comm::emcy::{EmcyProducer, ErrorRegister};
 use crate::comm::heartbeat::HeartbeatProducer;
 use crate::comm::nmt::{transition, NmtAction, Services};
 use crate::comm::sdo_server::{ObjectAccess, SdoServer};
 use crate::frame::CanFrame;
 use crate::hal::{Demand, Sample};
 use crate::od::eds::{self, EdsInfo};
-use crate::od::standard::{self, PRODUCER_HEARTBEAT_TIME};
+use crate::od::standard::{
+    self, COB_ID_EMCY, ERROR_HISTORY_LEN, ERROR_REGISTER, INHIBIT_TIME_EMCY, PRE_DEFINED_ERROR_FIELD,
+    PRODUCER_HEARTBEAT_TIME,
+};
 use crate::od::{AbortCode, ConfigError, DeviceInfo, Dictionary, Entry, Object, ObjectHooks, WriteRule};
 use crate::time::{earliest, Duration, Instant};
+use crate::wire::cob_id::{self, CobId};
 use crate::wire::nmt::{NmtState, NodeControl};
 use crate::wire::sdo::Mux;
 use crate::wire::{ERROR_CONTROL_BASE, NMT_COB_ID, SDO_RX_BASE, SDO_TX_BASE};
@@ -65,6 +70,7 @@ pub struct Drive<H: ObjectHooks = (), const OD_BYTES: usize = DEFAULT_OD_BYTES> 
     sdo: SdoServer<SDO_BUFFER>,
     nmt: NmtState,
     heartbeat: HeartbeatProducer,
+    emcy: EmcyProducer,
     tx: Deque<CanFrame, TX_QUEUE>,
     tx_dropped: u32,
     hooks: H,
@@ -100,6 +106,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize> Drive<H, OD_BYTES> {
             sdo: SdoServer::new(config.sdo_timeout),
             nmt: NmtState::Initialising,
             heartbeat: HeartbeatProducer::default(),
+            emcy: EmcyProducer::new(),
             tx: Deque::new(),
             tx_dropped: 0,
             hooks,
@@ -180,7 +187,69 @@ impl<H: ObjectHooks, const OD_BYTES: usize> Drive<H, OD_BYTES> {
             self.send_error_control(self.nmt.heartbeat_byte());
         }
         self.drain_sdo(now);
-        earliest(self.heartbeat.deadline(), self.sdo.deadline())
+        let emcy = self.send_emcy(now);
+        earliest(earliest(self.heartbeat.deadline(), self.sdo.deadline()), emcy)
+    }
+
+    /// Raises an error: sends its EMCY (in Pre-operational and Operational; queued in Stopped),
+    /// records it in 1003h and sets its bits in 1001h. An error that is already active is not
+    /// reported again. `info` is the manufacturer-specific field of the EMCY frame.
+    pub fn raise_error(&mut self, code: u16, register: ErrorRegister, info: [u8; 5]) {
+        if self.emcy.raise(code, register, info).is_some() {
+            self.record_history(code, info);
+            self.sync_error_register();
+        }
+    }
+
+    /// Clears an active error: sends the "error reset" EMCY (code 0000h) and updates 1001h.
+    pub fn clear_error(&mut self, code: u16) {
+        if self.emcy.clear(code) {
+            self.sync_error_register();
+        }
+    }
+
+    /// The error register 1001h.
+    pub fn error_register(&self) -> ErrorRegister {
+        self.emcy.register()
+    }
+
+    fn sync_error_register(&mut self) {
+        // 1001h is in the crate's own table: the write cannot fail.
+        let _ = self.od.set::<u8>(ERROR_REGISTER, 0, self.emcy.register().bits());
+    }
+
+    /// 1003h: newest first, the oldest falls off when full (digest §9.3).
+    fn record_history(&mut self, code: u16, info: [u8; 5]) {
+        let count = self.od.get::<u8>(PRE_DEFINED_ERROR_FIELD, 0).unwrap_or(0).min(ERROR_HISTORY_LEN);
+        for sub in (1..ERROR_HISTORY_LEN).rev() {
+            if let Ok(older) = self.od.get::<u32>(PRE_DEFINED_ERROR_FIELD, sub) {
+                let _ = self.od.set::<u32>(PRE_DEFINED_ERROR_FIELD, sub + 1, older);
+            }
+        }
+        let entry = u32::from(code) | (u32::from(u16::from_le_bytes([info[0], info[1]])) << 16);
+        let _ = self.od.set::<u32>(PRE_DEFINED_ERROR_FIELD, 1, entry);
+        let _ = self.od.set::<u8>(PRE_DEFINED_ERROR_FIELD, 0, (count + 1).min(ERROR_HISTORY_LEN));
+    }
+
+    /// Sends the EMCY frames due; returns when the next one may go.
+    fn send_emcy(&mut self, now: Instant) -> Option<Instant> {
+        let cob = self.od.get::<u32>(COB_ID_EMCY, 0).ok().and_then(|raw| CobId::parse(raw).ok());
+        let Some(cob) = cob.filter(|c| c.valid) else {
+            self.emcy.discard_pending();
+            return None;
+        };
+        if !self.nmt.serves_emcy() {
+            // Stopped: kept until the node may speak again.
+            return None;
+        }
+        let inhibit = self.od.get::<u16>(INHIBIT_TIME_EMCY, 0).unwrap_or(0);
+        while !self.tx.is_full() {
+            match self.emcy.pop_due(now, inhibit) {
+                Some(data) => self.send(cob.can_id, &data),
+                None => break,
+            }
+        }
+        self.emcy.deadline()
     }
 
     /// The next frame to transmit.
@@ -238,6 +307,9 @@ impl<H: ObjectHooks, const OD_BYTES: usize> Drive<H, OD_BYTES> {
 
     fn reset_communication(&mut self, now: Instant) {
         self.od.reset(0x1000..=0x1FFF);
+        // Active errors are conditions of the device and stay; the history and queue go.
+        self.emcy.discard_pending();
+        self.sync_error_register();
         self.sdo.reset();
         self.heartbeat.stop();
         self.nmt = NmtState::Initialising;
@@ -303,6 +375,9 @@ impl<H: ObjectHooks, const B: usize> ObjectAccess for Access<'_, H, B> {
         if !entry.var.access.readable() {
             return Err(AbortCode::ReadOfWriteOnly);
         }
+        if mux.index == PRE_DEFINED_ERROR_FIELD && mux.sub > self.od.get::<u8>(mux.index, 0).unwrap_or(0) {
+            return Err(AbortCode::NoDataAvailable);
+        }
         match self.hooks.read_len(mux.index, mux.sub) {
             Some(result) => result,
             None => Ok(self.od.value_len(&entry)),
@@ -331,10 +406,40 @@ impl<H: ObjectHooks, const B: usize> ObjectAccess for Access<'_, H, B> {
     fn write(&mut self, mux: Mux, data: &[u8]) -> Result<(), AbortCode> {
         let entry = self.writable_entry(mux)?;
         self.od.check_write(&entry, data)?;
+        check_communication(self.od, mux, data)?;
         self.hooks.validate(mux.index, mux.sub, data)?;
         self.od.commit(&entry, data);
         self.hooks.written(mux.index, mux.sub, data);
         self.written = Some(mux);
         Ok(())
+    }
+}
+
+/// Value rules of the communication objects beyond type and limits (digest §1.3, §9.3).
+fn check_communication<const B: usize>(od: &Dictionary<B>, mux: Mux, data: &[u8]) -> Result<(), AbortCode> {
+    let raw = u32::from_le_bytes([
+        data.first().copied().unwrap_or(0),
+        data.get(1).copied().unwrap_or(0),
+        data.get(2).copied().unwrap_or(0),
+        data.get(3).copied().unwrap_or(0),
+    ]);
+    match mux.index {
+        // Only 0 may be written to the number of errors: it clears the history.
+        PRE_DEFINED_ERROR_FIELD if raw != 0 => Err(AbortCode::InvalidValue),
+        COB_ID_EMCY => {
+            let new = CobId::parse(raw).map_err(|_| AbortCode::InvalidValue)?;
+            let old = od.get::<u32>(COB_ID_EMCY, 0).ok().and_then(|r| CobId::parse(r).ok());
+            if new.bit30 || cob_id::is_restricted(new.can_id) {
+                return Err(AbortCode::InvalidValue);
+            }
+            // The CAN-ID changes only while the EMCY is invalid (before or after the write).
+            match old {
+                Some(old) if old.valid && new.valid && old.can_id != new.can_id => {
+                    Err(AbortCode::InvalidValue)
+                }
+                _ => Ok(()),
+            }
+        }
+        _ => Ok(()),
     }
 }

@@ -1,5 +1,6 @@
 //! The CiA 301 communication services of a slave: NMT, SDO server, heartbeat producer.
 
+pub mod emcy;
 pub mod heartbeat;
 pub mod nmt;
 pub mod sdo_server;

@@ -13,6 +13,12 @@ pub const DEVICE_NAME: u16 = 0x1008;
 pub const HARDWARE_VERSION: u16 = 0x1009;
 /// 100Ah manufacturer software version.
 pub const SOFTWARE_VERSION: u16 = 0x100A;
+/// 1003h pre-defined error field (error history, newest first).
+pub const PRE_DEFINED_ERROR_FIELD: u16 = 0x1003;
+/// 1014h COB-ID EMCY.
+pub const COB_ID_EMCY: u16 = 0x1014;
+/// 1015h inhibit time EMCY (100 µs).
+pub const INHIBIT_TIME_EMCY: u16 = 0x1015;
 /// 1017h producer heartbeat time (ms).
 pub const PRODUCER_HEARTBEAT_TIME: u16 = 0x1017;
 /// 1018h identity object.
@@ -31,6 +37,9 @@ const fn text(name: &'static str, field: DeviceField) -> Var {
 }
 
 const HIGHEST_SUB: &str = "Highest sub-index supported";
+
+/// Entries of the error history 1003h.
+pub const ERROR_HISTORY_LEN: u8 = 8;
 
 const IDENTITY_SUBS: [(u8, Var); 5] = [
     (0, Var::new(HIGHEST_SUB, DataType::Unsigned8).access(Access::Const).default(DefaultValue::Unsigned(4))),
@@ -56,53 +65,89 @@ const SDO_SERVER_SUBS: [(u8, Var); 3] = [
     ),
 ];
 
+/// Every communication object of the crate, before the feature selection.
+const ALL_COMMUNICATION: [Object; 12] = [
+    Object::var(DEVICE_TYPE, "Device type", u32_const("Device type", DeviceField::DeviceType)),
+    Object::var(
+        ERROR_REGISTER,
+        "Error register",
+        Var::new("Error register", DataType::Unsigned8).pdo(PdoMapping::Tpdo),
+    ),
+    Object::array_with_sub0(
+        PRE_DEFINED_ERROR_FIELD,
+        "Pre-defined error field",
+        ERROR_HISTORY_LEN,
+        Var::new("Number of errors", DataType::Unsigned8).access(Access::ReadWrite),
+        Var::new("Standard error field", DataType::Unsigned32),
+    ),
+    Object::var(
+        DEVICE_NAME,
+        "Manufacturer device name",
+        text("Manufacturer device name", DeviceField::DeviceName),
+    ),
+    Object::var(
+        HARDWARE_VERSION,
+        "Manufacturer hardware version",
+        text("Manufacturer hardware version", DeviceField::HardwareVersion),
+    ),
+    Object::var(
+        SOFTWARE_VERSION,
+        "Manufacturer software version",
+        text("Manufacturer software version", DeviceField::SoftwareVersion),
+    ),
+    Object::var(
+        COB_ID_EMCY,
+        "COB-ID EMCY",
+        Var::new("COB-ID EMCY", DataType::Unsigned32)
+            .access(Access::ReadWrite)
+            .default(DefaultValue::NodeIdPlus(0x80)),
+    ),
+    Object::var(
+        INHIBIT_TIME_EMCY,
+        "Inhibit time EMCY",
+        Var::new("Inhibit time EMCY", DataType::Unsigned16).access(Access::ReadWrite),
+    ),
+    Object::var(
+        PRODUCER_HEARTBEAT_TIME,
+        "Producer heartbeat time",
+        Var::new("Producer heartbeat time", DataType::Unsigned16).access(Access::ReadWrite),
+    ),
+    Object::record(IDENTITY, "Identity object", &IDENTITY_SUBS),
+    Object::var(
+        STORE_EDS,
+        "Store EDS",
+        Var::new("Store EDS", DataType::Domain)
+            .access(Access::ReadOnly)
+            .default(DefaultValue::Device(DeviceField::Eds)),
+    ),
+    Object::record(SDO_SERVER_PARAMETER, "SDO server parameter", &SDO_SERVER_SUBS),
+];
+
+/// Objects a build leaves out: 1021h without the `eds-object` feature.
+const fn included(object: &Object) -> bool {
+    object.index != STORE_EDS || cfg!(feature = "eds-object")
+}
+
 // Loop indices are bounded by the array lengths; `get` is not usable in a const fn.
 #[allow(clippy::indexing_slicing)]
-const fn communication_objects<const N: usize>() -> [Object; N] {
-    let all = [
-        Object::var(DEVICE_TYPE, "Device type", u32_const("Device type", DeviceField::DeviceType)),
-        Object::var(
-            ERROR_REGISTER,
-            "Error register",
-            Var::new("Error register", DataType::Unsigned8).pdo(PdoMapping::Tpdo),
-        ),
-        Object::var(
-            DEVICE_NAME,
-            "Manufacturer device name",
-            text("Manufacturer device name", DeviceField::DeviceName),
-        ),
-        Object::var(
-            HARDWARE_VERSION,
-            "Manufacturer hardware version",
-            text("Manufacturer hardware version", DeviceField::HardwareVersion),
-        ),
-        Object::var(
-            SOFTWARE_VERSION,
-            "Manufacturer software version",
-            text("Manufacturer software version", DeviceField::SoftwareVersion),
-        ),
-        Object::var(
-            PRODUCER_HEARTBEAT_TIME,
-            "Producer heartbeat time",
-            Var::new("Producer heartbeat time", DataType::Unsigned16).access(Access::ReadWrite),
-        ),
-        Object::record(IDENTITY, "Identity object", &IDENTITY_SUBS),
-        Object::var(
-            STORE_EDS,
-            "Store EDS",
-            Var::new("Store EDS", DataType::Domain)
-                .access(Access::ReadOnly)
-                .default(DefaultValue::Device(DeviceField::Eds)),
-        ),
-        Object::record(SDO_SERVER_PARAMETER, "SDO server parameter", &SDO_SERVER_SUBS),
-    ];
-    // Keep the first N: the EDS object is last but one and left out without its feature.
-    let mut out = [Object::var(0, "", Var::new("", DataType::Unsigned8)); N];
-    let mut i = 0;
-    let mut j = 0;
+const fn included_count(all: &[Object]) -> usize {
+    let (mut i, mut n) = (0, 0);
     while i < all.len() {
-        let keep = all[i].index != STORE_EDS || cfg!(feature = "eds-object");
-        if keep && j < N {
+        if included(&all[i]) {
+            n += 1;
+        }
+        i += 1;
+    }
+    n
+}
+
+// Loop indices are bounded by the array lengths; `get` is not usable in a const fn.
+#[allow(clippy::indexing_slicing)]
+const fn select<const N: usize>(all: &[Object]) -> [Object; N] {
+    let mut out = [Object::var(0, "", Var::new("", DataType::Unsigned8)); N];
+    let (mut i, mut j) = (0, 0);
+    while i < all.len() {
+        if included(&all[i]) && j < N {
             out[j] = all[i];
             j += 1;
         }
@@ -111,10 +156,7 @@ const fn communication_objects<const N: usize>() -> [Object; N] {
     out
 }
 
-#[cfg(feature = "eds-object")]
-const COMMUNICATION_COUNT: usize = 9;
-#[cfg(not(feature = "eds-object"))]
-const COMMUNICATION_COUNT: usize = 8;
+const COMMUNICATION_COUNT: usize = included_count(&ALL_COMMUNICATION);
 
 /// The CiA 301 objects of the communication profile area (1000h–1FFFh) this crate implements.
-pub static COMMUNICATION: [Object; COMMUNICATION_COUNT] = layout(communication_objects());
+pub static COMMUNICATION: [Object; COMMUNICATION_COUNT] = layout(select(&ALL_COMMUNICATION));

@@ -1,6 +1,7 @@
 //! Stateless codecs of CANopen frames: each format is parsed from a received frame's bytes
 //! into a `Repr`-style value and emitted into bytes for transmission. No state, no I/O.
 
+pub mod cob_id;
 pub mod crc;
 pub mod nmt;
 pub mod sdo;

@@ -1,0 +1,227 @@
+//! EMCY producer (CiA 301 §7.2.7, digest §9): the one path every error of the drive takes.
+//!
+//! ```text
+//! COB-ID 1014h (default 0x80+id), DLC 8:
+//! [code LSB, code MSB, error register 1001h, 5 bytes manufacturer-specific]
+//! ```
+//!
+//! The producer keeps the set of active errors. Raising an error that is not active yet sends
+//! its EMCY; clearing one sends the "error reset" EMCY (code 0x0000) with the register that
+//! remains. The error register is derived from the active set (bit 0 whenever any error is
+//! active), so it can never disagree with it. Frames are queued and leave no closer together
+//! than the inhibit time 1015h (100 µs units): delayed, never dropped, unless the queue
+//! overflows, which is counted.
+
+use bitflags::bitflags;
+use heapless::{Deque, Vec};
+
+use crate::time::{Duration, Instant};
+
+bitflags! {
+    /// Error register 1001h (digest §9.3).
+    #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+    pub struct ErrorRegister: u8 {
+        /// Bit 0: generic error (set whenever any error is active).
+        const GENERIC = 0x01;
+        /// Bit 1: current.
+        const CURRENT = 0x02;
+        /// Bit 2: voltage.
+        const VOLTAGE = 0x04;
+        /// Bit 3: temperature.
+        const TEMPERATURE = 0x08;
+        /// Bit 4: communication error.
+        const COMMUNICATION = 0x10;
+        /// Bit 5: device-profile specific.
+        const DEVICE_PROFILE = 0x20;
+        /// Bit 7: manufacturer-specific.
+        const MANUFACTURER = 0x80;
+    }
+}
+
+/// EMCY error codes the communication layer raises (digest §9.4).
+pub mod code {
+    /// Error reset or no error.
+    pub const NO_ERROR: u16 = 0x0000;
+    /// Communication – generic (SYNC loss, as documented in `comm::sync`).
+    pub const COMMUNICATION: u16 = 0x8100;
+    /// CAN overrun (objects lost).
+    pub const CAN_OVERRUN: u16 = 0x8110;
+    /// CAN in error passive mode.
+    pub const CAN_ERROR_PASSIVE: u16 = 0x8120;
+    /// Life guard error or heartbeat error.
+    pub const LIFE_GUARD_OR_HEARTBEAT: u16 = 0x8130;
+    /// Recovered from bus off.
+    pub const RECOVERED_FROM_BUS_OFF: u16 = 0x8140;
+    /// Protocol error – generic (e.g. unusable PDO mapping).
+    pub const PROTOCOL: u16 = 0x8200;
+    /// PDO not processed due to length error.
+    pub const PDO_LENGTH: u16 = 0x8210;
+    /// PDO length exceeded.
+    pub const PDO_LENGTH_EXCEEDED: u16 = 0x8220;
+    /// Unexpected SYNC data length.
+    pub const SYNC_LENGTH: u16 = 0x8240;
+    /// RPDO timeout.
+    pub const RPDO_TIMEOUT: u16 = 0x8250;
+    /// Device software: data set (e.g. corrupt parameter storage).
+    pub const DATA_SET: u16 = 0x6300;
+}
+
+/// One active error.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ActiveError {
+    /// EMCY error code.
+    pub code: u16,
+    /// Error register bits the error sets.
+    pub register: ErrorRegister,
+}
+
+/// The EMCY producer with room for `ACTIVE` simultaneous errors and `QUEUE` pending frames.
+pub struct EmcyProducer<const ACTIVE: usize = 8, const QUEUE: usize = 8> {
+    active: Vec<ActiveError, ACTIVE>,
+    queue: Deque<[u8; 8], QUEUE>,
+    next_allowed: Instant,
+    lost: u32,
+}
+
+impl<const ACTIVE: usize, const QUEUE: usize> Default for EmcyProducer<ACTIVE, QUEUE> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<const ACTIVE: usize, const QUEUE: usize> EmcyProducer<ACTIVE, QUEUE> {
+    /// No active error, nothing queued.
+    pub const fn new() -> Self {
+        EmcyProducer { active: Vec::new(), queue: Deque::new(), next_allowed: Instant::ZERO, lost: 0 }
+    }
+
+    /// The error register derived from the active errors.
+    pub fn register(&self) -> ErrorRegister {
+        let bits = self.active.iter().fold(ErrorRegister::empty(), |acc, e| acc | e.register);
+        if self.active.is_empty() {
+            bits
+        } else {
+            bits | ErrorRegister::GENERIC
+        }
+    }
+
+    /// The active errors, oldest first.
+    pub fn active(&self) -> &[ActiveError] {
+        &self.active
+    }
+
+    /// True when `code` is active.
+    pub fn is_active(&self, code: u16) -> bool {
+        self.active.iter().any(|e| e.code == code)
+    }
+
+    /// Frames lost because the queue or the active set was full.
+    pub fn lost(&self) -> u32 {
+        self.lost
+    }
+
+    /// Raises `code`; returns the EMCY frame data when the error was not active yet (the frame
+    /// is also queued for transmission).
+    pub fn raise(&mut self, code: u16, register: ErrorRegister, info: [u8; 5]) -> Option<[u8; 8]> {
+        if self.is_active(code) {
+            return None;
+        }
+        if self.active.push(ActiveError { code, register }).is_err() {
+            // Still reported on the bus; the register keeps what fits.
+            self.lost = self.lost.saturating_add(1);
+        }
+        Some(self.enqueue(code, info))
+    }
+
+    /// Clears `code`; when it was active, queues the "error reset" EMCY and returns true.
+    pub fn clear(&mut self, code: u16) -> bool {
+        let Some(pos) = self.active.iter().position(|e| e.code == code) else {
+            return false;
+        };
+        self.active.remove(pos);
+        self.enqueue(code::NO_ERROR, [0; 5]);
+        true
+    }
+
+    /// Forgets every active error and pending frame (reset communication).
+    pub fn reset(&mut self) {
+        self.active.clear();
+        self.queue.clear();
+    }
+
+    /// Drops pending frames without forgetting the errors (EMCY invalid via 1014h).
+    pub fn discard_pending(&mut self) {
+        self.queue.clear();
+    }
+
+    fn enqueue(&mut self, code: u16, info: [u8; 5]) -> [u8; 8] {
+        let [lo, hi] = code.to_le_bytes();
+        let [i0, i1, i2, i3, i4] = info;
+        let frame = [lo, hi, self.register().bits(), i0, i1, i2, i3, i4];
+        if self.queue.push_back(frame).is_err() {
+            self.lost = self.lost.saturating_add(1);
+        }
+        frame
+    }
+
+    /// The next frame to send at `now`, respecting the inhibit time (100 µs units).
+    pub fn pop_due(&mut self, now: Instant, inhibit_100us: u16) -> Option<[u8; 8]> {
+        if now < self.next_allowed {
+            return None;
+        }
+        let frame = self.queue.pop_front()?;
+        self.next_allowed = now + Duration::from_micros(u64::from(inhibit_100us) * 100);
+        Some(frame)
+    }
+
+    /// When a queued frame may be sent.
+    pub fn deadline(&self) -> Option<Instant> {
+        (!self.queue.is_empty()).then_some(self.next_allowed)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn register_follows_the_active_errors() {
+        let mut emcy = EmcyProducer::<4, 8>::new();
+        let f = emcy.raise(0x8130, ErrorRegister::COMMUNICATION, [0; 5]).unwrap();
+        assert_eq!(f, [0x30, 0x81, 0x11, 0, 0, 0, 0, 0]);
+        assert_eq!(emcy.raise(0x8130, ErrorRegister::COMMUNICATION, [0; 5]), None, "already active");
+        emcy.raise(0x4210, ErrorRegister::TEMPERATURE, [1, 2, 3, 4, 5]);
+        assert_eq!(emcy.register().bits(), 0x19);
+        assert!(emcy.clear(0x8130));
+        assert!(!emcy.clear(0x8130));
+        assert_eq!(emcy.register().bits(), 0x09);
+        emcy.clear(0x4210);
+        assert_eq!(emcy.register().bits(), 0);
+        let now = Instant::ZERO;
+        let sent: std::vec::Vec<[u8; 8]> = std::iter::from_fn(|| emcy.pop_due(now, 0)).collect();
+        assert_eq!(
+            sent,
+            [
+                [0x30, 0x81, 0x11, 0, 0, 0, 0, 0],
+                [0x10, 0x42, 0x19, 1, 2, 3, 4, 5],
+                [0x00, 0x00, 0x09, 0, 0, 0, 0, 0],
+                [0x00, 0x00, 0x00, 0, 0, 0, 0, 0],
+            ]
+        );
+    }
+
+    #[test]
+    fn inhibit_time_delays_without_dropping() {
+        let mut emcy = EmcyProducer::<4, 8>::new();
+        emcy.raise(0x1000, ErrorRegister::empty(), [0; 5]);
+        emcy.raise(0x2000, ErrorRegister::CURRENT, [0; 5]);
+        let t0 = Instant::from_millis(10);
+        assert!(emcy.pop_due(t0, 50).is_some());
+        assert_eq!(emcy.deadline(), Some(t0 + Duration::from_millis(5)));
+        assert!(emcy.pop_due(t0 + Duration::from_micros(4999), 50).is_none());
+        assert_eq!(emcy.pop_due(t0 + Duration::from_millis(5), 50).unwrap()[..2], [0x00, 0x20]);
+        assert_eq!(emcy.deadline(), None);
+    }
+
+    extern crate std;
+}
