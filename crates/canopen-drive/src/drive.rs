@@ -12,7 +12,10 @@ use core::fmt;
 
 use heapless::Deque;
 
-use crate::comm::emcy::{EmcyProducer, ErrorRegister};
+use crate::comm::emcy::{code, EmcyProducer, ErrorRegister};
+use crate::comm::error_control::{
+    parse_entry, ConsumerEvent, ErrorBehaviour, GuardingEvent, HeartbeatConsumer, NodeGuarding,
+};
 use crate::comm::heartbeat::HeartbeatProducer;
 use crate::comm::nmt::{transition, NmtAction, Services};
 use crate::comm::sdo_server::{ObjectAccess, SdoServer};
@@ -20,7 +23,8 @@ use crate::frame::CanFrame;
 use crate::hal::{Demand, Sample};
 use crate::od::eds::{self, EdsInfo};
 use crate::od::standard::{
-    self, COB_ID_EMCY, ERROR_HISTORY_LEN, ERROR_REGISTER, INHIBIT_TIME_EMCY, PRE_DEFINED_ERROR_FIELD,
+    self, COB_ID_EMCY, CONSUMER_HEARTBEAT_TIME, ERROR_BEHAVIOUR, ERROR_HISTORY_LEN, ERROR_REGISTER,
+    GUARD_TIME, HEARTBEAT_CONSUMERS, INHIBIT_TIME_EMCY, LIFE_TIME_FACTOR, PRE_DEFINED_ERROR_FIELD,
     PRODUCER_HEARTBEAT_TIME,
 };
 use crate::od::{AbortCode, ConfigError, DeviceInfo, Dictionary, Entry, Object, ObjectHooks, WriteRule};
@@ -30,12 +34,47 @@ use crate::wire::nmt::{NmtState, NodeControl};
 use crate::wire::sdo::Mux;
 use crate::wire::{ERROR_CONTROL_BASE, NMT_COB_ID, SDO_RX_BASE, SDO_TX_BASE};
 
+/// Heartbeats of nodes 1..=127.
+const ERROR_CONTROL_FIRST: u16 = ERROR_CONTROL_BASE + 1;
+const ERROR_CONTROL_LAST: u16 = ERROR_CONTROL_BASE + 127;
+
 /// Frames the drive can hold for transmission until [`Drive::pop_tx`] drains them.
 pub const TX_QUEUE: usize = 16;
 /// Bytes the SDO server can stage for one download.
 pub const SDO_BUFFER: usize = 256;
 /// Default size of the dictionary's value store in bytes.
 pub const DEFAULT_OD_BYTES: usize = 2048;
+
+/// Events that break the connection to the master; the CiA 402 layer reacts to them as the
+/// abort connection option code 6007h says (digest 402 §6.1).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ConnectionEvent {
+    /// The CAN controller went bus-off.
+    BusOff,
+    /// A consumed heartbeat timed out.
+    HeartbeatLost,
+    /// Life guarding failed.
+    LifeGuardingLost,
+    /// NMT Stopped was entered.
+    NmtStopped,
+    /// NMT reset application.
+    ResetApplication,
+    /// NMT reset communication.
+    ResetCommunication,
+}
+
+/// State of the CAN controller, as the board reports it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CanState {
+    /// Error active: everything normal (also: recovered).
+    ErrorActive,
+    /// Error passive (EMCY 0x8120 while it lasts).
+    ErrorPassive,
+    /// Bus-off: the node cannot send (EMCY 0x8140 after recovery, 1029h reaction).
+    BusOff,
+    /// Frames were lost in the controller (EMCY 0x8110).
+    Overrun,
+}
 
 /// Start-up configuration of a drive.
 #[derive(Clone, Copy, Debug)]
@@ -71,6 +110,10 @@ pub struct Drive<H: ObjectHooks = (), const OD_BYTES: usize = DEFAULT_OD_BYTES> 
     nmt: NmtState,
     heartbeat: HeartbeatProducer,
     emcy: EmcyProducer,
+    heartbeat_consumer: HeartbeatConsumer<{ HEARTBEAT_CONSUMERS as usize }>,
+    guarding: NodeGuarding,
+    bus_off: bool,
+    connection_event: Option<ConnectionEvent>,
     tx: Deque<CanFrame, TX_QUEUE>,
     tx_dropped: u32,
     hooks: H,
@@ -107,6 +150,10 @@ impl<H: ObjectHooks, const OD_BYTES: usize> Drive<H, OD_BYTES> {
             nmt: NmtState::Initialising,
             heartbeat: HeartbeatProducer::default(),
             emcy: EmcyProducer::new(),
+            heartbeat_consumer: HeartbeatConsumer::default(),
+            guarding: NodeGuarding::default(),
+            bus_off: false,
+            connection_event: None,
             tx: Deque::new(),
             tx_dropped: 0,
             hooks,
@@ -152,15 +199,23 @@ impl<H: ObjectHooks, const OD_BYTES: usize> Drive<H, OD_BYTES> {
     /// worth of block-upload segments.
     pub fn on_frame(&mut self, frame: &CanFrame, now: Instant) {
         self.boot_if_pending(now);
-        if embedded_can::Frame::is_remote_frame(frame) {
-            return;
-        }
         let Some(id) = frame.standard_id() else {
             return;
         };
         let node_id = self.node_id();
+        if embedded_can::Frame::is_remote_frame(frame) {
+            if id == ERROR_CONTROL_BASE + u16::from(node_id) {
+                self.guarding_request(now);
+            }
+            return;
+        }
         let data = embedded_can::Frame::data(frame);
-        if id == NMT_COB_ID {
+        if let (ERROR_CONTROL_FIRST..=ERROR_CONTROL_LAST, Some(&state)) = (id, data.first()) {
+            if self.nmt.serves_sdo() {
+                let event = self.heartbeat_consumer.on_heartbeat((id - ERROR_CONTROL_BASE) as u8, state, now);
+                self.consumer_event(event, now);
+            }
+        } else if id == NMT_COB_ID {
             if let Some(control) = NodeControl::parse(data).filter(|c| c.addresses(node_id)) {
                 self.nmt_command(transition(self.nmt, control.command), now);
             }
@@ -186,9 +241,104 @@ impl<H: ObjectHooks, const OD_BYTES: usize> Drive<H, OD_BYTES> {
         if self.heartbeat.due(now, self.heartbeat_period()) {
             self.send_error_control(self.nmt.heartbeat_byte());
         }
+        if self.nmt.serves_sdo() {
+            let event = self.heartbeat_consumer.poll(now);
+            self.consumer_event(event, now);
+        }
+        if self.guarding.poll(now) == Some(GuardingEvent::LifeGuardingFailed) {
+            self.communication_error(
+                code::LIFE_GUARD_OR_HEARTBEAT,
+                [0; 5],
+                ConnectionEvent::LifeGuardingLost,
+                now,
+            );
+        }
         self.drain_sdo(now);
         let emcy = self.send_emcy(now);
-        earliest(earliest(self.heartbeat.deadline(), self.sdo.deadline()), emcy)
+        let supervision = if self.nmt.serves_sdo() { self.heartbeat_consumer.deadline() } else { None };
+        [self.heartbeat.deadline(), self.sdo.deadline(), emcy, supervision, self.guarding.deadline()]
+            .into_iter()
+            .fold(None, earliest)
+    }
+
+    /// Reports a change of the CAN controller's state (from the board's error interrupt).
+    pub fn on_can_state(&mut self, state: CanState, now: Instant) {
+        match state {
+            CanState::BusOff => {
+                self.bus_off = true;
+                self.communication_reaction(ConnectionEvent::BusOff, now);
+            }
+            CanState::ErrorActive => {
+                self.clear_error(code::CAN_ERROR_PASSIVE);
+                if core::mem::take(&mut self.bus_off) {
+                    // Reported once the node can speak again (digest §15).
+                    self.raise_error(code::RECOVERED_FROM_BUS_OFF, ErrorRegister::COMMUNICATION, [0; 5]);
+                    self.clear_error(code::RECOVERED_FROM_BUS_OFF);
+                }
+            }
+            CanState::ErrorPassive => {
+                self.raise_error(code::CAN_ERROR_PASSIVE, ErrorRegister::COMMUNICATION, [0; 5]);
+            }
+            CanState::Overrun => {
+                self.raise_error(code::CAN_OVERRUN, ErrorRegister::COMMUNICATION, [0; 5]);
+                self.clear_error(code::CAN_OVERRUN);
+            }
+        }
+    }
+
+    /// The last event that broke the connection to the master, taken (for the 6007h reaction).
+    pub fn take_connection_event(&mut self) -> Option<ConnectionEvent> {
+        self.connection_event.take()
+    }
+
+    fn guarding_request(&mut self, now: Instant) {
+        // Node guarding is answered only while the heartbeat producer is off (digest §4.3).
+        if self.heartbeat_period() != 0 || self.nmt == NmtState::Initialising {
+            return;
+        }
+        let guard = u32::from(self.od.get::<u16>(GUARD_TIME, 0).unwrap_or(0));
+        let factor = u32::from(self.od.get::<u8>(LIFE_TIME_FACTOR, 0).unwrap_or(0));
+        let (byte, event) = self.guarding.on_request(self.nmt, guard * factor, now);
+        self.send_error_control(byte);
+        if event == Some(GuardingEvent::Resumed) {
+            self.communication_recovered();
+        }
+    }
+
+    fn consumer_event(&mut self, event: Option<ConsumerEvent>, now: Instant) {
+        match event {
+            None => {}
+            Some(ConsumerEvent::Timeout { node_id } | ConsumerEvent::RemoteReset { node_id }) => {
+                self.communication_error(
+                    code::LIFE_GUARD_OR_HEARTBEAT,
+                    [node_id, 0, 0, 0, 0],
+                    ConnectionEvent::HeartbeatLost,
+                    now,
+                );
+            }
+            Some(ConsumerEvent::Recovered { .. }) => self.communication_recovered(),
+        }
+    }
+
+    /// A communication error: its EMCY, the 1029h reaction and the connection event.
+    fn communication_error(&mut self, code: u16, info: [u8; 5], event: ConnectionEvent, now: Instant) {
+        self.raise_error(code, ErrorRegister::COMMUNICATION, info);
+        self.communication_reaction(event, now);
+    }
+
+    fn communication_reaction(&mut self, event: ConnectionEvent, now: Instant) {
+        self.connection_event = Some(event);
+        let value = self.od.get::<u8>(ERROR_BEHAVIOUR, 1).unwrap_or(0);
+        if let Some(state) = ErrorBehaviour::from_value(value).and_then(|b| b.next_state(self.nmt)) {
+            self.nmt_command(NmtAction::Enter(state), now);
+        }
+    }
+
+    /// Clears 0x8130 once no heartbeat entry is timed out and life guarding is fine.
+    fn communication_recovered(&mut self) {
+        if !self.heartbeat_consumer.any_timed_out() && !self.guarding.failed() {
+            self.clear_error(code::LIFE_GUARD_OR_HEARTBEAT);
+        }
     }
 
     /// Raises an error: sends its EMCY (in Pre-operational and Operational; queued in Stopped),
@@ -290,6 +440,9 @@ impl<H: ObjectHooks, const OD_BYTES: usize> Drive<H, OD_BYTES> {
             NmtAction::None => {}
             NmtAction::Enter(state) => {
                 if state != self.nmt {
+                    if state == NmtState::Stopped {
+                        self.connection_event = Some(ConnectionEvent::NmtStopped);
+                    }
                     self.nmt = state;
                     if !state.serves_sdo() {
                         self.sdo.reset();
@@ -300,8 +453,12 @@ impl<H: ObjectHooks, const OD_BYTES: usize> Drive<H, OD_BYTES> {
             NmtAction::ResetApplication => {
                 self.od.reset(0x2000..=0xFFFF);
                 self.reset_communication(now);
+                self.connection_event = Some(ConnectionEvent::ResetApplication);
             }
-            NmtAction::ResetCommunication => self.reset_communication(now),
+            NmtAction::ResetCommunication => {
+                self.reset_communication(now);
+                self.connection_event = Some(ConnectionEvent::ResetCommunication);
+            }
         }
     }
 
@@ -310,6 +467,8 @@ impl<H: ObjectHooks, const OD_BYTES: usize> Drive<H, OD_BYTES> {
         // Active errors are conditions of the device and stay; the history and queue go.
         self.emcy.discard_pending();
         self.sync_error_register();
+        self.heartbeat_consumer = HeartbeatConsumer::default();
+        self.guarding.reset();
         self.sdo.reset();
         self.heartbeat.stop();
         self.nmt = NmtState::Initialising;
@@ -318,8 +477,26 @@ impl<H: ObjectHooks, const OD_BYTES: usize> Drive<H, OD_BYTES> {
 
     /// Side effects of a value written from the bus.
     fn after_write(&mut self, mux: Mux, now: Instant) {
-        if mux.index == PRODUCER_HEARTBEAT_TIME {
-            self.heartbeat.restart(now, self.heartbeat_period());
+        match mux.index {
+            PRODUCER_HEARTBEAT_TIME => {
+                self.heartbeat.restart(now, self.heartbeat_period());
+                if self.heartbeat_period() != 0 {
+                    self.guarding.stop();
+                }
+            }
+            CONSUMER_HEARTBEAT_TIME => {
+                let raw = self.od.get::<u32>(CONSUMER_HEARTBEAT_TIME, mux.sub).unwrap_or(0);
+                self.heartbeat_consumer.configure(mux.sub, raw);
+                self.communication_recovered();
+            }
+            GUARD_TIME | LIFE_TIME_FACTOR => {
+                let guard = self.od.get::<u16>(GUARD_TIME, 0).unwrap_or(0);
+                let factor = self.od.get::<u8>(LIFE_TIME_FACTOR, 0).unwrap_or(0);
+                if guard == 0 || factor == 0 {
+                    self.guarding.stop();
+                }
+            }
+            _ => {}
         }
     }
 
@@ -426,6 +603,22 @@ fn check_communication<const B: usize>(od: &Dictionary<B>, mux: Mux, data: &[u8]
     match mux.index {
         // Only 0 may be written to the number of errors: it clears the history.
         PRE_DEFINED_ERROR_FIELD if raw != 0 => Err(AbortCode::InvalidValue),
+        ERROR_BEHAVIOUR if ErrorBehaviour::from_value(raw as u8).is_none() => Err(AbortCode::InvalidValue),
+        CONSUMER_HEARTBEAT_TIME => {
+            // Two entries must not supervise the same node (digest §4.2).
+            let Some((node, _)) = parse_entry(raw) else { return Ok(()) };
+            let duplicate = (1..=HEARTBEAT_CONSUMERS).filter(|&sub| sub != mux.sub).any(|sub| {
+                od.get::<u32>(CONSUMER_HEARTBEAT_TIME, sub)
+                    .ok()
+                    .and_then(parse_entry)
+                    .is_some_and(|(n, _)| n == node)
+            });
+            if duplicate {
+                Err(AbortCode::ParameterIncompatible)
+            } else {
+                Ok(())
+            }
+        }
         COB_ID_EMCY => {
             let new = CobId::parse(raw).map_err(|_| AbortCode::InvalidValue)?;
             let old = od.get::<u32>(COB_ID_EMCY, 0).ok().and_then(|r| CobId::parse(r).ok());

@@ -1,6 +1,7 @@
 //! The CiA 301 communication services of a slave: NMT, SDO server, heartbeat producer.
 
 pub mod emcy;
+pub mod error_control;
 pub mod heartbeat;
 pub mod nmt;
 pub mod sdo_server;

@@ -15,14 +15,24 @@ pub const HARDWARE_VERSION: u16 = 0x1009;
 pub const SOFTWARE_VERSION: u16 = 0x100A;
 /// 1003h pre-defined error field (error history, newest first).
 pub const PRE_DEFINED_ERROR_FIELD: u16 = 0x1003;
+/// 100Ch guard time (ms).
+pub const GUARD_TIME: u16 = 0x100C;
+/// 100Dh life time factor.
+pub const LIFE_TIME_FACTOR: u16 = 0x100D;
 /// 1014h COB-ID EMCY.
 pub const COB_ID_EMCY: u16 = 0x1014;
 /// 1015h inhibit time EMCY (100 µs).
 pub const INHIBIT_TIME_EMCY: u16 = 0x1015;
+/// 1016h consumer heartbeat time.
+pub const CONSUMER_HEARTBEAT_TIME: u16 = 0x1016;
 /// 1017h producer heartbeat time (ms).
 pub const PRODUCER_HEARTBEAT_TIME: u16 = 0x1017;
 /// 1018h identity object.
 pub const IDENTITY: u16 = 0x1018;
+/// 1029h error behaviour.
+pub const ERROR_BEHAVIOUR: u16 = 0x1029;
+/// Entries of the heartbeat consumer 1016h.
+pub const HEARTBEAT_CONSUMERS: u8 = 4;
 /// 1021h store EDS.
 pub const STORE_EDS: u16 = 0x1021;
 /// 1200h SDO server parameter.
@@ -66,7 +76,7 @@ const SDO_SERVER_SUBS: [(u8, Var); 3] = [
 ];
 
 /// Every communication object of the crate, before the feature selection.
-const ALL_COMMUNICATION: [Object; 12] = [
+const ALL_COMMUNICATION: [Object; 16] = [
     Object::var(DEVICE_TYPE, "Device type", u32_const("Device type", DeviceField::DeviceType)),
     Object::var(
         ERROR_REGISTER,
@@ -96,6 +106,16 @@ const ALL_COMMUNICATION: [Object; 12] = [
         text("Manufacturer software version", DeviceField::SoftwareVersion),
     ),
     Object::var(
+        GUARD_TIME,
+        "Guard time",
+        Var::new("Guard time", DataType::Unsigned16).access(Access::ReadWrite),
+    ),
+    Object::var(
+        LIFE_TIME_FACTOR,
+        "Life time factor",
+        Var::new("Life time factor", DataType::Unsigned8).access(Access::ReadWrite),
+    ),
+    Object::var(
         COB_ID_EMCY,
         "COB-ID EMCY",
         Var::new("COB-ID EMCY", DataType::Unsigned32)
@@ -106,6 +126,12 @@ const ALL_COMMUNICATION: [Object; 12] = [
         INHIBIT_TIME_EMCY,
         "Inhibit time EMCY",
         Var::new("Inhibit time EMCY", DataType::Unsigned16).access(Access::ReadWrite),
+    ),
+    Object::array(
+        CONSUMER_HEARTBEAT_TIME,
+        "Consumer heartbeat time",
+        HEARTBEAT_CONSUMERS,
+        Var::new("Consumer heartbeat time", DataType::Unsigned32).access(Access::ReadWrite),
     ),
     Object::var(
         PRODUCER_HEARTBEAT_TIME,
@@ -119,6 +145,12 @@ const ALL_COMMUNICATION: [Object; 12] = [
         Var::new("Store EDS", DataType::Domain)
             .access(Access::ReadOnly)
             .default(DefaultValue::Device(DeviceField::Eds)),
+    ),
+    Object::array(
+        ERROR_BEHAVIOUR,
+        "Error behaviour",
+        1,
+        Var::new("Communication error", DataType::Unsigned8).access(Access::ReadWrite),
     ),
     Object::record(SDO_SERVER_PARAMETER, "SDO server parameter", &SDO_SERVER_SUBS),
 ];

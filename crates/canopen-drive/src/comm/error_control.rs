@@ -1,0 +1,305 @@
+//! Error control consumers (CiA 301 §7.2.8.3, digest §4.2–4.4): heartbeat consumer (1016h),
+//! node guarding / life guarding (100Ch, 100Dh) and the error behaviour 1029h.
+//!
+//! ```text
+//! heartbeat of node n   COB-ID 0x700+n, DLC 1: [state]  (0x00 = boot-up)
+//! guarding request      remote frame COB-ID 0x700+id, DLC 1
+//! guarding response     COB-ID 0x700+id, DLC 1: [toggle << 7 | state]
+//! ```
+//!
+//! Supervision of a heartbeat entry starts with the first heartbeat received from its node,
+//! never at configuration (digest §18 item 1). A boot-up from a node that was being supervised is
+//! a "remote reset" event; the entry then waits for the node's next heartbeat. Life guarding
+//! starts with the first guarding request and is active only while 1017h = 0.
+
+use crate::time::{Duration, Instant};
+use crate::wire::nmt::NmtState;
+
+/// State of one heartbeat-consumer entry (digest §4.2).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Supervision {
+    /// Node-ID or time is 0: not used.
+    Unconfigured,
+    /// Configured; no heartbeat seen yet (not supervised).
+    Waiting,
+    /// Heartbeat seen; a timeout is due at `deadline`.
+    Active {
+        /// When the entry times out without a new heartbeat.
+        deadline: Instant,
+    },
+    /// The heartbeat stopped; waiting for it to come back.
+    TimedOut,
+}
+
+/// What the consumer tells the drive.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ConsumerEvent {
+    /// An active entry timed out (EMCY 0x8130, 1029h reaction).
+    Timeout {
+        /// The node that went silent.
+        node_id: u8,
+    },
+    /// A supervised node sent a boot-up (it reset).
+    RemoteReset {
+        /// The node that reset.
+        node_id: u8,
+    },
+    /// A timed-out node is heard again.
+    Recovered {
+        /// The node that came back.
+        node_id: u8,
+    },
+}
+
+/// Splits a 1016h entry into (node-ID, time in ms); `None` when unused.
+pub fn parse_entry(raw: u32) -> Option<(u8, u16)> {
+    let node = ((raw >> 16) & 0xFF) as u8;
+    let time = (raw & 0xFFFF) as u16;
+    (node != 0 && time != 0).then_some((node, time))
+}
+
+/// The heartbeat consumer with `N` entries.
+#[derive(Clone, Debug)]
+pub struct HeartbeatConsumer<const N: usize> {
+    entries: [(u32, Supervision); N],
+}
+
+impl<const N: usize> Default for HeartbeatConsumer<N> {
+    fn default() -> Self {
+        HeartbeatConsumer { entries: [(0, Supervision::Unconfigured); N] }
+    }
+}
+
+impl<const N: usize> HeartbeatConsumer<N> {
+    /// Sets entry `sub` (1-based) from its raw 1016h value; supervision restarts (waits for the
+    /// first heartbeat).
+    pub fn configure(&mut self, sub: u8, raw: u32) {
+        if let Some(slot) = usize::from(sub).checked_sub(1).and_then(|i| self.entries.get_mut(i)) {
+            let state =
+                if parse_entry(raw).is_some() { Supervision::Waiting } else { Supervision::Unconfigured };
+            *slot = (raw, state);
+        }
+    }
+
+    /// The state of entry `sub` (1-based).
+    pub fn state(&self, sub: u8) -> Option<Supervision> {
+        usize::from(sub).checked_sub(1).and_then(|i| self.entries.get(i)).map(|(_, s)| *s)
+    }
+
+    /// A heartbeat or boot-up `state_byte` from `node_id` at `now`.
+    pub fn on_heartbeat(&mut self, node_id: u8, state_byte: u8, now: Instant) -> Option<ConsumerEvent> {
+        let mut event = None;
+        for (raw, state) in self.entries.iter_mut() {
+            let Some((node, time)) = parse_entry(*raw) else { continue };
+            if node != node_id {
+                continue;
+            }
+            let deadline = now + Duration::from_millis(u64::from(time));
+            *state = match (*state, state_byte) {
+                (Supervision::Active { .. }, 0x00) => {
+                    event = Some(ConsumerEvent::RemoteReset { node_id });
+                    Supervision::Waiting
+                }
+                (Supervision::TimedOut, 0x00) => {
+                    event = Some(ConsumerEvent::Recovered { node_id });
+                    Supervision::Waiting
+                }
+                (Supervision::TimedOut, _) => {
+                    event = Some(ConsumerEvent::Recovered { node_id });
+                    Supervision::Active { deadline }
+                }
+                // A boot-up is not a heartbeat: supervision starts with the next one.
+                (Supervision::Waiting, 0x00) => Supervision::Waiting,
+                (Supervision::Waiting | Supervision::Active { .. }, _) => Supervision::Active { deadline },
+                (Supervision::Unconfigured, _) => Supervision::Unconfigured,
+            };
+        }
+        event
+    }
+
+    /// Checks the deadlines at `now`; returns the first entry that timed out.
+    pub fn poll(&mut self, now: Instant) -> Option<ConsumerEvent> {
+        for (raw, state) in self.entries.iter_mut() {
+            if let Supervision::Active { deadline } = *state {
+                if now >= deadline {
+                    *state = Supervision::TimedOut;
+                    let node_id = parse_entry(*raw).map_or(0, |(n, _)| n);
+                    return Some(ConsumerEvent::Timeout { node_id });
+                }
+            }
+        }
+        None
+    }
+
+    /// True while any entry is timed out.
+    pub fn any_timed_out(&self) -> bool {
+        self.entries.iter().any(|(_, s)| *s == Supervision::TimedOut)
+    }
+
+    /// The earliest deadline.
+    pub fn deadline(&self) -> Option<Instant> {
+        self.entries
+            .iter()
+            .filter_map(|(_, s)| match s {
+                Supervision::Active { deadline } => Some(*deadline),
+                _ => None,
+            })
+            .min()
+    }
+}
+
+/// Node guarding responder and life guarding supervisor.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct NodeGuarding {
+    toggle: bool,
+    deadline: Option<Instant>,
+    failed: bool,
+}
+
+/// What a guarding request or the life-guarding timer tells the drive.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GuardingEvent {
+    /// No guarding request within the node life time (EMCY 0x8130, 1029h reaction).
+    LifeGuardingFailed,
+    /// Guarding requests arrive again after a failure.
+    Resumed,
+}
+
+impl NodeGuarding {
+    /// Answers a guarding request at `now`: the response byte, and an event if guarding
+    /// resumed. `life_time_ms` = 100Ch × 100Dh (0 = no life guarding).
+    pub fn on_request(
+        &mut self,
+        state: NmtState,
+        life_time_ms: u32,
+        now: Instant,
+    ) -> (u8, Option<GuardingEvent>) {
+        let byte = (u8::from(self.toggle) << 7) | (state.heartbeat_byte() & 0x7F);
+        self.toggle = !self.toggle;
+        self.deadline = (life_time_ms != 0).then(|| now + Duration::from_millis(u64::from(life_time_ms)));
+        let event = core::mem::take(&mut self.failed).then_some(GuardingEvent::Resumed);
+        (byte, event)
+    }
+
+    /// Checks the life time at `now`.
+    pub fn poll(&mut self, now: Instant) -> Option<GuardingEvent> {
+        match self.deadline {
+            Some(deadline) if now >= deadline => {
+                self.deadline = None;
+                self.failed = true;
+                Some(GuardingEvent::LifeGuardingFailed)
+            }
+            _ => None,
+        }
+    }
+
+    /// Stops supervision (life time set to 0, or heartbeat producer enabled).
+    pub fn stop(&mut self) {
+        self.deadline = None;
+    }
+
+    /// Back to the power-on state (reset communication): toggle 0, no supervision.
+    pub fn reset(&mut self) {
+        *self = NodeGuarding::default();
+    }
+
+    /// True after a life-guarding failure until requests resume.
+    pub fn failed(&self) -> bool {
+        self.failed
+    }
+
+    /// When life guarding fails without a request.
+    pub fn deadline(&self) -> Option<Instant> {
+        self.deadline
+    }
+}
+
+/// Communication-error reaction of 1029h sub 1 (digest §4.4).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ErrorBehaviour {
+    /// 0: enter Pre-operational, only if currently Operational.
+    PreOperational,
+    /// 1: no change of NMT state.
+    NoChange,
+    /// 2: enter Stopped.
+    Stopped,
+    /// 0x80..=0xFF: manufacturer-specific (no NMT change here).
+    Manufacturer(u8),
+}
+
+impl ErrorBehaviour {
+    /// The reaction for a 1029h value; reserved values (3..=0x7F) are `None`.
+    pub const fn from_value(value: u8) -> Option<Self> {
+        match value {
+            0 => Some(ErrorBehaviour::PreOperational),
+            1 => Some(ErrorBehaviour::NoChange),
+            2 => Some(ErrorBehaviour::Stopped),
+            0x80..=0xFF => Some(ErrorBehaviour::Manufacturer(value)),
+            _ => None,
+        }
+    }
+
+    /// The NMT state to enter from `current`, if any.
+    pub fn next_state(self, current: NmtState) -> Option<NmtState> {
+        match (self, current) {
+            (ErrorBehaviour::PreOperational, NmtState::Operational) => Some(NmtState::PreOperational),
+            (ErrorBehaviour::Stopped, NmtState::PreOperational | NmtState::Operational) => {
+                Some(NmtState::Stopped)
+            }
+            _ => None,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ms(v: u64) -> Instant {
+        Instant::from_millis(v)
+    }
+
+    #[test]
+    fn supervision_starts_with_the_first_heartbeat() {
+        let mut c = HeartbeatConsumer::<2>::default();
+        c.configure(1, 0x0003_0064); // node 3, 100 ms
+        assert_eq!(c.state(1), Some(Supervision::Waiting));
+        assert_eq!(c.poll(ms(10_000)), None, "never heard: not supervised");
+        assert_eq!(c.on_heartbeat(3, 0x00, ms(10_000)), None, "boot-up does not start it");
+        assert_eq!(c.on_heartbeat(3, 0x7F, ms(10_010)), None);
+        assert_eq!(c.deadline(), Some(ms(10_110)));
+        assert_eq!(c.poll(ms(10_109)), None);
+        assert_eq!(c.poll(ms(10_110)), Some(ConsumerEvent::Timeout { node_id: 3 }));
+        assert!(c.any_timed_out());
+        assert_eq!(c.poll(ms(20_000)), None, "reported once");
+        assert_eq!(c.on_heartbeat(3, 0x05, ms(20_000)), Some(ConsumerEvent::Recovered { node_id: 3 }));
+        assert_eq!(c.on_heartbeat(3, 0x00, ms(20_050)), Some(ConsumerEvent::RemoteReset { node_id: 3 }));
+        assert_eq!(c.state(1), Some(Supervision::Waiting));
+    }
+
+    #[test]
+    fn guarding_toggles_and_life_time_expires() {
+        let mut g = NodeGuarding::default();
+        assert_eq!(g.on_request(NmtState::PreOperational, 300, ms(0)), (0x7F, None));
+        assert_eq!(g.on_request(NmtState::PreOperational, 300, ms(100)), (0xFF, None));
+        assert_eq!(g.on_request(NmtState::Operational, 300, ms(200)), (0x05, None));
+        assert_eq!(g.poll(ms(499)), None);
+        assert_eq!(g.poll(ms(500)), Some(GuardingEvent::LifeGuardingFailed));
+        assert_eq!(g.on_request(NmtState::Operational, 300, ms(600)), (0x85, Some(GuardingEvent::Resumed)));
+        g.reset();
+        assert_eq!(g.on_request(NmtState::Stopped, 0, ms(700)), (0x04, None));
+        assert_eq!(g.deadline(), None);
+    }
+
+    #[test]
+    fn error_behaviour_values() {
+        use NmtState::*;
+        assert_eq!(ErrorBehaviour::from_value(0).unwrap().next_state(Operational), Some(PreOperational));
+        assert_eq!(ErrorBehaviour::from_value(0).unwrap().next_state(PreOperational), None);
+        assert_eq!(ErrorBehaviour::from_value(1).unwrap().next_state(Operational), None);
+        assert_eq!(ErrorBehaviour::from_value(2).unwrap().next_state(PreOperational), Some(Stopped));
+        assert_eq!(ErrorBehaviour::from_value(3), None);
+        assert_eq!(ErrorBehaviour::from_value(0x7F), None);
+        assert_eq!(ErrorBehaviour::from_value(0x80), Some(ErrorBehaviour::Manufacturer(0x80)));
+    }
+}
