@@ -192,6 +192,7 @@ def drive(tmp_path_factory):
 @pytest.fixture
 def network(drive):
     net = canopen.Network()
+    net.NOTIFIER_CYCLE = 0.05  # the receive thread's poll period: disconnect waits for one cycle
     net.connect(interface="slcan", channel=drive.channel, bitrate=500000, sleep_after_open=0)
     yield net
     net.disconnect()

@@ -164,6 +164,29 @@ fn block_download_with_crc() {
 }
 
 #[test]
+fn block_download_filling_the_buffer_and_a_repeated_last_segment() {
+    let mut bench = Bench::new();
+    // 256 bytes (the SDO buffer) into the 1000-byte octet string: 37 segments, the last one
+    // carrying 4 bytes of data and 3 of padding beyond the buffer.
+    let data: Vec<u8> = (0..=255u8).collect();
+    let init = bench.sdo1(&req(0xC6, BIG, 0, [0, 1, 0, 0]));
+    let block_size = init[4] as usize;
+    let chunks: Vec<&[u8]> = data.chunks(7).collect();
+    let mut acks = Vec::new();
+    for (i, chunk) in chunks.iter().enumerate() {
+        let seq = (i % block_size + 1) as u8;
+        acks.extend(sub_block(&mut bench, &[(seq, i + 1 == chunks.len(), chunk)]));
+    }
+    assert_eq!(acks.last().unwrap()[..2], [0xA2, (chunks.len() - block_size) as u8]);
+    // The client did not see the ack and repeats the last segment: ignored.
+    let last = chunks.len() - block_size;
+    assert!(sub_block(&mut bench, &[(last as u8, true, chunks[chunks.len() - 1])]).is_empty());
+    let [c0, c1] = crc16(&data).to_le_bytes();
+    assert_eq!(bench.sdo1(&[0xC1 | (3 << 2), c0, c1, 0, 0, 0, 0, 0]), [0xA1, 0, 0, 0, 0, 0, 0, 0]);
+    assert_eq!(segmented_upload(&mut bench, BIG, 0), data);
+}
+
+#[test]
 fn block_download_repeats_after_a_lost_segment() {
     let mut bench = Bench::new();
     let data: Vec<u8> = (0..40u8).collect();

@@ -5,5 +5,6 @@ pub mod error_control;
 pub mod heartbeat;
 pub mod nmt;
 pub mod sdo_server;
+pub mod sync;
 
 pub use crate::wire::nmt::NmtState;

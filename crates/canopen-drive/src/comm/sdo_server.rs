@@ -151,6 +151,13 @@ impl<const BUF: usize> SdoServer<BUF> {
                 let segment = BlockSegment::parse(data)?;
                 self.block_segment(segment)
             }
+            // Waiting for the end frame (ccs 6, cs 1): a repeated segment of the sub-block the
+            // server already acknowledged is ignored (digest §5.5), not read as a command.
+            State::BlockDownloadEnd { .. }
+                if data.first().is_some_and(|&b| b != 0x80 && b & 0xE1 != 0xC1) =>
+            {
+                return None;
+            }
             _ => {
                 let request = Request::parse(data)?;
                 self.step(request, od)
@@ -297,6 +304,9 @@ impl<const BUF: usize> SdoServer<BUF> {
             ) => {
                 // The last segment always carried 7 bytes; `unused` of them were padding.
                 let len = len.saturating_sub(usize::from(unused));
+                if len > BUF {
+                    return abort(mux, AbortCode::OutOfMemory);
+                }
                 if size.is_some_and(|s| len > s) {
                     return abort(mux, AbortCode::LengthTooHigh);
                 }
@@ -515,10 +525,15 @@ impl<const BUF: usize> SdoServer<BUF> {
         }
         let (mut len, mut seq, mut done) = (len, seq, done);
         if !done && segment.seq == seq + 1 {
-            let Some(dst) = self.buf.get_mut(len..len + 7) else {
+            // The last segment may carry up to 6 padding bytes beyond the buffer; only the end
+            // frame tells how many, so keep what fits and check the real length there.
+            let room = BUF.saturating_sub(len).min(7);
+            if room < 7 && !segment.last {
                 return abort(mux, AbortCode::OutOfMemory);
-            };
-            dst.copy_from_slice(&segment.data);
+            }
+            if let (Some(dst), Some(src)) = (self.buf.get_mut(len..len + room), segment.data.get(..room)) {
+                dst.copy_from_slice(src);
+            }
             len += 7;
             seq = segment.seq;
             done = segment.last;

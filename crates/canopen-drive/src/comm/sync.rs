@@ -1,0 +1,189 @@
+//! SYNC consumer and producer (CiA 301 §7.2.5, digest §7).
+//!
+//! ```text
+//! COB-ID 1005h (default 0x080): DLC 0, or DLC 1 = [counter] when 1019h ≠ 0
+//! 1005h bit 30 = this device produces SYNC every 1006h µs
+//! ```
+//!
+//! The counter runs 1..=1019h and starts again at 1; it restarts at 1 after boot-up and when
+//! the node leaves Stopped. A consumer that was receiving SYNC and hears none for 1.5 × 1006h
+//! raises EMCY 0x8100 (communication, generic; the reaction is left to the manufacturer by
+//! CiA 301), cleared by the next SYNC. A SYNC of the wrong length raises EMCY 0x8240 and is not
+//! processed.
+
+use crate::time::{Duration, Instant};
+
+/// A SYNC the node processes (received, or produced by itself).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SyncEvent {
+    /// The counter, when 1019h ≠ 0.
+    pub counter: Option<u8>,
+    /// When it happened.
+    pub at: Instant,
+}
+
+/// What a received SYNC frame means.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SyncReception {
+    /// A valid SYNC.
+    Sync(SyncEvent),
+    /// Wrong data length for the configured counter (EMCY 0x8240).
+    WrongLength,
+}
+
+/// SYNC configuration read from 1005h/1006h/1019h.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SyncConfig {
+    /// Bit 30 of 1005h.
+    pub producer: bool,
+    /// 1006h in µs (0 = not used).
+    pub period_us: u32,
+    /// 1019h (0 = no counter).
+    pub overflow: u8,
+}
+
+/// SYNC state of the node.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Sync {
+    counter: u8,
+    last: Option<Instant>,
+    next_production: Option<Instant>,
+    lost: bool,
+}
+
+impl Default for Sync {
+    fn default() -> Self {
+        Sync { counter: 1, last: None, next_production: None, lost: false }
+    }
+}
+
+/// What the supervision found at a poll.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SyncPoll {
+    /// Nothing due.
+    Idle,
+    /// The node produces a SYNC now: send `data` and process the event.
+    Produce(SyncEvent),
+    /// SYNC lost (EMCY 0x8100).
+    Lost,
+}
+
+impl Sync {
+    /// Counter back to 1, supervision and production restart (boot-up, leaving Stopped, a new
+    /// configuration).
+    pub fn restart(&mut self, now: Instant, config: SyncConfig) {
+        self.counter = 1;
+        self.last = None;
+        self.next_production = (config.producer && config.period_us != 0)
+            .then(|| now + Duration::from_micros(u64::from(config.period_us)));
+    }
+
+    /// A frame on the SYNC COB-ID with `data`, at `now`.
+    pub fn on_frame(&mut self, data: &[u8], now: Instant, config: SyncConfig) -> SyncReception {
+        let counter = match (config.overflow, data) {
+            (0, []) => None,
+            (1..=255, [counter]) => Some(*counter),
+            _ => return SyncReception::WrongLength,
+        };
+        self.last = Some(now);
+        SyncReception::Sync(SyncEvent { counter, at: now })
+    }
+
+    /// Takes the "lost" flag when SYNC came back (the caller clears EMCY 0x8100).
+    pub fn take_recovered(&mut self) -> bool {
+        self.last.is_some() && core::mem::take(&mut self.lost)
+    }
+
+    /// Production and supervision due at `now`.
+    pub fn poll(&mut self, now: Instant, config: SyncConfig) -> SyncPoll {
+        if let Some(at) = self.next_production {
+            if now >= at {
+                let period = Duration::from_micros(u64::from(config.period_us.max(1)));
+                let next = at + period;
+                self.next_production = Some(if next > now { next } else { now + period });
+                let counter = (config.overflow >= 2).then(|| self.advance_counter(config.overflow));
+                self.last = Some(now);
+                return SyncPoll::Produce(SyncEvent { counter, at: now });
+            }
+            return SyncPoll::Idle;
+        }
+        match self.supervision_deadline(config) {
+            Some(deadline) if now >= deadline && !self.lost => {
+                self.lost = true;
+                SyncPoll::Lost
+            }
+            _ => SyncPoll::Idle,
+        }
+    }
+
+    fn advance_counter(&mut self, overflow: u8) -> u8 {
+        let value = self.counter;
+        self.counter = if value >= overflow { 1 } else { value + 1 };
+        value
+    }
+
+    fn supervision_deadline(&self, config: SyncConfig) -> Option<Instant> {
+        if config.producer || config.period_us == 0 {
+            return None;
+        }
+        let limit = Duration::from_micros(u64::from(config.period_us) * 3 / 2);
+        self.last.map(|last| last + limit)
+    }
+
+    /// When [`poll`](Self::poll) has something to do.
+    pub fn deadline(&self, config: SyncConfig) -> Option<Instant> {
+        self.next_production.or(if self.lost { None } else { self.supervision_deadline(config) })
+    }
+
+    /// The last SYNC (received or produced).
+    pub fn last(&self) -> Option<Instant> {
+        self.last
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const CONSUMER: SyncConfig = SyncConfig { producer: false, period_us: 1000, overflow: 0 };
+
+    #[test]
+    fn consumer_checks_length_and_supervises() {
+        let mut s = Sync::default();
+        let t = Instant::from_millis(10);
+        assert_eq!(s.on_frame(&[1], t, CONSUMER), SyncReception::WrongLength);
+        assert_eq!(s.poll(t + Duration::from_millis(100), CONSUMER), SyncPoll::Idle, "not started");
+        assert!(matches!(s.on_frame(&[], t, CONSUMER), SyncReception::Sync(SyncEvent { counter: None, .. })));
+        assert_eq!(s.poll(t + Duration::from_micros(1499), CONSUMER), SyncPoll::Idle);
+        assert_eq!(s.poll(t + Duration::from_micros(1500), CONSUMER), SyncPoll::Lost);
+        assert_eq!(s.poll(t + Duration::from_micros(9000), CONSUMER), SyncPoll::Idle, "reported once");
+        s.on_frame(&[], t + Duration::from_millis(10), CONSUMER);
+        assert!(s.take_recovered());
+        let counted = SyncConfig { overflow: 5, ..CONSUMER };
+        assert_eq!(s.on_frame(&[], t, counted), SyncReception::WrongLength);
+        assert!(matches!(
+            s.on_frame(&[3], t, counted),
+            SyncReception::Sync(SyncEvent { counter: Some(3), .. })
+        ));
+    }
+
+    #[test]
+    fn producer_counts_one_to_overflow() {
+        let config = SyncConfig { producer: true, period_us: 1000, overflow: 3 };
+        let mut s = Sync::default();
+        let t0 = Instant::ZERO;
+        s.restart(t0, config);
+        let mut counters = std::vec::Vec::new();
+        for ms in 1..=7 {
+            match s.poll(Instant::from_millis(ms), config) {
+                SyncPoll::Produce(e) => counters.push(e.counter),
+                other => panic!("{other:?}"),
+            }
+        }
+        assert_eq!(counters, [1, 2, 3, 1, 2, 3, 1].map(Some));
+        assert_eq!(s.poll(Instant::from_micros(7500), config), SyncPoll::Idle);
+        assert_eq!(s.deadline(config), Some(Instant::from_millis(8)));
+    }
+
+    extern crate std;
+}
