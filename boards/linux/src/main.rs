@@ -1,1 +1,112 @@
-fn main() {}
+//! `canopen-drive-linux`: the canopen-drive CiA 301/402 drive as a Linux process, with a
+//! simulated motor, on a bus made of SLCAN-over-TCP clients and/or a SocketCAN interface.
+//!
+//! ```text
+//! python-canopen ─┐                      ┌─ SLCAN client ─┐
+//!  (SLCAN client) ├─ TCP ─ slcan_server ─┤                ├─ bus ─ node (Drive + SimMotor)
+//!  other clients ─┘                      └─ SocketCAN ────┘
+//! ```
+//!
+//! Modules: [`cli`] (arguments), [`slcan`] (the Lawicel ASCII codec), [`bus`] (the broadcast
+//! medium), [`slcan_server`] and [`socketcan_port`] (endpoints), [`node`] (the drive's
+//! configuration, EDS and real-time loop).
+//!
+//! `--storage PATH` is accepted and kept for parameter storage (1010h/1011h), which is not
+//! implemented yet: nothing is read from or written to the file.
+
+/// The one place the program reports to its operator: a line on stderr, prefixed with the
+/// program's name. (stdout carries only the `ready` line, which tests and scripts wait for.)
+macro_rules! log {
+    ($($arg:tt)*) => {
+        eprintln!("canopen-drive-linux: {}", format_args!($($arg)*))
+    };
+}
+
+mod bus;
+mod cli;
+mod node;
+mod slcan;
+mod slcan_server;
+mod socketcan_port;
+
+use std::io::Write;
+use std::process::ExitCode;
+use std::sync::atomic::AtomicBool;
+use std::sync::Arc;
+
+use canopen_drive::Drive;
+use signal_hook::consts::{SIGINT, SIGTERM};
+
+use crate::bus::Bus;
+use crate::cli::{Action, RunArgs};
+use crate::slcan_server::SlcanServer;
+
+const NAME: &str = "canopen-drive-linux";
+
+fn main() -> ExitCode {
+    let action = match cli::parse(std::env::args_os().skip(1)) {
+        Ok(action) => action,
+        Err(e) => {
+            eprintln!("{NAME}: error: {e}\nTry '{NAME} --help'.");
+            return ExitCode::from(2);
+        }
+    };
+    let result = match action {
+        Action::Help => {
+            print!("{}", cli::USAGE);
+            Ok(())
+        }
+        Action::WriteEds { node_id, path } => write_eds(node_id, &path),
+        Action::Run(args) => run(&args),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(message) => {
+            eprintln!("{NAME}: error: {message}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn write_eds(node_id: u8, path: &std::path::Path) -> Result<(), String> {
+    let (_, eds) = node::config_with_eds(node_id)?;
+    std::fs::write(path, eds).map_err(|e| format!("cannot write {}: {e}", path.display()))
+}
+
+fn run(args: &RunArgs) -> Result<(), String> {
+    let (config, _) = node::config_with_eds(args.node_id)?;
+    let drive = Drive::new(config).map_err(|e| format!("invalid drive configuration: {e:?}"))?;
+    if let Some(path) = &args.storage {
+        log!(
+            "note: parameter storage is not implemented yet; {} is neither read nor written",
+            path.display()
+        );
+    }
+
+    let stop = Arc::new(AtomicBool::new(false));
+    for signal in [SIGINT, SIGTERM] {
+        signal_hook::flag::register(signal, Arc::clone(&stop))
+            .map_err(|e| format!("cannot install the handler of signal {signal}: {e}"))?;
+    }
+
+    let (bus, frames) = Bus::new();
+    if let Some(addr) = &args.slcan_listen {
+        let server = SlcanServer::start(addr.as_str(), bus.clone())
+            .map_err(|e| format!("cannot listen on {addr}: {e}"))?;
+        log!("node {} serving SLCAN on {}", args.node_id, server.local_addr());
+    }
+    if let Some(iface) = &args.socketcan {
+        socketcan_port::attach(iface, &bus)
+            .map_err(|e| format!("cannot open SocketCAN interface '{iface}': {e}"))?;
+        log!("node {} on SocketCAN {iface}", args.node_id);
+    }
+
+    let mut stdout = std::io::stdout().lock();
+    writeln!(stdout, "ready")
+        .and_then(|()| stdout.flush())
+        .map_err(|e| format!("cannot write to stdout: {e}"))?;
+    drop(stdout);
+
+    node::run(drive, &bus, &frames, &stop);
+    Ok(())
+}

@@ -1,0 +1,267 @@
+//! Command-line arguments.
+
+use std::ffi::OsString;
+use std::fmt;
+use std::path::PathBuf;
+
+/// The text of `--help`.
+pub const USAGE: &str = "\
+canopen-drive-linux: a CANopen CiA 301/402 drive node with a simulated motor
+
+USAGE:
+    canopen-drive-linux [OPTIONS] (--slcan-listen HOST:PORT | --socketcan IFACE)...
+    canopen-drive-linux [--node-id N] --write-eds PATH
+
+OPTIONS:
+    --node-id N               Node-ID, 1..127 (decimal or 0x hex; default 1)
+    --slcan-listen HOST:PORT  Serve SLCAN (Lawicel ASCII) over TCP; every connected client
+                              is a node on one shared bus (python-can:
+                              interface=\"slcan\", channel=\"socket://HOST:PORT\")
+    --socketcan IFACE         Join the SocketCAN interface IFACE (e.g. can0, vcan0)
+    --storage PATH            File for stored parameters (1010h/1011h). Accepted and kept
+                              for a later release: parameter storage is not implemented
+                              yet, nothing is read from or written to PATH
+    --write-eds PATH          Write the device's EDS to PATH and exit
+    -h, --help                Print this help and exit
+
+--slcan-listen and --socketcan may be combined; all of them form one bus.
+The producer heartbeat (1017h) starts at 0 (off), as CiA 301 specifies: a master sets it.
+Prints `ready` on stdout once it accepts connections; SIGINT or SIGTERM end it (status 0).
+";
+
+/// What the command line asks for.
+#[derive(Debug, PartialEq, Eq)]
+pub enum Action {
+    /// Print [`USAGE`].
+    Help,
+    /// Write the EDS of a node with this ID to the path, then exit.
+    WriteEds {
+        /// Node-ID.
+        node_id: u8,
+        /// Where to write.
+        path: PathBuf,
+    },
+    /// Run the drive.
+    Run(RunArgs),
+}
+
+/// Options of a running drive.
+#[derive(Debug, PartialEq, Eq)]
+pub struct RunArgs {
+    /// Node-ID, 1..=127.
+    pub node_id: u8,
+    /// `HOST:PORT` to serve SLCAN on.
+    pub slcan_listen: Option<String>,
+    /// SocketCAN interface name.
+    pub socketcan: Option<String>,
+    /// Parameter storage file (kept for the storage feature; unused so far).
+    pub storage: Option<PathBuf>,
+}
+
+/// A refused command line.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum CliError {
+    /// An option this program does not have.
+    UnknownOption(String),
+    /// A positional argument (this program takes none).
+    UnexpectedArgument(String),
+    /// An option given without its value.
+    MissingValue(&'static str),
+    /// An option given twice.
+    Repeated(&'static str),
+    /// A value that is not valid UTF-8 where text is needed.
+    NotUnicode(&'static str),
+    /// A node-ID that is not a number in 1..=127.
+    InvalidNodeId(String),
+    /// A listen address that is not `HOST:PORT`.
+    InvalidAddress(String),
+    /// An empty interface name.
+    InvalidInterface,
+    /// Neither `--slcan-listen` nor `--socketcan` (nor `--write-eds`).
+    NoBus,
+}
+
+impl fmt::Display for CliError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            CliError::UnknownOption(o) => write!(f, "unknown option '{o}'"),
+            CliError::UnexpectedArgument(a) => write!(f, "unexpected argument '{a}'"),
+            CliError::MissingValue(o) => write!(f, "option '{o}' needs a value"),
+            CliError::Repeated(o) => write!(f, "option '{o}' given more than once"),
+            CliError::NotUnicode(o) => write!(f, "the value of '{o}' is not valid UTF-8"),
+            CliError::InvalidNodeId(v) => write!(f, "invalid node-ID '{v}': expected a number from 1 to 127"),
+            CliError::InvalidAddress(v) => {
+                write!(f, "invalid address '{v}': expected HOST:PORT, e.g. 127.0.0.1:5000")
+            }
+            CliError::InvalidInterface => f.write_str("the interface name of '--socketcan' is empty"),
+            CliError::NoBus => {
+                f.write_str("nothing to connect to: give --slcan-listen HOST:PORT and/or --socketcan IFACE")
+            }
+        }
+    }
+}
+
+impl std::error::Error for CliError {}
+
+/// Parses the arguments (without the program name).
+pub fn parse(args: impl IntoIterator<Item = OsString>) -> Result<Action, CliError> {
+    let mut node_id: Option<u8> = None;
+    let mut slcan_listen: Option<String> = None;
+    let mut socketcan: Option<String> = None;
+    let mut storage: Option<PathBuf> = None;
+    let mut write_eds: Option<PathBuf> = None;
+
+    let mut args = args.into_iter();
+    while let Some(arg) = args.next() {
+        let Some(text) = arg.to_str() else {
+            return Err(CliError::UnexpectedArgument(arg.to_string_lossy().into_owned()));
+        };
+        // `--name=value` and `--name value` are both accepted.
+        let (name, inline) = match text.split_once('=') {
+            Some((name, value)) if name.starts_with("--") => (name.to_string(), Some(OsString::from(value))),
+            _ => (text.to_string(), None),
+        };
+        let mut value = |option: &'static str| {
+            inline.clone().or_else(|| args.next()).ok_or(CliError::MissingValue(option))
+        };
+        match name.as_str() {
+            "-h" | "--help" => return Ok(Action::Help),
+            "--node-id" => {
+                let v = utf8(value("--node-id")?, "--node-id")?;
+                set_once(&mut node_id, parse_node_id(&v)?, "--node-id")?;
+            }
+            "--slcan-listen" => {
+                let v = utf8(value("--slcan-listen")?, "--slcan-listen")?;
+                check_address(&v)?;
+                set_once(&mut slcan_listen, v, "--slcan-listen")?;
+            }
+            "--socketcan" => {
+                let v = utf8(value("--socketcan")?, "--socketcan")?;
+                if v.is_empty() {
+                    return Err(CliError::InvalidInterface);
+                }
+                set_once(&mut socketcan, v, "--socketcan")?;
+            }
+            "--storage" => set_once(&mut storage, PathBuf::from(value("--storage")?), "--storage")?,
+            "--write-eds" => set_once(&mut write_eds, PathBuf::from(value("--write-eds")?), "--write-eds")?,
+            other if other.starts_with('-') => return Err(CliError::UnknownOption(other.to_string())),
+            other => return Err(CliError::UnexpectedArgument(other.to_string())),
+        }
+    }
+
+    let node_id = node_id.unwrap_or(1);
+    if let Some(path) = write_eds {
+        return Ok(Action::WriteEds { node_id, path });
+    }
+    if slcan_listen.is_none() && socketcan.is_none() {
+        return Err(CliError::NoBus);
+    }
+    Ok(Action::Run(RunArgs { node_id, slcan_listen, socketcan, storage }))
+}
+
+fn utf8(value: OsString, option: &'static str) -> Result<String, CliError> {
+    value.into_string().map_err(|_| CliError::NotUnicode(option))
+}
+
+fn set_once<T>(slot: &mut Option<T>, value: T, option: &'static str) -> Result<(), CliError> {
+    if slot.is_some() {
+        return Err(CliError::Repeated(option));
+    }
+    *slot = Some(value);
+    Ok(())
+}
+
+fn parse_node_id(text: &str) -> Result<u8, CliError> {
+    let number = match text.strip_prefix("0x").or_else(|| text.strip_prefix("0X")) {
+        Some(hex) => u8::from_str_radix(hex, 16),
+        None => text.parse::<u8>(),
+    };
+    match number {
+        Ok(id @ 1..=127) => Ok(id),
+        _ => Err(CliError::InvalidNodeId(text.to_string())),
+    }
+}
+
+/// `HOST:PORT` with a non-empty host and a numeric port (`[::1]:5000` for IPv6). The host is
+/// resolved when the server binds.
+fn check_address(text: &str) -> Result<(), CliError> {
+    match text.rsplit_once(':') {
+        Some((host, port)) if !host.is_empty() && port.parse::<u16>().is_ok() => Ok(()),
+        _ => Err(CliError::InvalidAddress(text.to_string())),
+    }
+}
+
+#[cfg(test)]
+#[cfg_attr(test, allow(clippy::unwrap_used, clippy::expect_used, clippy::indexing_slicing, clippy::panic))]
+mod tests {
+    use super::*;
+
+    fn parse_str(args: &[&str]) -> Result<Action, CliError> {
+        parse(args.iter().map(OsString::from))
+    }
+
+    #[test]
+    fn run_with_defaults() {
+        assert_eq!(
+            parse_str(&["--slcan-listen", "127.0.0.1:5000"]),
+            Ok(Action::Run(RunArgs {
+                node_id: 1,
+                slcan_listen: Some("127.0.0.1:5000".into()),
+                socketcan: None,
+                storage: None
+            }))
+        );
+    }
+
+    #[test]
+    fn all_options() {
+        assert_eq!(
+            parse_str(&[
+                "--node-id",
+                "0x7F",
+                "--slcan-listen=localhost:0",
+                "--socketcan",
+                "can0",
+                "--storage",
+                "/tmp/p.bin"
+            ]),
+            Ok(Action::Run(RunArgs {
+                node_id: 127,
+                slcan_listen: Some("localhost:0".into()),
+                socketcan: Some("can0".into()),
+                storage: Some("/tmp/p.bin".into()),
+            }))
+        );
+        assert_eq!(
+            parse_str(&["--write-eds", "out.eds", "--node-id=5"]),
+            Ok(Action::WriteEds { node_id: 5, path: "out.eds".into() })
+        );
+        assert_eq!(parse_str(&["--slcan-listen", "x:1", "--help"]), Ok(Action::Help));
+        assert_eq!(parse_str(&["-h"]), Ok(Action::Help));
+    }
+
+    #[test]
+    fn bad_arguments_are_refused() {
+        let cases: [(&[&str], CliError); 14] = [
+            (&[], CliError::NoBus),
+            (&["--node-id", "5"], CliError::NoBus),
+            (&["--node-id", "0", "--socketcan", "can0"], CliError::InvalidNodeId("0".into())),
+            (&["--node-id", "128", "--socketcan", "can0"], CliError::InvalidNodeId("128".into())),
+            (&["--node-id", "abc"], CliError::InvalidNodeId("abc".into())),
+            (&["--node-id", "-1"], CliError::InvalidNodeId("-1".into())),
+            (&["--node-id"], CliError::MissingValue("--node-id")),
+            (&["--slcan-listen", "5000"], CliError::InvalidAddress("5000".into())),
+            (&["--slcan-listen", ":5000"], CliError::InvalidAddress(":5000".into())),
+            (&["--slcan-listen", "host:99999"], CliError::InvalidAddress("host:99999".into())),
+            (&["--socketcan", ""], CliError::InvalidInterface),
+            (&["--heartbeat", "100"], CliError::UnknownOption("--heartbeat".into())),
+            (&["can0"], CliError::UnexpectedArgument("can0".into())),
+            (&["--node-id", "1", "--node-id", "2"], CliError::Repeated("--node-id")),
+        ];
+        for (args, error) in cases {
+            assert_eq!(parse_str(args), Err(error), "{args:?}");
+        }
+        assert!(CliError::NoBus.to_string().contains("--slcan-listen"));
+        assert!(CliError::InvalidNodeId("0".into()).to_string().contains("1 to 127"));
+    }
+}

@@ -1,0 +1,184 @@
+//! The drive of this board: its configuration, its EDS, and the real-time loop that runs it.
+//!
+//! ## The loop
+//!
+//! One thread owns the [`Drive`] and the simulated motor. It sleeps on the channel of received
+//! frames until the earliest of: a frame arrives, the drive's own deadline (`poll`), the next
+//! control tick. So an SDO request is answered as soon as it arrives, not at the next tick.
+//!
+//! - every received frame goes to `on_frame`, and the frames it causes go out at once;
+//! - `poll` runs after every wake-up and whenever its deadline has come;
+//! - `tick` runs at 1 kHz: sample the motor, tick, hand the demand to the motor for the time
+//!   that passed since the previous tick.
+//!
+//! Time is a monotonic clock in µs since the start of the process.
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::{Receiver, RecvTimeoutError};
+use std::time::Duration as StdDuration;
+
+use canopen_drive::od::eds::EdsInfo;
+use canopen_drive::od::DeviceInfo;
+use canopen_drive::{CanFrame, Config, Drive, Duration, Instant};
+use canopen_drive_sim::motor::SimMotor;
+
+use crate::bus::Bus;
+
+/// Period of the control loop (`tick`).
+pub const TICK_PERIOD: Duration = Duration::from_micros(1000);
+
+/// Identity of this board (1008h–100Ah, EDS `VendorName`).
+pub fn device_info() -> DeviceInfo {
+    DeviceInfo {
+        device_name: "canopen-drive-linux",
+        hardware_version: "Linux host, simulated motor",
+        software_version: env!("CARGO_PKG_VERSION"),
+        vendor_name: "canopen-drive project",
+        ..DeviceInfo::servo_drive()
+    }
+}
+
+/// The `[FileInfo]` facts of this board's EDS.
+pub fn eds_info() -> EdsInfo {
+    EdsInfo {
+        file_name: "canopen-drive-linux.eds",
+        description: "canopen-drive CiA 402 drive on a Linux host with a simulated motor",
+        ..EdsInfo::default()
+    }
+}
+
+/// The configuration of a drive at `node_id` whose 1021h serves its own EDS, and that EDS.
+///
+/// The EDS text does not depend on what 1021h holds, so the EDS of a first drive without it is
+/// the EDS of the final one. The text lives as long as the process (`Box::leak`), as 1021h
+/// needs a `'static` slice.
+pub fn config_with_eds(node_id: u8) -> Result<(Config, &'static [u8]), String> {
+    let mut config = Config::new(node_id);
+    config.device = device_info();
+    let probe = Drive::new(config).map_err(|e| format!("invalid drive configuration: {e:?}"))?;
+    let mut text = String::new();
+    probe.write_eds(&eds_info(), &mut text).map_err(|_| "cannot generate the EDS".to_string())?;
+    let eds: &'static [u8] = Box::leak(text.into_boxed_str()).as_bytes();
+    config.device.eds = eds;
+    Ok((config, eds))
+}
+
+/// The monotonic clock of the loop.
+struct Clock(std::time::Instant);
+
+impl Clock {
+    fn now(&self) -> Instant {
+        Instant::from_micros(u64::try_from(self.0.elapsed().as_micros()).unwrap_or(u64::MAX))
+    }
+}
+
+/// Runs `drive` on `bus` until `stop` is set. `frames` are the frames the bus addresses to
+/// the drive.
+pub fn run(mut drive: Drive, bus: &Bus, frames: &Receiver<CanFrame>, stop: &AtomicBool) {
+    let clock = Clock(std::time::Instant::now());
+    let mut motor = SimMotor::new();
+    let mut last_tick = clock.now();
+    let mut next_tick = last_tick + TICK_PERIOD;
+    let mut tx_dropped = 0;
+    let mut deadline = drive.poll(last_tick);
+    transmit(&mut drive, bus);
+
+    while !stop.load(Ordering::Relaxed) {
+        let now = clock.now();
+        let wake = deadline.map_or(next_tick, |d| d.min(next_tick));
+        let timeout = StdDuration::from_micros(wake.saturating_since(now).as_micros());
+        match frames.recv_timeout(timeout) {
+            Ok(frame) => {
+                drive.on_frame(&frame, clock.now());
+                transmit(&mut drive, bus);
+                // Whatever else has arrived meanwhile, without sleeping in between.
+                while let Ok(frame) = frames.try_recv() {
+                    drive.on_frame(&frame, clock.now());
+                    transmit(&mut drive, bus);
+                }
+            }
+            Err(RecvTimeoutError::Timeout) => {}
+            // The bus keeps a sender as long as it exists; without it nothing can arrive.
+            Err(RecvTimeoutError::Disconnected) => break,
+        }
+
+        let now = clock.now();
+        if now >= next_tick {
+            let sample = motor.sample();
+            let demand = drive.tick(now, &sample);
+            motor.step(&demand, now - last_tick);
+            last_tick = now;
+            // Keep the 1 ms grid, but after a stall restart it instead of catching up in a burst.
+            next_tick = next_tick + TICK_PERIOD;
+            if next_tick <= now {
+                next_tick = now + TICK_PERIOD;
+            }
+        }
+
+        deadline = drive.poll(now);
+        transmit(&mut drive, bus);
+
+        if drive.tx_dropped() != tx_dropped {
+            tx_dropped = drive.tx_dropped();
+            log!("the drive's transmit queue overflowed ({tx_dropped} frames lost)");
+        }
+    }
+}
+
+/// Puts every frame the drive has queued on the bus.
+fn transmit(drive: &mut Drive, bus: &Bus) {
+    while let Some(frame) = drive.pop_tx() {
+        bus.send_from_drive(&frame);
+    }
+}
+
+#[cfg(test)]
+#[cfg_attr(test, allow(clippy::unwrap_used, clippy::expect_used, clippy::indexing_slicing, clippy::panic))]
+mod tests {
+    use super::*;
+    use crate::bus::{Delivery, Sink};
+    use std::sync::mpsc::{sync_channel, TrySendError};
+    use std::sync::Arc;
+    use std::thread;
+
+    #[test]
+    fn eds_is_served_and_independent_of_its_own_contents() {
+        let (config, eds) = config_with_eds(5).unwrap();
+        assert_eq!(config.device.eds, eds);
+        let text = std::str::from_utf8(eds).unwrap();
+        assert!(text.starts_with("[FileInfo]"));
+        assert!(text.contains("\n[1021]\n"));
+        let drive = Drive::new(config).unwrap();
+        let mut again = String::new();
+        drive.write_eds(&eds_info(), &mut again).unwrap();
+        assert_eq!(again.as_bytes(), eds);
+    }
+
+    #[test]
+    fn loop_boots_answers_and_stops() {
+        let (config, _) = config_with_eds(3).unwrap();
+        let drive = Drive::new(config).unwrap();
+        let (bus, frames) = Bus::new();
+        let (tx, rx) = sync_channel(64);
+        let sink: Sink = Box::new(move |f: &CanFrame| match tx.try_send(*f) {
+            Ok(()) => Delivery::Queued,
+            Err(TrySendError::Full(_)) => Delivery::Dropped,
+            Err(TrySendError::Disconnected(_)) => Delivery::Gone,
+        });
+        let client = bus.attach("test".into(), sink);
+        let stop = Arc::new(AtomicBool::new(false));
+        let runner = {
+            let (bus, stop) = (bus.clone(), Arc::clone(&stop));
+            thread::spawn(move || run(drive, &bus, &frames, &stop))
+        };
+        let timeout = StdDuration::from_secs(5);
+        assert_eq!(rx.recv_timeout(timeout).unwrap(), CanFrame::new_standard(0x703, &[0]).unwrap());
+        let request = CanFrame::new_standard(0x603, &[0x40, 0x00, 0x10, 0, 0, 0, 0, 0]).unwrap();
+        bus.send_from_endpoint(client, &request);
+        let response = rx.recv_timeout(timeout).unwrap();
+        assert_eq!(response.standard_id(), Some(0x583));
+        assert_eq!(embedded_can::Frame::data(&response), &[0x43, 0x00, 0x10, 0x00, 0x92, 0x01, 0x02, 0x00]);
+        stop.store(true, Ordering::Relaxed);
+        runner.join().unwrap();
+    }
+}
