@@ -52,7 +52,7 @@ pub trait Node {
 }
 
 /// A drive on the bus; its name is `node<id>`.
-impl<H: ObjectHooks, const B: usize> Node for Drive<H, B> {
+impl<H: ObjectHooks, const B: usize, const R: usize, const T: usize> Node for Drive<H, B, R, T> {
     fn on_frame(&mut self, frame: &CanFrame, now: Instant) {
         Drive::on_frame(self, frame, now);
     }

@@ -18,14 +18,17 @@ use crate::comm::error_control::{
 };
 use crate::comm::heartbeat::HeartbeatProducer;
 use crate::comm::nmt::{transition, NmtAction, Services};
+use crate::comm::pdo::{self, FrameSink, PdoEvent, PdoRecord, PdoSet};
 use crate::comm::sdo_server::{ObjectAccess, SdoServer};
+use crate::comm::sync::{Sync, SyncConfig, SyncPoll, SyncReception};
 use crate::frame::CanFrame;
 use crate::hal::{Demand, Sample};
 use crate::od::eds::{self, EdsInfo};
 use crate::od::standard::{
-    self, COB_ID_EMCY, CONSUMER_HEARTBEAT_TIME, ERROR_BEHAVIOUR, ERROR_HISTORY_LEN, ERROR_REGISTER,
-    GUARD_TIME, HEARTBEAT_CONSUMERS, INHIBIT_TIME_EMCY, LIFE_TIME_FACTOR, PRE_DEFINED_ERROR_FIELD,
-    PRODUCER_HEARTBEAT_TIME,
+    self, COB_ID_EMCY, COB_ID_SYNC, COMMUNICATION_CYCLE_PERIOD, CONSUMER_HEARTBEAT_TIME, ERROR_BEHAVIOUR,
+    ERROR_HISTORY_LEN, ERROR_REGISTER, GUARD_TIME, HEARTBEAT_CONSUMERS, INHIBIT_TIME_EMCY, LIFE_TIME_FACTOR,
+    PRE_DEFINED_ERROR_FIELD, PRODUCER_HEARTBEAT_TIME, SYNCHRONOUS_COUNTER_OVERFLOW,
+    SYNCHRONOUS_WINDOW_LENGTH,
 };
 use crate::od::{AbortCode, ConfigError, DeviceInfo, Dictionary, Entry, Object, ObjectHooks, WriteRule};
 use crate::time::{earliest, Duration, Instant};
@@ -87,6 +90,9 @@ pub struct Config {
     pub sdo_timeout: Duration,
     /// The firmware's own objects (2000h–5FFFh), laid out with [`crate::od::layout`].
     pub manufacturer_objects: &'static [Object],
+    /// The PDO records (1400h–1BFFh): [`pdo::DEFAULT_OBJECTS`] for 4 + 4, or a table made by
+    /// [`pdo::objects`] matching the drive's PDO capacity.
+    pub pdo_objects: &'static [Object],
 }
 
 impl Config {
@@ -97,14 +103,21 @@ impl Config {
             device: DeviceInfo::servo_drive(),
             sdo_timeout: Duration::from_millis(1000),
             manufacturer_objects: &[],
+            pdo_objects: &pdo::DEFAULT_OBJECTS,
         }
     }
 }
 
-/// A CANopen CiA 402 drive: dictionary, NMT slave, SDO server, heartbeat.
+/// A CANopen CiA 402 drive: dictionary, NMT slave, SDO server, PDOs, SYNC, EMCY, error control.
 ///
-/// `H` are the firmware's object hooks; `OD_BYTES` the size of the value store.
-pub struct Drive<H: ObjectHooks = (), const OD_BYTES: usize = DEFAULT_OD_BYTES> {
+/// `H` are the firmware's object hooks; `OD_BYTES` the size of the value store; `RPDOS` and
+/// `TPDOS` the PDO capacity (the PDO table in [`Config::pdo_objects`] must match it).
+pub struct Drive<
+    H: ObjectHooks = (),
+    const OD_BYTES: usize = DEFAULT_OD_BYTES,
+    const RPDOS: usize = 4,
+    const TPDOS: usize = 4,
+> {
     od: Dictionary<OD_BYTES>,
     sdo: SdoServer<SDO_BUFFER>,
     nmt: NmtState,
@@ -114,9 +127,27 @@ pub struct Drive<H: ObjectHooks = (), const OD_BYTES: usize = DEFAULT_OD_BYTES> 
     guarding: NodeGuarding,
     bus_off: bool,
     connection_event: Option<ConnectionEvent>,
-    tx: Deque<CanFrame, TX_QUEUE>,
-    tx_dropped: u32,
+    sync: Sync,
+    pdos: PdoSet<RPDOS, TPDOS>,
+    tx: TxQueue,
     hooks: H,
+}
+
+/// The frames waiting for the CAN controller.
+struct TxQueue {
+    frames: Deque<CanFrame, TX_QUEUE>,
+    dropped: u32,
+}
+
+impl FrameSink for TxQueue {
+    fn send(&mut self, id: u16, data: &[u8]) -> bool {
+        let Some(frame) = CanFrame::new_standard(id, data) else { return false };
+        let sent = self.frames.push_back(frame).is_ok();
+        if !sent {
+            self.dropped = self.dropped.saturating_add(1);
+        }
+        sent
+    }
 }
 
 impl Drive {
@@ -135,16 +166,27 @@ impl<H: ObjectHooks> Drive<H> {
     }
 }
 
-impl<H: ObjectHooks, const OD_BYTES: usize> Drive<H, OD_BYTES> {
-    /// A drive with a value store of `OD_BYTES` bytes (for dictionaries larger than the
-    /// default): `Drive::<MyHooks, 8192>::create(config, hooks)`.
+impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usize>
+    Drive<H, OD_BYTES, RPDOS, TPDOS>
+{
+    /// A drive with a value store of `OD_BYTES` bytes and `RPDOS` + `TPDOS` PDOs:
+    /// `Drive::<MyHooks, 8192, 8, 8>::create(config, hooks)` (with a matching
+    /// [`Config::pdo_objects`] table).
     pub fn create(config: Config, hooks: H) -> Result<Self, ConfigError> {
         if !(1..=127).contains(&config.node_id) {
             return Err(ConfigError::InvalidNodeId);
         }
-        let tables: [&'static [Object]; 2] = [&standard::COMMUNICATION, config.manufacturer_objects];
+        if pdo::count(config.pdo_objects) != (RPDOS, TPDOS) {
+            return Err(ConfigError::PdoCount);
+        }
+        let tables: [&'static [Object]; 4] = [
+            &standard::COMMUNICATION,
+            config.pdo_objects,
+            config.manufacturer_objects,
+            &crate::cia402::objects::PROCESS_DATA,
+        ];
         let od = Dictionary::new(&tables, config.device, config.node_id)?;
-        Ok(Drive {
+        let mut drive = Drive {
             od,
             sdo: SdoServer::new(config.sdo_timeout),
             nmt: NmtState::Initialising,
@@ -154,10 +196,13 @@ impl<H: ObjectHooks, const OD_BYTES: usize> Drive<H, OD_BYTES> {
             guarding: NodeGuarding::default(),
             bus_off: false,
             connection_event: None,
-            tx: Deque::new(),
-            tx_dropped: 0,
+            sync: Sync::default(),
+            pdos: PdoSet::default(),
+            tx: TxQueue { frames: Deque::new(), dropped: 0 },
             hooks,
-        })
+        };
+        drive.configure_pdos();
+        Ok(drive)
     }
 
     /// The node-ID.
@@ -187,7 +232,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize> Drive<H, OD_BYTES> {
 
     /// Frames dropped because the transmit queue was full (the board did not drain it).
     pub fn tx_dropped(&self) -> u32 {
-        self.tx_dropped
+        self.tx.dropped
     }
 
     /// Writes the EDS of this drive's dictionary.
@@ -206,11 +251,18 @@ impl<H: ObjectHooks, const OD_BYTES: usize> Drive<H, OD_BYTES> {
         if embedded_can::Frame::is_remote_frame(frame) {
             if id == ERROR_CONTROL_BASE + u16::from(node_id) {
                 self.guarding_request(now);
+            } else if self.nmt.serves_pdo() {
+                self.pdos.on_remote(id, now, &self.od, &mut self.tx);
             }
             return;
         }
         let data = embedded_can::Frame::data(frame);
-        if let (ERROR_CONTROL_FIRST..=ERROR_CONTROL_LAST, Some(&state)) = (id, data.first()) {
+        let sync = self.sync_config();
+        if id == sync.1 && self.nmt.serves_emcy() {
+            self.sync_received(data, now, sync.0);
+        } else if self.nmt.serves_pdo() && self.rpdo_received(id, data, now) {
+            // An RPDO.
+        } else if let (ERROR_CONTROL_FIRST..=ERROR_CONTROL_LAST, Some(&state)) = (id, data.first()) {
             if self.nmt.serves_sdo() {
                 let event = self.heartbeat_consumer.on_heartbeat((id - ERROR_CONTROL_BASE) as u8, state, now);
                 self.consumer_event(event, now);
@@ -238,6 +290,33 @@ impl<H: ObjectHooks, const OD_BYTES: usize> Drive<H, OD_BYTES> {
     /// (`None`: only when a frame arrives).
     pub fn poll(&mut self, now: Instant) -> Option<Instant> {
         self.boot_if_pending(now);
+        let (sync, sync_id) = self.sync_config();
+        let mut sync_deadline = None;
+        if self.nmt.serves_emcy() {
+            match self.sync.poll(now, sync) {
+                SyncPoll::Idle => {}
+                SyncPoll::Produce(event) => {
+                    let counter = event.counter.map(|c| [c]);
+                    self.tx.send(sync_id, counter.as_ref().map_or(&[], |c| c.as_slice()));
+                    if self.nmt.serves_pdo() {
+                        self.pdos.on_sync(event.counter, now, &self.od, &mut self.tx);
+                    }
+                }
+                SyncPoll::Lost => self.raise_error(code::COMMUNICATION, ErrorRegister::COMMUNICATION, [0; 5]),
+            }
+            sync_deadline = self.sync.deadline(sync);
+        }
+        let mut pdo_deadline = None;
+        if self.nmt.serves_pdo() {
+            let mut events = heapless::Vec::<PdoEvent, 8>::new();
+            self.pdos.poll(now, &self.od, &mut self.tx, &mut |e| {
+                let _ = events.push(e);
+            });
+            for event in events {
+                self.pdo_event(event, now);
+            }
+            pdo_deadline = self.pdos.deadline();
+        }
         if self.heartbeat.due(now, self.heartbeat_period()) {
             self.send_error_control(self.nmt.heartbeat_byte());
         }
@@ -256,9 +335,17 @@ impl<H: ObjectHooks, const OD_BYTES: usize> Drive<H, OD_BYTES> {
         self.drain_sdo(now);
         let emcy = self.send_emcy(now);
         let supervision = if self.nmt.serves_sdo() { self.heartbeat_consumer.deadline() } else { None };
-        [self.heartbeat.deadline(), self.sdo.deadline(), emcy, supervision, self.guarding.deadline()]
-            .into_iter()
-            .fold(None, earliest)
+        [
+            self.heartbeat.deadline(),
+            self.sdo.deadline(),
+            emcy,
+            supervision,
+            self.guarding.deadline(),
+            sync_deadline,
+            pdo_deadline,
+        ]
+        .into_iter()
+        .fold(None, earliest)
     }
 
     /// Reports a change of the CAN controller's state (from the board's error interrupt).
@@ -393,7 +480,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize> Drive<H, OD_BYTES> {
             return None;
         }
         let inhibit = self.od.get::<u16>(INHIBIT_TIME_EMCY, 0).unwrap_or(0);
-        while !self.tx.is_full() {
+        while !self.tx.frames.is_full() {
             match self.emcy.pop_due(now, inhibit) {
                 Some(data) => self.send(cob.can_id, &data),
                 None => break,
@@ -404,19 +491,89 @@ impl<H: ObjectHooks, const OD_BYTES: usize> Drive<H, OD_BYTES> {
 
     /// The next frame to transmit.
     pub fn pop_tx(&mut self) -> Option<CanFrame> {
-        self.tx.pop_front()
+        self.tx.frames.pop_front()
     }
 
     /// The next frame to transmit, left in the queue (for drivers that may refuse it).
     pub fn peek_tx(&self) -> Option<&CanFrame> {
-        self.tx.front()
+        self.tx.frames.front()
     }
 
-    /// The control-loop tick. The CiA 402 layer is not part of this build yet: the power stage
-    /// stays off.
+    /// The control-loop tick: applies the RPDOs latched at the last SYNC, then (once the CiA 402
+    /// layer is part of the build) runs the drive profile, and stages event-driven TPDOs whose
+    /// values changed. The CiA 402 layer is not part of this build yet: the power stage stays off.
     pub fn tick(&mut self, now: Instant, sample: &Sample) -> Demand {
-        let _ = (now, sample);
+        let _ = sample;
+        if self.nmt.serves_pdo() {
+            self.pdos.apply_ready(&mut self.od, &mut self.hooks);
+            self.pdos.detect_changes(now, &self.od, &mut self.tx);
+        }
         Demand::Off
+    }
+
+    /// SYNC configuration (1005h/1006h/1019h) and the SYNC CAN-ID.
+    fn sync_config(&self) -> (SyncConfig, u16) {
+        let cob = self.od.get::<u32>(COB_ID_SYNC, 0).unwrap_or(0x80);
+        let config = SyncConfig {
+            producer: cob & cob_id::BIT30 != 0,
+            period_us: self.od.get::<u32>(COMMUNICATION_CYCLE_PERIOD, 0).unwrap_or(0),
+            overflow: self.od.get::<u8>(SYNCHRONOUS_COUNTER_OVERFLOW, 0).unwrap_or(0),
+        };
+        (config, (cob & 0x7FF) as u16)
+    }
+
+    fn sync_received(&mut self, data: &[u8], now: Instant, config: SyncConfig) {
+        match self.sync.on_frame(data, now, config) {
+            SyncReception::WrongLength => {
+                self.raise_error(code::SYNC_LENGTH, ErrorRegister::COMMUNICATION, [0; 5]);
+            }
+            SyncReception::Sync(event) => {
+                self.clear_error(code::SYNC_LENGTH);
+                if self.sync.take_recovered() {
+                    self.clear_error(code::COMMUNICATION);
+                }
+                if self.nmt.serves_pdo() {
+                    self.pdos.on_sync(event.counter, now, &self.od, &mut self.tx);
+                }
+            }
+        }
+    }
+
+    /// Offers a frame to the RPDOs; true when one of them took it.
+    fn rpdo_received(&mut self, id: u16, data: &[u8], now: Instant) -> bool {
+        // Synchronous RPDOs arriving after the synchronous window are discarded (digest §7).
+        let window = u64::from(self.od.get::<u32>(SYNCHRONOUS_WINDOW_LENGTH, 0).unwrap_or(0));
+        let late = window != 0 && self.sync.last().is_some_and(|at| now - at > Duration::from_micros(window));
+        let mut events = heapless::Vec::<PdoEvent, 4>::new();
+        let taken = self.pdos.on_frame(id, data, now, late, &mut self.od, &mut self.hooks, &mut |e| {
+            let _ = events.push(e);
+        });
+        for event in events {
+            self.pdo_event(event, now);
+        }
+        taken
+    }
+
+    fn pdo_event(&mut self, event: PdoEvent, now: Instant) {
+        match event {
+            PdoEvent::Raise(code) => self.raise_error(code, ErrorRegister::COMMUNICATION, [0; 5]),
+            PdoEvent::Clear(code) => self.clear_error(code),
+            PdoEvent::RpdoTimeout(number) => {
+                let [lo, hi] = number.to_le_bytes();
+                // No 1029h-driven connection event: the RPDO timeout is a process-data error.
+                self.raise_error(code::RPDO_TIMEOUT, ErrorRegister::COMMUNICATION, [lo, hi, 0, 0, 0]);
+                let value = self.od.get::<u8>(ERROR_BEHAVIOUR, 1).unwrap_or(0);
+                if let Some(state) = ErrorBehaviour::from_value(value).and_then(|b| b.next_state(self.nmt)) {
+                    self.nmt_command(NmtAction::Enter(state), now);
+                }
+            }
+        }
+    }
+
+    fn configure_pdos(&mut self) {
+        if let Some(PdoEvent::Raise(code)) = self.pdos.configure_all(&self.od) {
+            self.raise_error(code, ErrorRegister::COMMUNICATION, [0; 5]);
+        }
     }
 
     fn heartbeat_period(&self) -> u16 {
@@ -442,6 +599,13 @@ impl<H: ObjectHooks, const OD_BYTES: usize> Drive<H, OD_BYTES> {
                 if state != self.nmt {
                     if state == NmtState::Stopped {
                         self.connection_event = Some(ConnectionEvent::NmtStopped);
+                    }
+                    if self.nmt == NmtState::Stopped {
+                        // The SYNC counter restarts at 1 when the node leaves Stopped.
+                        self.sync.restart(now, self.sync_config().0);
+                    }
+                    if state == NmtState::Operational {
+                        self.pdos.start(now);
                     }
                     self.nmt = state;
                     if !state.serves_sdo() {
@@ -469,6 +633,8 @@ impl<H: ObjectHooks, const OD_BYTES: usize> Drive<H, OD_BYTES> {
         self.sync_error_register();
         self.heartbeat_consumer = HeartbeatConsumer::default();
         self.guarding.reset();
+        self.sync.restart(now, self.sync_config().0);
+        self.configure_pdos();
         self.sdo.reset();
         self.heartbeat.stop();
         self.nmt = NmtState::Initialising;
@@ -489,6 +655,19 @@ impl<H: ObjectHooks, const OD_BYTES: usize> Drive<H, OD_BYTES> {
                 self.heartbeat_consumer.configure(mux.sub, raw);
                 self.communication_recovered();
             }
+            COB_ID_SYNC | COMMUNICATION_CYCLE_PERIOD | SYNCHRONOUS_COUNTER_OVERFLOW => {
+                self.sync.restart(now, self.sync_config().0);
+            }
+            index if PdoRecord::of(index).is_some() => {
+                if let Some(record) = PdoRecord::of(index) {
+                    if let Some(PdoEvent::Raise(code)) = self.pdos.configure(&self.od, record) {
+                        self.raise_error(code, ErrorRegister::COMMUNICATION, [0; 5]);
+                    }
+                    if self.nmt == NmtState::Operational {
+                        self.pdos.start(now);
+                    }
+                }
+            }
             GUARD_TIME | LIFE_TIME_FACTOR => {
                 let guard = self.od.get::<u16>(GUARD_TIME, 0).unwrap_or(0);
                 let factor = self.od.get::<u8>(LIFE_TIME_FACTOR, 0).unwrap_or(0);
@@ -502,7 +681,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize> Drive<H, OD_BYTES> {
 
     fn drain_sdo(&mut self, now: Instant) {
         let node_id = self.node_id();
-        while !self.tx.is_full() {
+        while !self.tx.frames.is_full() {
             let mut access =
                 Access { od: &mut self.od, hooks: &mut self.hooks, nmt: self.nmt, written: None };
             match self.sdo.poll(now, &mut access) {
@@ -517,11 +696,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize> Drive<H, OD_BYTES> {
     }
 
     fn send(&mut self, id: u16, data: &[u8]) {
-        if let Some(frame) = CanFrame::new_standard(id, data) {
-            if self.tx.push_back(frame).is_err() {
-                self.tx_dropped = self.tx_dropped.saturating_add(1);
-            }
-        }
+        self.tx.send(id, data);
     }
 }
 
@@ -604,6 +779,28 @@ fn check_communication<const B: usize>(od: &Dictionary<B>, mux: Mux, data: &[u8]
         // Only 0 may be written to the number of errors: it clears the history.
         PRE_DEFINED_ERROR_FIELD if raw != 0 => Err(AbortCode::InvalidValue),
         ERROR_BEHAVIOUR if ErrorBehaviour::from_value(raw as u8).is_none() => Err(AbortCode::InvalidValue),
+        index if PdoRecord::of(index).is_some() => pdo::check_write(od, index, mux.sub, data),
+        COB_ID_SYNC => {
+            let new = CobId::parse(raw).map_err(|_| AbortCode::InvalidValue)?;
+            if raw & cob_id::INVALID != 0 || cob_id::is_restricted(new.can_id) {
+                return Err(AbortCode::InvalidValue);
+            }
+            let old = od.get::<u32>(COB_ID_SYNC, 0).unwrap_or(0x80);
+            // The CAN-ID must not change while this device produces SYNC.
+            if old & cob_id::BIT30 != 0 && (old & 0x7FF) as u16 != new.can_id {
+                return Err(AbortCode::InvalidValue);
+            }
+            Ok(())
+        }
+        SYNCHRONOUS_COUNTER_OVERFLOW => {
+            if od.get::<u32>(COMMUNICATION_CYCLE_PERIOD, 0).unwrap_or(0) != 0 {
+                Err(AbortCode::CannotStoreDeviceState)
+            } else if raw == 1 || raw > 240 {
+                Err(AbortCode::InvalidValue)
+            } else {
+                Ok(())
+            }
+        }
         CONSUMER_HEARTBEAT_TIME => {
             // Two entries must not supervise the same node (digest §4.2).
             let Some((node, _)) = parse_entry(raw) else { return Ok(()) };

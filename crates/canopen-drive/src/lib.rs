@@ -55,6 +55,7 @@
 mod fmt;
 
 pub mod can_io;
+pub mod cia402;
 pub mod comm;
 pub mod drive;
 pub mod frame;

@@ -4,6 +4,7 @@ pub mod emcy;
 pub mod error_control;
 pub mod heartbeat;
 pub mod nmt;
+pub mod pdo;
 pub mod sdo_server;
 pub mod sync;
 

@@ -126,15 +126,28 @@ impl List {
     }
 }
 
+/// An object's name with its instance number.
+struct ObjectName<'a>(&'a Object);
+
+impl fmt::Display for ObjectName<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        Clean(self.0.name).fmt(f)?;
+        match self.0.number {
+            0 => Ok(()),
+            n => write!(f, " {n}"),
+        }
+    }
+}
+
 fn write_object<const B: usize>(od: &Dictionary<B>, object: &Object, w: &mut impl Write) -> fmt::Result {
     let index = object.index;
     match &object.kind {
         Kind::Var(var) => {
-            writeln!(w, "\n[{index:04X}]\nParameterName={}", Clean(object.name))?;
+            writeln!(w, "\n[{index:04X}]\nParameterName={}", ObjectName(object))?;
             write_var(od, var, w)
         }
         Kind::Array { sub0, element, len } => {
-            writeln!(w, "\n[{index:04X}]\nParameterName={}", Clean(object.name))?;
+            writeln!(w, "\n[{index:04X}]\nParameterName={}", ObjectName(object))?;
             writeln!(w, "ObjectType=0x8\nSubNumber=0x{:X}", u16::from(*len) + 1)?;
             writeln!(w, "\n[{index:04X}sub0]\nParameterName={}", Clean(sub0.name))?;
             write_var(od, sub0, w)?;
@@ -145,7 +158,7 @@ fn write_object<const B: usize>(od: &Dictionary<B>, object: &Object, w: &mut imp
             Ok(())
         }
         Kind::Record(subs) => {
-            writeln!(w, "\n[{index:04X}]\nParameterName={}", Clean(object.name))?;
+            writeln!(w, "\n[{index:04X}]\nParameterName={}", ObjectName(object))?;
             writeln!(w, "ObjectType=0x9\nSubNumber=0x{:X}", subs.len())?;
             for (sub, var) in subs.iter() {
                 writeln!(w, "\n[{index:04X}sub{sub:X}]\nParameterName={}", Clean(var.name))?;

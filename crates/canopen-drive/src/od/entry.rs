@@ -359,27 +359,36 @@ pub struct Object {
     pub kind: Kind,
     /// Offset of the object's first stored byte inside its table's region; set by [`layout`].
     pub base: u16,
+    /// Instance number appended to the name in the EDS (e.g. "RPDO communication parameter 3");
+    /// 0 = none.
+    pub number: u16,
 }
 
 impl Object {
     /// A VAR object.
     pub const fn var(index: u16, name: &'static str, var: Var) -> Self {
-        Object { index, name, kind: Kind::Var(var), base: 0 }
+        Object { index, name, kind: Kind::Var(var), base: 0, number: 0 }
     }
     /// An ARRAY object with a read-only sub 0 holding `len`.
     pub const fn array(index: u16, name: &'static str, len: u8, element: Var) -> Self {
         let sub0 = Var::new("Highest sub-index supported", DataType::Unsigned8)
             .access(Access::Const)
             .default(DefaultValue::Unsigned(len as u64));
-        Object { index, name, kind: Kind::Array { sub0, element, len }, base: 0 }
+        Object { index, name, kind: Kind::Array { sub0, element, len }, base: 0, number: 0 }
     }
     /// An ARRAY object with a custom sub 0 (e.g. a writable count).
     pub const fn array_with_sub0(index: u16, name: &'static str, len: u8, sub0: Var, element: Var) -> Self {
-        Object { index, name, kind: Kind::Array { sub0, element, len }, base: 0 }
+        Object { index, name, kind: Kind::Array { sub0, element, len }, base: 0, number: 0 }
     }
     /// A RECORD object; `subs` sorted by sub-index, sub 0 included.
     pub const fn record(index: u16, name: &'static str, subs: &'static [(u8, Var)]) -> Self {
-        Object { index, name, kind: Kind::Record(subs), base: 0 }
+        Object { index, name, kind: Kind::Record(subs), base: 0, number: 0 }
+    }
+
+    /// The same object with an instance number for its EDS name.
+    pub const fn numbered(mut self, number: u16) -> Self {
+        self.number = number;
+        self
     }
 
     /// Bytes of RAM the whole object takes.

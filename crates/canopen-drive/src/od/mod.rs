@@ -117,6 +117,8 @@ impl ObjectHooks for () {}
 pub enum ConfigError {
     /// A node-ID outside 1..=127.
     InvalidNodeId,
+    /// The PDO table does not hold the drive's PDO capacity.
+    PdoCount,
     /// More than [`MAX_TABLES`] tables.
     TooManyTables,
     /// Indices not strictly ascending inside a table or across consecutive tables.

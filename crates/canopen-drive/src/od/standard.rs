@@ -7,6 +7,14 @@ use super::{layout, Access, DataType, DefaultValue, DeviceField, Object, PdoMapp
 pub const DEVICE_TYPE: u16 = 0x1000;
 /// 1001h error register.
 pub const ERROR_REGISTER: u16 = 0x1001;
+/// 1005h COB-ID SYNC.
+pub const COB_ID_SYNC: u16 = 0x1005;
+/// 1006h communication cycle period (µs).
+pub const COMMUNICATION_CYCLE_PERIOD: u16 = 0x1006;
+/// 1007h synchronous window length (µs).
+pub const SYNCHRONOUS_WINDOW_LENGTH: u16 = 0x1007;
+/// 1019h synchronous counter overflow value.
+pub const SYNCHRONOUS_COUNTER_OVERFLOW: u16 = 0x1019;
 /// 1008h manufacturer device name.
 pub const DEVICE_NAME: u16 = 0x1008;
 /// 1009h manufacturer hardware version.
@@ -76,7 +84,7 @@ const SDO_SERVER_SUBS: [(u8, Var); 3] = [
 ];
 
 /// Every communication object of the crate, before the feature selection.
-const ALL_COMMUNICATION: [Object; 16] = [
+const ALL_COMMUNICATION: [Object; 20] = [
     Object::var(DEVICE_TYPE, "Device type", u32_const("Device type", DeviceField::DeviceType)),
     Object::var(
         ERROR_REGISTER,
@@ -89,6 +97,23 @@ const ALL_COMMUNICATION: [Object; 16] = [
         ERROR_HISTORY_LEN,
         Var::new("Number of errors", DataType::Unsigned8).access(Access::ReadWrite),
         Var::new("Standard error field", DataType::Unsigned32),
+    ),
+    Object::var(
+        COB_ID_SYNC,
+        "COB-ID SYNC",
+        Var::new("COB-ID SYNC", DataType::Unsigned32)
+            .access(Access::ReadWrite)
+            .default(DefaultValue::Unsigned(0x80)),
+    ),
+    Object::var(
+        COMMUNICATION_CYCLE_PERIOD,
+        "Communication cycle period",
+        Var::new("Communication cycle period", DataType::Unsigned32).access(Access::ReadWrite),
+    ),
+    Object::var(
+        SYNCHRONOUS_WINDOW_LENGTH,
+        "Synchronous window length",
+        Var::new("Synchronous window length", DataType::Unsigned32).access(Access::ReadWrite),
     ),
     Object::var(
         DEVICE_NAME,
@@ -139,6 +164,11 @@ const ALL_COMMUNICATION: [Object; 16] = [
         Var::new("Producer heartbeat time", DataType::Unsigned16).access(Access::ReadWrite),
     ),
     Object::record(IDENTITY, "Identity object", &IDENTITY_SUBS),
+    Object::var(
+        SYNCHRONOUS_COUNTER_OVERFLOW,
+        "Synchronous counter overflow value",
+        Var::new("Synchronous counter overflow value", DataType::Unsigned8).access(Access::ReadWrite),
+    ),
     Object::var(
         STORE_EDS,
         "Store EDS",

@@ -1,0 +1,909 @@
+//! Process data objects (CiA 301 §7.2.2, digest §6): RPDOs and TPDOs with dynamic mapping.
+//!
+//! ```text
+//! communication record 1400h+n (RPDO) / 1800h+n (TPDO):
+//!   sub1 COB-ID (bit 31 = invalid, TPDO bit 30 = no RTR), sub2 transmission type,
+//!   sub3 inhibit time (TPDO, 100 µs), sub5 event timer (ms), sub6 SYNC start value (TPDO)
+//! mapping record 1600h+n / 1A00h+n:
+//!   sub0 number of entries (0 = disabled), sub1..8 = index << 16 | sub << 8 | bit length
+//! frame: the mapped values packed from bit 0 of byte 0, little-endian, DLC = mapped bytes
+//! ```
+//!
+//! The number of PDOs is a compile-time capacity of [`PdoSet`]; the matching dictionary
+//! objects come from [`objects`] (the crate's default table has 4 + 4 with the CiA 402
+//! predefined mapping: RPDO1 6040h; RPDO2 6040h+6060h; RPDO3 6040h+607Ah; RPDO4 6040h+60FFh;
+//! TPDO1 6041h; TPDO2 6041h+6061h; TPDO3 6041h+6064h; TPDO4 6041h+606Ch).
+//!
+//! Decisions where the standard leaves room (digest §6, §17):
+//! - Changing a mapping while the PDO is valid, or a mapping entry while sub0 ≠ 0, is refused
+//!   with 0x0601_0000 (as CANopenNode and Copley drives do).
+//! - An entry maps a whole object (bit length = its size), or 1 bit of a BOOLEAN; dummy entries
+//!   0001h–0007h of their type's size skip bits. At most [`MAX_MAPPED`] entries and 64 bits.
+//! - RTR: a TPDO whose COB-ID has bit 30 = 0 answers remote frames (type 252 with the data
+//!   sampled at the last SYNC, any other type with fresh data). Types 241–251 are refused.
+//! - An RPDO shorter than its mapping raises EMCY 0x8210 and is not applied; a longer one is
+//!   applied and raises EMCY 0x8220 (both cleared by the next correct frame). An RPDO whose
+//!   values fail a limit check (or the firmware's hook) is not applied at all.
+//! - A synchronous RPDO (types 0–240) is latched on reception and applied at the first tick
+//!   after the next SYNC; synchronous TPDOs are sampled and queued when the SYNC is processed.
+//! - A valid PDO whose stored mapping cannot be resolved (e.g. after a firmware change) is
+//!   disabled and reported with EMCY 0x8200.
+
+use crate::od::{
+    AbortCode, Access, DataType, DefaultValue, Dictionary, Entry, Object, ObjectHooks, PdoMapping, Var,
+};
+use crate::time::{Duration, Instant};
+use crate::wire::cob_id::{self, CobId, BIT30, INVALID};
+
+/// First RPDO communication parameter (1400h).
+pub const RPDO_COMMUNICATION: u16 = 0x1400;
+/// First RPDO mapping parameter (1600h).
+pub const RPDO_MAPPING: u16 = 0x1600;
+/// First TPDO communication parameter (1800h).
+pub const TPDO_COMMUNICATION: u16 = 0x1800;
+/// First TPDO mapping parameter (1A00h).
+pub const TPDO_MAPPING: u16 = 0x1A00;
+/// Most mapping entries per PDO.
+pub const MAX_MAPPED: u8 = 8;
+
+/// Direction of a PDO.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Direction {
+    /// Received by the drive.
+    Rpdo,
+    /// Transmitted by the drive.
+    Tpdo,
+}
+
+/// Which record of which PDO an index names.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PdoRecord {
+    /// RPDO or TPDO.
+    pub direction: Direction,
+    /// Communication (true) or mapping (false) record.
+    pub communication: bool,
+    /// PDO number - 1.
+    pub number: usize,
+}
+
+impl PdoRecord {
+    /// The record at `index`, if it is a PDO record (1400h–1BFFh).
+    pub fn of(index: u16) -> Option<Self> {
+        let (direction, communication, base) = match index {
+            0x1400..=0x15FF => (Direction::Rpdo, true, RPDO_COMMUNICATION),
+            0x1600..=0x17FF => (Direction::Rpdo, false, RPDO_MAPPING),
+            0x1800..=0x19FF => (Direction::Tpdo, true, TPDO_COMMUNICATION),
+            0x1A00..=0x1BFF => (Direction::Tpdo, false, TPDO_MAPPING),
+            _ => return None,
+        };
+        Some(PdoRecord { direction, communication, number: usize::from(index - base) })
+    }
+
+    fn communication_index(self) -> u16 {
+        let base = match self.direction {
+            Direction::Rpdo => RPDO_COMMUNICATION,
+            Direction::Tpdo => TPDO_COMMUNICATION,
+        };
+        base + self.number as u16
+    }
+
+    fn mapping_index(self) -> u16 {
+        self.communication_index() + 0x200
+    }
+}
+
+// --- The dictionary objects -------------------------------------------------------------
+
+const HIGHEST_SUB: &str = "Highest sub-index supported";
+
+const fn u32_rw(name: &'static str, default: DefaultValue) -> Var {
+    Var::new(name, DataType::Unsigned32).access(Access::ReadWrite).default(default)
+}
+
+const fn rpdo_communication(cob_id: DefaultValue) -> [(u8, Var); 4] {
+    [
+        (
+            0,
+            Var::new(HIGHEST_SUB, DataType::Unsigned8)
+                .access(Access::Const)
+                .default(DefaultValue::Unsigned(5)),
+        ),
+        (1, u32_rw("COB-ID used by RPDO", cob_id)),
+        (
+            2,
+            Var::new("Transmission type", DataType::Unsigned8)
+                .access(Access::ReadWrite)
+                .default(DefaultValue::Unsigned(255)),
+        ),
+        (5, Var::new("Event timer", DataType::Unsigned16).access(Access::ReadWrite)),
+    ]
+}
+
+const fn tpdo_communication(cob_id: DefaultValue, transmission: u8) -> [(u8, Var); 6] {
+    [
+        (
+            0,
+            Var::new(HIGHEST_SUB, DataType::Unsigned8)
+                .access(Access::Const)
+                .default(DefaultValue::Unsigned(6)),
+        ),
+        (1, u32_rw("COB-ID used by TPDO", cob_id)),
+        (
+            2,
+            Var::new("Transmission type", DataType::Unsigned8)
+                .access(Access::ReadWrite)
+                .default(DefaultValue::Unsigned(transmission as u64)),
+        ),
+        (3, Var::new("Inhibit time", DataType::Unsigned16).access(Access::ReadWrite)),
+        (5, Var::new("Event timer", DataType::Unsigned16).access(Access::ReadWrite)),
+        (
+            6,
+            Var::new("SYNC start value", DataType::Unsigned8)
+                .access(Access::ReadWrite)
+                .limits_unsigned(0, 240),
+        ),
+    ]
+}
+
+const fn mapping_entry(raw: u32) -> Var {
+    u32_rw("Mapping entry", DefaultValue::Unsigned(raw as u64))
+}
+
+const fn mapping(entries: [u32; 2]) -> [(u8, Var); 9] {
+    let count = if entries[1] != 0 {
+        2
+    } else if entries[0] != 0 {
+        1
+    } else {
+        0
+    };
+    [
+        (
+            0,
+            Var::new("Number of mapped objects", DataType::Unsigned8)
+                .access(Access::ReadWrite)
+                .default(DefaultValue::Unsigned(count))
+                .limits_unsigned(0, MAX_MAPPED as u64),
+        ),
+        (1, mapping_entry(entries[0])),
+        (2, mapping_entry(entries[1])),
+        (3, mapping_entry(0)),
+        (4, mapping_entry(0)),
+        (5, mapping_entry(0)),
+        (6, mapping_entry(0)),
+        (7, mapping_entry(0)),
+        (8, mapping_entry(0)),
+    ]
+}
+
+/// COB-ID of a PDO without a pre-defined identifier: invalid.
+const UNASSIGNED: DefaultValue = DefaultValue::Unsigned(INVALID as u64);
+
+static RPDO_COMMUNICATION_SUBS: [[(u8, Var); 4]; 5] = [
+    rpdo_communication(DefaultValue::NodeIdPlus(0x200)),
+    rpdo_communication(DefaultValue::NodeIdPlus(0x300)),
+    rpdo_communication(DefaultValue::NodeIdPlus(0x400)),
+    rpdo_communication(DefaultValue::NodeIdPlus(0x500)),
+    rpdo_communication(UNASSIGNED),
+];
+
+// TPDOs: bit 30 set (no RTR) on the pre-defined identifiers; status event-driven, actual
+// values every SYNC.
+static TPDO_COMMUNICATION_SUBS: [[(u8, Var); 6]; 5] = [
+    tpdo_communication(DefaultValue::NodeIdPlus(BIT30 | 0x180), 255),
+    tpdo_communication(DefaultValue::NodeIdPlus(BIT30 | 0x280), 255),
+    tpdo_communication(DefaultValue::NodeIdPlus(BIT30 | 0x380), 1),
+    tpdo_communication(DefaultValue::NodeIdPlus(BIT30 | 0x480), 1),
+    tpdo_communication(DefaultValue::Unsigned((INVALID | BIT30) as u64), 255),
+];
+
+static RPDO_MAPPING_SUBS: [[(u8, Var); 9]; 5] = [
+    mapping([0x6040_0010, 0]),
+    mapping([0x6040_0010, 0x6060_0008]),
+    mapping([0x6040_0010, 0x607A_0020]),
+    mapping([0x6040_0010, 0x60FF_0020]),
+    mapping([0, 0]),
+];
+
+static TPDO_MAPPING_SUBS: [[(u8, Var); 9]; 5] = [
+    mapping([0x6041_0010, 0]),
+    mapping([0x6041_0010, 0x6061_0008]),
+    mapping([0x6041_0010, 0x6064_0020]),
+    mapping([0x6041_0010, 0x606C_0020]),
+    mapping([0, 0]),
+];
+
+/// The 1400h/1600h/1800h/1A00h objects of `rpdos` RPDOs and `N / 2 - rpdos` TPDOs, to be laid out
+/// with [`crate::od::layout`]: `static PDOS: [Object; 16] = layout(pdo::objects::<16>(4));`.
+/// PDOs 1–4 carry the CiA 402 pre-defined identifiers and mapping; the others start invalid
+/// and empty.
+// Indices are bounded by the loops and by `min(4)`; `get` is not usable in a const fn.
+#[allow(clippy::indexing_slicing)]
+pub const fn objects<const N: usize>(rpdos: usize) -> [Object; N] {
+    let tpdos = N / 2 - rpdos;
+    let mut out = [Object::var(0, "", Var::new("", DataType::Unsigned8)); N];
+    let mut i = 0;
+    while i < rpdos {
+        let preset = if i < 4 { i } else { 4 };
+        let n = (i + 1) as u16;
+        out[i] = Object::record(
+            RPDO_COMMUNICATION + i as u16,
+            "RPDO communication parameter",
+            &RPDO_COMMUNICATION_SUBS[preset],
+        )
+        .numbered(n);
+        out[rpdos + i] =
+            Object::record(RPDO_MAPPING + i as u16, "RPDO mapping parameter", &RPDO_MAPPING_SUBS[preset])
+                .numbered(n);
+        i += 1;
+    }
+    let mut j = 0;
+    while j < tpdos {
+        let preset = if j < 4 { j } else { 4 };
+        let n = (j + 1) as u16;
+        out[2 * rpdos + j] = Object::record(
+            TPDO_COMMUNICATION + j as u16,
+            "TPDO communication parameter",
+            &TPDO_COMMUNICATION_SUBS[preset],
+        )
+        .numbered(n);
+        out[2 * rpdos + tpdos + j] =
+            Object::record(TPDO_MAPPING + j as u16, "TPDO mapping parameter", &TPDO_MAPPING_SUBS[preset])
+                .numbered(n);
+        j += 1;
+    }
+    out
+}
+
+/// The default 4 RPDOs + 4 TPDOs.
+pub static DEFAULT_OBJECTS: [Object; 16] = crate::od::layout(objects::<16>(4));
+
+/// Counts the RPDO and TPDO communication records of a table.
+pub fn count(table: &[Object]) -> (usize, usize) {
+    table.iter().fold((0, 0), |(r, t), o| match PdoRecord::of(o.index) {
+        Some(PdoRecord { direction: Direction::Rpdo, communication: true, .. }) => (r + 1, t),
+        Some(PdoRecord { direction: Direction::Tpdo, communication: true, .. }) => (r, t + 1),
+        _ => (r, t),
+    })
+}
+
+// --- Mapping ---------------------------------------------------------------------------
+
+/// One resolved mapping entry.
+#[derive(Clone, Copy, Debug)]
+struct Slot {
+    /// The mapped entry; `None` for a dummy entry.
+    entry: Option<Entry>,
+    bits: u8,
+}
+
+/// A resolved mapping.
+#[derive(Clone, Copy, Debug)]
+struct Mapping {
+    slots: [Slot; MAX_MAPPED as usize],
+    count: u8,
+    bits: u16,
+}
+
+impl Mapping {
+    const EMPTY: Mapping =
+        Mapping { slots: [Slot { entry: None, bits: 0 }; MAX_MAPPED as usize], count: 0, bits: 0 };
+
+    fn bytes(&self) -> usize {
+        usize::from(self.bits).div_ceil(8)
+    }
+
+    fn slots(&self) -> &[Slot] {
+        self.slots.get(..usize::from(self.count)).unwrap_or(&[])
+    }
+}
+
+/// Resolves one mapping entry value, with the abort code of digest §6.5 when it cannot be
+/// mapped.
+fn resolve<const B: usize>(od: &Dictionary<B>, raw: u32, direction: Direction) -> Result<Slot, AbortCode> {
+    let index = (raw >> 16) as u16;
+    let sub = (raw >> 8) as u8;
+    let bits = raw as u8;
+    if bits == 0 {
+        return Err(AbortCode::ObjectNotMappable);
+    }
+    // Dummy entries: data types 0001h..0007h, sub 0, their own size.
+    if (1..=7).contains(&index) {
+        let size = match index {
+            1 => 1,
+            2 | 5 => 8,
+            3 | 6 => 16,
+            _ => 32,
+        };
+        return if sub == 0 && bits == size {
+            Ok(Slot { entry: None, bits })
+        } else {
+            Err(AbortCode::ObjectNotMappable)
+        };
+    }
+    let entry = od.entry(index, sub)?;
+    let var = entry.var;
+    let direction_ok = match direction {
+        Direction::Rpdo => matches!(var.pdo, PdoMapping::Rpdo | PdoMapping::Both) && var.access.writable(),
+        Direction::Tpdo => matches!(var.pdo, PdoMapping::Tpdo | PdoMapping::Both) && var.access.readable(),
+    };
+    let size_bits = var.data_type.fixed_size().map(|n| n * 8);
+    let length_ok = size_bits == Some(usize::from(bits)) || (var.data_type == DataType::Boolean && bits == 1);
+    if !direction_ok || !length_ok || var.is_fixed() {
+        return Err(AbortCode::ObjectNotMappable);
+    }
+    Ok(Slot { entry: Some(entry), bits })
+}
+
+/// Resolves the mapping record of `record` as stored in the dictionary.
+fn resolve_mapping<const B: usize>(od: &Dictionary<B>, record: PdoRecord) -> Result<Mapping, AbortCode> {
+    let index = record.mapping_index();
+    let count = od.get::<u8>(index, 0)?;
+    if count > MAX_MAPPED {
+        return Err(AbortCode::PdoLengthExceeded);
+    }
+    let mut mapping = Mapping { count, ..Mapping::EMPTY };
+    for (sub, slot) in (1..=count).zip(mapping.slots.iter_mut()) {
+        *slot = resolve(od, od.get::<u32>(index, sub)?, record.direction)?;
+        mapping.bits += u16::from(slot.bits);
+    }
+    if mapping.bits > 64 {
+        return Err(AbortCode::PdoLengthExceeded);
+    }
+    Ok(mapping)
+}
+
+fn cob_id_of<const B: usize>(od: &Dictionary<B>, record: PdoRecord) -> Option<CobId> {
+    CobId::parse(od.get::<u32>(record.communication_index(), 1).ok()?).ok()
+}
+
+/// Value rules of the PDO records beyond type and limits (digest §6.5), checked before a write
+/// from the bus is stored.
+pub fn check_write<const B: usize>(
+    od: &Dictionary<B>,
+    index: u16,
+    sub: u8,
+    data: &[u8],
+) -> Result<(), AbortCode> {
+    let Some(record) = PdoRecord::of(index) else { return Ok(()) };
+    let raw = data.iter().rev().fold(0u32, |acc, b| (acc << 8) | u32::from(*b));
+    let current = cob_id_of(od, record);
+    let valid = current.is_some_and(|c| c.valid);
+    if !record.communication {
+        // Mapping: only while the PDO is invalid, entries only while sub0 = 0.
+        if valid {
+            return Err(AbortCode::UnsupportedAccess);
+        }
+        if sub == 0 {
+            let mut probe = Mapping::EMPTY;
+            let count = raw as u8;
+            if count > MAX_MAPPED {
+                return Err(AbortCode::PdoLengthExceeded);
+            }
+            let mut bits = 0u16;
+            for (s, slot) in (1..=count).zip(probe.slots.iter_mut()) {
+                *slot = resolve(od, od.get::<u32>(index, s)?, record.direction)?;
+                bits += u16::from(slot.bits);
+            }
+            return if bits > 64 { Err(AbortCode::PdoLengthExceeded) } else { Ok(()) };
+        }
+        if od.get::<u8>(index, 0)? != 0 {
+            return Err(AbortCode::UnsupportedAccess);
+        }
+        if raw != 0 {
+            resolve(od, raw, record.direction)?;
+        }
+        return Ok(());
+    }
+    match sub {
+        1 => {
+            let new = CobId::parse(raw).map_err(|_| AbortCode::InvalidValue)?;
+            if new.valid && cob_id::is_restricted(new.can_id) {
+                return Err(AbortCode::InvalidValue);
+            }
+            if let Some(old) = current {
+                if old.valid && new.valid && old.can_id != new.can_id {
+                    return Err(AbortCode::InvalidValue);
+                }
+            }
+            if new.valid && !valid {
+                // Validating: the mapping must be usable and not empty.
+                let mapping = resolve_mapping(od, record).map_err(|_| AbortCode::InvalidValue)?;
+                if mapping.count == 0 {
+                    return Err(AbortCode::InvalidValue);
+                }
+            }
+            Ok(())
+        }
+        2 => match (record.direction, raw) {
+            (_, 0..=240 | 254 | 255) => Ok(()),
+            (Direction::Tpdo, 252 | 253) => Ok(()),
+            _ => Err(AbortCode::InvalidValue),
+        },
+        // Inhibit time and SYNC start value only while the PDO is invalid.
+        3 | 6 if valid => Err(AbortCode::InvalidValue),
+        _ => Ok(()),
+    }
+}
+
+// --- Runtime ---------------------------------------------------------------------------
+
+/// Where PDO frames go: the drive's transmit queue.
+pub trait FrameSink {
+    /// Queues a frame; false when it was dropped.
+    fn send(&mut self, id: u16, data: &[u8]) -> bool;
+}
+
+/// Something the PDO layer asks the drive to report.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PdoEvent {
+    /// Raise the EMCY `code`.
+    Raise(u16),
+    /// Clear the EMCY `code`.
+    Clear(u16),
+    /// An RPDO timed out (EMCY 0x8250 and the communication-error reaction).
+    RpdoTimeout(u16),
+}
+
+#[derive(Clone, Copy, Debug)]
+struct Rpdo {
+    can_id: Option<u16>,
+    synchronous: bool,
+    mapping: Mapping,
+    latched: Option<[u8; 8]>,
+    ready: Option<[u8; 8]>,
+    timeout: Duration,
+    deadline: Option<Instant>,
+}
+
+impl Rpdo {
+    const OFF: Rpdo = Rpdo {
+        can_id: None,
+        synchronous: false,
+        mapping: Mapping::EMPTY,
+        latched: None,
+        ready: None,
+        timeout: Duration::ZERO,
+        deadline: None,
+    };
+}
+
+#[derive(Clone, Copy, Debug)]
+struct Tpdo {
+    can_id: Option<u16>,
+    rtr: bool,
+    transmission: u8,
+    mapping: Mapping,
+    inhibit: Duration,
+    event_timer: Duration,
+    sync_start: u8,
+    /// SYNCs counted towards the next cyclic transmission; `None` until the start value.
+    sync_count: Option<u8>,
+    next_allowed: Instant,
+    pending: bool,
+    event_deadline: Option<Instant>,
+    last: Option<[u8; 8]>,
+    changed: bool,
+    sampled: Option<[u8; 8]>,
+}
+
+impl Tpdo {
+    const OFF: Tpdo = Tpdo {
+        can_id: None,
+        rtr: false,
+        transmission: 255,
+        mapping: Mapping::EMPTY,
+        inhibit: Duration::ZERO,
+        event_timer: Duration::ZERO,
+        sync_start: 0,
+        sync_count: None,
+        next_allowed: Instant::ZERO,
+        pending: false,
+        event_deadline: None,
+        last: None,
+        changed: false,
+        sampled: None,
+    };
+
+    fn event_driven(&self) -> bool {
+        matches!(self.transmission, 254 | 255)
+    }
+}
+
+/// Runtime state of `R` RPDOs and `T` TPDOs.
+pub struct PdoSet<const R: usize, const T: usize> {
+    rpdos: [Rpdo; R],
+    tpdos: [Tpdo; T],
+    /// EMCY 0x8220 for RPDOs longer than their mapping (optional in CiA 301; on by default).
+    pub report_long_rpdo: bool,
+}
+
+impl<const R: usize, const T: usize> Default for PdoSet<R, T> {
+    fn default() -> Self {
+        PdoSet { rpdos: [Rpdo::OFF; R], tpdos: [Tpdo::OFF; T], report_long_rpdo: true }
+    }
+}
+
+fn read_value<const B: usize>(od: &Dictionary<B>, entry: &Entry) -> u64 {
+    let mut raw = [0u8; 8];
+    od.read(entry, 0, &mut raw);
+    u64::from_le_bytes(raw)
+}
+
+fn put_bits(frame: &mut [u8; 8], position: usize, bits: usize, value: u64) {
+    for bit in 0..bits {
+        let target = position + bit;
+        if let Some(byte) = frame.get_mut(target / 8) {
+            let mask = 1u8 << (target % 8);
+            if (value >> bit) & 1 == 1 {
+                *byte |= mask;
+            } else {
+                *byte &= !mask;
+            }
+        }
+    }
+}
+
+fn get_bits(frame: &[u8; 8], position: usize, bits: usize) -> u64 {
+    (0..bits).fold(0u64, |acc, bit| {
+        let source = position + bit;
+        let set = frame.get(source / 8).is_some_and(|b| (b >> (source % 8)) & 1 == 1);
+        acc | (u64::from(set) << bit)
+    })
+}
+
+fn sample<const B: usize>(od: &Dictionary<B>, mapping: &Mapping) -> [u8; 8] {
+    let mut frame = [0u8; 8];
+    let mut position = 0;
+    for slot in mapping.slots() {
+        let value = slot.entry.as_ref().map_or(0, |e| read_value(od, e));
+        put_bits(&mut frame, position, usize::from(slot.bits), value);
+        position += usize::from(slot.bits);
+    }
+    frame
+}
+
+impl<const R: usize, const T: usize> PdoSet<R, T> {
+    /// Reloads the configuration of every PDO from the dictionary; returns the EMCY to raise
+    /// when a valid PDO's mapping cannot be resolved (0x8200).
+    pub fn configure_all<const B: usize>(&mut self, od: &Dictionary<B>) -> Option<PdoEvent> {
+        let mut event = None;
+        for number in 0..R {
+            let record = PdoRecord { direction: Direction::Rpdo, communication: true, number };
+            event = self.configure(od, record).or(event);
+        }
+        for number in 0..T {
+            let record = PdoRecord { direction: Direction::Tpdo, communication: true, number };
+            event = self.configure(od, record).or(event);
+        }
+        event
+    }
+
+    /// Reloads one PDO after a write to one of its records.
+    pub fn configure<const B: usize>(&mut self, od: &Dictionary<B>, record: PdoRecord) -> Option<PdoEvent> {
+        let cob = cob_id_of(od, record);
+        let communication = record.communication_index();
+        let transmission = od.get::<u8>(communication, 2).unwrap_or(255);
+        let event_timer = Duration::from_millis(u64::from(od.get::<u16>(communication, 5).unwrap_or(0)));
+        let (mapping, broken) = match cob {
+            Some(c) if c.valid => match resolve_mapping(od, record) {
+                Ok(m) => (Some(m), false),
+                Err(_) => (None, true),
+            },
+            _ => (None, false),
+        };
+        let can_id = mapping.and(cob).map(|c| c.can_id);
+        let mapping = mapping.unwrap_or(Mapping::EMPTY);
+        match record.direction {
+            Direction::Rpdo => {
+                if let Some(rpdo) = self.rpdos.get_mut(record.number) {
+                    *rpdo = Rpdo {
+                        can_id,
+                        synchronous: transmission <= 240,
+                        mapping,
+                        timeout: event_timer,
+                        ..Rpdo::OFF
+                    };
+                }
+            }
+            Direction::Tpdo => {
+                if let Some(tpdo) = self.tpdos.get_mut(record.number) {
+                    let inhibit = u64::from(od.get::<u16>(communication, 3).unwrap_or(0)) * 100;
+                    *tpdo = Tpdo {
+                        can_id,
+                        rtr: cob.is_some_and(|c| !c.bit30),
+                        transmission,
+                        mapping,
+                        inhibit: Duration::from_micros(inhibit),
+                        event_timer,
+                        sync_start: od.get::<u8>(communication, 6).unwrap_or(0),
+                        ..Tpdo::OFF
+                    };
+                }
+            }
+        }
+        broken.then_some(PdoEvent::Raise(crate::comm::emcy::code::PROTOCOL))
+    }
+
+    /// Entering Operational at `now`: event-driven TPDOs are sent once right away, cyclic
+    /// counters restart, RPDO supervision waits for the first frame.
+    pub fn start(&mut self, now: Instant) {
+        for tpdo in self.tpdos.iter_mut().filter(|t| t.can_id.is_some()) {
+            tpdo.pending = tpdo.event_driven();
+            tpdo.sync_count = None;
+            tpdo.last = None;
+            tpdo.changed = tpdo.transmission == 0;
+            tpdo.event_deadline = None;
+            tpdo.next_allowed = now;
+        }
+        for rpdo in self.rpdos.iter_mut() {
+            rpdo.deadline = None;
+            rpdo.latched = None;
+            rpdo.ready = None;
+        }
+    }
+
+    /// Handles a data frame on `can_id`; returns false when no RPDO uses that identifier.
+    /// `late`: the synchronous window has closed. `events` receives the EMCY changes to make.
+    pub fn on_frame<const B: usize>(
+        &mut self,
+        can_id: u16,
+        data: &[u8],
+        now: Instant,
+        late: bool,
+        od: &mut Dictionary<B>,
+        hooks: &mut impl ObjectHooks,
+        events: &mut impl FnMut(PdoEvent),
+    ) -> bool {
+        let report_long = self.report_long_rpdo;
+        let Some(rpdo) = self.rpdos.iter_mut().find(|r| r.can_id == Some(can_id)) else {
+            return false;
+        };
+        let needed = rpdo.mapping.bytes();
+        if data.len() < needed {
+            events(PdoEvent::Raise(crate::comm::emcy::code::PDO_LENGTH));
+            return true;
+        }
+        events(PdoEvent::Clear(crate::comm::emcy::code::PDO_LENGTH));
+        if data.len() > needed && report_long {
+            events(PdoEvent::Raise(crate::comm::emcy::code::PDO_LENGTH_EXCEEDED));
+        } else {
+            events(PdoEvent::Clear(crate::comm::emcy::code::PDO_LENGTH_EXCEEDED));
+        }
+        if rpdo.timeout != Duration::ZERO {
+            if rpdo.deadline.is_none() {
+                // Monitoring starts with the first reception; a timed-out RPDO recovers here.
+                events(PdoEvent::Clear(crate::comm::emcy::code::RPDO_TIMEOUT));
+            }
+            rpdo.deadline = Some(now + rpdo.timeout);
+        }
+        let mut frame = [0u8; 8];
+        for (dst, src) in frame.iter_mut().zip(data) {
+            *dst = *src;
+        }
+        if rpdo.synchronous {
+            // Outside the synchronous window the data wait for nothing: discarded.
+            if !late {
+                rpdo.latched = Some(frame);
+            }
+        } else {
+            apply(od, hooks, &rpdo.mapping, &frame);
+        }
+        true
+    }
+
+    /// A SYNC was processed: latched RPDOs become ready for the next tick, synchronous TPDOs are
+    /// sampled and sent.
+    pub fn on_sync<const B: usize>(
+        &mut self,
+        counter: Option<u8>,
+        now: Instant,
+        od: &Dictionary<B>,
+        tx: &mut impl FrameSink,
+    ) {
+        for rpdo in self.rpdos.iter_mut() {
+            if let Some(frame) = rpdo.latched.take() {
+                rpdo.ready = Some(frame);
+            }
+        }
+        for tpdo in self.tpdos.iter_mut() {
+            let Some(can_id) = tpdo.can_id else { continue };
+            match tpdo.transmission {
+                0 => {
+                    if core::mem::take(&mut tpdo.changed) {
+                        send(tx, can_id, &sample(od, &tpdo.mapping), &tpdo.mapping);
+                    }
+                }
+                n @ 1..=240 => {
+                    let count = match (tpdo.sync_count, tpdo.sync_start, counter) {
+                        // Waiting for the SYNC whose counter equals the start value.
+                        (None, start @ 1..=240, Some(c)) if c != start => continue,
+                        (None, _, _) => n,
+                        (Some(k), _, _) => k,
+                    };
+                    if count >= n {
+                        send(tx, can_id, &sample(od, &tpdo.mapping), &tpdo.mapping);
+                        tpdo.sync_count = Some(1);
+                    } else {
+                        tpdo.sync_count = Some(count + 1);
+                    }
+                }
+                252 => tpdo.sampled = Some(sample(od, &tpdo.mapping)),
+                _ => {}
+            }
+        }
+        let _ = now;
+    }
+
+    /// Applies the RPDOs made ready by the last SYNC (the tick calls this first).
+    pub fn apply_ready<const B: usize>(&mut self, od: &mut Dictionary<B>, hooks: &mut impl ObjectHooks) {
+        for rpdo in self.rpdos.iter_mut() {
+            if let Some(frame) = rpdo.ready.take() {
+                apply(od, hooks, &rpdo.mapping, &frame);
+            }
+        }
+    }
+
+    /// Detects changes of the values mapped into event-driven and acyclic TPDOs (the tick calls
+    /// this last) and sends what the inhibit time allows.
+    pub fn detect_changes<const B: usize>(
+        &mut self,
+        now: Instant,
+        od: &Dictionary<B>,
+        tx: &mut impl FrameSink,
+    ) {
+        for tpdo in self.tpdos.iter_mut() {
+            if tpdo.can_id.is_none() || !(tpdo.event_driven() || tpdo.transmission == 0) {
+                continue;
+            }
+            let data = sample(od, &tpdo.mapping);
+            if tpdo.last != Some(data) {
+                tpdo.last = Some(data);
+                if tpdo.transmission == 0 {
+                    tpdo.changed = true;
+                } else {
+                    tpdo.pending = true;
+                }
+            }
+        }
+        self.send_pending(now, od, tx);
+    }
+
+    fn send_pending<const B: usize>(&mut self, now: Instant, od: &Dictionary<B>, tx: &mut impl FrameSink) {
+        for tpdo in self.tpdos.iter_mut() {
+            let Some(can_id) = tpdo.can_id else { continue };
+            if !tpdo.event_driven() {
+                continue;
+            }
+            let timer_due = tpdo.event_deadline.is_some_and(|d| now >= d);
+            if (tpdo.pending || timer_due) && now >= tpdo.next_allowed {
+                let data = sample(od, &tpdo.mapping);
+                if send(tx, can_id, &data, &tpdo.mapping) {
+                    tpdo.last = Some(data);
+                    tpdo.pending = false;
+                    tpdo.next_allowed = now + tpdo.inhibit;
+                    tpdo.event_deadline =
+                        (tpdo.event_timer != Duration::ZERO).then(|| now + tpdo.event_timer);
+                }
+            } else if tpdo.event_deadline.is_none() && tpdo.event_timer != Duration::ZERO {
+                tpdo.event_deadline = Some(now + tpdo.event_timer);
+            }
+        }
+    }
+
+    /// Timers due at `now`: event timers, inhibited transmissions, RPDO timeouts.
+    pub fn poll<const B: usize>(
+        &mut self,
+        now: Instant,
+        od: &Dictionary<B>,
+        tx: &mut impl FrameSink,
+        events: &mut impl FnMut(PdoEvent),
+    ) {
+        self.send_pending(now, od, tx);
+        for (number, rpdo) in self.rpdos.iter_mut().enumerate() {
+            if rpdo.deadline.is_some_and(|d| now >= d) {
+                rpdo.deadline = None;
+                events(PdoEvent::RpdoTimeout(number as u16 + 1));
+            }
+        }
+    }
+
+    /// A remote frame on `can_id`: answered by a TPDO that allows RTR; returns whether one did.
+    pub fn on_remote<const B: usize>(
+        &mut self,
+        can_id: u16,
+        now: Instant,
+        od: &Dictionary<B>,
+        tx: &mut impl FrameSink,
+    ) -> bool {
+        let Some(tpdo) = self.tpdos.iter_mut().find(|t| t.can_id == Some(can_id) && t.rtr) else {
+            return false;
+        };
+        let data = match (tpdo.transmission, tpdo.sampled) {
+            (252, Some(sampled)) => sampled,
+            (252, None) => return true,
+            _ => sample(od, &tpdo.mapping),
+        };
+        send(tx, can_id, &data, &tpdo.mapping);
+        tpdo.next_allowed = now + tpdo.inhibit;
+        true
+    }
+
+    /// When [`poll`](Self::poll) has something to do.
+    pub fn deadline(&self) -> Option<Instant> {
+        let tpdo = self.tpdos.iter().filter(|t| t.can_id.is_some() && t.event_driven()).filter_map(|t| {
+            let pending = t.pending.then_some(t.next_allowed);
+            match (pending, t.event_deadline) {
+                (Some(a), Some(b)) => Some(a.min(b.max(t.next_allowed))),
+                (a, b) => a.or(b.map(|b| b.max(t.next_allowed))),
+            }
+        });
+        let rpdo = self.rpdos.iter().filter_map(|r| r.deadline);
+        tpdo.chain(rpdo).min()
+    }
+}
+
+fn send(tx: &mut impl FrameSink, can_id: u16, data: &[u8; 8], mapping: &Mapping) -> bool {
+    tx.send(can_id, data.get(..mapping.bytes()).unwrap_or(&[]))
+}
+
+/// Writes an RPDO's values into the dictionary: all or nothing (limits and hooks checked first).
+fn apply<const B: usize>(
+    od: &mut Dictionary<B>,
+    hooks: &mut impl ObjectHooks,
+    mapping: &Mapping,
+    frame: &[u8; 8],
+) {
+    let mut values = [(0u64, 0usize); MAX_MAPPED as usize];
+    let mut position = 0;
+    for (slot, value) in mapping.slots().iter().zip(values.iter_mut()) {
+        let bits = usize::from(slot.bits);
+        *value = (get_bits(frame, position, bits), position);
+        position += bits;
+        let Some(entry) = slot.entry else { continue };
+        let size = entry.var.data_type.fixed_size().unwrap_or(0);
+        let bytes = value.0.to_le_bytes();
+        let data = bytes.get(..size).unwrap_or(&[]);
+        if od.check_write(&entry, data).is_err() || hooks.validate(entry.index(), entry.sub, data).is_err() {
+            return;
+        }
+    }
+    for (slot, (value, _)) in mapping.slots().iter().zip(values) {
+        let Some(entry) = slot.entry else { continue };
+        let size = entry.var.data_type.fixed_size().unwrap_or(0);
+        let bytes = value.to_le_bytes();
+        let data = bytes.get(..size).unwrap_or(&[]);
+        od.commit(&entry, data);
+        hooks.written(entry.index(), entry.sub, data);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bit_packing_round_trips() {
+        let mut frame = [0u8; 8];
+        put_bits(&mut frame, 0, 16, 0x1234);
+        put_bits(&mut frame, 16, 1, 1);
+        put_bits(&mut frame, 17, 32, 0xDEAD_BEEF);
+        assert_eq!(get_bits(&frame, 0, 16), 0x1234);
+        assert_eq!(get_bits(&frame, 16, 1), 1);
+        assert_eq!(get_bits(&frame, 17, 32), 0xDEAD_BEEF);
+        assert_eq!(frame[..2], [0x34, 0x12]);
+    }
+
+    #[test]
+    fn default_table_is_ordered_and_counted() {
+        assert_eq!(count(&DEFAULT_OBJECTS), (4, 4));
+        assert!(DEFAULT_OBJECTS.windows(2).all(|w| w[0].index < w[1].index));
+        assert_eq!(DEFAULT_OBJECTS[0].index, 0x1400);
+        assert_eq!(DEFAULT_OBJECTS[15].index, 0x1A03);
+        assert_eq!(DEFAULT_OBJECTS[5].number, 2);
+        static BIG: [Object; 20] = crate::od::layout(objects::<20>(6));
+        assert_eq!(count(&BIG), (6, 4));
+        assert_eq!(BIG[5].index, 0x1405);
+        assert_eq!(BIG[6].index, 0x1600);
+    }
+}
