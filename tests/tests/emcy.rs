@@ -17,18 +17,18 @@ fn emcy(data: [u8; 8]) -> CanFrame {
 #[test]
 fn raise_and_clear_send_the_documented_frames() {
     let mut bench = Bench::new();
-    bench.drive.raise_error(0x8130, ErrorRegister::COMMUNICATION, [0; 5]);
+    bench.drive().raise_error(0x8130, ErrorRegister::COMMUNICATION, [0; 5]);
     assert_eq!(bench.advance(Duration::ZERO), vec![emcy([0x30, 0x81, 0x11, 0, 0, 0, 0, 0])]);
     // The same error again: no frame.
-    bench.drive.raise_error(0x8130, ErrorRegister::COMMUNICATION, [0; 5]);
+    bench.drive().raise_error(0x8130, ErrorRegister::COMMUNICATION, [0; 5]);
     assert!(bench.advance(Duration::ZERO).is_empty());
-    bench.drive.raise_error(0x4310, ErrorRegister::TEMPERATURE, [0xAA, 0xBB, 1, 2, 3]);
+    bench.drive().raise_error(0x4310, ErrorRegister::TEMPERATURE, [0xAA, 0xBB, 1, 2, 3]);
     assert_eq!(bench.advance(Duration::ZERO), vec![emcy([0x10, 0x43, 0x19, 0xAA, 0xBB, 1, 2, 3])]);
     assert_eq!(bench.sdo1(&req(0x40, 0x1001, 0, [0; 4])), req(0x4F, 0x1001, 0, [0x19, 0, 0, 0]));
     // One error goes: "error reset" with the register that remains; then the last one.
-    bench.drive.clear_error(0x8130);
+    bench.drive().clear_error(0x8130);
     assert_eq!(bench.advance(Duration::ZERO), vec![emcy([0, 0, 0x09, 0, 0, 0, 0, 0])]);
-    bench.drive.clear_error(0x4310);
+    bench.drive().clear_error(0x4310);
     assert_eq!(bench.advance(Duration::ZERO), vec![emcy([0, 0, 0x00, 0, 0, 0, 0, 0])]);
     assert_eq!(bench.sdo1(&req(0x40, 0x1001, 0, [0; 4])), req(0x4F, 0x1001, 0, [0, 0, 0, 0]));
 }
@@ -39,14 +39,14 @@ fn history_is_newest_first_and_cleared_by_writing_zero() {
     assert_eq!(bench.sdo1(&req(0x40, 0x1003, 0, [0; 4])), req(0x4F, 0x1003, 0, [0; 4]));
     assert_eq!(bench.sdo1(&req(0x40, 0x1003, 1, [0; 4])), abort(0x1003, 1, 0x0800_0024));
     for code in [0x2310u16, 0x3210, 0x4210] {
-        bench.drive.raise_error(code, ErrorRegister::empty(), [0x34, 0x12, 0, 0, 0]);
+        bench.drive().raise_error(code, ErrorRegister::empty(), [0x34, 0x12, 0, 0, 0]);
     }
     assert_eq!(bench.sdo1(&req(0x40, 0x1003, 0, [0; 4])), req(0x4F, 0x1003, 0, [3, 0, 0, 0]));
     assert_eq!(bench.sdo1(&req(0x40, 0x1003, 1, [0; 4])), req(0x43, 0x1003, 1, [0x10, 0x42, 0x34, 0x12]));
     assert_eq!(bench.sdo1(&req(0x40, 0x1003, 3, [0; 4])), req(0x43, 0x1003, 3, [0x10, 0x23, 0x34, 0x12]));
     // The history keeps the newest 8.
     for code in 0x5001u16..=0x5008 {
-        bench.drive.raise_error(code, ErrorRegister::empty(), [0; 5]);
+        bench.drive().raise_error(code, ErrorRegister::empty(), [0; 5]);
     }
     assert_eq!(bench.sdo1(&req(0x40, 0x1003, 0, [0; 4])), req(0x4F, 0x1003, 0, [8, 0, 0, 0]));
     assert_eq!(bench.sdo1(&req(0x40, 0x1003, 1, [0; 4])), req(0x43, 0x1003, 1, [0x08, 0x50, 0, 0]));
@@ -70,12 +70,12 @@ fn cob_id_emcy_rules() {
     assert_eq!(bench.sdo1(&req(0x23, 0x1014, 0, [0x00, 0, 0, 0])), abort(0x1014, 0, 0x0609_0030));
     // Invalid: errors produce no frame.
     assert_eq!(bench.sdo1(&req(0x23, 0x1014, 0, [0x85, 0, 0, 0x80])), req(0x60, 0x1014, 0, [0; 4]));
-    bench.drive.raise_error(0x1000, ErrorRegister::empty(), [0; 5]);
+    bench.drive().raise_error(0x1000, ErrorRegister::empty(), [0; 5]);
     assert!(bench.advance(Duration::from_millis(10)).is_empty());
     // Move it to 0x0F0 and validate it.
     assert_eq!(bench.sdo1(&req(0x23, 0x1014, 0, [0xF0, 0, 0, 0x80])), req(0x60, 0x1014, 0, [0; 4]));
     assert_eq!(bench.sdo1(&req(0x23, 0x1014, 0, [0xF0, 0, 0, 0])), req(0x60, 0x1014, 0, [0; 4]));
-    bench.drive.raise_error(0x2000, ErrorRegister::CURRENT, [0; 5]);
+    bench.drive().raise_error(0x2000, ErrorRegister::CURRENT, [0; 5]);
     assert_eq!(bench.advance(Duration::ZERO), vec![frame(0x0F0, &[0x00, 0x20, 0x03, 0, 0, 0, 0, 0])]);
 }
 
@@ -84,18 +84,18 @@ fn inhibit_time_spaces_frames_and_stopped_holds_them() {
     let mut bench = Bench::new();
     // 1015h = 50 × 100 µs = 5 ms.
     bench.sdo1(&req(0x2B, 0x1015, 0, [50, 0, 0, 0]));
-    bench.drive.raise_error(0x1000, ErrorRegister::empty(), [0; 5]);
-    bench.drive.raise_error(0x2000, ErrorRegister::CURRENT, [0; 5]);
-    let start = bench.now;
+    bench.drive().raise_error(0x1000, ErrorRegister::empty(), [0; 5]);
+    bench.drive().raise_error(0x2000, ErrorRegister::CURRENT, [0; 5]);
+    let start = bench.now();
     assert_eq!(bench.advance(Duration::ZERO).len(), 1);
     assert!(bench.advance(Duration::from_micros(4999)).is_empty());
     assert_eq!(bench.advance(Duration::from_micros(1)).len(), 1);
-    assert_eq!(bench.now - start, Duration::from_millis(5));
+    assert_eq!(bench.now() - start, Duration::from_millis(5));
     // Stopped: the error is recorded but its EMCY waits for Pre-operational.
     bench.send(frame(0x000, &[0x02, NODE]));
-    bench.drive.raise_error(0x3000, ErrorRegister::VOLTAGE, [0; 5]);
+    bench.drive().raise_error(0x3000, ErrorRegister::VOLTAGE, [0; 5]);
     assert!(bench.advance(Duration::from_millis(100)).is_empty());
-    assert_eq!(bench.drive.error_register().bits(), 0x07);
+    assert_eq!(bench.drive().error_register().bits(), 0x07);
     let frames = bench.send(frame(0x000, &[0x80, NODE]));
     assert_eq!(frames, vec![emcy([0x00, 0x30, 0x07, 0, 0, 0, 0, 0])]);
 }

@@ -17,7 +17,7 @@ fn emcy(data: [u8; 8]) -> CanFrame {
 
 fn operational(bench: &mut Bench) {
     bench.send(frame(0x000, &[0x01, NODE]));
-    assert_eq!(bench.drive.nmt_state(), NmtState::Operational);
+    assert_eq!(bench.drive().nmt_state(), NmtState::Operational);
 }
 
 fn consume_node_3(bench: &mut Bench, ms: u16) {
@@ -38,8 +38,8 @@ fn heartbeat_timeout_raises_8130_and_enters_pre_operational() {
     // Silence for 100 ms: EMCY with the node-ID in the manufacturer field, 1029h = 0 → Pre-op.
     assert!(bench.advance(Duration::from_millis(99)).is_empty());
     assert_eq!(bench.advance(Duration::from_millis(1)), vec![emcy([0x30, 0x81, 0x11, 3, 0, 0, 0, 0])]);
-    assert_eq!(bench.drive.nmt_state(), NmtState::PreOperational);
-    assert_eq!(bench.drive.take_connection_event(), Some(ConnectionEvent::HeartbeatLost));
+    assert_eq!(bench.drive().nmt_state(), NmtState::PreOperational);
+    assert_eq!(bench.drive().take_connection_event(), Some(ConnectionEvent::HeartbeatLost));
     // The node is heard again: error reset.
     assert_eq!(bench.send(frame(0x703, &[0x7F])), vec![emcy([0, 0, 0, 0, 0, 0, 0, 0])]);
     // Other nodes' heartbeats do not feed it.
@@ -87,7 +87,7 @@ fn error_behaviour_selects_the_nmt_reaction() {
         }
         bench.send(frame(0x703, &[0x05]));
         bench.advance(Duration::from_millis(60));
-        assert_eq!(bench.drive.nmt_state(), expected, "1029h = {value:#x} from {from:?}");
+        assert_eq!(bench.drive().nmt_state(), expected, "1029h = {value:#x} from {from:?}");
     }
     let mut bench = Bench::new();
     assert_eq!(bench.sdo1(&req(0x2F, 0x1029, 1, [3, 0, 0, 0])), abort(0x1029, 1, 0x0609_0030));
@@ -108,8 +108,8 @@ fn node_guarding_answers_with_toggle_and_life_guarding_supervises() {
     assert_eq!(bench.send(rtr), vec![frame(ERROR_CONTROL, &[0x85])]);
     assert!(bench.advance(Duration::from_millis(299)).is_empty());
     assert_eq!(bench.advance(Duration::from_millis(1)), vec![emcy([0x30, 0x81, 0x11, 0, 0, 0, 0, 0])]);
-    assert_eq!(bench.drive.take_connection_event(), Some(ConnectionEvent::LifeGuardingLost));
-    assert_eq!(bench.drive.nmt_state(), NmtState::PreOperational);
+    assert_eq!(bench.drive().take_connection_event(), Some(ConnectionEvent::LifeGuardingLost));
+    assert_eq!(bench.drive().nmt_state(), NmtState::PreOperational);
     // The next request clears the error.
     assert_eq!(bench.send(rtr), vec![frame(ERROR_CONTROL, &[0x7F]), emcy([0; 8])]);
     // With a heartbeat producer configured, guarding requests are not answered.
@@ -125,29 +125,33 @@ fn node_guarding_answers_with_toggle_and_life_guarding_supervises() {
 fn can_controller_states() {
     let mut bench = Bench::new();
     operational(&mut bench);
-    bench.drive.on_can_state(CanState::ErrorPassive, bench.now);
+    let now = bench.now();
+    bench.drive().on_can_state(CanState::ErrorPassive, now);
     assert_eq!(bench.advance(Duration::ZERO), vec![emcy([0x20, 0x81, 0x11, 0, 0, 0, 0, 0])]);
-    bench.drive.on_can_state(CanState::BusOff, bench.now);
-    assert_eq!(bench.drive.take_connection_event(), Some(ConnectionEvent::BusOff));
-    assert_eq!(bench.drive.nmt_state(), NmtState::PreOperational, "1029h = 0");
+    let now = bench.now();
+    bench.drive().on_can_state(CanState::BusOff, now);
+    assert_eq!(bench.drive().take_connection_event(), Some(ConnectionEvent::BusOff));
+    assert_eq!(bench.drive().nmt_state(), NmtState::PreOperational, "1029h = 0");
     assert!(bench.advance(Duration::ZERO).is_empty(), "nothing while bus-off");
-    bench.drive.on_can_state(CanState::ErrorActive, bench.now);
+    let now = bench.now();
+    bench.drive().on_can_state(CanState::ErrorActive, now);
     assert_eq!(
         bench.advance(Duration::ZERO),
         vec![emcy([0, 0, 0, 0, 0, 0, 0, 0]), emcy([0x40, 0x81, 0x11, 0, 0, 0, 0, 0]), emcy([0; 8])]
     );
-    bench.drive.on_can_state(CanState::Overrun, bench.now);
+    let now = bench.now();
+    bench.drive().on_can_state(CanState::Overrun, now);
     assert_eq!(bench.advance(Duration::ZERO), vec![emcy([0x10, 0x81, 0x11, 0, 0, 0, 0, 0]), emcy([0; 8])]);
 }
 
 #[test]
 fn nmt_events_reach_the_connection_reaction() {
     let mut bench = Bench::new();
-    assert_eq!(bench.drive.take_connection_event(), None);
+    assert_eq!(bench.drive().take_connection_event(), None);
     bench.send(frame(0x000, &[0x02, 0]));
-    assert_eq!(bench.drive.take_connection_event(), Some(ConnectionEvent::NmtStopped));
+    assert_eq!(bench.drive().take_connection_event(), Some(ConnectionEvent::NmtStopped));
     bench.send(frame(0x000, &[0x82, 0]));
-    assert_eq!(bench.drive.take_connection_event(), Some(ConnectionEvent::ResetCommunication));
+    assert_eq!(bench.drive().take_connection_event(), Some(ConnectionEvent::ResetCommunication));
     bench.send(frame(0x000, &[0x81, 0]));
-    assert_eq!(bench.drive.take_connection_event(), Some(ConnectionEvent::ResetApplication));
+    assert_eq!(bench.drive().take_connection_event(), Some(ConnectionEvent::ResetApplication));
 }

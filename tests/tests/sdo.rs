@@ -87,11 +87,11 @@ fn expedited_download_with_and_without_size() {
     assert_eq!(bench.sdo1(&req(0x40, LIMITED, 0, [0; 4])), req(0x4F, LIMITED, 0, [12, 0, 0, 0]));
     // A request shorter than 8 bytes is served when the needed bytes are there.
     assert_eq!(bench.sdo1(&[0x2B, 0x17, 0x10, 0x00, 0x64, 0x00]), req(0x60, 0x1017, 0, [0; 4]));
-    assert_eq!(bench.drive.od().get::<u16>(0x1017, 0), Ok(100));
+    assert_eq!(bench.drive().od().get::<u16>(0x1017, 0), Ok(100));
     // Signed record entry.
     assert_eq!(bench.sdo1(&req(0x23, RECORD, 1, (-42i32).to_le_bytes())), req(0x60, RECORD, 1, [0; 4]));
     assert_eq!(bench.sdo1(&req(0x40, RECORD, 1, [0; 4])), req(0x43, RECORD, 1, (-42i32).to_le_bytes()));
-    assert_eq!(bench.drive.hooks_mut().written.last(), Some(&(RECORD, 1, (-42i32).to_le_bytes().to_vec())));
+    assert_eq!(bench.drive().hooks_mut().written.last(), Some(&(RECORD, 1, (-42i32).to_le_bytes().to_vec())));
 }
 
 #[test]
@@ -322,7 +322,7 @@ fn aborts_on_values() {
     assert_eq!(bench.sdo1(&req(0x2B, RECORD, 2, [7, 0, 0, 0])), req(0x60, RECORD, 2, [0; 4]));
     bench.send(frame(0x000, &[0x01, NODE]));
     assert_eq!(bench.sdo1(&req(0x2B, RECORD, 2, [8, 0, 0, 0])), abort(RECORD, 2, DEVICE_STATE));
-    assert_eq!(bench.drive.od().get::<u16>(RECORD, 2), Ok(7));
+    assert_eq!(bench.drive().od().get::<u16>(RECORD, 2), Ok(7));
 }
 
 #[test]

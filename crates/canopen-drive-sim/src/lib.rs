@@ -16,6 +16,7 @@
 //! - [`master`]: [`Master`], a scripted CANopen master on the master port: NMT commands and an
 //!   SDO client (expedited, segmented and block transfer, both directions), plus raw
 //!   request helpers for tests that assert exact frames.
+//! - [`node`]: [`DriveNode`], a drive ticked at a fixed rate against a [`SimMotor`].
 //! - [`motor`]: [`SimMotor`], a small simulated motor that turns a drive's
 //!   [`Demand`](canopen_drive::hal::Demand) into the next feedback
 //!   [`Sample`](canopen_drive::hal::Sample).
@@ -39,10 +40,12 @@ pub mod bus;
 pub mod fault;
 pub mod master;
 pub mod motor;
+pub mod node;
 pub mod trace;
 
 pub use bus::{BusError, Node, NodeHandle, Port, VirtualBus};
 pub use fault::{FaultAction, FaultRule};
 pub use master::{Master, SdoError};
 pub use motor::SimMotor;
+pub use node::DriveNode;
 pub use trace::{Fate, TraceRecord};

@@ -18,7 +18,7 @@ use crate::comm::error_control::{
 };
 use crate::comm::heartbeat::HeartbeatProducer;
 use crate::comm::nmt::{transition, NmtAction, Services};
-use crate::comm::pdo::{self, FrameSink, PdoEvent, PdoRecord, PdoSet};
+use crate::comm::pdo::{self, FrameSink, PdoEvent, PdoRecord, PdoSet, RpdoFrame};
 use crate::comm::sdo_server::{ObjectAccess, SdoServer};
 use crate::comm::sync::{Sync, SyncConfig, SyncPoll, SyncReception};
 use crate::frame::CanFrame;
@@ -545,9 +545,14 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
         let window = u64::from(self.od.get::<u32>(SYNCHRONOUS_WINDOW_LENGTH, 0).unwrap_or(0));
         let late = window != 0 && self.sync.last().is_some_and(|at| now - at > Duration::from_micros(window));
         let mut events = heapless::Vec::<PdoEvent, 4>::new();
-        let taken = self.pdos.on_frame(id, data, now, late, &mut self.od, &mut self.hooks, &mut |e| {
-            let _ = events.push(e);
-        });
+        let taken = self.pdos.on_frame(
+            RpdoFrame { can_id: id, data, now, late },
+            &mut self.od,
+            &mut self.hooks,
+            &mut |e| {
+                let _ = events.push(e);
+            },
+        );
         for event in events {
             self.pdo_event(event, now);
         }

@@ -5,6 +5,7 @@
 pub mod objects;
 
 use canopen_drive::{CanFrame, Config, Drive, Duration, Instant};
+use canopen_drive_sim::{bus::NodeHandle, DriveNode, VirtualBus};
 use embedded_can::Frame;
 
 pub use objects::*;
@@ -14,9 +15,13 @@ pub const SDO_RX: u16 = 0x600 + NODE as u16;
 pub const SDO_TX: u16 = 0x580 + NODE as u16;
 pub const ERROR_CONTROL: u16 = 0x700 + NODE as u16;
 
+pub type TestDrive = Drive<TestHooks>;
+
+/// Node 5 with the test objects, ticked every millisecond against the simulated motor, on a
+/// virtual bus whose master port is the test.
 pub struct Bench {
-    pub drive: Drive<TestHooks>,
-    pub now: Instant,
+    pub bus: VirtualBus,
+    node: NodeHandle,
 }
 
 impl Bench {
@@ -24,26 +29,29 @@ impl Bench {
     pub fn new() -> Self {
         let config = Config { manufacturer_objects: &TEST_OBJECTS, ..Config::new(NODE) };
         let drive = Drive::with_hooks(config, TestHooks::default()).unwrap();
-        let mut bench = Bench { drive, now: Instant::ZERO };
+        let mut bus = VirtualBus::new();
+        let node = bus.add_node(DriveNode::new(drive, Duration::from_millis(1)));
+        let mut bench = Bench { bus, node };
         let boot = bench.advance(Duration::ZERO);
         assert_eq!(boot, vec![frame(ERROR_CONTROL, &[0x00])]);
         bench
     }
 
-    /// Sends `frame` from the master and returns what the drive sends in reply.
+    /// The drive under test.
+    pub fn drive(&mut self) -> &mut TestDrive {
+        &mut self.bus.node_mut::<DriveNode<TestHooks>>(self.node).unwrap().drive
+    }
+
+    /// The virtual time.
+    pub fn now(&self) -> Instant {
+        self.bus.now()
+    }
+
+    /// Sends `frame` from the master and returns what the bus carries in reply at this instant.
     pub fn send(&mut self, frame: CanFrame) -> Vec<CanFrame> {
-        self.drive.on_frame(&frame, self.now);
-        let mut out = self.collect();
-        // As a board does: drain, and poll again while the drive has work due now.
-        while self.drive.poll(self.now).is_some_and(|at| at <= self.now) {
-            let more = self.collect();
-            if more.is_empty() {
-                break;
-            }
-            out.extend(more);
-        }
-        out.extend(self.collect());
-        out
+        self.bus.send(frame);
+        self.bus.settle().unwrap();
+        self.bus.drain_received_frames()
     }
 
     /// Sends an SDO request and returns the data of the drive's SDO responses.
@@ -59,25 +67,18 @@ impl Bench {
         responses[0]
     }
 
-    /// Lets `span` of virtual time pass, polling at every deadline; returns the frames sent.
+    /// Lets `span` of virtual time pass; returns the frames sent meanwhile.
     pub fn advance(&mut self, span: Duration) -> Vec<CanFrame> {
-        let end = self.now + span;
-        let mut out = Vec::new();
-        loop {
-            let next = self.drive.poll(self.now);
-            out.extend(self.collect());
-            match next {
-                Some(at) if at <= end && at > self.now => self.now = at,
-                Some(at) if at <= self.now => continue,
-                _ => break,
-            }
-        }
-        self.now = end;
-        out
+        self.bus.advance(span).unwrap();
+        self.bus.settle().unwrap();
+        self.bus.drain_received_frames()
     }
 
-    fn collect(&mut self) -> Vec<CanFrame> {
-        std::iter::from_fn(|| self.drive.pop_tx()).collect()
+    /// Like [`advance`](Self::advance), with the time of each frame.
+    pub fn advance_timed(&mut self, span: Duration) -> Vec<(Instant, CanFrame)> {
+        self.bus.advance(span).unwrap();
+        self.bus.settle().unwrap();
+        self.bus.drain_received().into_iter().map(|r| (r.time, r.frame)).collect()
     }
 }
 

@@ -510,6 +510,19 @@ impl Tpdo {
     }
 }
 
+/// A data frame offered to the RPDOs.
+#[derive(Clone, Copy, Debug)]
+pub struct RpdoFrame<'a> {
+    /// CAN identifier.
+    pub can_id: u16,
+    /// Frame data.
+    pub data: &'a [u8],
+    /// Reception time.
+    pub now: Instant,
+    /// The synchronous window (1007h) has closed since the last SYNC.
+    pub late: bool,
+}
+
 /// Runtime state of `R` RPDOs and `T` TPDOs.
 pub struct PdoSet<const R: usize, const T: usize> {
     rpdos: [Rpdo; R],
@@ -643,18 +656,16 @@ impl<const R: usize, const T: usize> PdoSet<R, T> {
         }
     }
 
-    /// Handles a data frame on `can_id`; returns false when no RPDO uses that identifier.
-    /// `late`: the synchronous window has closed. `events` receives the EMCY changes to make.
+    /// Handles a data frame; returns false when no RPDO uses its identifier. `events` receives
+    /// the EMCY changes to make.
     pub fn on_frame<const B: usize>(
         &mut self,
-        can_id: u16,
-        data: &[u8],
-        now: Instant,
-        late: bool,
+        frame: RpdoFrame<'_>,
         od: &mut Dictionary<B>,
         hooks: &mut impl ObjectHooks,
         events: &mut impl FnMut(PdoEvent),
     ) -> bool {
+        let RpdoFrame { can_id, data, now, late } = frame;
         let report_long = self.report_long_rpdo;
         let Some(rpdo) = self.rpdos.iter_mut().find(|r| r.can_id == Some(can_id)) else {
             return false;
@@ -709,10 +720,8 @@ impl<const R: usize, const T: usize> PdoSet<R, T> {
         for tpdo in self.tpdos.iter_mut() {
             let Some(can_id) = tpdo.can_id else { continue };
             match tpdo.transmission {
-                0 => {
-                    if core::mem::take(&mut tpdo.changed) {
-                        send(tx, can_id, &sample(od, &tpdo.mapping), &tpdo.mapping);
-                    }
+                0 if core::mem::take(&mut tpdo.changed) => {
+                    send(tx, can_id, &sample(od, &tpdo.mapping), &tpdo.mapping);
                 }
                 n @ 1..=240 => {
                     let count = match (tpdo.sync_count, tpdo.sync_start, counter) {
