@@ -1,7 +1,7 @@
 //! Manufacturer objects the integration tests use to reach every SDO path.
 
 use canopen_drive::od::{
-    layout, AbortCode, Access, DataType, DefaultValue, Object, ObjectHooks, Var, WriteRule,
+    layout, AbortCode, Access, DataType, DefaultValue, Object, ObjectHooks, PdoMapping, Var, WriteRule,
 };
 
 /// 2000h: a VISIBLE_STRING of up to 200 bytes.
@@ -18,6 +18,10 @@ pub const RECORD: u16 = 0x2004;
 pub const TABLE: u16 = 0x2005;
 /// 2006h: an UNSIGNED32 whose writes the firmware's hook refuses with "general error".
 pub const REFUSED: u16 = 0x2006;
+/// 2007h: a BOOLEAN mappable both ways (bit-level mapping).
+pub const FLAG: u16 = 0x2007;
+/// 2008h: an UNSIGNED8 mappable both ways, limited to 0..=100.
+pub const PERCENT: u16 = 0x2008;
 
 pub const DEFAULT_TEXT: &str = "canopen-drive test string";
 
@@ -48,7 +52,7 @@ const RECORD_SUBS: [(u8, Var); 3] = [
     (2, Var::new("Mode", DataType::Unsigned16).access(Access::ReadWrite).rule(WriteRule::NotOperational)),
 ];
 
-pub static TEST_OBJECTS: [Object; 7] = layout([
+pub static TEST_OBJECTS: [Object; 9] = layout([
     Object::var(
         TEXT,
         "Text",
@@ -78,6 +82,19 @@ pub static TEST_OBJECTS: [Object; 7] = layout([
         Var::new("Table", DataType::Domain).access(Access::Const).default(DefaultValue::Bytes(&TABLE_BYTES)),
     ),
     Object::var(REFUSED, "Refused", Var::new("Refused", DataType::Unsigned32).access(Access::ReadWrite)),
+    Object::var(
+        FLAG,
+        "Flag",
+        Var::new("Flag", DataType::Boolean).access(Access::ReadWrite).pdo(PdoMapping::Both),
+    ),
+    Object::var(
+        PERCENT,
+        "Percent",
+        Var::new("Percent", DataType::Unsigned8)
+            .access(Access::ReadWrite)
+            .pdo(PdoMapping::Both)
+            .limits_unsigned(0, 100),
+    ),
 ]);
 
 /// The firmware side of the test objects.

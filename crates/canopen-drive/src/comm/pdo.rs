@@ -136,12 +136,7 @@ const fn tpdo_communication(cob_id: DefaultValue, transmission: u8) -> [(u8, Var
         ),
         (3, Var::new("Inhibit time", DataType::Unsigned16).access(Access::ReadWrite)),
         (5, Var::new("Event timer", DataType::Unsigned16).access(Access::ReadWrite)),
-        (
-            6,
-            Var::new("SYNC start value", DataType::Unsigned8)
-                .access(Access::ReadWrite)
-                .limits_unsigned(0, 240),
-        ),
+        (6, Var::new("SYNC start value", DataType::Unsigned8).access(Access::ReadWrite)),
     ]
 }
 
@@ -162,8 +157,7 @@ const fn mapping(entries: [u32; 2]) -> [(u8, Var); 9] {
             0,
             Var::new("Number of mapped objects", DataType::Unsigned8)
                 .access(Access::ReadWrite)
-                .default(DefaultValue::Unsigned(count))
-                .limits_unsigned(0, MAX_MAPPED as u64),
+                .default(DefaultValue::Unsigned(count)),
         ),
         (1, mapping_entry(entries[0])),
         (2, mapping_entry(entries[1])),
@@ -422,6 +416,7 @@ pub fn check_write<const B: usize>(
         },
         // Inhibit time and SYNC start value only while the PDO is invalid.
         3 | 6 if valid => Err(AbortCode::InvalidValue),
+        6 if raw > 240 => Err(AbortCode::InvalidValue),
         _ => Ok(()),
     }
 }
@@ -727,7 +722,10 @@ impl<const R: usize, const T: usize> PdoSet<R, T> {
                     let count = match (tpdo.sync_count, tpdo.sync_start, counter) {
                         // Waiting for the SYNC whose counter equals the start value.
                         (None, start @ 1..=240, Some(c)) if c != start => continue,
-                        (None, _, _) => n,
+                        // The SYNC whose counter equals the start value sends the first one.
+                        (None, 1..=240, Some(_)) => n,
+                        // Counting starts with the first SYNC: the n-th one sends.
+                        (None, _, _) => 1,
                         (Some(k), _, _) => k,
                     };
                     if count >= n {
