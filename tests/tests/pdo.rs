@@ -293,7 +293,7 @@ fn rpdo_with_dummy_and_bit_entries() {
     assert_eq!(bench.drive().od().get::<u8>(FLAG, 0), Ok(1));
     assert_eq!(bench.drive().od().get::<u8>(PERCENT, 0), Ok(42));
     // A value beyond the entry's limits: the whole PDO is refused.
-    bench.send(frame(0x305, &[0x00, 0x00 | (101 << 1), 0x00]));
+    bench.send(frame(0x305, &[0x00, 101 << 1, 0x00]));
     assert_eq!(bench.drive().od().get::<u8>(FLAG, 0), Ok(1));
     assert_eq!(bench.drive().od().get::<u8>(PERCENT, 0), Ok(42));
 }
