@@ -101,11 +101,11 @@
 //! assert_eq!(slave.active_node_id(), 5);
 //! ```
 
-pub use crate::wire::lss::{BitRate, BitTiming, LssAddress, LssField, NODE_ID_UNCONFIGURED};
 use crate::wire::lss::{
     BitChecked, ConfigureBitTimingStatus, ConfigureNodeIdStatus, Fastscan, Request, Response,
     StoreConfigurationStatus, SwitchMode,
 };
+pub use crate::wire::lss::{BitRate, BitTiming, LssAddress, LssField, NODE_ID_UNCONFIGURED};
 
 /// True for the node-IDs a configured node may have, 1..=127.
 pub const fn is_valid_node_id(node_id: u8) -> bool {
@@ -188,7 +188,8 @@ pub enum LssState {
 
 impl LssState {
     /// Waiting with nothing in progress: at power-on and whenever waiting is entered.
-    pub const WAITING: LssState = LssState::Waiting { selection: Selection::Idle, fastscan: LssField::VendorId };
+    pub const WAITING: LssState =
+        LssState::Waiting { selection: Selection::Idle, fastscan: LssField::VendorId };
 }
 
 /// Progress of identify remote slave (cs 0x46..=0x4B), served in both LSS states.
@@ -378,7 +379,9 @@ impl LssSlave {
         let id = self.identity;
         let progress = self.identification;
         let (next, response) = match request {
-            Request::IdentifyRemoteVendorId(value) => (if value == id.vendor_id { VendorIdMatched } else { Idle }, None),
+            Request::IdentifyRemoteVendorId(value) => {
+                (if value == id.vendor_id { VendorIdMatched } else { Idle }, None)
+            }
             Request::IdentifyRemoteProductCode(value) => {
                 let matched = progress == VendorIdMatched && value == id.product_code;
                 (if matched { ProductCodeMatched } else { Idle }, None)
@@ -418,7 +421,12 @@ impl LssSlave {
     }
 
     /// The transition from LSS waiting.
-    fn in_waiting(&self, selection: Selection, fastscan: LssField, request: Request) -> (LssState, Option<Response>) {
+    fn in_waiting(
+        &self,
+        selection: Selection,
+        fastscan: LssField,
+        request: Request,
+    ) -> (LssState, Option<Response>) {
         // Whatever is not the next selective frame ends the selective sequence.
         let stay = LssState::Waiting { selection: Selection::Idle, fastscan };
         match request {
@@ -427,7 +435,9 @@ impl LssSlave {
             Request::SwitchStateSelective { field, value } => {
                 match selection.after(field, value == self.identity.field(field)) {
                     SelectionStep::Progress(selection) => (LssState::Waiting { selection, fastscan }, None),
-                    SelectionStep::Selected => (LssState::Configuration, Some(Response::SwitchStateSelective)),
+                    SelectionStep::Selected => {
+                        (LssState::Configuration, Some(Response::SwitchStateSelective))
+                    }
                 }
             }
             Request::Fastscan(scan) if self.is_non_configured() => self.fastscan(fastscan, scan),
@@ -463,9 +473,12 @@ impl LssSlave {
                 let mask = u32::MAX.checked_shl(u32::from(bit)).unwrap_or(0);
                 let own = self.identity.field(scan.sub);
                 let matched = scan.sub == position && (own ^ scan.id_number) & mask == 0;
-                let complete = bit == 0 && scan.sub == LssField::SerialNumber && scan.next == LssField::VendorId;
+                let complete =
+                    bit == 0 && scan.sub == LssField::SerialNumber && scan.next == LssField::VendorId;
                 match (matched, complete) {
-                    (false, _) => (LssState::Waiting { selection: Selection::Idle, fastscan: position }, None),
+                    (false, _) => {
+                        (LssState::Waiting { selection: Selection::Idle, fastscan: position }, None)
+                    }
                     (true, false) => {
                         (LssState::Waiting { selection: Selection::Idle, fastscan: scan.next }, answer)
                     }
@@ -476,7 +489,11 @@ impl LssSlave {
     }
 
     /// The transition from LSS configuration.
-    fn in_configuration(&mut self, request: Request, hooks: &mut impl LssHooks) -> (LssState, Option<Response>) {
+    fn in_configuration(
+        &mut self,
+        request: Request,
+        hooks: &mut impl LssHooks,
+    ) -> (LssState, Option<Response>) {
         let stay = LssState::Configuration;
         match request {
             Request::SwitchStateGlobal(SwitchMode::Waiting) => {
@@ -534,5 +551,788 @@ impl LssSlave {
             | Request::IdentifyNonConfiguredRemoteSlave => (stay, None),
             Request::Unknown(_) => (stay, None),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    extern crate std;
+
+    use std::vec::Vec;
+
+    use super::*;
+    use crate::wire::lss::{LSS_REQUEST_COB_ID, LSS_RESPONSE_COB_ID};
+
+    const IDENTITY: LssAddress = LssAddress {
+        vendor_id: 0x0000_0A5C,
+        product_code: 0x0402_0001,
+        revision_number: 0x0002_0003,
+        serial_number: 0x1234_5678,
+    };
+
+    /// Hooks that record what the slave asked for.
+    #[derive(Debug, Default)]
+    struct Recorder {
+        supports_100k: bool,
+        store_result: Option<Result<(), StoreError>>,
+        stored: Vec<(u8, Option<BitTiming>)>,
+        activated: Vec<(BitTiming, u16)>,
+        start_ups: Vec<u8>,
+    }
+
+    impl LssHooks for Recorder {
+        fn bit_timing_supported(&self, bit_timing: BitTiming) -> bool {
+            is_fixed_standard_rate(bit_timing)
+                || (self.supports_100k && bit_timing == BitTiming::standard(BitRate::Kbit100))
+        }
+        fn activate_bit_timing(&mut self, bit_timing: BitTiming, switch_delay_ms: u16) {
+            self.activated.push((bit_timing, switch_delay_ms));
+        }
+        fn store_configuration(
+            &mut self,
+            node_id: u8,
+            bit_timing: Option<BitTiming>,
+        ) -> Result<(), StoreError> {
+            self.stored.push((node_id, bit_timing));
+            self.store_result.unwrap_or(Err(StoreError::NotSupported))
+        }
+        fn continue_start_up(&mut self, node_id: u8) {
+            self.start_ups.push(node_id);
+        }
+    }
+
+    /// Sends a request as frame bytes and parses the answer.
+    fn send(slave: &mut LssSlave, hooks: &mut impl LssHooks, request: Request) -> Option<Response> {
+        slave.on_request(&request.emit(), hooks).map(|bytes| Response::parse(&bytes).unwrap())
+    }
+
+    fn configuration(slave: &mut LssSlave, hooks: &mut impl LssHooks) {
+        assert_eq!(send(slave, hooks, Request::SwitchStateGlobal(SwitchMode::Configuration)), None);
+        assert_eq!(slave.state(), LssState::Configuration);
+    }
+
+    fn selective(field: LssField, value: u32) -> Request {
+        Request::SwitchStateSelective { field, value }
+    }
+
+    fn selective_sequence(address: LssAddress) -> [Request; 4] {
+        LssField::ALL.map(|field| selective(field, address.field(field)))
+    }
+
+    fn node_id_status(status: ConfigureNodeIdStatus) -> Option<Response> {
+        Some(Response::ConfigureNodeId { status, specific: 0 })
+    }
+
+    #[test]
+    fn cob_ids() {
+        assert_eq!(LSS_REQUEST_COB_ID, 0x7E5);
+        assert_eq!(LSS_RESPONSE_COB_ID, 0x7E4);
+    }
+
+    #[test]
+    fn construction() {
+        let slave = LssSlave::new(IDENTITY, 5);
+        assert_eq!(slave.state(), LssState::WAITING);
+        assert_eq!((slave.pending_node_id(), slave.active_node_id()), (5, 5));
+        assert_eq!(slave.identity(), IDENTITY);
+        assert_eq!(slave.pending_bit_timing(), None);
+        assert!(!slave.is_non_configured());
+        assert!(LssSlave::new(IDENTITY, NODE_ID_UNCONFIGURED).is_non_configured());
+        // Out-of-range node-IDs are taken as non-configured.
+        for node_id in [0, 128, 0xFE] {
+            let slave = LssSlave::new(IDENTITY, node_id);
+            assert_eq!((slave.pending_node_id(), slave.active_node_id()), (0xFF, 0xFF));
+        }
+    }
+
+    #[test]
+    fn switch_state_global_both_ways_without_answer() {
+        let mut slave = LssSlave::new(IDENTITY, 5);
+        let hooks = &mut Recorder::default();
+        configuration(&mut slave, hooks);
+        // Again: stays.
+        configuration(&mut slave, hooks);
+        assert_eq!(send(&mut slave, hooks, Request::SwitchStateGlobal(SwitchMode::Waiting)), None);
+        assert_eq!(slave.state(), LssState::WAITING);
+        // A configured slave does not restart its start-up.
+        assert!(hooks.start_ups.is_empty());
+        // A reserved mode is no request.
+        assert_eq!(slave.on_request(&[0x04, 0x02, 0, 0, 0, 0, 0, 0], hooks), None);
+        assert_eq!(slave.state(), LssState::WAITING);
+    }
+
+    #[test]
+    fn switch_state_selective_matching() {
+        let mut slave = LssSlave::new(IDENTITY, 5);
+        let hooks = &mut ();
+        let [vendor, product, revision, serial] = selective_sequence(IDENTITY);
+        assert_eq!(send(&mut slave, hooks, vendor), None);
+        assert_eq!(
+            slave.state(),
+            LssState::Waiting { selection: Selection::VendorIdMatched, fastscan: LssField::VendorId }
+        );
+        assert_eq!(send(&mut slave, hooks, product), None);
+        assert_eq!(send(&mut slave, hooks, revision), None);
+        assert_eq!(
+            slave.state(),
+            LssState::Waiting { selection: Selection::RevisionNumberMatched, fastscan: LssField::VendorId }
+        );
+        assert_eq!(slave.on_request(&serial.emit(), hooks), Some([0x44, 0, 0, 0, 0, 0, 0, 0]));
+        assert_eq!(slave.state(), LssState::Configuration);
+        // Selective frames are not served in configuration: no second answer.
+        for request in selective_sequence(IDENTITY) {
+            assert_eq!(send(&mut slave, hooks, request), None);
+        }
+        assert_eq!(slave.state(), LssState::Configuration);
+    }
+
+    #[test]
+    fn switch_state_selective_wrong_identity() {
+        let hooks = &mut ();
+        for field in LssField::ALL {
+            let mut other = IDENTITY;
+            other.set_field(field, IDENTITY.field(field) ^ 0x0000_0100);
+            let mut slave = LssSlave::new(IDENTITY, 5);
+            for request in selective_sequence(other) {
+                assert_eq!(send(&mut slave, hooks, request), None, "{field:?}");
+            }
+            assert!(matches!(slave.state(), LssState::Waiting { .. }));
+        }
+    }
+
+    #[test]
+    fn switch_state_selective_interleaved_or_out_of_order() {
+        let hooks = &mut ();
+        let [vendor, product, revision, serial] = selective_sequence(IDENTITY);
+        let interruptions = [
+            Request::InquireNodeId,
+            Request::Unknown(0x33),
+            Request::IdentifyNonConfiguredRemoteSlave,
+            Request::Fastscan(Fastscan {
+                id_number: 0,
+                bit_checked: BitChecked::Bit(31),
+                sub: LssField::VendorId,
+                next: LssField::VendorId,
+            }),
+            Request::SwitchStateGlobal(SwitchMode::Waiting),
+            selective(LssField::ProductCode, IDENTITY.product_code),
+        ];
+        for interruption in interruptions {
+            let mut slave = LssSlave::new(IDENTITY, 5);
+            for request in [vendor, product, interruption, revision, serial] {
+                assert_eq!(send(&mut slave, hooks, request), None, "{interruption:?}");
+            }
+            assert!(matches!(slave.state(), LssState::Waiting { .. }));
+        }
+        // A malformed frame (7 bytes) breaks off too.
+        let mut slave = LssSlave::new(IDENTITY, 5);
+        send(&mut slave, hooks, vendor);
+        send(&mut slave, hooks, product);
+        assert_eq!(slave.on_request(&[0x42, 0, 0, 0, 0, 0, 0], hooks), None);
+        assert_eq!(send(&mut slave, hooks, revision), None);
+        assert_eq!(send(&mut slave, hooks, serial), None);
+        // Out of order: product first, serial before revision.
+        let mut slave = LssSlave::new(IDENTITY, 5);
+        for request in [product, vendor, revision, serial] {
+            assert_eq!(send(&mut slave, hooks, request), None);
+        }
+        for request in [vendor, product, serial, revision] {
+            assert_eq!(send(&mut slave, hooks, request), None);
+        }
+        // A vendor-ID frame restarts the sequence; the complete sequence then selects.
+        for request in [vendor, product, vendor, product, revision] {
+            assert_eq!(send(&mut slave, hooks, request), None);
+        }
+        assert_eq!(send(&mut slave, hooks, serial), Some(Response::SwitchStateSelective));
+    }
+
+    #[test]
+    fn switch_state_selective_picks_one_of_several() {
+        let hooks = &mut ();
+        let mut other = IDENTITY;
+        other.serial_number += 1;
+        let mut slaves = [LssSlave::new(IDENTITY, 5), LssSlave::new(other, 6)];
+        let mut answers = Vec::new();
+        for request in selective_sequence(other) {
+            for slave in slaves.iter_mut() {
+                answers.extend(send(slave, hooks, request));
+            }
+        }
+        assert_eq!(answers, [Response::SwitchStateSelective]);
+        assert!(matches!(slaves[0].state(), LssState::Waiting { .. }));
+        assert_eq!(slaves[1].state(), LssState::Configuration);
+    }
+
+    #[test]
+    fn configure_node_id() {
+        let mut slave = LssSlave::new(IDENTITY, 5);
+        let hooks = &mut Recorder::default();
+        // Not served while waiting.
+        assert_eq!(send(&mut slave, hooks, Request::ConfigureNodeId(9)), None);
+        assert_eq!(slave.pending_node_id(), 5);
+        configuration(&mut slave, hooks);
+        assert_eq!(
+            slave.on_request(&Request::ConfigureNodeId(9).emit(), hooks),
+            Some([0x11, 0, 0, 0, 0, 0, 0, 0])
+        );
+        assert_eq!((slave.pending_node_id(), slave.active_node_id()), (9, 5));
+        // 0 and 128.. are out of range; the pending node-ID stays.
+        for bad in [0u8, 128, 200, 0xFE] {
+            assert_eq!(
+                send(&mut slave, hooks, Request::ConfigureNodeId(bad)),
+                node_id_status(ConfigureNodeIdStatus::NodeIdOutOfRange)
+            );
+            assert_eq!(slave.pending_node_id(), 9);
+        }
+        assert_eq!(
+            slave.on_request(&Request::ConfigureNodeId(128).emit(), hooks),
+            Some([0x11, 1, 0, 0, 0, 0, 0, 0])
+        );
+        for good in [1u8, 127] {
+            assert_eq!(
+                send(&mut slave, hooks, Request::ConfigureNodeId(good)),
+                node_id_status(ConfigureNodeIdStatus::Success)
+            );
+            assert_eq!(slave.pending_node_id(), good);
+        }
+        // 0xFF: the node will be non-configured after the next reset communication.
+        assert_eq!(
+            send(&mut slave, hooks, Request::ConfigureNodeId(0xFF)),
+            node_id_status(ConfigureNodeIdStatus::Success)
+        );
+        assert_eq!((slave.pending_node_id(), slave.active_node_id()), (0xFF, 5));
+        assert!(!slave.is_non_configured());
+        // A configured slave keeps its node-ID when switched to waiting.
+        send(&mut slave, hooks, Request::SwitchStateGlobal(SwitchMode::Waiting));
+        assert!(hooks.start_ups.is_empty());
+        assert_eq!(slave.active_node_id(), 5);
+        assert_eq!(slave.activate_pending(), 0xFF);
+        assert!(slave.is_non_configured());
+        assert_eq!(slave.state(), LssState::WAITING);
+    }
+
+    #[test]
+    fn non_configured_slave_continues_start_up_when_back_to_waiting() {
+        let mut slave = LssSlave::new(IDENTITY, NODE_ID_UNCONFIGURED);
+        let hooks = &mut Recorder::default();
+        configuration(&mut slave, hooks);
+        // Without a node-ID, back to waiting changes nothing.
+        send(&mut slave, hooks, Request::SwitchStateGlobal(SwitchMode::Waiting));
+        assert!(hooks.start_ups.is_empty());
+        configuration(&mut slave, hooks);
+        send(&mut slave, hooks, Request::ConfigureNodeId(0x22));
+        assert_eq!(slave.active_node_id(), 0xFF);
+        send(&mut slave, hooks, Request::SwitchStateGlobal(SwitchMode::Waiting));
+        assert_eq!(hooks.start_ups, [0x22]);
+        // The drive's reset communication.
+        assert_eq!(slave.activate_pending(), 0x22);
+        assert_eq!(slave.active_node_id(), 0x22);
+        // Waiting again while already waiting: no second start-up.
+        send(&mut slave, hooks, Request::SwitchStateGlobal(SwitchMode::Waiting));
+        assert_eq!(hooks.start_ups, [0x22]);
+    }
+
+    #[test]
+    fn inquire_services() {
+        let mut slave = LssSlave::new(IDENTITY, 0x21);
+        let hooks = &mut ();
+        // Not served while waiting.
+        assert_eq!(send(&mut slave, hooks, Request::InquireNodeId), None);
+        for field in LssField::ALL {
+            assert_eq!(send(&mut slave, hooks, Request::InquireIdentity(field)), None);
+        }
+        configuration(&mut slave, hooks);
+        for field in LssField::ALL {
+            assert_eq!(
+                send(&mut slave, hooks, Request::InquireIdentity(field)),
+                Some(Response::InquireIdentity { field, value: IDENTITY.field(field) })
+            );
+        }
+        assert_eq!(
+            slave.on_request(&Request::InquireIdentity(LssField::SerialNumber).emit(), hooks),
+            Some([0x5D, 0x78, 0x56, 0x34, 0x12, 0, 0, 0])
+        );
+        assert_eq!(
+            slave.on_request(&Request::InquireNodeId.emit(), hooks),
+            Some([0x5E, 0x21, 0, 0, 0, 0, 0, 0])
+        );
+        // Inquire node-ID reports the active node-ID, not the pending one.
+        send(&mut slave, hooks, Request::ConfigureNodeId(0x30));
+        assert_eq!(send(&mut slave, hooks, Request::InquireNodeId), Some(Response::InquireNodeId(0x21)));
+        let mut unconfigured = LssSlave::new(IDENTITY, NODE_ID_UNCONFIGURED);
+        configuration(&mut unconfigured, hooks);
+        assert_eq!(
+            send(&mut unconfigured, hooks, Request::InquireNodeId),
+            Some(Response::InquireNodeId(0xFF))
+        );
+    }
+
+    fn identify(
+        slave: &mut LssSlave,
+        vendor: u32,
+        product: u32,
+        revision: (u32, u32),
+        serial: (u32, u32),
+    ) -> Vec<Response> {
+        let hooks = &mut ();
+        [
+            Request::IdentifyRemoteVendorId(vendor),
+            Request::IdentifyRemoteProductCode(product),
+            Request::IdentifyRemoteRevisionLow(revision.0),
+            Request::IdentifyRemoteRevisionHigh(revision.1),
+            Request::IdentifyRemoteSerialLow(serial.0),
+            Request::IdentifyRemoteSerialHigh(serial.1),
+        ]
+        .into_iter()
+        .filter_map(|request| send(slave, hooks, request))
+        .collect()
+    }
+
+    #[test]
+    fn identify_remote_slave_in_ranges() {
+        let (v, p, r, s) =
+            (IDENTITY.vendor_id, IDENTITY.product_code, IDENTITY.revision_number, IDENTITY.serial_number);
+        let mut slave = LssSlave::new(IDENTITY, 5);
+        // Only the last frame is answered; bounds are inclusive.
+        assert_eq!(identify(&mut slave, v, p, (0, u32::MAX), (0, u32::MAX)), [Response::IdentifySlave]);
+        assert_eq!(identify(&mut slave, v, p, (r, r), (s, s)), [Response::IdentifySlave]);
+        assert_eq!(identify(&mut slave, v, p, (r - 1, r + 1), (s - 10, s + 10)), [Response::IdentifySlave]);
+        // The LSS state does not change, and configuration serves it too.
+        assert_eq!(slave.state(), LssState::WAITING);
+        configuration(&mut slave, &mut ());
+        assert_eq!(identify(&mut slave, v, p, (r, r), (s, s)), [Response::IdentifySlave]);
+        assert_eq!(slave.state(), LssState::Configuration);
+        assert_eq!(
+            slave.on_request(&Request::IdentifyRemoteSerialHigh(s).emit(), &mut ()),
+            None,
+            "the last frame alone identifies nothing"
+        );
+    }
+
+    #[test]
+    fn identify_remote_slave_out_of_ranges() {
+        let (v, p, r, s) =
+            (IDENTITY.vendor_id, IDENTITY.product_code, IDENTITY.revision_number, IDENTITY.serial_number);
+        let mut slave = LssSlave::new(IDENTITY, 5);
+        let none: [Response; 0] = [];
+        assert_eq!(identify(&mut slave, v + 1, p, (0, u32::MAX), (0, u32::MAX)), none);
+        assert_eq!(identify(&mut slave, v, p + 1, (0, u32::MAX), (0, u32::MAX)), none);
+        assert_eq!(identify(&mut slave, v, p, (r + 1, u32::MAX), (0, u32::MAX)), none);
+        assert_eq!(identify(&mut slave, v, p, (0, r - 1), (0, u32::MAX)), none);
+        assert_eq!(identify(&mut slave, v, p, (0, u32::MAX), (s + 1, u32::MAX)), none);
+        assert_eq!(identify(&mut slave, v, p, (0, u32::MAX), (0, s - 1)), none);
+        // Low above high matches nothing.
+        assert_eq!(identify(&mut slave, v, p, (r + 1, r - 1), (0, u32::MAX)), none);
+        // An interleaved frame breaks the sequence off.
+        let hooks = &mut ();
+        for request in [
+            Request::IdentifyRemoteVendorId(v),
+            Request::IdentifyRemoteProductCode(p),
+            Request::IdentifyRemoteRevisionLow(0),
+            Request::InquireNodeId,
+            Request::IdentifyRemoteRevisionHigh(u32::MAX),
+            Request::IdentifyRemoteSerialLow(0),
+            Request::IdentifyRemoteSerialHigh(u32::MAX),
+        ] {
+            assert_eq!(send(&mut slave, hooks, request), None);
+        }
+        // Still works afterwards.
+        assert_eq!(identify(&mut slave, v, p, (r, r), (s, s)), [Response::IdentifySlave]);
+    }
+
+    #[test]
+    fn identify_non_configured_remote_slave() {
+        let hooks = &mut ();
+        let request = Request::IdentifyNonConfiguredRemoteSlave;
+        let mut unconfigured = LssSlave::new(IDENTITY, NODE_ID_UNCONFIGURED);
+        assert_eq!(unconfigured.on_request(&request.emit(), hooks), Some([0x50, 0, 0, 0, 0, 0, 0, 0]));
+        let mut configured = LssSlave::new(IDENTITY, 5);
+        assert_eq!(send(&mut configured, hooks, request), None);
+        // Served in configuration as well.
+        configuration(&mut unconfigured, hooks);
+        assert_eq!(send(&mut unconfigured, hooks, request), Some(Response::IdentifyNonConfiguredSlave));
+        // Once a node-ID is pending, the slave no longer counts as non-configured.
+        send(&mut unconfigured, hooks, Request::ConfigureNodeId(3));
+        assert_eq!(send(&mut unconfigured, hooks, request), None);
+        // A configured node given 0xFF becomes non-configured only after activation.
+        configuration(&mut configured, hooks);
+        send(&mut configured, hooks, Request::ConfigureNodeId(0xFF));
+        assert_eq!(send(&mut configured, hooks, request), None);
+        configured.activate_pending();
+        assert_eq!(send(&mut configured, hooks, request), Some(Response::IdentifyNonConfiguredSlave));
+    }
+
+    #[test]
+    fn bit_timing_configuration() {
+        let mut slave = LssSlave::new(IDENTITY, 5);
+        let hooks = &mut Recorder::default();
+        let request = |timing| Request::ConfigureBitTiming(timing);
+        let ok =
+            Some(Response::ConfigureBitTiming { status: ConfigureBitTimingStatus::Success, specific: 0 });
+        let unsupported = Some(Response::ConfigureBitTiming {
+            status: ConfigureBitTimingStatus::BitRateNotSupported,
+            specific: 0,
+        });
+        // Not served while waiting.
+        assert_eq!(send(&mut slave, hooks, request(BitTiming::standard(BitRate::Kbit250))), None);
+        configuration(&mut slave, hooks);
+        for rate in BitRate::ALL {
+            let expected = match rate {
+                BitRate::Kbit100 | BitRate::Automatic => unsupported,
+                _ => ok,
+            };
+            assert_eq!(send(&mut slave, hooks, request(BitTiming::standard(rate))), expected, "{rate:?}");
+        }
+        // The last supported one is pending; refused ones do not replace it.
+        assert_eq!(slave.pending_bit_timing(), Some(BitTiming::standard(BitRate::Kbit10)));
+        for timing in [
+            BitTiming { table_selector: 0, table_index: 10 },
+            BitTiming { table_selector: 0, table_index: 0xFF },
+            BitTiming { table_selector: 1, table_index: 0 },
+            BitTiming { table_selector: 0x80, table_index: 0 },
+        ] {
+            assert_eq!(send(&mut slave, hooks, request(timing)), unsupported);
+        }
+        assert_eq!(
+            slave.on_request(&request(BitTiming::standard(BitRate::Kbit100)).emit(), hooks),
+            Some([0x13, 1, 0, 0, 0, 0, 0, 0])
+        );
+        assert_eq!(slave.pending_bit_timing(), Some(BitTiming::standard(BitRate::Kbit10)));
+        // A board with 100 kbit/s hardware support opts in.
+        hooks.supports_100k = true;
+        assert_eq!(
+            slave.on_request(&request(BitTiming::standard(BitRate::Kbit100)).emit(), hooks),
+            Some([0x13, 0, 0, 0, 0, 0, 0, 0])
+        );
+        assert_eq!(slave.pending_bit_timing(), Some(BitTiming::standard(BitRate::Kbit100)));
+        // Default hooks behave the same for the fixed rates.
+        assert_eq!(send(&mut slave, &mut (), request(BitTiming::standard(BitRate::Kbit100))), unsupported);
+        assert_eq!(send(&mut slave, &mut (), request(BitTiming::standard(BitRate::Kbit500))), ok);
+    }
+
+    #[test]
+    fn activate_bit_timing_calls_the_hook_with_the_delay() {
+        let mut slave = LssSlave::new(IDENTITY, 5);
+        let hooks = &mut Recorder::default();
+        let activate = Request::ActivateBitTiming { switch_delay_ms: 250 };
+        configuration(&mut slave, hooks);
+        // Nothing configured yet: nothing to switch to.
+        assert_eq!(send(&mut slave, hooks, activate), None);
+        assert!(hooks.activated.is_empty());
+        send(&mut slave, hooks, Request::ConfigureBitTiming(BitTiming::standard(BitRate::Kbit125)));
+        // No answer: the bus is about to change.
+        assert_eq!(slave.on_request(&[0x15, 0xFA, 0x00, 0, 0, 0, 0, 0], hooks), None);
+        assert_eq!(hooks.activated, [(BitTiming::standard(BitRate::Kbit125), 250)]);
+        assert_eq!(slave.state(), LssState::Configuration);
+        // Not served while waiting.
+        send(&mut slave, hooks, Request::SwitchStateGlobal(SwitchMode::Waiting));
+        assert_eq!(send(&mut slave, hooks, Request::ActivateBitTiming { switch_delay_ms: 7 }), None);
+        assert_eq!(hooks.activated.len(), 1);
+    }
+
+    #[test]
+    fn store_configuration_through_the_hooks() {
+        let mut slave = LssSlave::new(IDENTITY, NODE_ID_UNCONFIGURED);
+        let store = Request::StoreConfiguration;
+        let status = |status, specific| Some(Response::StoreConfiguration { status, specific });
+        // Not served while waiting.
+        let hooks = &mut Recorder::default();
+        assert_eq!(send(&mut slave, hooks, store), None);
+        assert!(hooks.stored.is_empty());
+        configuration(&mut slave, hooks);
+        // Default hooks: not supported.
+        assert_eq!(slave.on_request(&store.emit(), &mut ()), Some([0x17, 1, 0, 0, 0, 0, 0, 0]));
+        send(&mut slave, hooks, Request::ConfigureNodeId(0x12));
+        assert_eq!(send(&mut slave, hooks, store), status(StoreConfigurationStatus::NotSupported, 0));
+        hooks.store_result = Some(Ok(()));
+        assert_eq!(send(&mut slave, hooks, store), status(StoreConfigurationStatus::Success, 0));
+        send(&mut slave, hooks, Request::ConfigureBitTiming(BitTiming::standard(BitRate::Kbit500)));
+        assert_eq!(slave.on_request(&store.emit(), hooks), Some([0x17, 0, 0, 0, 0, 0, 0, 0]));
+        hooks.store_result = Some(Err(StoreError::StorageMediaAccess));
+        assert_eq!(slave.on_request(&store.emit(), hooks), Some([0x17, 2, 0, 0, 0, 0, 0, 0]));
+        hooks.store_result = Some(Err(StoreError::ManufacturerSpecific(0x5A)));
+        assert_eq!(slave.on_request(&store.emit(), hooks), Some([0x17, 0xFF, 0x5A, 0, 0, 0, 0, 0]));
+        let bit_timing = Some(BitTiming::standard(BitRate::Kbit500));
+        assert_eq!(
+            hooks.stored,
+            [(0x12, None), (0x12, None), (0x12, bit_timing), (0x12, bit_timing), (0x12, bit_timing)]
+        );
+        // Storing activates nothing.
+        assert_eq!(slave.active_node_id(), 0xFF);
+    }
+
+    fn probe(id_number: u32, bit: u8, sub: LssField, next: LssField) -> Request {
+        Request::Fastscan(Fastscan { id_number, bit_checked: BitChecked::Bit(bit), sub, next })
+    }
+
+    const FASTSCAN_RESET_REQUEST: Request = Request::Fastscan(Fastscan {
+        id_number: 0,
+        bit_checked: BitChecked::Reset,
+        sub: LssField::VendorId,
+        next: LssField::VendorId,
+    });
+
+    #[test]
+    fn fastscan_only_for_non_configured_slaves_in_waiting() {
+        let hooks = &mut ();
+        let mut configured = LssSlave::new(IDENTITY, 5);
+        assert_eq!(send(&mut configured, hooks, FASTSCAN_RESET_REQUEST), None);
+        assert_eq!(
+            send(
+                &mut configured,
+                hooks,
+                probe(IDENTITY.vendor_id, 0, LssField::VendorId, LssField::ProductCode)
+            ),
+            None
+        );
+        let mut slave = LssSlave::new(IDENTITY, NODE_ID_UNCONFIGURED);
+        assert_eq!(
+            slave.on_request(&FASTSCAN_RESET_REQUEST.emit(), hooks),
+            Some([0x4F, 0, 0, 0, 0, 0, 0, 0])
+        );
+        configuration(&mut slave, hooks);
+        assert_eq!(send(&mut slave, hooks, FASTSCAN_RESET_REQUEST), None);
+        // Invalid BitChecked: no request.
+        send(&mut slave, hooks, Request::SwitchStateGlobal(SwitchMode::Waiting));
+        assert_eq!(slave.on_request(&[0x51, 0, 0, 0, 0, 32, 0, 0], hooks), None);
+    }
+
+    #[test]
+    fn fastscan_compares_bits_down_to_bit_checked_at_the_position() {
+        let hooks = &mut ();
+        let mut slave = LssSlave::new(IDENTITY, NODE_ID_UNCONFIGURED);
+        let vendor = IDENTITY.vendor_id; // 0x0000_0A5C
+        assert_eq!(send(&mut slave, hooks, FASTSCAN_RESET_REQUEST), Some(Response::IdentifySlave));
+        // Bits 31..12 of 0x0A5C are 0: a guess of 0 matches down to bit 12, not bit 11.
+        assert_eq!(
+            send(&mut slave, hooks, probe(0, 12, LssField::VendorId, LssField::VendorId)),
+            Some(Response::IdentifySlave)
+        );
+        assert_eq!(send(&mut slave, hooks, probe(0, 11, LssField::VendorId, LssField::VendorId)), None);
+        assert_eq!(
+            send(&mut slave, hooks, probe(0x800, 11, LssField::VendorId, LssField::VendorId)),
+            Some(Response::IdentifySlave)
+        );
+        // Bits below BitChecked are don't-care.
+        assert_eq!(
+            send(&mut slave, hooks, probe(vendor ^ 0x7, 3, LssField::VendorId, LssField::VendorId)),
+            Some(Response::IdentifySlave)
+        );
+        assert_eq!(
+            send(&mut slave, hooks, probe(vendor ^ 0x8, 3, LssField::VendorId, LssField::VendorId)),
+            None
+        );
+        // A probe of another field than the position is not answered.
+        assert_eq!(
+            send(
+                &mut slave,
+                hooks,
+                probe(IDENTITY.product_code, 0, LssField::ProductCode, LssField::RevisionNumber)
+            ),
+            None
+        );
+        assert_eq!(
+            slave.state(),
+            LssState::Waiting { selection: Selection::Idle, fastscan: LssField::VendorId }
+        );
+        // Confirmation moves the position to LSSNext.
+        assert_eq!(
+            send(&mut slave, hooks, probe(vendor, 0, LssField::VendorId, LssField::ProductCode)),
+            Some(Response::IdentifySlave)
+        );
+        assert_eq!(
+            slave.state(),
+            LssState::Waiting { selection: Selection::Idle, fastscan: LssField::ProductCode }
+        );
+        // Vendor probes are now ignored until a reset.
+        assert_eq!(
+            send(&mut slave, hooks, probe(vendor, 0, LssField::VendorId, LssField::ProductCode)),
+            None
+        );
+        assert_eq!(send(&mut slave, hooks, FASTSCAN_RESET_REQUEST), Some(Response::IdentifySlave));
+        assert_eq!(slave.state(), LssState::WAITING);
+    }
+
+    #[test]
+    fn fastscan_enters_configuration_only_after_the_serial_field() {
+        let hooks = &mut ();
+        let (v, p, r, s) =
+            (IDENTITY.vendor_id, IDENTITY.product_code, IDENTITY.revision_number, IDENTITY.serial_number);
+        use LssField::*;
+        let mut slave = LssSlave::new(IDENTITY, NODE_ID_UNCONFIGURED);
+        send(&mut slave, hooks, FASTSCAN_RESET_REQUEST);
+        assert_eq!(
+            send(&mut slave, hooks, probe(v, 0, VendorId, ProductCode)),
+            Some(Response::IdentifySlave)
+        );
+        // A smaller LSSNext at the end of an earlier field is no complete match (CANopenNode
+        // PR #647): the slave goes back to the vendor position and stays waiting.
+        assert_eq!(
+            send(&mut slave, hooks, probe(p, 0, ProductCode, VendorId)),
+            Some(Response::IdentifySlave)
+        );
+        assert_eq!(slave.state(), LssState::WAITING);
+        // The serial field confirmed with LSSNext other than 0 is no complete match either.
+        for next in [ProductCode, RevisionNumber, SerialNumber] {
+            let mut slave = LssSlave::new(IDENTITY, NODE_ID_UNCONFIGURED);
+            for request in [
+                FASTSCAN_RESET_REQUEST,
+                probe(v, 0, VendorId, ProductCode),
+                probe(p, 0, ProductCode, RevisionNumber),
+                probe(r, 0, RevisionNumber, SerialNumber),
+                probe(s, 0, SerialNumber, next),
+            ] {
+                assert_eq!(send(&mut slave, hooks, request), Some(Response::IdentifySlave));
+            }
+            assert_eq!(slave.state(), LssState::Waiting { selection: Selection::Idle, fastscan: next });
+        }
+        // Serial matched only down to bit 1: not complete.
+        let mut slave = LssSlave::new(IDENTITY, NODE_ID_UNCONFIGURED);
+        for request in [
+            FASTSCAN_RESET_REQUEST,
+            probe(v, 0, VendorId, ProductCode),
+            probe(p, 0, ProductCode, RevisionNumber),
+            probe(r, 0, RevisionNumber, SerialNumber),
+            probe(s, 1, SerialNumber, VendorId),
+        ] {
+            assert_eq!(send(&mut slave, hooks, request), Some(Response::IdentifySlave));
+        }
+        assert!(matches!(slave.state(), LssState::Waiting { .. }));
+        // The complete match.
+        let mut slave = LssSlave::new(IDENTITY, NODE_ID_UNCONFIGURED);
+        for request in [
+            FASTSCAN_RESET_REQUEST,
+            probe(v, 0, VendorId, ProductCode),
+            probe(p, 0, ProductCode, RevisionNumber),
+            probe(r, 0, RevisionNumber, SerialNumber),
+        ] {
+            send(&mut slave, hooks, request);
+        }
+        assert_eq!(
+            slave.on_request(&probe(s, 0, SerialNumber, VendorId).emit(), hooks),
+            Some([0x4F, 0, 0, 0, 0, 0, 0, 0])
+        );
+        assert_eq!(slave.state(), LssState::Configuration);
+    }
+
+    /// Every slave on one CAN bus, with its own hooks.
+    struct Bus {
+        slaves: Vec<(LssSlave, Recorder)>,
+        frames: usize,
+    }
+
+    impl Bus {
+        /// The master sends a request; every slave receives it; the answers are collected.
+        fn send(&mut self, request: Request) -> Vec<Response> {
+            self.frames += 1;
+            let frame = request.emit();
+            self.slaves
+                .iter_mut()
+                .filter_map(|(slave, hooks)| slave.on_request(&frame, hooks))
+                .map(|bytes| Response::parse(&bytes).unwrap())
+                .collect()
+        }
+
+        /// Identical answers collide into one frame on a real bus: "anyone answered?".
+        fn answered(&mut self, request: Request) -> bool {
+            let answers = self.send(request);
+            assert!(answers.iter().all(|answer| *answer == Response::IdentifySlave));
+            !answers.is_empty()
+        }
+
+        fn in_configuration(&self) -> usize {
+            self.slaves.iter().filter(|(slave, _)| slave.state() == LssState::Configuration).count()
+        }
+    }
+
+    /// The master side of fastscan as python-canopen runs it (digest §12.4): a reset, then per
+    /// field 32 probes from bit 31 down to bit 0 with the bit under test guessed 0, then a
+    /// confirmation with the whole value and LSSNext = the next field (0 after the serial).
+    fn master_fastscan(bus: &mut Bus) -> Option<LssAddress> {
+        if !bus.answered(FASTSCAN_RESET_REQUEST) {
+            return None;
+        }
+        let mut address = LssAddress::default();
+        let mut next = LssField::VendorId;
+        for (i, sub) in LssField::ALL.into_iter().enumerate() {
+            let mut value = 0u32;
+            for bit in (0..32u8).rev() {
+                if !bus.answered(probe(value, bit, sub, next)) {
+                    value |= 1 << bit;
+                }
+            }
+            next = LssField::ALL[(i + 1) % 4];
+            assert!(bus.answered(probe(value, 0, sub, next)), "confirmation of {sub:?}");
+            address.set_field(sub, value);
+        }
+        Some(address)
+    }
+
+    #[test]
+    fn fastscan_finds_every_non_configured_slave_on_a_shared_bus() {
+        let identity = |serial_number| LssAddress { serial_number, ..IDENTITY };
+        // Serial numbers sharing long prefixes, and one with a different product code.
+        let unconfigured = [
+            identity(0x1234_5679),
+            identity(0x0000_0001),
+            identity(0x1234_5678),
+            LssAddress { product_code: 0x0402_0000, serial_number: 0xFFFF_FFFF, ..IDENTITY },
+        ];
+        let mut bus = Bus {
+            slaves: unconfigured
+                .iter()
+                .map(|address| (LssSlave::new(*address, NODE_ID_UNCONFIGURED), Recorder::default()))
+                .collect(),
+            frames: 0,
+        };
+        // A configured slave with the smallest address never takes part.
+        bus.slaves.push((LssSlave::new(identity(0), 0x7F), Recorder::default()));
+        assert_eq!(bus.send(Request::IdentifyNonConfiguredRemoteSlave).len(), 4);
+
+        let mut found = Vec::new();
+        let mut node_id = 0x10;
+        while let Some(address) = master_fastscan(&mut bus) {
+            assert!(found.len() < unconfigured.len(), "found more slaves than there are");
+            // Exactly the slave with that address is in configuration.
+            assert_eq!(bus.in_configuration(), 1);
+            assert_eq!(
+                bus.send(Request::InquireIdentity(LssField::SerialNumber)),
+                [Response::InquireIdentity { field: LssField::SerialNumber, value: address.serial_number }]
+            );
+            assert_eq!(
+                bus.send(Request::ConfigureNodeId(node_id)),
+                [Response::ConfigureNodeId { status: ConfigureNodeIdStatus::Success, specific: 0 }]
+            );
+            assert_eq!(bus.send(Request::SwitchStateGlobal(SwitchMode::Waiting)), []);
+            assert_eq!(bus.in_configuration(), 0);
+            found.push((address, node_id));
+            node_id += 1;
+            // The configured one stops answering at once (its node-ID is pending).
+            assert_eq!(
+                bus.send(Request::IdentifyNonConfiguredRemoteSlave).len(),
+                unconfigured.len() - found.len()
+            );
+        }
+
+        // Smallest 128-bit address first.
+        let mut expected = unconfigured;
+        expected.sort_by_key(|a| (a.vendor_id, a.product_code, a.revision_number, a.serial_number));
+        let found_addresses: Vec<LssAddress> = found.iter().map(|(address, _)| *address).collect();
+        assert_eq!(found_addresses, expected);
+        // Each slave got its node-ID and asked the drive to continue its start-up.
+        for (address, node_id) in &found {
+            let (slave, hooks) =
+                bus.slaves.iter_mut().find(|(slave, _)| slave.identity() == *address).unwrap();
+            assert_eq!(slave.pending_node_id(), *node_id);
+            assert_eq!(slave.active_node_id(), NODE_ID_UNCONFIGURED);
+            assert_eq!(hooks.start_ups, [*node_id]);
+            slave.activate_pending();
+            assert_eq!(slave.active_node_id(), *node_id);
+        }
+        let configured = &bus.slaves[4];
+        assert_eq!((configured.0.active_node_id(), configured.1.start_ups.len()), (0x7F, 0));
+        // 1 reset + 4 × 33 probes per slave, plus the final unanswered reset.
+        assert!(bus.frames > 4 * 133);
+        assert!(!bus.answered(FASTSCAN_RESET_REQUEST));
     }
 }

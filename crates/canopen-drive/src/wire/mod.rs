@@ -3,6 +3,7 @@
 
 pub mod cob_id;
 pub mod crc;
+pub mod lss;
 pub mod nmt;
 pub mod sdo;
 
