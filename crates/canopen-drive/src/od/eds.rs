@@ -262,7 +262,7 @@ impl fmt::Display for Clean<'_> {
     }
 }
 
-/// Counts the bytes [`write`] produces (to size a buffer for 1021h).
+/// Counts the bytes [`write()`] produces (to size a buffer for 1021h).
 pub fn size<const B: usize>(od: &Dictionary<B>, info: &EdsInfo) -> usize {
     struct Counter(usize);
     impl Write for Counter {
