@@ -17,6 +17,7 @@ use crate::comm::error_control::{
     parse_entry, ConsumerEvent, ErrorBehaviour, GuardingEvent, HeartbeatConsumer, NodeGuarding,
 };
 use crate::comm::heartbeat::HeartbeatProducer;
+use crate::comm::lss::{LssHooks, LssSlave, StoreError};
 use crate::comm::nmt::{transition, NmtAction, Services};
 use crate::comm::pdo::{self, FrameSink, PdoEvent, PdoRecord, PdoSet, RpdoFrame};
 use crate::comm::sdo_server::{ObjectAccess, SdoServer};
@@ -33,6 +34,9 @@ use crate::od::standard::{
 use crate::od::{AbortCode, ConfigError, DeviceInfo, Dictionary, Entry, Object, ObjectHooks, WriteRule};
 use crate::time::{earliest, Duration, Instant};
 use crate::wire::cob_id::{self, CobId};
+use crate::wire::lss::{
+    BitTiming, LssAddress, LSS_REQUEST_COB_ID, LSS_RESPONSE_COB_ID, NODE_ID_UNCONFIGURED,
+};
 use crate::wire::nmt::{NmtState, NodeControl};
 use crate::wire::sdo::Mux;
 use crate::wire::{ERROR_CONTROL_BASE, NMT_COB_ID, SDO_RX_BASE, SDO_TX_BASE};
@@ -79,10 +83,21 @@ pub enum CanState {
     Overrun,
 }
 
+/// A bit-rate change the LSS master asked for (activate bit timing): the board switches its
+/// CAN controller after `switch_delay_ms`, stays silent for another `switch_delay_ms`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct BitRateChange {
+    /// The new bit timing (table 0: the CiA 305 standard rates).
+    pub bit_timing: BitTiming,
+    /// The switch delay in ms.
+    pub switch_delay_ms: u16,
+}
+
 /// Start-up configuration of a drive.
 #[derive(Clone, Copy, Debug)]
 pub struct Config {
-    /// Node-ID, 1..=127.
+    /// Node-ID, 1..=127, or 0xFF: not configured (the node only runs LSS until a master gives
+    /// it a node-ID).
     pub node_id: u8,
     /// Identity and names (1000h, 1008h–100Ah, 1018h, the EDS of 1021h).
     pub device: DeviceInfo,
@@ -90,6 +105,9 @@ pub struct Config {
     pub sdo_timeout: Duration,
     /// The firmware's own objects (2000h–5FFFh), laid out with [`crate::od::layout`].
     pub manufacturer_objects: &'static [Object],
+    /// The board can make an LSS "store configuration" persistent (see
+    /// [`Drive::take_lss_store`]); otherwise the request is answered "not supported".
+    pub lss_store: bool,
     /// The PDO records (1400h–1BFFh): [`pdo::DEFAULT_OBJECTS`] for 4 + 4, or a table made by
     /// [`pdo::objects`] matching the drive's PDO capacity.
     pub pdo_objects: &'static [Object],
@@ -103,6 +121,7 @@ impl Config {
             device: DeviceInfo::servo_drive(),
             sdo_timeout: Duration::from_millis(1000),
             manufacturer_objects: &[],
+            lss_store: false,
             pdo_objects: &pdo::DEFAULT_OBJECTS,
         }
     }
@@ -129,8 +148,38 @@ pub struct Drive<
     connection_event: Option<ConnectionEvent>,
     sync: Sync,
     pdos: PdoSet<RPDOS, TPDOS>,
+    lss: LssSlave,
+    lss_requests: LssRequests,
     tx: TxQueue,
     hooks: H,
+}
+
+/// What LSS services asked of the drive during one frame.
+#[derive(Clone, Copy, Debug, Default)]
+struct LssRequests {
+    store_supported: bool,
+    start_up: bool,
+    bit_rate: Option<BitRateChange>,
+    store: Option<(u8, Option<BitTiming>)>,
+}
+
+impl LssHooks for LssRequests {
+    fn activate_bit_timing(&mut self, bit_timing: BitTiming, switch_delay_ms: u16) {
+        self.bit_rate = Some(BitRateChange { bit_timing, switch_delay_ms });
+    }
+
+    fn store_configuration(&mut self, node_id: u8, bit_timing: Option<BitTiming>) -> Result<(), StoreError> {
+        // Kept for the board (`take_lss_store`): the drive itself has no place for it.
+        if !self.store_supported {
+            return Err(StoreError::NotSupported);
+        }
+        self.store = Some((node_id, bit_timing));
+        Ok(())
+    }
+
+    fn continue_start_up(&mut self, _node_id: u8) {
+        self.start_up = true;
+    }
 }
 
 /// The frames waiting for the CAN controller.
@@ -173,7 +222,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
     /// `Drive::<MyHooks, 8192, 8, 8>::create(config, hooks)` (with a matching
     /// [`Config::pdo_objects`] table).
     pub fn create(config: Config, hooks: H) -> Result<Self, ConfigError> {
-        if !(1..=127).contains(&config.node_id) {
+        if !(1..=127).contains(&config.node_id) && config.node_id != NODE_ID_UNCONFIGURED {
             return Err(ConfigError::InvalidNodeId);
         }
         if pdo::count(config.pdo_objects) != (RPDOS, TPDOS) {
@@ -198,6 +247,16 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
             connection_event: None,
             sync: Sync::default(),
             pdos: PdoSet::default(),
+            lss: LssSlave::new(
+                LssAddress {
+                    vendor_id: config.device.vendor_id,
+                    product_code: config.device.product_code,
+                    revision_number: config.device.revision_number,
+                    serial_number: config.device.serial_number,
+                },
+                config.node_id,
+            ),
+            lss_requests: LssRequests { store_supported: config.lss_store, ..LssRequests::default() },
             tx: TxQueue { frames: Deque::new(), dropped: 0 },
             hooks,
         };
@@ -247,6 +306,14 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
         let Some(id) = frame.standard_id() else {
             return;
         };
+        if id == LSS_REQUEST_COB_ID && !embedded_can::Frame::is_remote_frame(frame) {
+            self.lss_request(embedded_can::Frame::data(frame), now);
+            return;
+        }
+        if !self.is_configured() {
+            // Without a node-ID the node runs LSS only.
+            return;
+        }
         let node_id = self.node_id();
         if embedded_can::Frame::is_remote_frame(frame) {
             if id == ERROR_CONTROL_BASE + u16::from(node_id) {
@@ -581,12 +648,43 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
         }
     }
 
+    /// True when the node has a node-ID (not waiting for LSS).
+    pub fn is_configured(&self) -> bool {
+        (1..=127).contains(&self.node_id())
+    }
+
+    /// The LSS slave (state, pending node-ID, pending bit timing).
+    pub fn lss(&self) -> &LssSlave {
+        &self.lss
+    }
+
+    /// A bit-rate change the LSS master activated, taken.
+    pub fn take_bit_rate_change(&mut self) -> Option<BitRateChange> {
+        self.lss_requests.bit_rate.take()
+    }
+
+    /// An LSS "store configuration" to make persistent (node-ID, bit timing), taken. The board
+    /// stores it and loads it as [`Config::node_id`] at the next start.
+    pub fn take_lss_store(&mut self) -> Option<(u8, Option<BitTiming>)> {
+        self.lss_requests.store.take()
+    }
+
+    fn lss_request(&mut self, data: &[u8], now: Instant) {
+        if let Some(response) = self.lss.on_request(data, &mut self.lss_requests) {
+            self.send(LSS_RESPONSE_COB_ID, &response);
+        }
+        if core::mem::take(&mut self.lss_requests.start_up) {
+            // A node that got its node-ID continues its start-up: reset communication.
+            self.reset_communication(now);
+        }
+    }
+
     fn heartbeat_period(&self) -> u16 {
         self.od.get::<u16>(PRODUCER_HEARTBEAT_TIME, 0).unwrap_or(0)
     }
 
     fn boot_if_pending(&mut self, now: Instant) {
-        if self.nmt != NmtState::Initialising {
+        if self.nmt != NmtState::Initialising || !self.is_configured() {
             return;
         }
         // Initialisation ends with the boot-up frame; the first heartbeat follows one period
@@ -632,6 +730,9 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
     }
 
     fn reset_communication(&mut self, now: Instant) {
+        // A node-ID configured by LSS becomes active here (digest §3.3).
+        let node_id = self.lss.activate_pending();
+        self.od.set_node_id(node_id);
         self.od.reset(0x1000..=0x1FFF);
         // Active errors are conditions of the device and stay; the history and queue go.
         self.emcy.discard_pending();
