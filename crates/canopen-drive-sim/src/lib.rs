@@ -38,6 +38,7 @@
 
 pub mod bus;
 pub mod fault;
+pub mod flash;
 pub mod master;
 pub mod motor;
 pub mod node;

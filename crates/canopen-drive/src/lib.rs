@@ -61,6 +61,7 @@ pub mod drive;
 pub mod frame;
 pub mod hal;
 pub mod od;
+pub mod storage;
 pub mod time;
 pub mod wire;
 

@@ -16,6 +16,7 @@
 mod abort;
 pub mod eds;
 mod entry;
+pub mod persist;
 pub mod standard;
 
 pub use abort::AbortCode;
