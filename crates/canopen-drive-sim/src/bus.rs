@@ -31,6 +31,7 @@ use std::collections::VecDeque;
 use std::fmt;
 
 use canopen_drive::od::ObjectHooks;
+use canopen_drive::storage::Persistence;
 use canopen_drive::{CanFrame, Drive, Duration, Instant};
 
 use crate::fault::{FaultAction, FaultRule};
@@ -52,7 +53,9 @@ pub trait Node {
 }
 
 /// A drive on the bus; its name is `node<id>`.
-impl<H: ObjectHooks, const B: usize, const R: usize, const T: usize> Node for Drive<H, B, R, T> {
+impl<H: ObjectHooks, const B: usize, const R: usize, const T: usize, S: Persistence> Node
+    for Drive<H, B, R, T, S>
+{
     fn on_frame(&mut self, frame: &CanFrame, now: Instant) {
         Drive::on_frame(self, frame, now);
     }

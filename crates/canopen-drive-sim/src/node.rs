@@ -3,15 +3,22 @@
 
 use canopen_drive::hal::Demand;
 use canopen_drive::od::ObjectHooks;
+use canopen_drive::storage::Persistence;
 use canopen_drive::{CanFrame, Drive, Duration, Instant};
 
 use crate::bus::Node;
 use crate::motor::SimMotor;
 
 /// A drive with its simulated motor and a fixed tick period.
-pub struct DriveNode<H: ObjectHooks = (), const B: usize = 2048, const R: usize = 4, const T: usize = 4> {
+pub struct DriveNode<
+    H: ObjectHooks = (),
+    const B: usize = 2048,
+    const R: usize = 4,
+    const T: usize = 4,
+    S: Persistence = (),
+> {
     /// The drive.
-    pub drive: Drive<H, B, R, T>,
+    pub drive: Drive<H, B, R, T, S>,
     /// The motor it controls.
     pub motor: SimMotor,
     /// Demand of the last tick.
@@ -21,9 +28,11 @@ pub struct DriveNode<H: ObjectHooks = (), const B: usize = 2048, const R: usize 
     ticks: u64,
 }
 
-impl<H: ObjectHooks, const B: usize, const R: usize, const T: usize> DriveNode<H, B, R, T> {
+impl<H: ObjectHooks, const B: usize, const R: usize, const T: usize, S: Persistence>
+    DriveNode<H, B, R, T, S>
+{
     /// `drive` ticked every `period` (first tick at the first poll).
-    pub fn new(drive: Drive<H, B, R, T>, period: Duration) -> Self {
+    pub fn new(drive: Drive<H, B, R, T, S>, period: Duration) -> Self {
         DriveNode { drive, motor: SimMotor::new(), demand: Demand::Off, period, next_tick: None, ticks: 0 }
     }
 

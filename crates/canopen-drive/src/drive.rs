@@ -32,6 +32,9 @@ use crate::od::standard::{
     SYNCHRONOUS_WINDOW_LENGTH,
 };
 use crate::od::{AbortCode, ConfigError, DeviceInfo, Dictionary, Entry, Object, ObjectHooks, WriteRule};
+use crate::storage::{
+    Group, Persistence, LOAD_SIGNATURE, RESTORE_DEFAULT_PARAMETERS, SAVE_SIGNATURE, STORE_PARAMETERS,
+};
 use crate::time::{earliest, Duration, Instant};
 use crate::wire::cob_id::{self, CobId};
 use crate::wire::lss::{
@@ -136,6 +139,7 @@ pub struct Drive<
     const OD_BYTES: usize = DEFAULT_OD_BYTES,
     const RPDOS: usize = 4,
     const TPDOS: usize = 4,
+    S: Persistence = (),
 > {
     od: Dictionary<OD_BYTES>,
     sdo: SdoServer<SDO_BUFFER>,
@@ -152,6 +156,7 @@ pub struct Drive<
     lss_requests: LssRequests,
     tx: TxQueue,
     hooks: H,
+    storage: S,
 }
 
 /// What LSS services asked of the drive during one frame.
@@ -215,13 +220,31 @@ impl<H: ObjectHooks> Drive<H> {
     }
 }
 
+impl<H: ObjectHooks, S: Persistence> Drive<H, DEFAULT_OD_BYTES, 4, 4, S> {
+    /// A drive whose parameters (1010h/1011h) are kept in `storage`, e.g. a
+    /// [`Storage`](crate::storage::Storage) over the board's flash. The stored set is loaded
+    /// here, as at every power-on.
+    pub fn with_storage(config: Config, hooks: H, storage: S) -> Result<Self, ConfigError> {
+        Drive::build(config, hooks, storage)
+    }
+}
+
 impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usize>
     Drive<H, OD_BYTES, RPDOS, TPDOS>
 {
-    /// A drive with a value store of `OD_BYTES` bytes and `RPDOS` + `TPDOS` PDOs:
-    /// `Drive::<MyHooks, 8192, 8, 8>::create(config, hooks)` (with a matching
+    /// A drive with a value store of `OD_BYTES` bytes and `RPDOS` + `TPDOS` PDOs, without
+    /// parameter storage: `Drive::<MyHooks, 8192, 8, 8>::create(config, hooks)` (with a matching
     /// [`Config::pdo_objects`] table).
     pub fn create(config: Config, hooks: H) -> Result<Self, ConfigError> {
+        Drive::build(config, hooks, ())
+    }
+}
+
+impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usize, S: Persistence>
+    Drive<H, OD_BYTES, RPDOS, TPDOS, S>
+{
+    /// The general constructor: any value store size, PDO capacity and storage.
+    pub fn build(config: Config, hooks: H, storage: S) -> Result<Self, ConfigError> {
         if !(1..=127).contains(&config.node_id) && config.node_id != NODE_ID_UNCONFIGURED {
             return Err(ConfigError::InvalidNodeId);
         }
@@ -259,7 +282,10 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
             lss_requests: LssRequests { store_supported: config.lss_store, ..LssRequests::default() },
             tx: TxQueue { frames: Deque::new(), dropped: 0 },
             hooks,
+            storage,
         };
+        // Power-on values: the stored set where there is one (digest §3.3).
+        drive.load_stored(Group::All);
         drive.configure_pdos();
         Ok(drive)
     }
@@ -287,6 +313,21 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
     /// The firmware's hooks.
     pub fn hooks_mut(&mut self) -> &mut H {
         &mut self.hooks
+    }
+
+    /// The parameter storage.
+    pub fn storage_mut(&mut self) -> &mut S {
+        &mut self.storage
+    }
+
+    /// Applies the stored values of `group`; a corrupt or foreign image is never loaded and is
+    /// reported with EMCY 0x6300 (data set), active until the next successful store.
+    fn load_stored(&mut self, group: Group) {
+        match self.storage.load(&mut self.od, group) {
+            Ok(report) if !report.image.is_lost() => {}
+            // Unreadable, corrupt or foreign: the defaults stay.
+            _ => self.raise_error(code::DATA_SET, ErrorRegister::empty(), [group as u8, 0, 0, 0, 0]),
+        }
     }
 
     /// Frames dropped because the transmit queue was full (the board did not drain it).
@@ -339,15 +380,25 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
                 self.nmt_command(transition(self.nmt, control.command), now);
             }
         } else if id == SDO_RX_BASE + u16::from(node_id) && self.nmt.serves_sdo() {
-            let mut access =
-                Access { od: &mut self.od, hooks: &mut self.hooks, nmt: self.nmt, written: None };
+            let mut access = Access {
+                od: &mut self.od,
+                hooks: &mut self.hooks,
+                storage: &mut self.storage,
+                nmt: self.nmt,
+                written: None,
+                stored: false,
+            };
             let response = self.sdo.on_request(data, now, &mut access);
             let written = access.written;
+            let stored = access.stored;
             if let Some(response) = response {
                 self.send(SDO_TX_BASE + u16::from(node_id), &response);
             }
             if let Some(mux) = written {
                 self.after_write(mux, now);
+            }
+            if stored {
+                self.clear_error(code::DATA_SET);
             }
             self.drain_sdo(now);
         }
@@ -719,6 +770,8 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
             }
             NmtAction::ResetApplication => {
                 self.od.reset(0x2000..=0xFFFF);
+                self.load_stored(Group::Manufacturer);
+                self.load_stored(Group::Application);
                 self.reset_communication(now);
                 self.connection_event = Some(ConnectionEvent::ResetApplication);
             }
@@ -734,6 +787,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
         let node_id = self.lss.activate_pending();
         self.od.set_node_id(node_id);
         self.od.reset(0x1000..=0x1FFF);
+        self.load_stored(Group::Communication);
         // Active errors are conditions of the device and stay; the history and queue go.
         self.emcy.discard_pending();
         self.sync_error_register();
@@ -788,8 +842,14 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
     fn drain_sdo(&mut self, now: Instant) {
         let node_id = self.node_id();
         while !self.tx.frames.is_full() {
-            let mut access =
-                Access { od: &mut self.od, hooks: &mut self.hooks, nmt: self.nmt, written: None };
+            let mut access = Access {
+                od: &mut self.od,
+                hooks: &mut self.hooks,
+                storage: &mut self.storage,
+                nmt: self.nmt,
+                written: None,
+                stored: false,
+            };
             match self.sdo.poll(now, &mut access) {
                 Some(frame) => self.send(SDO_TX_BASE + u16::from(node_id), &frame),
                 None => break,
@@ -807,14 +867,46 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
 }
 
 /// The dictionary with the access rules of the bus (CiA 301 §7.2.4, digest §5.9).
-struct Access<'a, H, const B: usize> {
+struct Access<'a, H, S, const B: usize> {
     od: &'a mut Dictionary<B>,
     hooks: &'a mut H,
+    storage: &'a mut S,
     nmt: NmtState,
     written: Option<Mux>,
+    /// A store on command succeeded.
+    stored: bool,
 }
 
-impl<H: ObjectHooks, const B: usize> Access<'_, H, B> {
+impl<H: ObjectHooks, S: Persistence, const B: usize> Access<'_, H, S, B> {
+    /// 1010h/1011h subs 1..=4: the read value says whether the command is supported (§11).
+    fn command_capability(&self, mux: Mux) -> Option<u32> {
+        let command = matches!(mux.index, STORE_PARAMETERS | RESTORE_DEFAULT_PARAMETERS);
+        (command && Group::from_sub(mux.sub).is_some()).then_some(u32::from(self.storage.available()))
+    }
+
+    /// Store or restore on command: the signature, then the operation; nothing is written to
+    /// the dictionary.
+    fn storage_command(&mut self, mux: Mux, data: &[u8]) -> Result<(), AbortCode> {
+        let group = Group::from_sub(mux.sub).ok_or(AbortCode::SubIndexDoesNotExist)?;
+        let value = u32::from_le_bytes([
+            data.first().copied().unwrap_or(0),
+            data.get(1).copied().unwrap_or(0),
+            data.get(2).copied().unwrap_or(0),
+            data.get(3).copied().unwrap_or(0),
+        ]);
+        let signature = if mux.index == STORE_PARAMETERS { SAVE_SIGNATURE } else { LOAD_SIGNATURE };
+        if value != signature || !self.storage.available() {
+            return Err(AbortCode::CannotStore);
+        }
+        if mux.index == STORE_PARAMETERS {
+            self.storage.store(self.od, group)?;
+            self.stored = true;
+        } else {
+            self.storage.restore_defaults(group)?;
+        }
+        Ok(())
+    }
+
     fn writable_entry(&self, mux: Mux) -> Result<Entry, AbortCode> {
         let entry = self.od.entry(mux.index, mux.sub)?;
         if !entry.var.access.writable() {
@@ -827,7 +919,7 @@ impl<H: ObjectHooks, const B: usize> Access<'_, H, B> {
     }
 }
 
-impl<H: ObjectHooks, const B: usize> ObjectAccess for Access<'_, H, B> {
+impl<H: ObjectHooks, S: Persistence, const B: usize> ObjectAccess for Access<'_, H, S, B> {
     fn upload_len(&mut self, mux: Mux) -> Result<usize, AbortCode> {
         let entry = self.od.entry(mux.index, mux.sub)?;
         if !entry.var.access.readable() {
@@ -835,6 +927,9 @@ impl<H: ObjectHooks, const B: usize> ObjectAccess for Access<'_, H, B> {
         }
         if mux.index == PRE_DEFINED_ERROR_FIELD && mux.sub > self.od.get::<u8>(mux.index, 0).unwrap_or(0) {
             return Err(AbortCode::NoDataAvailable);
+        }
+        if self.command_capability(mux).is_some() {
+            return Ok(4);
         }
         match self.hooks.read_len(mux.index, mux.sub) {
             Some(result) => result,
@@ -844,6 +939,15 @@ impl<H: ObjectHooks, const B: usize> ObjectAccess for Access<'_, H, B> {
 
     fn read(&mut self, mux: Mux, offset: usize, buf: &mut [u8]) -> Result<usize, AbortCode> {
         let entry = self.od.entry(mux.index, mux.sub)?;
+        if let Some(capability) = self.command_capability(mux) {
+            let bytes = capability.to_le_bytes();
+            let rest = bytes.get(offset..).unwrap_or(&[]);
+            let n = rest.len().min(buf.len());
+            if let (Some(d), Some(s)) = (buf.get_mut(..n), rest.get(..n)) {
+                d.copy_from_slice(s);
+            }
+            return Ok(n);
+        }
         match self.hooks.read_len(mux.index, mux.sub) {
             Some(_) => self.hooks.read(mux.index, mux.sub, offset, buf),
             None => Ok(self.od.read(&entry, offset, buf)),
@@ -864,6 +968,9 @@ impl<H: ObjectHooks, const B: usize> ObjectAccess for Access<'_, H, B> {
     fn write(&mut self, mux: Mux, data: &[u8]) -> Result<(), AbortCode> {
         let entry = self.writable_entry(mux)?;
         self.od.check_write(&entry, data)?;
+        if self.command_capability(mux).is_some() {
+            return self.storage_command(mux, data);
+        }
         check_communication(self.od, mux, data)?;
         self.hooks.validate(mux.index, mux.sub, data)?;
         self.od.commit(&entry, data);

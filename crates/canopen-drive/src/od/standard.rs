@@ -84,7 +84,7 @@ const SDO_SERVER_SUBS: [(u8, Var); 3] = [
 ];
 
 /// Every communication object of the crate, before the feature selection.
-const ALL_COMMUNICATION: [Object; 20] = [
+const ALL_COMMUNICATION: [Object; 22] = [
     Object::var(DEVICE_TYPE, "Device type", u32_const("Device type", DeviceField::DeviceType)),
     Object::var(
         ERROR_REGISTER,
@@ -139,6 +139,22 @@ const ALL_COMMUNICATION: [Object; 20] = [
         LIFE_TIME_FACTOR,
         "Life time factor",
         Var::new("Life time factor", DataType::Unsigned8).access(Access::ReadWrite),
+    ),
+    Object::array(
+        crate::storage::STORE_PARAMETERS,
+        "Store parameters",
+        4,
+        Var::new("Store parameters", DataType::Unsigned32)
+            .access(Access::ReadWrite)
+            .default(DefaultValue::Unsigned(1)),
+    ),
+    Object::array(
+        crate::storage::RESTORE_DEFAULT_PARAMETERS,
+        "Restore default parameters",
+        4,
+        Var::new("Restore default parameters", DataType::Unsigned32)
+            .access(Access::ReadWrite)
+            .default(DefaultValue::Unsigned(1)),
     ),
     Object::var(
         COB_ID_EMCY,

@@ -711,3 +711,60 @@ impl<A: NonVolatile> Storage<A> {
 
 #[cfg(test)]
 mod tests;
+
+/// What the drive needs from parameter storage: implemented by [`Storage`] over any
+/// [`NonVolatile`] area, and by `()` for a drive without storage (1010h/1011h then read 0 and
+/// refuse their commands with 0x0800_0020).
+pub trait Persistence {
+    /// True when store and restore on command are supported.
+    fn available(&self) -> bool;
+    /// Applies the stored values of `group` on top of the dictionary.
+    fn load<const B: usize>(
+        &mut self,
+        od: &mut Dictionary<B>,
+        group: Group,
+    ) -> Result<LoadReport, StorageError>;
+    /// Stores the current values of `group`.
+    fn store<const B: usize>(&mut self, od: &Dictionary<B>, group: Group) -> Result<(), StorageError>;
+    /// Removes `group` from the stored set (its defaults apply after the next reset).
+    fn restore_defaults(&mut self, group: Group) -> Result<(), StorageError>;
+}
+
+/// No storage.
+impl Persistence for () {
+    fn available(&self) -> bool {
+        false
+    }
+    fn load<const B: usize>(
+        &mut self,
+        _od: &mut Dictionary<B>,
+        _group: Group,
+    ) -> Result<LoadReport, StorageError> {
+        Ok(LoadReport { image: ImageState::Empty, applied: 0, skipped: 0 })
+    }
+    fn store<const B: usize>(&mut self, _od: &Dictionary<B>, _group: Group) -> Result<(), StorageError> {
+        Err(StorageError::NoSpace)
+    }
+    fn restore_defaults(&mut self, _group: Group) -> Result<(), StorageError> {
+        Err(StorageError::NoSpace)
+    }
+}
+
+impl<A: NonVolatile> Persistence for Storage<A> {
+    fn available(&self) -> bool {
+        true
+    }
+    fn load<const B: usize>(
+        &mut self,
+        od: &mut Dictionary<B>,
+        group: Group,
+    ) -> Result<LoadReport, StorageError> {
+        Storage::load(self, od, group)
+    }
+    fn store<const B: usize>(&mut self, od: &Dictionary<B>, group: Group) -> Result<(), StorageError> {
+        Storage::store(self, od, group)
+    }
+    fn restore_defaults(&mut self, group: Group) -> Result<(), StorageError> {
+        Storage::restore_defaults(self, group)
+    }
+}

@@ -1,0 +1,150 @@
+//! Store (1010h) and restore (1011h) parameters through SDO, with the drive restarted on the
+//! same simulated flash (CiA 301 §7.5.2.13–14, digest §11).
+
+mod common;
+
+use common::*;
+
+use canopen_drive::od::DeviceInfo;
+use canopen_drive::storage::{device_signature, Storage};
+use canopen_drive::{Config, Drive, Instant};
+use canopen_drive_sim::flash::SimFlash;
+use embedded_can::Frame;
+
+type StoredDrive = Drive<TestHooks, 2048, 4, 4, Storage<SimFlash>>;
+
+const SAVE: [u8; 4] = *b"save";
+const LOAD: [u8; 4] = *b"load";
+const EMCY: u16 = 0x80 + NODE as u16;
+
+/// A drive on `flash` (as after a power-on), booted; returns it and its boot frames.
+fn power_on(flash: SimFlash) -> (StoredDrive, Vec<canopen_drive::CanFrame>) {
+    let device = DeviceInfo::servo_drive();
+    let storage = Storage::new(flash, device_signature(&device, 1)).unwrap();
+    let config = Config { manufacturer_objects: &TEST_OBJECTS, ..Config::new(NODE) };
+    let mut drive = Drive::with_storage(config, TestHooks::default(), storage).unwrap();
+    drive.poll(Instant::ZERO);
+    let frames = std::iter::from_fn(|| drive.pop_tx()).collect();
+    (drive, frames)
+}
+
+fn blank() -> SimFlash {
+    SimFlash::new(4096, 512, 4)
+}
+
+/// One SDO request, one response.
+fn sdo(drive: &mut StoredDrive, request: [u8; 8]) -> [u8; 8] {
+    drive.on_frame(&frame(SDO_RX, &request), Instant::from_millis(1));
+    let frames: Vec<_> =
+        std::iter::from_fn(|| drive.pop_tx()).filter(|f| f.standard_id() == Some(SDO_TX)).collect();
+    assert_eq!(frames.len(), 1, "{request:02X?}");
+    frames[0].data().try_into().unwrap()
+}
+
+fn flash_of(drive: &mut StoredDrive) -> SimFlash {
+    drive.storage_mut().area().clone()
+}
+
+#[test]
+fn read_values_say_what_is_supported() {
+    let (mut drive, _) = power_on(blank());
+    for index in [0x1010, 0x1011] {
+        assert_eq!(sdo(&mut drive, req(0x40, index, 0, [0; 4])), req(0x4F, index, 0, [4, 0, 0, 0]));
+        for sub in 1..=4 {
+            assert_eq!(sdo(&mut drive, req(0x40, index, sub, [0; 4])), req(0x43, index, sub, [1, 0, 0, 0]));
+        }
+        assert_eq!(sdo(&mut drive, req(0x40, index, 5, [0; 4])), abort(index, 5, 0x0609_0011));
+        assert_eq!(sdo(&mut drive, req(0x2F, index, 0, [4, 0, 0, 0])), abort(index, 0, 0x0601_0002));
+    }
+    // Without storage: 0, and the commands are refused.
+    let mut bench = Bench::new();
+    assert_eq!(bench.sdo1(&req(0x40, 0x1010, 1, [0; 4])), req(0x43, 0x1010, 1, [0; 4]));
+    assert_eq!(bench.sdo1(&req(0x23, 0x1010, 1, SAVE)), abort(0x1010, 1, 0x0800_0020));
+}
+
+#[test]
+fn stored_values_survive_a_restart() {
+    let (mut drive, _) = power_on(blank());
+    assert_eq!(sdo(&mut drive, req(0x2B, 0x1017, 0, [250, 0, 0, 0])), req(0x60, 0x1017, 0, [0; 4]));
+    assert_eq!(sdo(&mut drive, req(0x2F, LIMITED, 0, [12, 0, 0, 0])), req(0x60, LIMITED, 0, [0; 4]));
+    // Wrong signature, wrong length.
+    assert_eq!(sdo(&mut drive, req(0x23, 0x1010, 1, *b"SAVE")), abort(0x1010, 1, 0x0800_0020));
+    assert_eq!(sdo(&mut drive, req(0x2B, 0x1010, 1, SAVE)), abort(0x1010, 1, 0x0607_0013));
+    assert_eq!(sdo(&mut drive, req(0x23, 0x1010, 1, SAVE)), req(0x60, 0x1010, 1, [0; 4]));
+    // Changed after the store: not kept.
+    sdo(&mut drive, req(0x2F, LIMITED, 0, [13, 0, 0, 0]));
+    let (mut drive, _) = power_on(flash_of(&mut drive));
+    assert_eq!(drive.od().get::<u16>(0x1017, 0), Ok(250));
+    assert_eq!(drive.od().get::<u8>(LIMITED, 0), Ok(12));
+    // The stored heartbeat runs from boot on.
+    assert_eq!(drive.poll(Instant::ZERO), Some(Instant::from_millis(250)));
+}
+
+#[test]
+fn groups_store_separately_and_resets_reload_them() {
+    let (mut drive, _) = power_on(blank());
+    sdo(&mut drive, req(0x2B, 0x1017, 0, [100, 0, 0, 0]));
+    sdo(&mut drive, req(0x2F, LIMITED, 0, [12, 0, 0, 0]));
+    // Communication only (sub 2).
+    assert_eq!(sdo(&mut drive, req(0x23, 0x1010, 2, SAVE)), req(0x60, 0x1010, 2, [0; 4]));
+    let (mut drive, _) = power_on(flash_of(&mut drive));
+    assert_eq!(drive.od().get::<u16>(0x1017, 0), Ok(100));
+    assert_eq!(drive.od().get::<u8>(LIMITED, 0), Ok(15), "manufacturer group not stored");
+    // Reset communication brings back the stored communication values, not the defaults.
+    sdo(&mut drive, req(0x2B, 0x1017, 0, [7, 0, 0, 0]));
+    drive.on_frame(&frame(0x000, &[0x82, NODE]), Instant::from_millis(2));
+    assert_eq!(drive.od().get::<u16>(0x1017, 0), Ok(100));
+    // Manufacturer (sub 4) stored; reset node reloads it.
+    sdo(&mut drive, req(0x2F, LIMITED, 0, [19, 0, 0, 0]));
+    assert_eq!(sdo(&mut drive, req(0x23, 0x1010, 4, SAVE)), req(0x60, 0x1010, 4, [0; 4]));
+    sdo(&mut drive, req(0x2F, LIMITED, 0, [11, 0, 0, 0]));
+    drive.on_frame(&frame(0x000, &[0x81, NODE]), Instant::from_millis(3));
+    assert_eq!(drive.od().get::<u8>(LIMITED, 0), Ok(19));
+    assert_eq!(drive.od().get::<u16>(0x1017, 0), Ok(100), "communication set kept");
+}
+
+#[test]
+fn restore_defaults_takes_effect_after_the_next_reset() {
+    let (mut drive, _) = power_on(blank());
+    sdo(&mut drive, req(0x2B, 0x1017, 0, [100, 0, 0, 0]));
+    sdo(&mut drive, req(0x2F, LIMITED, 0, [12, 0, 0, 0]));
+    sdo(&mut drive, req(0x23, 0x1010, 1, SAVE));
+    assert_eq!(sdo(&mut drive, req(0x23, 0x1011, 1, *b"save")), abort(0x1011, 1, 0x0800_0020));
+    assert_eq!(sdo(&mut drive, req(0x23, 0x1011, 1, LOAD)), req(0x60, 0x1011, 1, [0; 4]));
+    // RAM values unchanged until the reset.
+    assert_eq!(drive.od().get::<u16>(0x1017, 0), Ok(100));
+    drive.on_frame(&frame(0x000, &[0x81, NODE]), Instant::from_millis(2));
+    assert_eq!(drive.od().get::<u16>(0x1017, 0), Ok(0));
+    assert_eq!(drive.od().get::<u8>(LIMITED, 0), Ok(15));
+    let (drive, _) = power_on(flash_of(&mut { drive }));
+    assert_eq!(drive.od().get::<u16>(0x1017, 0), Ok(0));
+}
+
+#[test]
+fn a_corrupt_image_is_ignored_with_an_emcy() {
+    let (mut drive, _) = power_on(blank());
+    sdo(&mut drive, req(0x2B, 0x1017, 0, [100, 0, 0, 0]));
+    sdo(&mut drive, req(0x23, 0x1010, 1, SAVE));
+    let mut flash = flash_of(&mut drive);
+    // Damage the payload of the only image.
+    let byte = flash.bytes()[40];
+    flash.bytes_mut()[40] = byte ^ 0x01;
+    let (mut drive, boot) = power_on(flash);
+    assert_eq!(drive.od().get::<u16>(0x1017, 0), Ok(0), "defaults, never the damaged set");
+    assert_eq!(boot[0], frame(0x700 + u16::from(NODE), &[0]));
+    assert_eq!(boot[1].standard_id(), Some(EMCY));
+    assert_eq!(boot[1].data()[..2], [0x00, 0x63]);
+    // A successful store clears the error.
+    sdo(&mut drive, req(0x23, 0x1010, 1, SAVE));
+    drive.poll(Instant::from_millis(5));
+    let frames: Vec<_> = std::iter::from_fn(|| drive.pop_tx()).collect();
+    assert_eq!(frames, vec![frame(EMCY, &[0; 8])]);
+}
+
+#[test]
+fn a_failing_flash_answers_hardware_error() {
+    let mut flash = blank();
+    flash.cut_after(3);
+    let (mut drive, _) = power_on(flash);
+    assert_eq!(sdo(&mut drive, req(0x23, 0x1010, 1, SAVE)), abort(0x1010, 1, 0x0606_0000));
+}
