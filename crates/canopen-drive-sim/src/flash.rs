@@ -30,7 +30,7 @@ fn check_range(offset: u32, len: usize, unit: usize, capacity: usize) -> Result<
     if start.checked_add(len).is_none_or(|end| end > capacity) {
         return Err(NvError::OutOfBounds);
     }
-    if unit == 0 || start % unit != 0 || len % unit != 0 {
+    if unit == 0 || !start.is_multiple_of(unit) || !len.is_multiple_of(unit) {
         return Err(NvError::NotAligned);
     }
     Ok(start)
@@ -282,7 +282,11 @@ impl FileFlash {
         erase_size: usize,
         write_size: usize,
     ) -> io::Result<Self> {
-        if erase_size == 0 || write_size == 0 || capacity % erase_size != 0 || erase_size % write_size != 0 {
+        if erase_size == 0
+            || write_size == 0
+            || !capacity.is_multiple_of(erase_size)
+            || !erase_size.is_multiple_of(write_size)
+        {
             return Err(io::Error::new(
                 io::ErrorKind::InvalidInput,
                 "flash geometry: capacity must be whole sectors, a sector whole write units",

@@ -99,7 +99,7 @@ impl<F: NorFlash> NorFlashArea<F> {
         if erase == 0 || F::WRITE_SIZE == 0 || F::READ_SIZE > MAX_READ_SIZE {
             return Err(NvError::NotAligned);
         }
-        if start as usize % erase != 0 || len as usize % erase != 0 {
+        if !(start as usize).is_multiple_of(erase) || !(len as usize).is_multiple_of(erase) {
             return Err(NvError::NotAligned);
         }
         if end as usize > flash.capacity() {
@@ -187,7 +187,7 @@ impl<F: NorFlash> NonVolatile for NorFlashArea<F> {
     fn write(&mut self, offset: u32, data: &[u8]) -> Result<(), NvError> {
         let address = self.address(offset, data.len())?;
         let unit = F::WRITE_SIZE.max(1);
-        if offset as usize % unit != 0 || data.len() % unit != 0 {
+        if !(offset as usize).is_multiple_of(unit) || !data.len().is_multiple_of(unit) {
             return Err(NvError::NotAligned);
         }
         self.flash.write(address, data).map_err(nor_error)
@@ -199,7 +199,7 @@ impl<F: NorFlash> NonVolatile for NorFlashArea<F> {
         }
         let address = self.address(from, (to - from) as usize)?;
         let unit = F::ERASE_SIZE.max(1);
-        if from as usize % unit != 0 || to as usize % unit != 0 {
+        if !(from as usize).is_multiple_of(unit) || !(to as usize).is_multiple_of(unit) {
             return Err(NvError::NotAligned);
         }
         self.flash.erase(address, address + (to - from)).map_err(nor_error)

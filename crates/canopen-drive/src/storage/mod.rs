@@ -396,7 +396,7 @@ impl<A: NonVolatile> Storage<A> {
     pub fn new(area: A, signature: u32) -> Result<Self, StorageError> {
         let write = area.write_size();
         let erase = area.erase_size();
-        if write == 0 || CHUNK % write != 0 || erase == 0 || erase % write != 0 {
+        if write == 0 || !CHUNK.is_multiple_of(write) || erase == 0 || !erase.is_multiple_of(write) {
             return Err(StorageError::Geometry);
         }
         let header_len = HEADER_LEN.max(write);

@@ -59,7 +59,7 @@ impl NonVolatile for TestFlash {
     fn write(&mut self, offset: u32, data: &[u8]) -> Result<(), NvError> {
         let at = offset as usize;
         assert!(
-            at % self.write == 0 && data.len() % self.write == 0,
+            at.is_multiple_of(self.write) && data.len().is_multiple_of(self.write),
             "unaligned write {at} + {}",
             data.len()
         );
