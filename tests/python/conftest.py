@@ -46,7 +46,8 @@ def free_port() -> int:
 class DriveProcess:
     """The drive binary serving SLCAN on a free local port."""
 
-    def __init__(self, log_dir: pathlib.Path, extra_args=()):
+    def __init__(self, log_dir: pathlib.Path, extra_args=(), node_id=NODE_ID):
+        self.node_id = node_id
         self.port = None
         self.proc = None
         self.log_path = log_dir / "canopen-drive-linux.log"
@@ -57,7 +58,7 @@ class DriveProcess:
         pytest.fail(f"the drive did not start; see {self.log_path}:\n{self.log()}", pytrace=False)
 
     def _start(self, extra_args) -> bool:
-        args = [str(binary_path()), "--node-id", str(NODE_ID), "--slcan-listen", f"127.0.0.1:{self.port}", *extra_args]
+        args = [str(binary_path()), "--node-id", str(self.node_id), "--slcan-listen", f"127.0.0.1:{self.port}", *extra_args]
         log = open(self.log_path, "ab")
         self.proc = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=log, stdin=subprocess.DEVNULL)
         log.close()

@@ -13,20 +13,24 @@ USAGE:
     canopen-drive-linux [--node-id N] --write-eds PATH
 
 OPTIONS:
-    --node-id N               Node-ID, 1..127 (decimal or 0x hex; default 1)
+    --node-id N               Node-ID, 1..127, or 255: not configured, waiting for an LSS
+                              master (decimal or 0x hex; default 1). A node-ID stored by
+                              LSS (see --storage) takes precedence
     --slcan-listen HOST:PORT  Serve SLCAN (Lawicel ASCII) over TCP; every connected client
                               is a node on one shared bus (python-can:
                               interface=\"slcan\", channel=\"socket://HOST:PORT\")
     --socketcan IFACE         Join the SocketCAN interface IFACE (e.g. can0, vcan0)
-    --storage PATH            File for stored parameters (1010h/1011h). Accepted and kept
-                              for a later release: parameter storage is not implemented
-                              yet, nothing is read from or written to PATH
+    --storage PATH            File of the stored parameters (1010h \"save\" / 1011h \"load\"),
+                              created if missing (a 16 KiB two-bank journal); the LSS
+                              configuration (node-ID, bit timing) goes to PATH.lss
     --write-eds PATH          Write the device's EDS to PATH and exit
     -h, --help                Print this help and exit
 
 --slcan-listen and --socketcan may be combined; all of them form one bus.
 The producer heartbeat (1017h) starts at 0 (off), as CiA 301 specifies: a master sets it.
-Prints `ready` on stdout once it accepts connections; SIGINT or SIGTERM end it (status 0).
+Prints `ready` on stdout once it accepts connections, then one line
+`bit-rate <kbit/s> kbit/s (table T index I)` for each bit-rate change an LSS master activates;
+SIGINT or SIGTERM end it (status 0).
 ";
 
 /// What the command line asks for.
@@ -54,7 +58,7 @@ pub struct RunArgs {
     pub slcan_listen: Option<String>,
     /// SocketCAN interface name.
     pub socketcan: Option<String>,
-    /// Parameter storage file (kept for the storage feature; unused so far).
+    /// Parameter storage file.
     pub storage: Option<PathBuf>,
 }
 
@@ -89,7 +93,9 @@ impl fmt::Display for CliError {
             CliError::MissingValue(o) => write!(f, "option '{o}' needs a value"),
             CliError::Repeated(o) => write!(f, "option '{o}' given more than once"),
             CliError::NotUnicode(o) => write!(f, "the value of '{o}' is not valid UTF-8"),
-            CliError::InvalidNodeId(v) => write!(f, "invalid node-ID '{v}': expected a number from 1 to 127"),
+            CliError::InvalidNodeId(v) => {
+                write!(f, "invalid node-ID '{v}': expected a number from 1 to 127, or 255")
+            }
             CliError::InvalidAddress(v) => {
                 write!(f, "invalid address '{v}': expected HOST:PORT, e.g. 127.0.0.1:5000")
             }
@@ -177,7 +183,7 @@ fn parse_node_id(text: &str) -> Result<u8, CliError> {
         None => text.parse::<u8>(),
     };
     match number {
-        Ok(id @ 1..=127) => Ok(id),
+        Ok(id @ (1..=127 | 255)) => Ok(id),
         _ => Err(CliError::InvalidNodeId(text.to_string())),
     }
 }

@@ -11,8 +11,8 @@
 //! medium), [`slcan_server`] and [`socketcan_port`] (endpoints), [`node`] (the drive's
 //! configuration, EDS and real-time loop).
 //!
-//! `--storage PATH` is accepted and kept for parameter storage (1010h/1011h), which is not
-//! implemented yet: nothing is read from or written to the file.
+//! `--storage PATH` keeps the stored parameters (1010h/1011h) in PATH, a file that behaves
+//! as NOR flash under the core's two-bank journal, and the LSS configuration in `PATH.lss`.
 
 /// The one place the program reports to its operator: a line on stderr, prefixed with the
 /// program's name. (stdout carries only the `ready` line, which tests and scripts wait for.)
@@ -24,6 +24,7 @@ macro_rules! log {
 
 mod bus;
 mod cli;
+mod lss_store;
 mod node;
 mod slcan;
 mod slcan_server;
@@ -34,7 +35,11 @@ use std::process::ExitCode;
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 
+use std::path::Path;
+
+use canopen_drive::storage::{device_signature, Persistence, Storage};
 use canopen_drive::Drive;
+use canopen_drive_sim::flash::FileFlash;
 use signal_hook::consts::{SIGINT, SIGTERM};
 
 use crate::bus::Bus;
@@ -74,15 +79,41 @@ fn write_eds(node_id: u8, path: &std::path::Path) -> Result<(), String> {
 }
 
 fn run(args: &RunArgs) -> Result<(), String> {
-    let (config, _) = node::config_with_eds(args.node_id)?;
-    let drive = Drive::new(config).map_err(|e| format!("invalid drive configuration: {e:?}"))?;
-    if let Some(path) = &args.storage {
+    let lss_file = args.storage.as_deref().map(lss_store::path_for);
+    let mut node_id = args.node_id;
+    if let Some(stored) = lss_file.as_deref().and_then(lss_store::load) {
         log!(
-            "note: parameter storage is not implemented yet; {} is neither read nor written",
-            path.display()
+            "node-ID {stored} from the LSS configuration in {}",
+            lss_file.as_deref().unwrap_or(Path::new("")).display()
         );
+        node_id = stored;
     }
+    let (mut config, _) = node::config_with_eds(node_id)?;
+    config.lss_store = args.storage.is_some();
+    match &args.storage {
+        Some(path) => {
+            let flash =
+                FileFlash::open_default(path).map_err(|e| format!("cannot open {}: {e}", path.display()))?;
+            let signature = device_signature(&config.device, node::STORAGE_LAYOUT);
+            let storage =
+                Storage::new(flash, signature).map_err(|e| format!("storage {}: {e:?}", path.display()))?;
+            let drive = Drive::with_storage(config, (), storage)
+                .map_err(|e| format!("invalid drive configuration: {e:?}"))?;
+            serve(args, node_id, drive, lss_file.as_deref())
+        }
+        None => {
+            let drive = Drive::new(config).map_err(|e| format!("invalid drive configuration: {e:?}"))?;
+            serve(args, node_id, drive, None)
+        }
+    }
+}
 
+fn serve<S: Persistence>(
+    args: &RunArgs,
+    node_id: u8,
+    drive: node::BoardDrive<S>,
+    lss_file: Option<&Path>,
+) -> Result<(), String> {
     let stop = Arc::new(AtomicBool::new(false));
     for signal in [SIGINT, SIGTERM] {
         signal_hook::flag::register(signal, Arc::clone(&stop))
@@ -93,12 +124,12 @@ fn run(args: &RunArgs) -> Result<(), String> {
     if let Some(addr) = &args.slcan_listen {
         let server = SlcanServer::start(addr.as_str(), bus.clone())
             .map_err(|e| format!("cannot listen on {addr}: {e}"))?;
-        log!("node {} serving SLCAN on {}", args.node_id, server.local_addr());
+        log!("node {node_id} serving SLCAN on {}", server.local_addr());
     }
     if let Some(iface) = &args.socketcan {
         socketcan_port::attach(iface, &bus)
             .map_err(|e| format!("cannot open SocketCAN interface '{iface}': {e}"))?;
-        log!("node {} on SocketCAN {iface}", args.node_id);
+        log!("node {node_id} on SocketCAN {iface}");
     }
 
     let mut stdout = std::io::stdout().lock();
@@ -107,6 +138,6 @@ fn run(args: &RunArgs) -> Result<(), String> {
         .map_err(|e| format!("cannot write to stdout: {e}"))?;
     drop(stdout);
 
-    node::run(drive, &bus, &frames, &stop);
+    node::run(drive, &bus, &frames, &stop, lss_file);
     Ok(())
 }

@@ -19,10 +19,22 @@ use std::time::Duration as StdDuration;
 
 use canopen_drive::od::eds::EdsInfo;
 use canopen_drive::od::DeviceInfo;
+use std::io::Write;
+use std::path::Path;
+
+use canopen_drive::drive::DEFAULT_OD_BYTES;
+use canopen_drive::storage::Persistence;
 use canopen_drive::{CanFrame, Config, Drive, Duration, Instant};
 use canopen_drive_sim::motor::SimMotor;
 
 use crate::bus::Bus;
+
+/// The drive of this board, with parameter storage `S` (a file, or none).
+pub type BoardDrive<S> = Drive<(), DEFAULT_OD_BYTES, 4, 4, S>;
+
+/// Layout number of the stored parameters (part of the storage signature): change it when a
+/// firmware change gives stored parameters another meaning.
+pub const STORAGE_LAYOUT: u16 = 1;
 
 /// Period of the control loop (`tick`).
 pub const TICK_PERIOD: Duration = Duration::from_micros(1000);
@@ -74,7 +86,13 @@ impl Clock {
 
 /// Runs `drive` on `bus` until `stop` is set. `frames` are the frames the bus addresses to
 /// the drive.
-pub fn run(mut drive: Drive, bus: &Bus, frames: &Receiver<CanFrame>, stop: &AtomicBool) {
+pub fn run<S: Persistence>(
+    mut drive: BoardDrive<S>,
+    bus: &Bus,
+    frames: &Receiver<CanFrame>,
+    stop: &AtomicBool,
+    lss_file: Option<&Path>,
+) {
     let clock = Clock(std::time::Instant::now());
     let mut motor = SimMotor::new();
     let mut last_tick = clock.now();
@@ -101,6 +119,7 @@ pub fn run(mut drive: Drive, bus: &Bus, frames: &Receiver<CanFrame>, stop: &Atom
             // The bus keeps a sender as long as it exists; without it nothing can arrive.
             Err(RecvTimeoutError::Disconnected) => break,
         }
+        lss_services(&mut drive, lss_file);
 
         let now = clock.now();
         if now >= next_tick {
@@ -125,8 +144,25 @@ pub fn run(mut drive: Drive, bus: &Bus, frames: &Receiver<CanFrame>, stop: &Atom
     }
 }
 
+/// What an LSS master asked of the board: a bit-rate change is reported on stdout (there is no
+/// bit rate on SLCAN-over-TCP to switch), a stored configuration goes to the LSS file.
+fn lss_services<S: Persistence>(drive: &mut BoardDrive<S>, lss_file: Option<&Path>) {
+    if let Some(change) = drive.take_bit_rate_change() {
+        let timing = change.bit_timing;
+        let rate =
+            timing.standard_rate().and_then(|r| r.kbit_per_s()).map_or("?".to_string(), |r| r.to_string());
+        println!("bit-rate {rate} kbit/s (table {} index {})", timing.table_selector, timing.table_index);
+        let _ = std::io::stdout().flush();
+    }
+    if let (Some((node_id, bit_timing)), Some(path)) = (drive.take_lss_store(), lss_file) {
+        if let Err(e) = crate::lss_store::save(path, node_id, bit_timing) {
+            log!("cannot store the LSS configuration in {}: {e}", path.display());
+        }
+    }
+}
+
 /// Puts every frame the drive has queued on the bus.
-fn transmit(drive: &mut Drive, bus: &Bus) {
+fn transmit<S: Persistence>(drive: &mut BoardDrive<S>, bus: &Bus) {
     while let Some(frame) = drive.pop_tx() {
         bus.send_from_drive(&frame);
     }
@@ -169,7 +205,7 @@ mod tests {
         let stop = Arc::new(AtomicBool::new(false));
         let runner = {
             let (bus, stop) = (bus.clone(), Arc::clone(&stop));
-            thread::spawn(move || run(drive, &bus, &frames, &stop))
+            thread::spawn(move || run(drive, &bus, &frames, &stop, None))
         };
         let timeout = StdDuration::from_secs(5);
         assert_eq!(rx.recv_timeout(timeout).unwrap(), CanFrame::new_standard(0x703, &[0]).unwrap());
