@@ -395,3 +395,21 @@ fn synchronous_rpdo_outside_the_window_is_discarded() {
     sync(&mut bench);
     assert_eq!(bench.drive().od().get::<u16>(0x6040, 0), Ok(0x000F), "inside the window");
 }
+
+#[test]
+fn long_rpdo_policy_is_configurable() {
+    use canopen_drive::comm::pdo::LongRpdo;
+    use canopen_drive::{Config, Drive};
+    use canopen_drive_sim::{DriveNode, VirtualBus};
+    let config = Config { long_rpdo: LongRpdo::DiscardAndReport, ..Config::new(NODE) };
+    let mut bus = VirtualBus::new();
+    let node = bus.add_node(DriveNode::new(Drive::new(config).unwrap(), Duration::from_millis(1)));
+    bus.send(frame(0x000, &[0x01, NODE]));
+    bus.advance(Duration::from_millis(1)).unwrap();
+    bus.drain_received_frames();
+    bus.send(frame(RPDO1, &[0x07, 0x00, 0xFF]));
+    bus.settle().unwrap();
+    assert_eq!(only(&bus.drain_received_frames(), EMCY), vec![emcy([0x20, 0x82, 0x11, 0, 0, 0, 0, 0])]);
+    let drive = &bus.node::<DriveNode>(node).unwrap().drive;
+    assert_eq!(drive.od().get::<u16>(0x6040, 0), Ok(0), "not applied");
+}

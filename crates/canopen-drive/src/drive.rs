@@ -108,6 +108,8 @@ pub struct Config {
     pub sdo_timeout: Duration,
     /// The firmware's own objects (2000h–5FFFh), laid out with [`crate::od::layout`].
     pub manufacturer_objects: &'static [Object],
+    /// What an RPDO longer than its mapping does (default: applied, EMCY 0x8220).
+    pub long_rpdo: pdo::LongRpdo,
     /// The board can make an LSS "store configuration" persistent (see
     /// [`Drive::take_lss_store`]); otherwise the request is answered "not supported".
     pub lss_store: bool,
@@ -125,6 +127,7 @@ impl Config {
             sdo_timeout: Duration::from_millis(1000),
             manufacturer_objects: &[],
             lss_store: false,
+            long_rpdo: pdo::LongRpdo::ApplyAndReport,
             pdo_objects: &pdo::DEFAULT_OBJECTS,
         }
     }
@@ -284,6 +287,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
             hooks,
             storage,
         };
+        drive.pdos.long_rpdo = config.long_rpdo;
         // Power-on values: the stored set where there is one (digest §3.3).
         drive.load_stored(Group::All);
         drive.configure_pdos();

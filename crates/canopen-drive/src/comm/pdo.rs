@@ -22,7 +22,8 @@
 //! - RTR: a TPDO whose COB-ID has bit 30 = 0 answers remote frames (type 252 with the data
 //!   sampled at the last SYNC, any other type with fresh data). Types 241–251 are refused.
 //! - An RPDO shorter than its mapping raises EMCY 0x8210 and is not applied; a longer one is
-//!   applied and raises EMCY 0x8220 (both cleared by the next correct frame). An RPDO whose
+//!   applied and raises EMCY 0x8220 as CiA 301 says (both cleared by the next correct frame).
+//!   [`LongRpdo`] makes the long case silent or discarded instead. An RPDO whose
 //!   values fail a limit check (or the firmware's hook) is not applied at all.
 //! - A synchronous RPDO (types 0–240) is latched on reception and applied at the first tick
 //!   after the next SYNC; synchronous TPDOs are sampled and queued when the SYNC is processed.
@@ -505,6 +506,18 @@ impl Tpdo {
     }
 }
 
+/// The policy for an RPDO longer than its mapping (digest §6.6, §17).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum LongRpdo {
+    /// CiA 301: the first bytes are applied; EMCY 0x8220 is sent (the default).
+    #[default]
+    ApplyAndReport,
+    /// The first bytes are applied without an EMCY.
+    Apply,
+    /// Not applied, EMCY 0x8220 (what some masters' conformance expectations want).
+    DiscardAndReport,
+}
+
 /// A data frame offered to the RPDOs.
 #[derive(Clone, Copy, Debug)]
 pub struct RpdoFrame<'a> {
@@ -522,13 +535,13 @@ pub struct RpdoFrame<'a> {
 pub struct PdoSet<const R: usize, const T: usize> {
     rpdos: [Rpdo; R],
     tpdos: [Tpdo; T],
-    /// EMCY 0x8220 for RPDOs longer than their mapping (optional in CiA 301; on by default).
-    pub report_long_rpdo: bool,
+    /// What an RPDO longer than its mapping does.
+    pub long_rpdo: LongRpdo,
 }
 
 impl<const R: usize, const T: usize> Default for PdoSet<R, T> {
     fn default() -> Self {
-        PdoSet { rpdos: [Rpdo::OFF; R], tpdos: [Tpdo::OFF; T], report_long_rpdo: true }
+        PdoSet { rpdos: [Rpdo::OFF; R], tpdos: [Tpdo::OFF; T], long_rpdo: LongRpdo::ApplyAndReport }
     }
 }
 
@@ -661,7 +674,7 @@ impl<const R: usize, const T: usize> PdoSet<R, T> {
         events: &mut impl FnMut(PdoEvent),
     ) -> bool {
         let RpdoFrame { can_id, data, now, late } = frame;
-        let report_long = self.report_long_rpdo;
+        let policy = self.long_rpdo;
         let Some(rpdo) = self.rpdos.iter_mut().find(|r| r.can_id == Some(can_id)) else {
             return false;
         };
@@ -671,8 +684,11 @@ impl<const R: usize, const T: usize> PdoSet<R, T> {
             return true;
         }
         events(PdoEvent::Clear(crate::comm::emcy::code::PDO_LENGTH));
-        if data.len() > needed && report_long {
+        if data.len() > needed && policy != LongRpdo::Apply {
             events(PdoEvent::Raise(crate::comm::emcy::code::PDO_LENGTH_EXCEEDED));
+            if policy == LongRpdo::DiscardAndReport {
+                return true;
+            }
         } else {
             events(PdoEvent::Clear(crate::comm::emcy::code::PDO_LENGTH_EXCEEDED));
         }
