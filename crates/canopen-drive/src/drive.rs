@@ -384,14 +384,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
                 self.nmt_command(transition(self.nmt, control.command), now);
             }
         } else if id == SDO_RX_BASE + u16::from(node_id) && self.nmt.serves_sdo() {
-            let mut access = Access {
-                od: &mut self.od,
-                hooks: &mut self.hooks,
-                storage: &mut self.storage,
-                nmt: self.nmt,
-                written: None,
-                stored: false,
-            };
+            let mut access = Access::new(&mut self.od, &mut self.hooks, &mut self.storage, self.nmt);
             let response = self.sdo.on_request(data, now, &mut access);
             let written = access.written;
             let stored = access.stored;
@@ -846,14 +839,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
     fn drain_sdo(&mut self, now: Instant) {
         let node_id = self.node_id();
         while !self.tx.frames.is_full() {
-            let mut access = Access {
-                od: &mut self.od,
-                hooks: &mut self.hooks,
-                storage: &mut self.storage,
-                nmt: self.nmt,
-                written: None,
-                stored: false,
-            };
+            let mut access = Access::new(&mut self.od, &mut self.hooks, &mut self.storage, self.nmt);
             match self.sdo.poll(now, &mut access) {
                 Some(frame) => self.send(SDO_TX_BASE + u16::from(node_id), &frame),
                 None => break,
@@ -881,7 +867,11 @@ struct Access<'a, H, S, const B: usize> {
     stored: bool,
 }
 
-impl<H: ObjectHooks, S: Persistence, const B: usize> Access<'_, H, S, B> {
+impl<'a, H: ObjectHooks, S: Persistence, const B: usize> Access<'a, H, S, B> {
+    fn new(od: &'a mut Dictionary<B>, hooks: &'a mut H, storage: &'a mut S, nmt: NmtState) -> Self {
+        Access { od, hooks, storage, nmt, written: None, stored: false }
+    }
+
     /// 1010h/1011h subs 1..=4: the read value says whether the command is supported (§11).
     fn command_capability(&self, mux: Mux) -> Option<u32> {
         let command = matches!(mux.index, STORE_PARAMETERS | RESTORE_DEFAULT_PARAMETERS);
@@ -892,12 +882,7 @@ impl<H: ObjectHooks, S: Persistence, const B: usize> Access<'_, H, S, B> {
     /// the dictionary.
     fn storage_command(&mut self, mux: Mux, data: &[u8]) -> Result<(), AbortCode> {
         let group = Group::from_sub(mux.sub).ok_or(AbortCode::SubIndexDoesNotExist)?;
-        let value = u32::from_le_bytes([
-            data.first().copied().unwrap_or(0),
-            data.get(1).copied().unwrap_or(0),
-            data.get(2).copied().unwrap_or(0),
-            data.get(3).copied().unwrap_or(0),
-        ]);
+        let value = u32_le(data);
         let signature = if mux.index == STORE_PARAMETERS { SAVE_SIGNATURE } else { LOAD_SIGNATURE };
         if value != signature || !self.storage.available() {
             return Err(AbortCode::CannotStore);
@@ -986,12 +971,7 @@ impl<H: ObjectHooks, S: Persistence, const B: usize> ObjectAccess for Access<'_,
 
 /// Value rules of the communication objects beyond type and limits (digest §1.3, §9.3).
 fn check_communication<const B: usize>(od: &Dictionary<B>, mux: Mux, data: &[u8]) -> Result<(), AbortCode> {
-    let raw = u32::from_le_bytes([
-        data.first().copied().unwrap_or(0),
-        data.get(1).copied().unwrap_or(0),
-        data.get(2).copied().unwrap_or(0),
-        data.get(3).copied().unwrap_or(0),
-    ]);
+    let raw = u32_le(data);
     match mux.index {
         // Only 0 may be written to the number of errors: it clears the history.
         PRE_DEFINED_ERROR_FIELD if raw != 0 => Err(AbortCode::InvalidValue),
@@ -1049,4 +1029,9 @@ fn check_communication<const B: usize>(od: &Dictionary<B>, mux: Mux, data: &[u8]
         }
         _ => Ok(()),
     }
+}
+
+/// Up to four little-endian bytes as a number (missing bytes read as 0).
+fn u32_le(data: &[u8]) -> u32 {
+    data.iter().take(4).rev().fold(0, |acc, b| (acc << 8) | u32::from(*b))
 }
