@@ -7,10 +7,16 @@
 //!
 //! - [`time`], [`frame`]: microsecond instants handed in by the caller; the CAN frame type and
 //!   its conversion to and from any `embedded_can::Frame`.
-//! - [`wire`]: stateless codecs of the CANopen frames (NMT, SDO, heartbeat).
+//! - [`wire`]: stateless codecs of the CANopen frames (NMT, SDO, COB-IDs, LSS, block CRC).
 //! - [`od`]: the object dictionary: a `static` description, a byte store, exact SDO abort codes,
-//!   hooks for manufacturer objects and the EDS generated from the same description.
-//! - [`comm`]: the CiA 301 services: NMT slave, SDO server, heartbeat producer.
+//!   hooks for manufacturer objects, parameter records and the EDS generated from the same
+//!   description.
+//! - [`storage`]: parameters kept across power loss (1010h/1011h) in a two-bank journal on any
+//!   NOR flash (`embedded-storage`).
+//! - [`comm`]: the CiA 301/305 services: NMT slave, SDO server (expedited, segmented, block),
+//!   PDOs with dynamic mapping, SYNC, EMCY, heartbeat producer and consumer, node guarding,
+//!   error behaviour 1029h, LSS slave.
+//! - [`cia402`]: the drive profile (so far the process-data objects of the default mapping).
 //! - [`hal`]: what a board hands the tick (feedback) and gets back (a demand).
 //! - [`drive`]: [`Drive`], which composes everything behind the entry points.
 //!
