@@ -7,15 +7,16 @@
 //! torque τ (‰ of rated)  ──▶  a = gain·τ − viscous·v − coulomb·sign(v)  ──▶  v  ──▶  x
 //! ```
 //!
-//! - [`Demand::Off`]: no torque; the motor coasts down under friction until it stops.
-//! - [`Demand::Torque`]: the demanded torque, clamped to ±[`MotorParams::max_torque`].
-//! - [`Demand::Velocity`] / [`Demand::Position`]: an ideal inner loop of the power stage
+//! - drive function disabled, or [`Setpoint::None`]: no torque; the motor coasts down under
+//!   friction until it stops.
+//! - [`Setpoint::Torque`]: the demanded torque, clamped to ±[`MotorParams::max_torque`].
+//! - [`Setpoint::Velocity`] / [`Setpoint::Position`]: an ideal inner loop of the power stage
 //!   (P on velocity, PD on position) computes the torque, with the same clamp.
 //!
 //! [`SimMotor::step`] integrates with semi-implicit Euler in sub-steps of at most
 //! [`MotorParams::max_step`], so a long `dt` stays stable.
 
-use canopen_drive::hal::{Demand, Sample};
+use canopen_drive::hal::{Demand, Sample, Setpoint};
 use canopen_drive::Duration;
 
 /// Constants of the simulated motor.
@@ -98,6 +99,7 @@ impl SimMotor {
             velocity: self.velocity.round() as i32,
             torque: self.torque.round() as i16,
             dc_link_millivolts: self.params.dc_link_millivolts,
+            ..Sample::default()
         }
     }
 
@@ -114,11 +116,12 @@ impl SimMotor {
 
     fn integrate(&mut self, demand: &Demand, h: f64) {
         let p = &self.params;
-        let torque = match *demand {
-            Demand::Off => 0.0,
-            Demand::Torque(t) => f64::from(t),
-            Demand::Velocity(v) => p.velocity_gain * (f64::from(v) - self.velocity),
-            Demand::Position(x) => {
+        let setpoint = if demand.drive_enabled { demand.setpoint } else { Setpoint::None };
+        let torque = match setpoint {
+            Setpoint::None => 0.0,
+            Setpoint::Torque(t) => f64::from(t),
+            Setpoint::Velocity(v) => p.velocity_gain * (f64::from(v) - self.velocity),
+            Setpoint::Position(x) => {
                 let (kp, kd) = p.position_gains;
                 kp * (f64::from(x) - self.position) - kd * self.velocity
             }
@@ -143,6 +146,10 @@ impl SimMotor {
 mod tests {
     use super::*;
 
+    fn on(setpoint: Setpoint) -> Demand {
+        Demand { high_voltage: true, drive_enabled: true, brake_released: true, setpoint }
+    }
+
     fn run(motor: &mut SimMotor, demand: Demand, millis: u64) {
         for _ in 0..millis {
             motor.step(&demand, Duration::from_millis(1));
@@ -152,45 +159,48 @@ mod tests {
     #[test]
     fn starts_at_rest() {
         let m = SimMotor::new();
-        assert_eq!(m.sample(), Sample { position: 0, velocity: 0, torque: 0, dc_link_millivolts: 48_000 });
+        assert_eq!(
+            m.sample(),
+            Sample { position: 0, velocity: 0, torque: 0, dc_link_millivolts: 48_000, ..Sample::default() }
+        );
         let mut m = SimMotor::new();
-        run(&mut m, Demand::Off, 100);
+        run(&mut m, Demand::OFF, 100);
         assert_eq!(m.sample().position, 0);
     }
 
     #[test]
     fn torque_accelerates_and_off_coasts_to_a_stop() {
         let mut m = SimMotor::new();
-        run(&mut m, Demand::Torque(500), 100);
+        run(&mut m, on(Setpoint::Torque(500)), 100);
         let s = m.sample();
         assert_eq!(s.torque, 500);
         // About 500 000 inc/s² for 0.1 s, less friction.
         assert!((45_000..50_000).contains(&s.velocity), "{s:?}");
         assert!(s.position > 2000);
         let coasting_from = s.position;
-        run(&mut m, Demand::Off, 1000);
+        run(&mut m, Demand::OFF, 1000);
         let mid = m.sample();
         assert_eq!(mid.torque, 0);
         assert!(mid.velocity < s.velocity && mid.velocity > 0);
         assert!(mid.position > coasting_from);
-        run(&mut m, Demand::Off, 60_000);
+        run(&mut m, Demand::OFF, 60_000);
         assert_eq!(m.sample().velocity, 0);
         let stopped = m.sample().position;
-        run(&mut m, Demand::Off, 100);
+        run(&mut m, Demand::OFF, 100);
         assert_eq!(m.sample().position, stopped);
     }
 
     #[test]
     fn negative_torque_moves_backwards() {
         let mut m = SimMotor::new();
-        run(&mut m, Demand::Torque(-200), 50);
+        run(&mut m, on(Setpoint::Torque(-200)), 50);
         assert!(m.sample().velocity < 0 && m.sample().position < 0);
     }
 
     #[test]
     fn velocity_demand_is_reached() {
         let mut m = SimMotor::new();
-        run(&mut m, Demand::Velocity(10_000), 200);
+        run(&mut m, on(Setpoint::Velocity(10_000)), 200);
         let v = m.sample().velocity;
         assert!((9_000..=10_100).contains(&v), "{v}");
     }
@@ -198,7 +208,7 @@ mod tests {
     #[test]
     fn position_demand_is_reached() {
         let mut m = SimMotor::new();
-        run(&mut m, Demand::Position(5_000), 1000);
+        run(&mut m, on(Setpoint::Position(5_000)), 1000);
         let s = m.sample();
         assert!((s.position - 5_000).abs() < 50, "{s:?}");
         assert!(s.velocity.abs() < 100, "{s:?}");
@@ -208,20 +218,20 @@ mod tests {
     fn one_long_step_equals_many_short_ones() {
         let mut a = SimMotor::new();
         let mut b = SimMotor::new();
-        a.step(&Demand::Torque(100), Duration::from_millis(10));
+        a.step(&on(Setpoint::Torque(100)), Duration::from_millis(10));
         for _ in 0..40 {
-            b.step(&Demand::Torque(100), Duration::from_micros(250));
+            b.step(&on(Setpoint::Torque(100)), Duration::from_micros(250));
         }
         assert_eq!(a.sample(), b.sample());
         let before = a.sample();
-        a.step(&Demand::Torque(100), Duration::ZERO);
+        a.step(&on(Setpoint::Torque(100)), Duration::ZERO);
         assert_eq!(a.sample(), before);
     }
 
     #[test]
     fn torque_is_clamped() {
         let mut m = SimMotor::new();
-        m.step(&Demand::Torque(i16::MAX), Duration::from_millis(1));
+        m.step(&on(Setpoint::Torque(i16::MAX)), Duration::from_millis(1));
         assert_eq!(m.sample().torque, 3000);
     }
 }

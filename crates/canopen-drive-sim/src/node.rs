@@ -33,7 +33,7 @@ impl<H: ObjectHooks, const B: usize, const R: usize, const T: usize, S: Persiste
 {
     /// `drive` ticked every `period` (first tick at the first poll).
     pub fn new(drive: Drive<H, B, R, T, S>, period: Duration) -> Self {
-        DriveNode { drive, motor: SimMotor::new(), demand: Demand::Off, period, next_tick: None, ticks: 0 }
+        DriveNode { drive, motor: SimMotor::new(), demand: Demand::OFF, period, next_tick: None, ticks: 0 }
     }
 
     /// Ticks run so far.

@@ -623,7 +623,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
             self.pdos.apply_ready(&mut self.od, &mut self.hooks);
             self.pdos.detect_changes(now, &self.od, &mut self.tx);
         }
-        Demand::Off
+        Demand::OFF
     }
 
     /// SYNC configuration (1005h/1006h/1019h) and the SYNC CAN-ID.

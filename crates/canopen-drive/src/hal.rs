@@ -1,7 +1,49 @@
-//! What a board gives the core each control-loop tick and gets back from it.
+//! What a board gives the core each control-loop tick, and what it gets back.
 //!
-//! This is the minimal shape the communication layer needs; the CiA 402 work fills in the
-//! power-stage and feedback details (positions, velocities, switches, hardware faults).
+//! The board samples its sensors into a [`Sample`], calls [`crate::Drive::tick`], and hands the
+//! returned [`Demand`] to its power stage. The traits [`Feedback`] and [`PowerStage`] name these
+//! two sides for boards that want them as types; the core itself only sees the values.
+//!
+//! Invariant (DESIGN 1): [`Demand::drive_enabled`] — energy to the motor — is true only in the
+//! CiA 402 states Operation enabled, Quick stop active and Fault reaction active.
+
+use bitflags::bitflags;
+
+bitflags! {
+    /// Digital inputs the drive profile uses (and reports in 60FDh).
+    #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+    pub struct DigitalInputs: u32 {
+        /// Negative limit switch (active).
+        const NEGATIVE_LIMIT = 1 << 0;
+        /// Positive limit switch (active).
+        const POSITIVE_LIMIT = 1 << 1;
+        /// Home switch (active).
+        const HOME = 1 << 2;
+        /// Interlock (active: the drive must not be enabled).
+        const INTERLOCK = 1 << 3;
+        /// Encoder index pulse seen since the previous sample.
+        const INDEX = 1 << 4;
+        /// Local quick-stop input (active).
+        const QUICK_STOP = 1 << 5;
+    }
+}
+
+bitflags! {
+    /// Faults the board's hardware detected.
+    #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+    pub struct HardwareFaults: u32 {
+        /// Over-current (short circuit, earth leakage).
+        const OVER_CURRENT = 1 << 0;
+        /// DC-link over-voltage.
+        const OVER_VOLTAGE = 1 << 1;
+        /// DC-link under-voltage.
+        const UNDER_VOLTAGE = 1 << 2;
+        /// Power stage or motor over-temperature.
+        const OVER_TEMPERATURE = 1 << 3;
+        /// Encoder or position sensor fault.
+        const ENCODER = 1 << 4;
+    }
+}
 
 /// One feedback sample, taken by the board at the tick.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -14,18 +56,77 @@ pub struct Sample {
     pub torque: i16,
     /// DC-link voltage in mV.
     pub dc_link_millivolts: u32,
+    /// Digital inputs.
+    pub inputs: DigitalInputs,
+    /// Faults detected by the hardware.
+    pub faults: HardwareFaults,
+}
+
+/// The set-point for the loops the board closes itself.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub enum Setpoint {
+    /// No set-point (drive function disabled, or a stop without a loop).
+    #[default]
+    None,
+    /// Torque in thousandths of the rated torque.
+    Torque(i16),
+    /// Velocity in increments per second.
+    Velocity(i32),
+    /// Position in increments.
+    Position(i32),
 }
 
 /// What the power stage should do until the next tick.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub enum Demand {
-    /// No energy to the motor (power stage off).
-    #[default]
-    Off,
-    /// Torque demand in thousandths of the rated torque.
-    Torque(i16),
-    /// Velocity demand in increments per second.
-    Velocity(i32),
-    /// Position demand in increments.
-    Position(i32),
+pub struct Demand {
+    /// High-level power (DC link / mains contactor) on.
+    pub high_voltage: bool,
+    /// Drive function enabled: the power stage may put energy into the motor (PWM on).
+    pub drive_enabled: bool,
+    /// Holding brake released.
+    pub brake_released: bool,
+    /// The set-point, meaningful while `drive_enabled`.
+    pub setpoint: Setpoint,
+}
+
+impl Demand {
+    /// Everything off: no power, brake engaged, no set-point.
+    pub const OFF: Demand =
+        Demand { high_voltage: false, drive_enabled: false, brake_released: false, setpoint: Setpoint::None };
+}
+
+/// The sensors of a board.
+pub trait Feedback {
+    /// Samples position, velocity, torque, DC link, inputs and hardware faults now.
+    fn sample(&mut self) -> Sample;
+}
+
+/// The power stage of a board.
+pub trait PowerStage {
+    /// Switches high-level power.
+    fn set_high_voltage(&mut self, on: bool);
+    /// Enables or disables the drive function (PWM).
+    fn set_drive_enabled(&mut self, enabled: bool);
+    /// Releases (true) or engages (false) the holding brake. Boards without a brake ignore it.
+    fn set_brake_released(&mut self, released: bool) {
+        let _ = released;
+    }
+    /// Applies a set-point while the drive function is enabled.
+    fn apply(&mut self, setpoint: Setpoint);
+
+    /// Applies a whole [`Demand`] in a safe order: energy off before the brake engages, the
+    /// set-point before energy is switched on.
+    fn apply_demand(&mut self, demand: &Demand) {
+        if demand.drive_enabled {
+            self.set_high_voltage(demand.high_voltage);
+            self.set_brake_released(demand.brake_released);
+            self.apply(demand.setpoint);
+            self.set_drive_enabled(true);
+        } else {
+            self.set_drive_enabled(false);
+            self.apply(Setpoint::None);
+            self.set_brake_released(demand.brake_released);
+            self.set_high_voltage(demand.high_voltage);
+        }
+    }
 }
