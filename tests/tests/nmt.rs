@@ -49,7 +49,7 @@ fn commands_change_state_and_the_heartbeat_reports_it() {
     bench.advance(Duration::ZERO);
     // Each state change is reported at once; entering Operational also sends the
     // event-driven TPDOs once (TPDO1 statusword, TPDO2 statusword + mode display).
-    let tpdos = [frame(0x185, &[0, 0]), frame(0x285, &[0, 0, 0])];
+    let tpdos = [frame(0x185, &[0x40, 0x02]), frame(0x285, &[0x40, 0x02, 0x00])];
     assert_eq!(nmt(&mut bench, 0x01, NODE), [&tpdos[..], &[heartbeat(0x05)]].concat());
     assert_eq!(bench.drive().nmt_state(), NmtState::Operational);
     assert_eq!(bench.advance(Duration::from_millis(50)), vec![heartbeat(0x05)]);

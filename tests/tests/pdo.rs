@@ -56,6 +56,16 @@ fn sync(bench: &mut Bench) -> Vec<CanFrame> {
     frames
 }
 
+/// The statusword of Switch on disabled with remote set, as a TPDO carries it.
+const SW_SWITCH_ON_DISABLED: [u8; 2] = [0x40, 0x02];
+
+/// Writes the controlword through SDO; returns the TPDO1 frames sent at this instant.
+fn controlword(bench: &mut Bench, value: u16) -> Vec<CanFrame> {
+    let [a, b] = value.to_le_bytes();
+    let frames = bench.send(frame(SDO_RX, &req(0x2B, 0x6040, 0, [a, b, 0, 0])));
+    only(&frames, TPDO1)
+}
+
 fn only(frames: &[CanFrame], id: u16) -> Vec<CanFrame> {
     frames.iter().filter(|f| f.standard_id() == Some(id)).copied().collect()
 }
@@ -94,7 +104,7 @@ fn pdos_move_only_in_operational() {
     operational(&mut bench);
     bench.send(frame(RPDO1, &[0x0F, 0x00]));
     assert_eq!(bench.drive().od().get::<u16>(0x6040, 0), Ok(0x000F), "asynchronous: applied at once");
-    assert_eq!(only(&sync(&mut bench), TPDO3), vec![frame(TPDO3, &[0, 0, 0, 0, 0, 0])]);
+    assert_eq!(only(&sync(&mut bench), TPDO3), vec![frame(TPDO3, &[0x40, 0x02, 0, 0, 0, 0])]);
     bench.send(frame(0x000, &[0x80, NODE]));
     bench.send(frame(RPDO1, &[0x07, 0x00]));
     assert_eq!(bench.drive().od().get::<u16>(0x6040, 0), Ok(0x000F));
@@ -132,9 +142,8 @@ fn synchronous_rpdo_takes_effect_at_the_next_sync() {
 fn cyclic_tpdo_every_nth_sync() {
     let mut bench = Bench::new();
     operational(&mut bench);
-    bench.drive().od_mut().set::<i32>(0x6064, 0, -2).unwrap();
     for _ in 0..3 {
-        assert_eq!(only(&sync(&mut bench), TPDO3), vec![frame(TPDO3, &[0, 0, 0xFE, 0xFF, 0xFF, 0xFF])]);
+        assert_eq!(only(&sync(&mut bench), TPDO3), vec![frame(TPDO3, &[0x40, 0x02, 0, 0, 0, 0])]);
     }
     // Every 3rd SYNC.
     assert_eq!(write_u8(&mut bench, 0x1802, 2, 3), ok(0x1802, 2));
@@ -149,9 +158,10 @@ fn acyclic_synchronous_tpdo_sends_at_sync_only_after_a_change() {
     operational(&mut bench);
     assert_eq!(only(&sync(&mut bench), TPDO1).len(), 1, "first SYNC after start");
     assert!(only(&sync(&mut bench), TPDO1).is_empty(), "no change");
-    bench.drive().od_mut().set::<u16>(0x6041, 0, 0x0237).unwrap();
+    // Shutdown: the statusword becomes Ready to switch on at the next tick.
+    assert!(controlword(&mut bench, 0x0006).is_empty());
     assert!(only(&bench.advance(Duration::from_millis(3)), TPDO1).is_empty(), "waits for SYNC");
-    assert_eq!(only(&sync(&mut bench), TPDO1), vec![frame(TPDO1, &[0x37, 0x02])]);
+    assert_eq!(only(&sync(&mut bench), TPDO1), vec![frame(TPDO1, &[0x21, 0x02])]);
     assert!(only(&sync(&mut bench), TPDO1).is_empty());
 }
 
@@ -168,8 +178,10 @@ fn event_tpdo_on_change_with_inhibit_time_and_event_timer() {
     bench.advance(Duration::from_millis(10));
     let start = bench.now();
     let mut sent = Vec::new();
-    for value in 1..=3u16 {
-        bench.drive().od_mut().set::<u16>(0x6041, 0, value).unwrap();
+    // Shutdown, Switch on, Enable operation, one per ms: three statusword changes.
+    for cw in [0x0006u16, 0x0007, 0x000F] {
+        let now = bench.now();
+        sent.extend(controlword(&mut bench, cw).into_iter().map(|f| (now, f)));
         sent.extend(
             bench
                 .advance_timed(Duration::from_millis(1))
@@ -183,13 +195,13 @@ fn event_tpdo_on_change_with_inhibit_time_and_event_timer() {
             .into_iter()
             .filter(|(_, f)| f.standard_id() == Some(TPDO1)),
     );
-    // Value 1 goes at once (1 ms: the tick that saw it); 2 and 3 change within the inhibit time:
-    // only the latest value goes, 5 ms after the previous frame.
+    // Ready to switch on goes at the next tick; Switched on and Operation enabled come within the
+    // inhibit time: only the latest goes, 5 ms after the previous frame.
     let frames: Vec<(Instant, CanFrame)> = sent;
     assert_eq!(frames.len(), 2, "{frames:?}");
-    assert_eq!(frames[0].1, frame(TPDO1, &[1, 0]));
-    assert_eq!(frames[0].0 - start, Duration::from_millis(1));
-    assert_eq!(frames[1].1, frame(TPDO1, &[3, 0]));
+    assert_eq!(frames[0].1, frame(TPDO1, &[0x21, 0x02]));
+    assert!(frames[0].0 - start <= Duration::from_millis(1));
+    assert_eq!(frames[1].1, frame(TPDO1, &[0x37, 0x02]), "Operation enabled, voltage enabled");
     assert_eq!(frames[1].0 - frames[0].0, Duration::from_millis(5));
 
     // Event timer 20 ms: sent periodically without change.
@@ -269,10 +281,8 @@ fn remap_procedure_and_its_abort_codes() {
     // 5. validate (at a new CAN-ID) and see the new content.
     assert_eq!(write_u32(&mut bench, 0x1800, 1, 0x4000_0190), ok(0x1800, 1));
     assert_eq!(write_u32(&mut bench, 0x1800, 1, 0x4000_0191), abort(0x1800, 1, 0x0609_0030), "valid: fixed");
-    bench.drive().od_mut().set::<u16>(0x6041, 0, 0x0627).unwrap();
-    bench.drive().od_mut().set::<i32>(0x6064, 0, 1000).unwrap();
     let frames = bench.send(frame(0x000, &[0x01, NODE]));
-    assert_eq!(only(&frames, 0x190), vec![frame(0x190, &[0x27, 0x06, 0xE8, 0x03, 0, 0])]);
+    assert_eq!(only(&frames, 0x190), vec![frame(0x190, &[0x40, 0x02, 0, 0, 0, 0])]);
     assert!(only(&frames, TPDO1).is_empty());
 }
 
@@ -325,15 +335,16 @@ fn tpdo_answers_remote_frames_when_allowed() {
     write_u32(&mut bench, 0x1800, 1, 0xC000_0185);
     write_u8(&mut bench, 0x1800, 2, 253);
     write_u32(&mut bench, 0x1800, 1, 0x0000_0185);
-    bench.drive().od_mut().set::<u16>(0x6041, 0, 0x1234).unwrap();
-    assert_eq!(bench.send(rtr), vec![frame(TPDO1, &[0x34, 0x12])]);
+    assert_eq!(bench.send(rtr), vec![frame(TPDO1, &SW_SWITCH_ON_DISABLED)]);
     // 252: the value sampled at the last SYNC.
     write_u32(&mut bench, 0x1800, 1, 0x8000_0185);
     write_u8(&mut bench, 0x1800, 2, 252);
     write_u32(&mut bench, 0x1800, 1, 0x0000_0185);
     sync(&mut bench);
-    bench.drive().od_mut().set::<u16>(0x6041, 0, 0x5678).unwrap();
-    assert_eq!(bench.send(rtr), vec![frame(TPDO1, &[0x34, 0x12])]);
+    controlword(&mut bench, 0x0006);
+    bench.advance(Duration::from_millis(2));
+    assert_eq!(bench.drive().od().get::<u16>(0x6041, 0), Ok(0x0221), "the statusword changed");
+    assert_eq!(bench.send(rtr), vec![frame(TPDO1, &SW_SWITCH_ON_DISABLED)], "sampled at the SYNC");
 }
 
 #[test]

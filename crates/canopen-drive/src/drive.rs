@@ -12,6 +12,7 @@ use core::fmt;
 
 use heapless::Deque;
 
+use crate::cia402::profile::Profile;
 use crate::comm::emcy::{code, EmcyProducer, ErrorRegister};
 use crate::comm::error_control::{
     parse_entry, ConsumerEvent, ErrorBehaviour, GuardingEvent, HeartbeatConsumer, NodeGuarding,
@@ -157,6 +158,7 @@ pub struct Drive<
     pdos: PdoSet<RPDOS, TPDOS>,
     lss: LssSlave,
     lss_requests: LssRequests,
+    profile: Profile,
     tx: TxQueue,
     hooks: H,
     storage: S,
@@ -258,7 +260,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
             &standard::COMMUNICATION,
             config.pdo_objects,
             config.manufacturer_objects,
-            &crate::cia402::objects::PROCESS_DATA,
+            &crate::cia402::objects::PROFILE,
         ];
         let od = Dictionary::new(&tables, config.device, config.node_id)?;
         let mut drive = Drive {
@@ -283,6 +285,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
                 config.node_id,
             ),
             lss_requests: LssRequests { store_supported: config.lss_store, ..LssRequests::default() },
+            profile: Profile::default(),
             tx: TxQueue { frames: Deque::new(), dropped: 0 },
             hooks,
             storage,
@@ -529,7 +532,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
     }
 
     fn communication_reaction(&mut self, event: ConnectionEvent, now: Instant) {
-        self.connection_event = Some(event);
+        self.connection_lost(event);
         let value = self.od.get::<u8>(ERROR_BEHAVIOUR, 1).unwrap_or(0);
         if let Some(state) = ErrorBehaviour::from_value(value).and_then(|b| b.next_state(self.nmt)) {
             self.nmt_command(NmtAction::Enter(state), now);
@@ -614,16 +617,35 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
         self.tx.frames.front()
     }
 
-    /// The control-loop tick: applies the RPDOs latched at the last SYNC, then (once the CiA 402
-    /// layer is part of the build) runs the drive profile, and stages event-driven TPDOs whose
-    /// values changed. The CiA 402 layer is not part of this build yet: the power stage stays off.
+    /// The control-loop tick: applies the RPDOs latched at the last SYNC, runs the drive profile
+    /// (state machine, mode, stops, statusword, actual values) and stages event-driven TPDOs
+    /// whose values changed. Returns what the power stage must do until the next tick.
     pub fn tick(&mut self, now: Instant, sample: &Sample) -> Demand {
-        let _ = sample;
         if self.nmt.serves_pdo() {
             self.pdos.apply_ready(&mut self.od, &mut self.hooks);
+        }
+        let (demand, report) = self.profile.tick(now, sample, &mut self.od);
+        if let Some((code, register)) = report.raise {
+            self.raise_error(code, register, [0; 5]);
+        }
+        if let Some(code) = report.clear {
+            self.clear_error(code);
+        }
+        if self.nmt.serves_pdo() {
             self.pdos.detect_changes(now, &self.od, &mut self.tx);
         }
-        Demand::OFF
+        demand
+    }
+
+    /// The CiA 402 state of the axis.
+    pub fn state(&self) -> crate::cia402::fsa::State {
+        self.profile.state()
+    }
+
+    /// Records an event that broke the connection and lets the profile react (6007h).
+    fn connection_lost(&mut self, event: ConnectionEvent) {
+        self.connection_event = Some(event);
+        self.profile.connection_lost(event, &self.od);
     }
 
     /// SYNC configuration (1005h/1006h/1019h) and the SYNC CAN-ID.
@@ -749,7 +771,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
             NmtAction::Enter(state) => {
                 if state != self.nmt {
                     if state == NmtState::Stopped {
-                        self.connection_event = Some(ConnectionEvent::NmtStopped);
+                        self.connection_lost(ConnectionEvent::NmtStopped);
                     }
                     if self.nmt == NmtState::Stopped {
                         // The SYNC counter restarts at 1 when the node leaves Stopped.
@@ -770,11 +792,12 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
                 self.load_stored(Group::Manufacturer);
                 self.load_stored(Group::Application);
                 self.reset_communication(now);
+                self.profile.reset();
                 self.connection_event = Some(ConnectionEvent::ResetApplication);
             }
             NmtAction::ResetCommunication => {
                 self.reset_communication(now);
-                self.connection_event = Some(ConnectionEvent::ResetCommunication);
+                self.connection_lost(ConnectionEvent::ResetCommunication);
             }
         }
     }
@@ -977,6 +1000,7 @@ fn check_communication<const B: usize>(od: &Dictionary<B>, mux: Mux, data: &[u8]
         PRE_DEFINED_ERROR_FIELD if raw != 0 => Err(AbortCode::InvalidValue),
         ERROR_BEHAVIOUR if ErrorBehaviour::from_value(raw as u8).is_none() => Err(AbortCode::InvalidValue),
         index if PdoRecord::of(index).is_some() => pdo::check_write(od, index, mux.sub, data),
+        0x6000..=0x67FF => crate::cia402::objects::check_write(mux.index, data),
         COB_ID_SYNC => {
             let new = CobId::parse(raw).map_err(|_| AbortCode::InvalidValue)?;
             if raw & cob_id::INVALID != 0 || cob_id::is_restricted(new.can_id) {

@@ -1,7 +1,10 @@
 //! CiA 402 drive profile (CiA 402-2).
 //!
-//! So far this holds the process-data objects that the CiA 402 default PDO mapping refers to;
-//! the state machine and the operation modes build on them.
+//! - [`fsa`]: the power drive system state machine, a pure transition function.
+//! - [`objects`]: the profile objects with their defaults and value rules.
+//! - [`profile`]: the run-time of one axis: FSA, option-code stops, modes (pv, tq), statusword,
+//!   actual values and the demand for the power stage.
 
 pub mod fsa;
 pub mod objects;
+pub mod profile;
