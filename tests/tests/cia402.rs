@@ -17,6 +17,7 @@ const RTSO: (u16, u16) = (0x006F, 0x0021);
 const SO: (u16, u16) = (0x006F, 0x0023);
 const OE: (u16, u16) = (0x006F, 0x0027);
 const QSA: (u16, u16) = (0x006F, 0x0007);
+const FAULT: (u16, u16) = (0x004F, 0x0008);
 
 fn statusword(bench: &mut Bench) -> u16 {
     let r = bench.sdo1(&req(0x40, 0x6041, 0, [0; 4]));
