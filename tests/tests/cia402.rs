@@ -8,7 +8,7 @@ use common::*;
 
 use canopen_drive::cia402::fsa::State;
 use canopen_drive::comm::NmtState;
-use canopen_drive::hal::Setpoint;
+use canopen_drive::hal::{HardwareFaults, Setpoint};
 use canopen_drive::Duration;
 use canopen_drive_sim::DriveNode;
 
@@ -17,6 +17,7 @@ const RTSO: (u16, u16) = (0x006F, 0x0021);
 const SO: (u16, u16) = (0x006F, 0x0023);
 const OE: (u16, u16) = (0x006F, 0x0027);
 const QSA: (u16, u16) = (0x006F, 0x0007);
+const FRA: (u16, u16) = (0x004F, 0x000F);
 const FAULT: (u16, u16) = (0x004F, 0x0008);
 
 fn statusword(bench: &mut Bench) -> u16 {
@@ -171,6 +172,41 @@ fn c_28_c_31_quick_stop_option_6_stays_and_may_return() {
     cw(&mut bench, 0x000B, 5);
     cw(&mut bench, 0x0000, 1);
     assert!(is(&mut bench, SOD), "c_31: transition 12");
+}
+
+#[test]
+fn d_36_to_d_42_faults_and_fault_reset() {
+    let mut bench = Bench::new();
+    enable_pv(&mut bench);
+    write(&mut bench, 0x60FF, &1000i32.to_le_bytes());
+    bench.advance(Duration::from_millis(100));
+    node(&mut bench).motor.inject_fault(HardwareFaults::OVER_CURRENT);
+    let frames = bench.advance(Duration::from_millis(1));
+    assert!(is(&mut bench, FRA), "d_36: fault reaction while stopping");
+    // d_46: EMCY 2310h with current and device-profile bits, 603Fh holds it.
+    let emcy = frames.iter().find(|f| f.standard_id() == Some(0x85)).expect("EMCY");
+    assert_eq!(embedded_can::Frame::data(emcy)[..3], [0x10, 0x23, 0x23]);
+    assert_eq!(bench.drive().od().get::<u16>(0x603F, 0), Ok(0x2310));
+    bench.advance(Duration::from_millis(200));
+    assert!(is(&mut bench, FAULT));
+    assert!(!node(&mut bench).demand.drive_enabled);
+    // d_41: cause present → no reset.
+    cw(&mut bench, 0x0000, 1);
+    cw(&mut bench, 0x0080, 2);
+    assert!(is(&mut bench, FAULT));
+    // d_43: holding bit 7 while the cause clears does not reset.
+    node(&mut bench).motor.clear_faults();
+    bench.advance(Duration::from_millis(2));
+    assert!(is(&mut bench, FAULT));
+    // d_42: a new edge resets.
+    cw(&mut bench, 0x0000, 1);
+    cw(&mut bench, 0x0080, 2);
+    assert!(is(&mut bench, SOD));
+    // d_44: with bit 7 still set other commands are not decoded.
+    cw(&mut bench, 0x0086, 2);
+    assert!(is(&mut bench, SOD));
+    cw(&mut bench, 0x0006, 2);
+    assert!(is(&mut bench, RTSO));
 }
 
 #[test]

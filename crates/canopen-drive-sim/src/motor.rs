@@ -658,8 +658,9 @@ mod tests {
         // Released: the load pulls the shaft down.
         run(&mut m, FREE, 100);
         assert!(m.sample().velocity < 0 && m.sample().position < 0, "{:?}", m.sample());
-        // Engaged again while moving: stopped within a few ms and held.
-        run(&mut m, Demand::OFF, 20);
+        // Engaged again while moving at 25 rev/s: (4000 − 2500) ‰ stop it within 170 ms, and
+        // then it holds.
+        run(&mut m, Demand::OFF, 180);
         let held = m.sample();
         assert_eq!(held.velocity, 0);
         run(&mut m, Demand::OFF, 500);
@@ -812,10 +813,10 @@ mod tests {
     #[test]
     fn index_pulse_once_per_revolution_moving_positive() {
         let mut m = index_axis();
-        // 2 rev/s for 2 s, after a short ramp: the marks at 150, 1150, 2150, 3150.
+        // 2 rev/s for 2 s, after a short ramp: the marks at 150, 1150, 2150 and 3150.
         let samples = record(&mut m, on(Setpoint::Velocity(2000)), 2000);
         let end = m.sample().position;
-        assert!((3_400..4_000).contains(&end), "{end}");
+        assert!((3_900..=4_000).contains(&end), "{end}");
         let at: Vec<i32> =
             samples.iter().filter(|s| s.inputs.contains(DigitalInputs::INDEX)).map(|s| s.position).collect();
         assert_eq!(at.len(), 4, "{at:?}");
@@ -888,7 +889,8 @@ mod tests {
         let samples = record(&mut m, on(Setpoint::Velocity(1000)), 1500);
         let first = |input| samples.iter().find(|s| s.inputs.contains(input)).map(|s| s.position);
         assert!(first(DigitalInputs::HOME).is_some_and(|p| (200..=201).contains(&p)));
-        assert!(first(DigitalInputs::POSITIVE_LIMIT).is_some_and(|p| (1001..=1002).contains(&p)));
+        // (The switch acts on the exact shaft position, the count is rounded.)
+        assert!(first(DigitalInputs::POSITIVE_LIMIT).is_some_and(|p| (1000..=1002).contains(&p)));
     }
 
     #[test]
@@ -944,8 +946,8 @@ mod tests {
         // It stays there.
         run(&mut m, on(Setpoint::Velocity(-2000)), 100);
         assert_eq!(m.sample(), s);
-        // Backing off works at once.
-        run(&mut m, on(Setpoint::Velocity(2000)), 200);
+        // Backing off: once the wound-up integrator has unwound (≈ 0.7 s).
+        run(&mut m, on(Setpoint::Velocity(2000)), 1000);
         assert!(m.sample().position > -2000 && m.sample().velocity > 0);
 
         // A position set-point beyond the positive stop, at full speed.
