@@ -328,3 +328,53 @@ fn p_161_p_163_profile_torque_slope_and_limit() {
     assert_eq!(bench.drive().od().get::<i16>(0x6074, 0), Ok(400), "limited by 6072h");
     assert_eq!(node(&mut bench).demand.setpoint, Setpoint::Torque(400));
 }
+
+#[test]
+fn s_179_to_s_183_object_attributes() {
+    let mut bench = Bench::new();
+    for index in [0x6041u16, 0x6502, 0x6061, 0x6064] {
+        assert_eq!(bench.sdo1(&req(0x23, index, 0, [0; 4])), abort(index, 0, 0x0601_0002), "{index:04X}");
+    }
+    for index in [0x6045u16, 0x6050, 0x6089] {
+        assert_eq!(bench.sdo1(&req(0x40, index, 0, [0; 4])), abort(index, 0, 0x0602_0000), "{index:04X}");
+    }
+    assert_eq!(bench.sdo1(&req(0x40, 0x6060, 0, [0; 4]))[0], 0x4F, "1 byte");
+    assert_eq!(bench.sdo1(&req(0x40, 0x6040, 0, [0; 4]))[0], 0x4B, "2 bytes");
+    assert_eq!(bench.sdo1(&req(0x40, 0x607A, 0, [0; 4]))[0], 0x43, "4 bytes");
+    assert_eq!(bench.sdo1(&req(0x23, 0x6040, 0, [0; 4])), abort(0x6040, 0, 0x0607_0012));
+    assert_eq!(bench.sdo1(&req(0x40, 0x60FE, 0, [0; 4])), req(0x4F, 0x60FE, 0, [2, 0, 0, 0]));
+    for sub in 1..=2 {
+        assert_eq!(bench.sdo1(&req(0x40, 0x60FE, sub, [0; 4])), req(0x43, 0x60FE, sub, [0; 4]));
+    }
+    for index in [0x6403u16, 0x6404, 0x6405, 0x6503, 0x6505] {
+        assert_eq!(bench.sdo1(&req(0x40, index, 0, [0; 4])), req(0x41, index, 0, [0; 4]), "empty string");
+        assert_eq!(bench.sdo1(&[0x60, 0, 0, 0, 0, 0, 0, 0]), [0x0F, 0, 0, 0, 0, 0, 0, 0]);
+    }
+    assert_eq!(bench.sdo1(&req(0x40, 0x6407, 0, [0; 4])), req(0x43, 0x6407, 0, [0; 4]));
+}
+
+#[test]
+fn t_185_t_186_digital_inputs_and_brake_output() {
+    use canopen_drive::hal::DigitalInputs;
+    let mut bench = Bench::new();
+    for (input, bit) in [
+        (DigitalInputs::NEGATIVE_LIMIT, 0),
+        (DigitalInputs::POSITIVE_LIMIT, 1),
+        (DigitalInputs::HOME, 2),
+        (DigitalInputs::INTERLOCK, 3),
+    ] {
+        node(&mut bench).motor.set_input(input, true);
+        bench.advance(Duration::from_millis(2));
+        assert_eq!(bench.drive().od().get::<u32>(0x60FD, 0), Ok(1 << bit));
+        node(&mut bench).motor.set_input(input, false);
+    }
+    enable_pv(&mut bench);
+    assert!(node(&mut bench).demand.brake_released);
+    // Brake bit set, but masked off: no effect.
+    bench.sdo1(&req(0x23, 0x60FE, 1, [1, 0, 0, 0]));
+    bench.advance(Duration::from_millis(2));
+    assert!(node(&mut bench).demand.brake_released);
+    bench.sdo1(&req(0x23, 0x60FE, 2, [1, 0, 0, 0]));
+    bench.advance(Duration::from_millis(2));
+    assert!(!node(&mut bench).demand.brake_released, "brake engaged by the master");
+}

@@ -63,8 +63,12 @@ pub const TORQUE_SLOPE: u16 = 0x6087;
 pub const MAX_DECELERATION: u16 = 0x60C6;
 /// 60FDh digital inputs.
 pub const DIGITAL_INPUTS: u16 = 0x60FD;
+/// 60FEh digital outputs (sub 1 physical outputs, sub 2 bit mask).
+pub const DIGITAL_OUTPUTS: u16 = 0x60FE;
 /// 60FFh target velocity.
 pub const TARGET_VELOCITY: u16 = 0x60FF;
+/// 6402h motor type.
+pub const MOTOR_TYPE: u16 = 0x6402;
 /// 6502h supported drive modes.
 pub const SUPPORTED_DRIVE_MODES: u16 = 0x6502;
 
@@ -100,8 +104,23 @@ const fn option_code(index: u16, name: &'static str, default: i64) -> Object {
     parameter(index, name, DataType::Integer16, DefaultValue::Signed(default))
 }
 
+const fn text(index: u16, name: &'static str) -> Object {
+    Object::var(index, name, Var::new(name, DataType::VisibleString).access(Access::ReadWrite).capacity(32))
+}
+
+const DIGITAL_OUTPUT_SUBS: [(u8, Var); 3] = [
+    (
+        0,
+        Var::new("Highest sub-index supported", DataType::Unsigned8)
+            .access(Access::Const)
+            .default(DefaultValue::Unsigned(2)),
+    ),
+    (1, Var::new("Physical outputs", DataType::Unsigned32).access(Access::ReadWrite).pdo(PdoMapping::Rpdo)),
+    (2, Var::new("Bit mask", DataType::Unsigned32).access(Access::ReadWrite)),
+];
+
 /// The profile objects, ascending.
-pub static PROFILE: [Object; 31] = layout([
+pub static PROFILE: [Object; 41] = layout([
     option_code(ABORT_CONNECTION_OPTION_CODE, "Abort connection option code", 1),
     actual(ERROR_CODE, "Error code", DataType::Unsigned16),
     command(CONTROLWORD, "Controlword", DataType::Unsigned16),
@@ -146,7 +165,16 @@ pub static PROFILE: [Object; 31] = layout([
     ),
     parameter(TORQUE_SLOPE, "Torque slope", DataType::Unsigned32, DefaultValue::Unsigned(10_000)),
     parameter(MAX_DECELERATION, "Max deceleration", DataType::Unsigned32, DefaultValue::Unsigned(100_000)),
+    actual(DIGITAL_INPUTS, "Digital inputs", DataType::Unsigned32),
+    Object::record(DIGITAL_OUTPUTS, "Digital outputs", &DIGITAL_OUTPUT_SUBS),
     command(TARGET_VELOCITY, "Target velocity", DataType::Integer32),
+    // Identification (digest §20.2): not assigned until the firmware or the master sets them.
+    parameter(MOTOR_TYPE, "Motor type", DataType::Unsigned16, DefaultValue::Unsigned(0x7FFF)),
+    text(0x6403, "Motor catalogue number"),
+    text(0x6404, "Motor manufacturer"),
+    text(0x6405, "http motor catalogue address"),
+    parameter(0x6406, "Motor calibration date", DataType::TimeOfDay, DefaultValue::Zero),
+    parameter(0x6407, "Motor service period", DataType::Unsigned32, DefaultValue::Zero),
     Object::var(
         SUPPORTED_DRIVE_MODES,
         "Supported drive modes",
@@ -154,6 +182,8 @@ pub static PROFILE: [Object; 31] = layout([
             .access(Access::Const)
             .default(DefaultValue::Unsigned(SUPPORTED_MODES as u64)),
     ),
+    text(0x6503, "Drive catalogue number"),
+    text(0x6505, "http drive catalogue address"),
 ]);
 
 /// Value rules of the profile objects beyond type and limits (digest §6, §7): reserved option

@@ -144,6 +144,8 @@ impl Profile {
         let _ = od.set::<i32>(VELOCITY_ACTUAL_VALUE, 0, sample.velocity);
         let _ = od.set::<i16>(TORQUE_ACTUAL_VALUE, 0, sample.torque);
         let _ = od.set::<u32>(DC_LINK_VOLTAGE, 0, sample.dc_link_millivolts);
+        // 60FDh bits 0..3: negative/positive limit, home, interlock (the hal uses the same bits).
+        let _ = od.set::<u32>(DIGITAL_INPUTS, 0, sample.inputs.bits() & 0x0F);
 
         // Faults: a new one is latched and reported; it stays until a fault reset succeeds.
         let hardware = fault_code(sample.faults);
@@ -236,10 +238,13 @@ impl Profile {
 
         let statusword = self.statusword(step.state, sample, od, now, halt, options);
         let _ = od.set::<u16>(STATUSWORD, 0, statusword);
+        // 60FEh: a master may engage the brake (sub 1 bit 0) where the mask (sub 2) enables it.
+        let outputs =
+            od.get::<u32>(DIGITAL_OUTPUTS, 1).unwrap_or(0) & od.get::<u32>(DIGITAL_OUTPUTS, 2).unwrap_or(0);
         let demand = Demand {
             high_voltage: step.state.high_voltage(),
             drive_enabled,
-            brake_released: drive_enabled,
+            brake_released: drive_enabled && outputs & 1 == 0,
             setpoint: if drive_enabled { setpoint } else { Setpoint::None },
         };
         (demand, report)
