@@ -241,12 +241,15 @@ NO_DATA_AVAILABLE = 0x0800_0024
 STRINGS = {datatypes.VISIBLE_STRING, datatypes.UNICODE_STRING, datatypes.OCTET_STRING, datatypes.DOMAIN}
 
 
+TIMES = {0x000C, 0x000D}
+
+
 def test_eds_imports_without_warnings_and_matches_the_device(node, eds_file):
     od = import_od_strictly(eds_file)
     assert {0x1000, 0x1001, 0x1017, 0x1018, 0x1021} <= set(od.keys())
     checked = 0
     for var in variables(od):
-        assert var.data_type in ODVariable.STRUCT_TYPES or var.data_type in STRINGS, var.name
+        assert var.data_type in ODVariable.STRUCT_TYPES or var.data_type in STRINGS | TIMES, var.name
         if not var.readable:
             continue
         where = f"{var.index:04X}sub{var.subindex} {var.name}"
@@ -255,6 +258,11 @@ def test_eds_imports_without_warnings_and_matches_the_device(node, eds_file):
         except canopen.SdoAbortedError as e:
             # An entry that exists but holds nothing now, e.g. 1003h sub1 with an empty history.
             assert e.code == NO_DATA_AVAILABLE, where
+            continue
+        if var.data_type in TIMES:
+            # TIME_OF_DAY / TIME_DIFFERENCE: python-canopen has no codec; 6 bytes on the wire.
+            assert len(data) == 6, where
+            checked += 1
             continue
         value = var.decode_raw(data)
         if var.data_type in ODVariable.STRUCT_TYPES:

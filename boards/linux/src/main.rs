@@ -22,6 +22,7 @@ macro_rules! log {
     };
 }
 
+mod board_objects;
 mod bus;
 mod cli;
 mod lss_store;
@@ -42,6 +43,7 @@ use canopen_drive::Drive;
 use canopen_drive_sim::flash::FileFlash;
 use signal_hook::consts::{SIGINT, SIGTERM};
 
+use crate::board_objects::BoardHooks;
 use crate::bus::Bus;
 use crate::cli::{Action, RunArgs};
 use crate::slcan_server::SlcanServer;
@@ -97,12 +99,13 @@ fn run(args: &RunArgs) -> Result<(), String> {
             let signature = device_signature(&config.device, node::STORAGE_LAYOUT);
             let storage =
                 Storage::new(flash, signature).map_err(|e| format!("storage {}: {e:?}", path.display()))?;
-            let drive = Drive::with_storage(config, (), storage)
+            let drive = Drive::with_storage(config, BoardHooks::default(), storage)
                 .map_err(|e| format!("invalid drive configuration: {e:?}"))?;
             serve(args, node_id, drive, lss_file.as_deref())
         }
         None => {
-            let drive = Drive::new(config).map_err(|e| format!("invalid drive configuration: {e:?}"))?;
+            let drive = Drive::with_hooks(config, BoardHooks::default())
+                .map_err(|e| format!("invalid drive configuration: {e:?}"))?;
             serve(args, node_id, drive, None)
         }
     }

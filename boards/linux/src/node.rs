@@ -27,10 +27,11 @@ use canopen_drive::storage::Persistence;
 use canopen_drive::{CanFrame, Config, Drive, Duration, Instant};
 use canopen_drive_sim::motor::SimMotor;
 
+use crate::board_objects::{BoardHooks, BOARD_OBJECTS};
 use crate::bus::Bus;
 
 /// The drive of this board, with parameter storage `S` (a file, or none).
-pub type BoardDrive<S> = Drive<(), DEFAULT_OD_BYTES, 4, 4, S>;
+pub type BoardDrive<S> = Drive<BoardHooks, DEFAULT_OD_BYTES, 4, 4, S>;
 
 /// Layout number of the stored parameters (part of the storage signature): change it when a
 /// firmware change gives stored parameters another meaning.
@@ -67,6 +68,7 @@ pub fn eds_info() -> EdsInfo {
 pub fn config_with_eds(node_id: u8) -> Result<(Config, &'static [u8]), String> {
     let mut config = Config::new(node_id);
     config.device = device_info();
+    config.manufacturer_objects = &BOARD_OBJECTS;
     let probe = Drive::new(config).map_err(|e| format!("invalid drive configuration: {e:?}"))?;
     let mut text = String::new();
     probe.write_eds(&eds_info(), &mut text).map_err(|_| "cannot generate the EDS".to_string())?;
@@ -120,6 +122,9 @@ pub fn run<S: Persistence>(
             Err(RecvTimeoutError::Disconnected) => break,
         }
         lss_services(&mut drive, lss_file);
+        for change in drive.hooks_mut().take_changes() {
+            crate::board_objects::apply(change, &mut motor);
+        }
 
         let now = clock.now();
         if now >= next_tick {
@@ -193,7 +198,7 @@ mod tests {
     #[test]
     fn loop_boots_answers_and_stops() {
         let (config, _) = config_with_eds(3).unwrap();
-        let drive = Drive::new(config).unwrap();
+        let drive = Drive::with_hooks(config, BoardHooks::default()).unwrap();
         let (bus, frames) = Bus::new();
         let (tx, rx) = sync_channel(64);
         let sink: Sink = Box::new(move |f: &CanFrame| match tx.try_send(*f) {
