@@ -19,7 +19,7 @@
 //! the axis is at rest; it returns what the power stage and the motion layer must do. The
 //! transition function [`next`] is pure and follows the digest's tables line by line.
 //!
-//! Decisions (digest §3.2–3.4 and its [AMBIG] notes):
+//! Decisions (digest §3.2–3.4 and its "AMBIG" notes):
 //! - Commands other than Fault reset are decoded only while controlword bit 7 = 0; Fault reset
 //!   is the 0→1 edge of bit 7 (digest §3.3).
 //! - "An action is completed before the transition is reported": Disable operation with 605Ch = 1
