@@ -66,6 +66,7 @@ pub mod comm;
 pub mod drive;
 pub mod frame;
 pub mod hal;
+pub mod motion;
 pub mod od;
 pub mod storage;
 pub mod time;
