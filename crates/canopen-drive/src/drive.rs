@@ -372,9 +372,10 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
             return;
         }
         let data = embedded_can::Frame::data(frame);
-        let sync = self.sync_config();
-        if id == sync.1 && self.nmt.serves_emcy() {
-            self.sync_received(data, now, sync.0);
+        // One dictionary look-up for the SYNC identifier; the rest only for a SYNC.
+        let sync_id = (self.od.get::<u32>(COB_ID_SYNC, 0).unwrap_or(0x80) & 0x7FF) as u16;
+        if id == sync_id && self.nmt.serves_emcy() {
+            self.sync_received(data, now, self.sync_config().0);
         } else if self.nmt.serves_pdo() && self.rpdo_received(id, data, now) {
             // An RPDO.
         } else if let (ERROR_CONTROL_FIRST..=ERROR_CONTROL_LAST, Some(&state)) = (id, data.first()) {
