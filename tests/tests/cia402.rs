@@ -4,61 +4,13 @@
 
 mod common;
 
+use common::profile::*;
 use common::*;
 
 use canopen_drive::cia402::fsa::State;
 use canopen_drive::comm::NmtState;
 use canopen_drive::hal::{HardwareFaults, Setpoint};
 use canopen_drive::Duration;
-use canopen_drive_sim::DriveNode;
-
-const SOD: (u16, u16) = (0x004F, 0x0040);
-const RTSO: (u16, u16) = (0x006F, 0x0021);
-const SO: (u16, u16) = (0x006F, 0x0023);
-const OE: (u16, u16) = (0x006F, 0x0027);
-const QSA: (u16, u16) = (0x006F, 0x0007);
-const FRA: (u16, u16) = (0x004F, 0x000F);
-const FAULT: (u16, u16) = (0x004F, 0x0008);
-
-fn statusword(bench: &mut Bench) -> u16 {
-    let r = bench.sdo1(&req(0x40, 0x6041, 0, [0; 4]));
-    assert_eq!(r[0], 0x4B);
-    u16::from_le_bytes([r[4], r[5]])
-}
-
-fn is(bench: &mut Bench, (mask, value): (u16, u16)) -> bool {
-    statusword(bench) & mask == value
-}
-
-fn write(bench: &mut Bench, index: u16, bytes: &[u8]) {
-    let command = match bytes.len() {
-        1 => 0x2F,
-        2 => 0x2B,
-        _ => 0x23,
-    };
-    let mut data = [0u8; 4];
-    data[..bytes.len()].copy_from_slice(bytes);
-    let r = bench.sdo1(&req(command, index, 0, data));
-    assert_eq!(r, req(0x60, index, 0, [0; 4]), "write {index:04X}");
-}
-
-/// Writes the controlword and lets `ms` ticks run.
-fn cw(bench: &mut Bench, value: u16, ms: u64) {
-    write(bench, 0x6040, &value.to_le_bytes());
-    bench.advance(Duration::from_millis(ms));
-}
-
-fn node(bench: &mut Bench) -> &mut DriveNode<TestHooks> {
-    let handle = canopen_drive_sim::bus::NodeHandle::from_index(0);
-    bench.bus.node_mut::<DriveNode<TestHooks>>(handle).unwrap()
-}
-
-fn enable_pv(bench: &mut Bench) {
-    write(bench, 0x6060, &[3]);
-    cw(bench, 0x0006, 2);
-    cw(bench, 0x000F, 2);
-    assert!(is(bench, OE));
-}
 
 #[test]
 fn a_01_reaches_switch_on_disabled_by_itself() {
@@ -263,8 +215,10 @@ fn g_60_g_61_abort_connection_as_disable_voltage_or_quick_stop() {
 fn h_66_to_h_71_modes_of_operation() {
     let mut bench = Bench::new();
     assert_eq!(bench.sdo1(&req(0x40, 0x6060, 0, [0; 4])), req(0x4F, 0x6060, 0, [0; 4]));
-    assert_eq!(bench.sdo1(&req(0x40, 0x6502, 0, [0; 4])), req(0x43, 0x6502, 0, [0x0C, 0, 0, 0]));
-    for mode in [5u8, 11, 1, 6] {
+    // pp + pv + tq.
+    assert_eq!(bench.sdo1(&req(0x40, 0x6502, 0, [0; 4])), req(0x43, 0x6502, 0, [0x0D, 0, 0, 0]));
+    // h_68 reserved, h_69 not in 6502h (homing, vl).
+    for mode in [5u8, 11, 0x80, 6, 2] {
         assert_eq!(bench.sdo1(&req(0x2F, 0x6060, 0, [mode, 0, 0, 0])), abort(0x6060, 0, 0x0609_0030));
     }
     assert_eq!(bench.sdo1(&req(0x2F, 0x6061, 0, [3, 0, 0, 0])), abort(0x6061, 0, 0x0601_0002));

@@ -11,7 +11,7 @@ use canopen_drive::{Config, Drive, Instant};
 use canopen_drive_sim::flash::SimFlash;
 use embedded_can::Frame;
 
-type StoredDrive = Drive<TestHooks, 2048, 4, 4, Storage<SimFlash>>;
+type StoredDrive = Drive<TestHooks, { canopen_drive::drive::DEFAULT_OD_BYTES }, 4, 4, Storage<SimFlash>>;
 
 const SAVE: [u8; 4] = *b"save";
 const LOAD: [u8; 4] = *b"load";

@@ -12,7 +12,7 @@ use crate::motor::SimMotor;
 /// A drive with its simulated motor and a fixed tick period.
 pub struct DriveNode<
     H: ObjectHooks = (),
-    const B: usize = 2048,
+    const B: usize = { canopen_drive::drive::DEFAULT_OD_BYTES },
     const R: usize = 4,
     const T: usize = 4,
     S: Persistence = (),

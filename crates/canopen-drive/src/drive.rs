@@ -13,6 +13,7 @@ use core::fmt;
 use heapless::Deque;
 
 use crate::cia402::profile::Profile;
+use crate::cia402::ProfileConfig;
 use crate::comm::emcy::{code, EmcyProducer, ErrorRegister};
 use crate::comm::error_control::{
     parse_entry, ConsumerEvent, ErrorBehaviour, GuardingEvent, HeartbeatConsumer, NodeGuarding,
@@ -54,7 +55,7 @@ pub const TX_QUEUE: usize = 16;
 /// Bytes the SDO server can stage for one download.
 pub const SDO_BUFFER: usize = 256;
 /// Default size of the dictionary's value store in bytes.
-pub const DEFAULT_OD_BYTES: usize = 2048;
+pub const DEFAULT_OD_BYTES: usize = 3072;
 
 /// Events that break the connection to the master; the CiA 402 layer reacts to them as the
 /// abort connection option code 6007h says (digest 402 §6.1).
@@ -117,6 +118,9 @@ pub struct Config {
     /// The PDO records (1400h–1BFFh): [`pdo::DEFAULT_OBJECTS`] for 4 + 4, or a table made by
     /// [`pdo::objects`] matching the drive's PDO capacity.
     pub pdo_objects: &'static [Object],
+    /// The drive profile: tick rate, supported option codes, set-point buffer, … (the modes are
+    /// [`DeviceInfo::drive_modes`]).
+    pub profile: ProfileConfig,
 }
 
 impl Config {
@@ -130,6 +134,7 @@ impl Config {
             lss_store: false,
             long_rpdo: pdo::LongRpdo::ApplyAndReport,
             pdo_objects: &pdo::DEFAULT_OBJECTS,
+            profile: ProfileConfig::new(),
         }
     }
 }
@@ -285,7 +290,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
                 config.node_id,
             ),
             lss_requests: LssRequests { store_supported: config.lss_store, ..LssRequests::default() },
-            profile: Profile::default(),
+            profile: Profile::new(config.profile),
             tx: TxQueue { frames: Deque::new(), dropped: 0 },
             hooks,
             storage,
@@ -314,6 +319,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
 
     /// The object dictionary, mutable (device-side access: no SDO access rules).
     pub fn od_mut(&mut self) -> &mut Dictionary<OD_BYTES> {
+        self.profile.invalidate();
         &mut self.od
     }
 
@@ -330,6 +336,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
     /// Applies the stored values of `group`; a corrupt or foreign image is never loaded and is
     /// reported with EMCY 0x6300 (data set), active until the next successful store.
     fn load_stored(&mut self, group: Group) {
+        self.profile.invalidate();
         match self.storage.load(&mut self.od, group) {
             Ok(report) if !report.image.is_lost() => {}
             // Unreadable, corrupt or foreign: the defaults stay.
@@ -388,7 +395,13 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
                 self.nmt_command(transition(self.nmt, control.command), now);
             }
         } else if id == SDO_RX_BASE + u16::from(node_id) && self.nmt.serves_sdo() {
-            let mut access = Access::new(&mut self.od, &mut self.hooks, &mut self.storage, self.nmt);
+            let mut access = Access::new(
+                &mut self.od,
+                &mut self.hooks,
+                &mut self.storage,
+                self.nmt,
+                self.profile.config(),
+            );
             let response = self.sdo.on_request(data, now, &mut access);
             let written = access.written;
             let stored = access.stored;
@@ -825,6 +838,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
     /// Side effects of a value written from the bus.
     fn after_write(&mut self, mux: Mux, now: Instant) {
         match mux.index {
+            0x6000..=0x67FF => self.profile.invalidate(),
             PRODUCER_HEARTBEAT_TIME => {
                 self.heartbeat.restart(now, self.heartbeat_period());
                 if self.heartbeat_period() != 0 {
@@ -863,7 +877,13 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
     fn drain_sdo(&mut self, now: Instant) {
         let node_id = self.node_id();
         while !self.tx.frames.is_full() {
-            let mut access = Access::new(&mut self.od, &mut self.hooks, &mut self.storage, self.nmt);
+            let mut access = Access::new(
+                &mut self.od,
+                &mut self.hooks,
+                &mut self.storage,
+                self.nmt,
+                self.profile.config(),
+            );
             match self.sdo.poll(now, &mut access) {
                 Some(frame) => self.send(SDO_TX_BASE + u16::from(node_id), &frame),
                 None => break,
@@ -886,14 +906,21 @@ struct Access<'a, H, S, const B: usize> {
     hooks: &'a mut H,
     storage: &'a mut S,
     nmt: NmtState,
+    profile: &'a ProfileConfig,
     written: Option<Mux>,
     /// A store on command succeeded.
     stored: bool,
 }
 
 impl<'a, H: ObjectHooks, S: Persistence, const B: usize> Access<'a, H, S, B> {
-    fn new(od: &'a mut Dictionary<B>, hooks: &'a mut H, storage: &'a mut S, nmt: NmtState) -> Self {
-        Access { od, hooks, storage, nmt, written: None, stored: false }
+    fn new(
+        od: &'a mut Dictionary<B>,
+        hooks: &'a mut H,
+        storage: &'a mut S,
+        nmt: NmtState,
+        profile: &'a ProfileConfig,
+    ) -> Self {
+        Access { od, hooks, storage, nmt, profile, written: None, stored: false }
     }
 
     /// 1010h/1011h subs 1..=4: the read value says whether the command is supported (§11).
@@ -984,7 +1011,7 @@ impl<H: ObjectHooks, S: Persistence, const B: usize> ObjectAccess for Access<'_,
         if self.command_capability(mux).is_some() {
             return self.storage_command(mux, data);
         }
-        check_communication(self.od, mux, data)?;
+        check_communication(self.od, self.profile, mux, data)?;
         self.hooks.validate(mux.index, mux.sub, data)?;
         self.od.commit(&entry, data);
         self.hooks.written(mux.index, mux.sub, data);
@@ -994,14 +1021,19 @@ impl<H: ObjectHooks, S: Persistence, const B: usize> ObjectAccess for Access<'_,
 }
 
 /// Value rules of the communication objects beyond type and limits (digest §1.3, §9.3).
-fn check_communication<const B: usize>(od: &Dictionary<B>, mux: Mux, data: &[u8]) -> Result<(), AbortCode> {
+fn check_communication<const B: usize>(
+    od: &Dictionary<B>,
+    profile: &ProfileConfig,
+    mux: Mux,
+    data: &[u8],
+) -> Result<(), AbortCode> {
     let raw = u32_le(data);
     match mux.index {
         // Only 0 may be written to the number of errors: it clears the history.
         PRE_DEFINED_ERROR_FIELD if raw != 0 => Err(AbortCode::InvalidValue),
         ERROR_BEHAVIOUR if ErrorBehaviour::from_value(raw as u8).is_none() => Err(AbortCode::InvalidValue),
         index if PdoRecord::of(index).is_some() => pdo::check_write(od, index, mux.sub, data),
-        0x6000..=0x67FF => crate::cia402::objects::check_write(mux.index, data),
+        0x6000..=0x67FF => crate::cia402::objects::check_write(od, profile, mux.index, mux.sub, data),
         COB_ID_SYNC => {
             let new = CobId::parse(raw).map_err(|_| AbortCode::InvalidValue)?;
             if raw & cob_id::INVALID != 0 || cob_id::is_restricted(new.can_id) {

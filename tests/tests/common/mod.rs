@@ -3,6 +3,7 @@
 #![allow(dead_code)]
 
 pub mod objects;
+pub mod profile;
 
 use canopen_drive::{CanFrame, Config, Drive, Duration, Instant};
 use canopen_drive_sim::{bus::NodeHandle, DriveNode, VirtualBus};
@@ -27,7 +28,12 @@ pub struct Bench {
 impl Bench {
     /// A booted drive; the boot-up frame has been consumed (and checked).
     pub fn new() -> Self {
-        let config = Config { manufacturer_objects: &TEST_OBJECTS, ..Config::new(NODE) };
+        Bench::with_config(|config| config)
+    }
+
+    /// A booted drive whose configuration `adjust` changed.
+    pub fn with_config(adjust: impl FnOnce(Config) -> Config) -> Self {
+        let config = adjust(Config { manufacturer_objects: &TEST_OBJECTS, ..Config::new(NODE) });
         let drive = Drive::with_hooks(config, TestHooks::default()).unwrap();
         let mut bus = VirtualBus::new();
         let node = bus.add_node(DriveNode::new(drive, Duration::from_millis(1)));

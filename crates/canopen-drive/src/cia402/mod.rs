@@ -1,10 +1,18 @@
 //! CiA 402 drive profile (CiA 402-2).
 //!
 //! - [`fsa`]: the power drive system state machine, a pure transition function.
+//! - [`config`]: what a drive supports (option codes, set-point buffer, tick rate).
+//! - [`factor`]: the factor group and polarity (user units ↔ increments).
+//! - [`pp`]: profile position mode.
 //! - [`objects`]: the profile objects with their defaults and value rules.
 //! - [`profile`]: the run-time of one axis: FSA, option-code stops, modes (pv, tq), statusword,
 //!   actual values and the demand for the power stage.
 
+pub mod config;
+pub mod factor;
 pub mod fsa;
 pub mod objects;
+pub mod pp;
 pub mod profile;
+
+pub use config::{OptionCodes, ProfileConfig};

@@ -2,23 +2,43 @@
 //! controlword and the feedback, runs the [`Fsa`], the active mode and the stop ramps, writes
 //! the statusword and the actual values, and returns the [`Demand`] for the power stage.
 //!
-//! Modes in this build: profile velocity (pv, 3) and profile torque (tq, 4); 6502h says so.
+//! Modes: profile position (pp, 1; [`super::pp`]), profile velocity (pv, 3) and profile torque
+//! (tq, 4). 6502h lists those the firmware enables ([`crate::od::DeviceInfo::drive_modes`]).
+//!
+//! Mode switching (digest §7.1's recommended policy): a new 6060h takes effect at once while the
+//! drive function is disabled; in Operation enabled the axis first stops with the slow-down
+//! ramp of the old mode, then the new mode starts from standstill, and statusword bit 10 is 1 in
+//! the tick after the switch. 6061h shows a mode only once it is active.
 //!
 //! Stops (digest §6): the slow-down ramp uses 6084h, the quick-stop ramp 6085h; "current limit"
-//! and "voltage limit" stops are run as a ramp with the maximum deceleration 60C6h (this build
-//! has no current or voltage loop of its own). A stop starts from the actual velocity and is
-//! done when the velocity demand reaches 0.
+//! and "voltage limit" stops are run as a ramp with the maximum deceleration 60C6h (this crate
+//! has no current or voltage loop of its own). Every stop deceleration is limited to 60C6h. In
+//! pp a stop is a trajectory (position demand, [`crate::motion::PositionPlanner::stop`]); in the
+//! other modes a velocity ramp from the actual velocity. A stop is done when the velocity demand
+//! reaches 0.
+//!
+//! Limits (DESIGN invariant 2): velocity demands never exceed min(607Fh, 6080h), ramps never
+//! exceed 60C5h/60C6h, torque demands never exceed min(6072h, 6073h) — the torque is taken as
+//! proportional to the torque-producing current, rated torque at rated current, so 6078h
+//! reports the torque sample as current.
+//!
+//! Units: positions, velocities and accelerations in the objects are user units (factor group,
+//! [`super::factor`]); the trajectory, the hal and 6063h/60FCh use increments.
 //!
 //! Hardware faults become the CiA 402 error codes 2310h (over-current), 3210h (DC link
 //! over-voltage), 3220h (DC link under-voltage), 4310h (drive over-temperature) and 7305h
-//! (incremental sensor fault): EMCY, 603Fh, transition 13. A fault reset is accepted once the
-//! hardware reports the cause gone.
+//! (incremental sensor fault): EMCY, 603Fh, transition 13. A following error is 8611h when
+//! [`ProfileConfig::following_error_fault`] is set. A fault reset is accepted once the hardware
+//! reports the cause gone.
 //!
-//! Arithmetic: velocities are integers in increments/s, ramps advance by `deceleration × dt`
-//! computed in i64 µs arithmetic with the remainder carried, so a ramp does not drift.
+//! Arithmetic: velocities are integers in increments/s; the ramps advance by `rate × dt` in
+//! i64 µs arithmetic with the remainder carried, so a ramp does not drift.
 
+use super::config::ProfileConfig;
+use super::factor::Factors;
 use super::fsa::{Fsa, Options, State, StopKind};
 use super::objects::*;
+use super::pp::{self, ProfilePosition};
 use crate::comm::emcy::ErrorRegister;
 use crate::drive::ConnectionEvent;
 use crate::hal::{Demand, HardwareFaults, Sample, Setpoint};
@@ -67,18 +87,26 @@ impl Ramp {
 }
 
 /// The drive profile's run-time state.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug)]
 pub struct Profile {
+    config: ProfileConfig,
     fsa: Fsa,
+    /// The factor group, re-read after [`Profile::invalidate`].
+    factors: Option<Factors>,
     active_mode: i8,
+    /// Velocity demand (increments/s) of the velocity ramps (pv, stops outside pp).
     velocity: Ramp,
+    /// Torque demand (‰).
     torque: Ramp,
+    pp: ProfilePosition,
     last_tick: Option<Instant>,
     fault: Option<u16>,
     stopping: bool,
     mode_changed: bool,
+    previous_controlword: u16,
     in_window_since: Option<Instant>,
     above_threshold_since: Option<Instant>,
+    following_error_since: Option<Instant>,
     last_target_velocity: i32,
     forced: Option<u16>,
 }
@@ -97,11 +125,53 @@ fn fault_code(faults: HardwareFaults) -> Option<(u16, ErrorRegister)> {
         .map(|(_, code, register)| (*code, *register | ErrorRegister::DEVICE_PROFILE))
 }
 
+/// Following error (digest §2.1 table, 8611h).
+const FOLLOWING_ERROR: u16 = 0x8611;
+
 fn get<const B: usize, T: crate::od::Scalar + Default>(od: &Dictionary<B>, index: u16) -> T {
     od.get::<T>(index, 0).unwrap_or_default()
 }
 
+fn saturate(value: i64) -> i32 {
+    value.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32
+}
+
+/// The velocity limit min(607Fh, 6080h) in increments/s.
+fn velocity_limit<const B: usize>(od: &Dictionary<B>, factors: &Factors) -> u32 {
+    factors
+        .limit_to_internal(get(od, MAX_PROFILE_VELOCITY))
+        .min(factors.rpm_to_internal(get(od, MAX_MOTOR_SPEED)))
+}
+
 impl Profile {
+    /// A profile at power-on.
+    pub fn new(config: ProfileConfig) -> Self {
+        Profile {
+            config,
+            fsa: Fsa::default(),
+            factors: None,
+            active_mode: 0,
+            velocity: Ramp::default(),
+            torque: Ramp::default(),
+            pp: ProfilePosition::new(&config, 0),
+            last_tick: None,
+            fault: None,
+            stopping: false,
+            mode_changed: false,
+            previous_controlword: 0,
+            in_window_since: None,
+            above_threshold_since: None,
+            following_error_since: None,
+            last_target_velocity: 0,
+            forced: None,
+        }
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &ProfileConfig {
+        &self.config
+    }
+
     /// The FSA state.
     pub fn state(&self) -> State {
         self.fsa.state()
@@ -109,7 +179,13 @@ impl Profile {
 
     /// Back to power-on (reset application).
     pub fn reset(&mut self) {
-        *self = Profile::default();
+        *self = Profile::new(self.config);
+    }
+
+    /// Parameters may have changed (an SDO write, a restore, the firmware's access): the factor
+    /// group is read again at the next tick.
+    pub fn invalidate(&mut self) {
+        self.factors = None;
     }
 
     /// A connection loss, reacted to as 6007h says at the next tick. The reaction applies while
@@ -128,6 +204,19 @@ impl Profile {
         }
     }
 
+    fn position_mode(&self) -> bool {
+        self.active_mode == mode::PROFILE_POSITION
+    }
+
+    /// Velocity demand of the running motion, increments/s.
+    fn velocity_demand(&self) -> i64 {
+        if self.position_mode() {
+            self.pp.state().velocity
+        } else {
+            self.velocity.value
+        }
+    }
+
     /// One control tick.
     pub fn tick<const B: usize>(
         &mut self,
@@ -138,11 +227,19 @@ impl Profile {
         let dt = self.last_tick.map_or(Duration::ZERO, |t| (now - t).min(MAX_STEP));
         self.last_tick = Some(now);
         let mut report = Report::default();
+        let factors = *self.factors.get_or_insert_with(|| Factors::from_od(od));
+        let position_sign = factors.position_sign();
+        let velocity_sign = factors.velocity_sign();
+        let actual = i64::from(sample.position);
 
         // Actual values.
-        let _ = od.set::<i32>(POSITION_ACTUAL_VALUE, 0, sample.position);
-        let _ = od.set::<i32>(VELOCITY_ACTUAL_VALUE, 0, sample.velocity);
+        let actual_user = factors.to_user(actual) * position_sign;
+        let _ = od.set::<i32>(POSITION_ACTUAL_INTERNAL_VALUE, 0, sample.position);
+        let _ = od.set::<i32>(POSITION_ACTUAL_VALUE, 0, saturate(actual_user));
+        let velocity_user = factors.to_user(i64::from(sample.velocity)) * velocity_sign;
+        let _ = od.set::<i32>(VELOCITY_ACTUAL_VALUE, 0, saturate(velocity_user));
         let _ = od.set::<i16>(TORQUE_ACTUAL_VALUE, 0, sample.torque);
+        let _ = od.set::<i16>(CURRENT_ACTUAL_VALUE, 0, sample.torque);
         let _ = od.set::<u32>(DC_LINK_VOLTAGE, 0, sample.dc_link_millivolts);
         // 60FDh bits 0..3: negative/positive limit, home, interlock (the hal uses the same bits).
         let _ = od.set::<u32>(DIGITAL_INPUTS, 0, sample.inputs.bits() & 0x0F);
@@ -155,21 +252,20 @@ impl Profile {
                 report.raise = Some((code, register));
             }
         }
-        if let Some(code) = self.fault {
-            let _ = od.set::<u16>(ERROR_CODE, 0, code);
-        }
 
         let options = Options {
             quick_stop: get(od, QUICK_STOP_OPTION_CODE),
             shutdown: get(od, SHUTDOWN_OPTION_CODE),
             disable_operation: get(od, DISABLE_OPERATION_OPTION_CODE),
             fault_reaction: get(od, FAULT_REACTION_OPTION_CODE),
-            transition_16: true,
+            transition_16: self.config.transition_16,
         };
         let controlword: u16 = get(od, CONTROLWORD);
+        let bit4_rose = controlword & 0x0010 != 0 && self.previous_controlword & 0x0010 == 0;
+        self.previous_controlword = controlword;
         let commanded = self.forced.take().unwrap_or(controlword);
         let before = self.fsa.state();
-        let at_rest = self.velocity.value == 0;
+        let at_rest = self.velocity_demand() == 0;
         let step = self.fsa.step(
             Some(commanded),
             self.fault.is_some() && !before_fault_cleared(before, hardware),
@@ -182,61 +278,128 @@ impl Profile {
                 report.clear = Some(code);
             }
         }
+        if let Some(code) = self.fault {
+            let _ = od.set::<u16>(ERROR_CODE, 0, code);
+        }
+        let enabled = step.state.drive_function_enabled();
 
-        // Mode switching: at once while the drive function is disabled, at rest otherwise.
+        // Mode switching: at once while the drive function is disabled, after a stop otherwise.
         let requested: i8 = get(od, MODES_OF_OPERATION);
-        if requested != self.active_mode && (!step.state.drive_function_enabled() || self.velocity.value == 0)
-        {
+        let switching = requested != self.active_mode;
+        if switching && (!enabled || at_rest) {
             self.active_mode = requested;
             self.mode_changed = true;
+            self.pp.reset(actual, actual_user);
+            self.velocity = Ramp { value: i64::from(sample.velocity), remainder: 0 };
         }
         let _ = od.set::<i8>(MODES_OF_OPERATION_DISPLAY, 0, self.active_mode);
 
         let halt = controlword & 0x0100 != 0;
         if step.entered_operation {
-            // Transition 4 clears the internal set-points.
+            // Transition 4 (and 16) clear the internal set-points.
             self.velocity = Ramp { value: i64::from(sample.velocity), remainder: 0 };
             self.torque = Ramp::default();
+            self.pp.reset(actual, actual_user);
         }
+        let operation = matches!(step.state, State::OperationEnabled { leaving: None });
         let stop = step.stop.or_else(|| {
-            (halt && matches!(step.state, State::OperationEnabled { .. }))
-                .then(|| StopKind::halt_or_fault(get(od, HALT_OPTION_CODE)))
+            let halting = halt && operation && !self.position_mode();
+            let for_switch = switching && operation;
+            (halting || for_switch)
+                .then(|| {
+                    if halting {
+                        StopKind::halt_or_fault(get(od, HALT_OPTION_CODE))
+                    } else {
+                        Some(StopKind::SlowDown)
+                    }
+                })
                 .flatten()
         });
-        if stop.is_some() && !self.stopping {
-            self.velocity = Ramp { value: i64::from(sample.velocity), remainder: 0 };
+        let pp_limits = pp::limits(od, &factors);
+        let max_deceleration = factors.limit_to_internal(get(od, MAX_DECELERATION));
+        let stop_deceleration = |kind: StopKind| -> u32 {
+            let user = match kind {
+                StopKind::SlowDown => get::<B, u32>(od, PROFILE_DECELERATION),
+                StopKind::QuickStopRamp => get(od, QUICK_STOP_DECELERATION),
+                StopKind::CurrentLimit | StopKind::VoltageLimit | StopKind::Coast => u32::MAX,
+            };
+            factors.limit_to_internal(user).min(max_deceleration)
+        };
+        if let Some(kind) = stop.filter(|_| !self.stopping) {
+            if self.position_mode() {
+                self.pp.stop(stop_deceleration(kind), &pp_limits);
+            } else {
+                self.velocity = Ramp { value: i64::from(sample.velocity), remainder: 0 };
+            }
         }
         self.stopping = stop.is_some();
 
-        let mut drive_enabled = step.state.drive_function_enabled();
+        let mut drive_enabled = enabled;
+        let mut status = pp::Status::default();
         let setpoint = match stop {
             Some(StopKind::Coast) => {
                 drive_enabled = false;
                 self.velocity = Ramp::default();
+                self.pp.reset(actual, actual_user);
                 Setpoint::None
             }
+            Some(kind) if self.position_mode() => {
+                let _ = kind;
+                Setpoint::Position(self.pp.step_stop().position_demand())
+            }
             Some(kind) => {
-                let deceleration = match kind {
-                    StopKind::SlowDown => get::<B, u32>(od, PROFILE_DECELERATION),
-                    StopKind::QuickStopRamp => get(od, QUICK_STOP_DECELERATION),
-                    StopKind::CurrentLimit | StopKind::VoltageLimit | StopKind::Coast => {
-                        get(od, MAX_DECELERATION)
-                    }
-                };
-                self.velocity.toward(0, deceleration, dt);
+                self.velocity.toward(0, stop_deceleration(kind), dt);
                 Setpoint::Velocity(self.velocity.value as i32)
             }
-            None if drive_enabled => self.run_mode(od, dt),
+            None if drive_enabled && self.position_mode() => {
+                let inputs = pp::Inputs {
+                    od,
+                    factors: &factors,
+                    controlword,
+                    new_setpoint: bit4_rose && operation && !step.entered_operation && !self.mode_changed,
+                    actual,
+                    now,
+                };
+                let halt_kind =
+                    StopKind::halt_or_fault(get(od, HALT_OPTION_CODE)).unwrap_or(StopKind::SlowDown);
+                let state = self.pp.tick(&inputs, stop_deceleration(halt_kind));
+                status = self.pp.status(&inputs);
+                Setpoint::Position(state.position_demand())
+            }
+            None if drive_enabled => self.run_mode(od, &factors, dt),
             None => {
                 self.velocity = Ramp::default();
                 self.torque = Ramp::default();
+                self.pp.reset(actual, actual_user);
                 Setpoint::None
             }
         };
-        let _ = od.set::<i32>(VELOCITY_DEMAND_VALUE, 0, self.velocity.value as i32);
-        let _ = od.set::<i16>(TORQUE_DEMAND, 0, self.torque.value as i16);
 
-        let statusword = self.statusword(step.state, sample, od, now, halt, options);
+        // Demands and the position control function (digest §11).
+        let (demand_internal, demand_user) = if self.position_mode() && drive_enabled {
+            let position = self.pp.state().position;
+            (position, factors.to_user(position) * position_sign)
+        } else {
+            (actual, actual_user)
+        };
+        let _ = od.set::<i32>(POSITION_DEMAND_INTERNAL_VALUE, 0, demand_internal as i32);
+        let _ = od.set::<i32>(POSITION_DEMAND_VALUE, 0, saturate(demand_user));
+        let following_error = demand_user - actual_user;
+        let _ = od.set::<i32>(FOLLOWING_ERROR_ACTUAL_VALUE, 0, saturate(following_error));
+        let velocity_demand = factors.to_user(self.velocity_demand()) * velocity_sign;
+        let _ = od.set::<i32>(VELOCITY_DEMAND_VALUE, 0, saturate(velocity_demand));
+        let _ = od.set::<i16>(TORQUE_DEMAND, 0, self.torque.value as i16);
+        let following =
+            self.position_mode() && drive_enabled && self.following_error(od, following_error, now);
+        if following && self.config.following_error_fault && self.fault.is_none() {
+            self.fault = Some(FOLLOWING_ERROR);
+            report.raise = report.raise.or(Some((FOLLOWING_ERROR, ErrorRegister::DEVICE_PROFILE)));
+        }
+
+        let mut statusword = self.statusword(step.state, sample, od, now, halt, options, status);
+        if following || (!self.position_mode() && self.slipping(od, velocity_demand, velocity_user)) {
+            statusword |= 1 << 13;
+        }
         let _ = od.set::<u16>(STATUSWORD, 0, statusword);
         // 60FEh: a master may engage the brake (sub 1 bit 0) where the mask (sub 2) enables it.
         let outputs =
@@ -250,35 +413,57 @@ impl Profile {
         (demand, report)
     }
 
-    fn run_mode<const B: usize>(&mut self, od: &Dictionary<B>, dt: Duration) -> Setpoint {
+    /// Following error (digest §11.2): |6062h − 6064h| > 6065h for longer than 6066h ms.
+    fn following_error<const B: usize>(&mut self, od: &Dictionary<B>, error: i64, now: Instant) -> bool {
+        let window: u32 = get(od, FOLLOWING_ERROR_WINDOW);
+        if window == u32::MAX || error.unsigned_abs() <= u64::from(window) {
+            self.following_error_since = None;
+            return false;
+        }
+        let since = *self.following_error_since.get_or_insert(now);
+        now - since > Duration::from_millis(u64::from(get::<B, u16>(od, FOLLOWING_ERROR_TIME_OUT)))
+    }
+
+    /// pv bit 13 (max slippage, 60F8h): here the difference between the velocity demand and the
+    /// actual velocity, when 60F8h is positive.
+    fn slipping<const B: usize>(&self, od: &Dictionary<B>, demand: i64, actual: i64) -> bool {
+        let max: i32 = get(od, MAX_SLIPPAGE);
+        self.active_mode == mode::PROFILE_VELOCITY && max > 0 && (demand - actual).abs() >= i64::from(max)
+    }
+
+    fn run_mode<const B: usize>(&mut self, od: &Dictionary<B>, factors: &Factors, dt: Duration) -> Setpoint {
         match self.active_mode {
             mode::PROFILE_VELOCITY => {
-                let target: i32 = get(od, TARGET_VELOCITY);
+                let limit = i64::from(velocity_limit(od, factors));
+                let target_user = i64::from(get::<B, i32>(od, TARGET_VELOCITY)) * factors.velocity_sign();
+                let target = factors.to_internal(target_user).clamp(-limit, limit);
                 let current = self.velocity.value;
                 // Accelerating away from zero uses 6083h, approaching zero 6084h.
-                let accelerating = (i64::from(target) - current).signum() == current.signum() || current == 0;
+                let accelerating = (target - current).signum() == current.signum() || current == 0;
                 let rate = if accelerating {
-                    get::<B, u32>(od, PROFILE_ACCELERATION)
+                    get::<B, u32>(od, PROFILE_ACCELERATION).min(get(od, MAX_ACCELERATION))
                 } else {
-                    get(od, PROFILE_DECELERATION)
+                    get::<B, u32>(od, PROFILE_DECELERATION).min(get(od, MAX_DECELERATION))
                 };
-                self.velocity.toward(i64::from(target), rate, dt);
+                self.velocity.toward(target, factors.limit_to_internal(rate), dt);
                 Setpoint::Velocity(self.velocity.value as i32)
             }
             mode::PROFILE_TORQUE => {
-                let max = i64::from(get::<B, u16>(od, MAX_TORQUE));
+                let max = i64::from(get::<B, u16>(od, MAX_TORQUE).min(get(od, MAX_CURRENT)));
                 let target = i64::from(get::<B, i16>(od, TARGET_TORQUE)).clamp(-max, max);
                 self.torque.toward(target, get(od, TORQUE_SLOPE), dt);
                 Setpoint::Torque(self.torque.value as i16)
             }
             // No mode (or one this build does not run): hold still.
             _ => {
-                self.velocity.toward(0, get(od, QUICK_STOP_DECELERATION), dt);
+                let deceleration = get::<B, u32>(od, QUICK_STOP_DECELERATION).min(get(od, MAX_DECELERATION));
+                self.velocity.toward(0, factors.limit_to_internal(deceleration), dt);
                 Setpoint::Velocity(self.velocity.value as i32)
             }
         }
     }
 
+    #[allow(clippy::too_many_arguments)]
     fn statusword<const B: usize>(
         &mut self,
         state: State,
@@ -287,6 +472,7 @@ impl Profile {
         now: Instant,
         halt: bool,
         options: Options,
+        pp: pp::Status,
     ) -> u16 {
         let mut sw = state.statusword_bits();
         if state.high_voltage() && sample.dc_link_millivolts > 0 {
@@ -294,11 +480,12 @@ impl Profile {
         }
         // Bit 9 remote: the controlword is processed.
         sw |= 1 << 9;
-        let at_rest = self.velocity.value == 0;
+        let at_rest = self.velocity_demand() == 0;
         let target_reached = match state {
             State::QuickStopActive => {
                 at_rest && StopKind::quick_stop(options.quick_stop).is_some_and(|(_, stay)| stay)
             }
+            State::OperationEnabled { .. } if self.position_mode() => pp.target_reached,
             State::OperationEnabled { .. } if halt => at_rest,
             State::OperationEnabled { .. } => self.mode_target_reached(od, now),
             _ => false,
@@ -306,7 +493,15 @@ impl Profile {
         if target_reached || core::mem::take(&mut self.mode_changed) {
             sw |= 1 << 10;
         }
-        if self.active_mode == mode::PROFILE_VELOCITY && self.speed_is_zero(od, sample, now) {
+        if pp.internal_limit {
+            sw |= 1 << 11;
+        }
+        let bit12 = match self.active_mode {
+            mode::PROFILE_VELOCITY => self.speed_is_zero(od, now),
+            mode::PROFILE_POSITION => pp.setpoint_acknowledge,
+            _ => false,
+        };
+        if bit12 {
             sw |= 1 << 12;
         }
         sw
@@ -331,14 +526,18 @@ impl Profile {
                     false
                 }
             }
-            mode::PROFILE_TORQUE => self.torque.value == i64::from(get::<B, i16>(od, TARGET_TORQUE)),
+            mode::PROFILE_TORQUE => {
+                let max = i64::from(get::<B, u16>(od, MAX_TORQUE).min(get(od, MAX_CURRENT)));
+                self.torque.value == i64::from(get::<B, i16>(od, TARGET_TORQUE)).clamp(-max, max)
+            }
             _ => false,
         }
     }
 
-    fn speed_is_zero<const B: usize>(&mut self, od: &Dictionary<B>, sample: &Sample, now: Instant) -> bool {
+    /// pv bit 12: |606Ch| ≤ 606Fh, or above it for no longer than 6070h ms.
+    fn speed_is_zero<const B: usize>(&mut self, od: &Dictionary<B>, now: Instant) -> bool {
         let threshold = i64::from(get::<B, u16>(od, VELOCITY_THRESHOLD));
-        if i64::from(sample.velocity).abs() <= threshold {
+        if i64::from(get::<B, i32>(od, VELOCITY_ACTUAL_VALUE)).abs() <= threshold {
             self.above_threshold_since = None;
             return true;
         }

@@ -232,6 +232,7 @@ fn write_default<const B: usize>(od: &Dictionary<B>, var: &Var, w: &mut impl Wri
                 DeviceField::ProductCode => device.product_code,
                 DeviceField::RevisionNumber => device.revision_number,
                 DeviceField::SerialNumber => device.serial_number,
+                DeviceField::DriveModes => device.drive_modes,
                 DeviceField::DeviceName => return default_text(device.device_name, w),
                 DeviceField::HardwareVersion => return default_text(device.hardware_version, w),
                 DeviceField::SoftwareVersion => return default_text(device.software_version, w),

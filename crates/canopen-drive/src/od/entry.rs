@@ -207,6 +207,8 @@ pub enum DeviceField {
     SoftwareVersion,
     /// 1021h the device's EDS file.
     Eds,
+    /// 6502h supported drive modes.
+    DriveModes,
 }
 
 /// The power-on value of an entry (before stored parameters are applied).

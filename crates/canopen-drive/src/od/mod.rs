@@ -52,6 +52,9 @@ pub struct DeviceInfo {
     pub vendor_name: &'static str,
     /// Contents of 1021h (the device's EDS), when the `eds-object` feature serves it.
     pub eds: &'static [u8],
+    /// 6502h: the CiA 402 modes of operation the drive supports (bit 0 pp, 2 pv, 3 tq, …;
+    /// digest §7.3). 6060h accepts only these. Default: the modes this crate runs.
+    pub drive_modes: u32,
 }
 
 impl DeviceInfo {
@@ -68,6 +71,7 @@ impl DeviceInfo {
             software_version: env!("CARGO_PKG_VERSION"),
             vendor_name: "",
             eds: &[],
+            drive_modes: crate::cia402::objects::IMPLEMENTED_MODES,
         }
     }
 }
@@ -337,6 +341,7 @@ impl<const BYTES: usize> Dictionary<BYTES> {
                     DeviceField::ProductCode => number(u64::from(d.product_code)),
                     DeviceField::RevisionNumber => number(u64::from(d.revision_number)),
                     DeviceField::SerialNumber => number(u64::from(d.serial_number)),
+                    DeviceField::DriveModes => number(u64::from(d.drive_modes)),
                     DeviceField::DeviceName => DefaultBytes::Slice(d.device_name.as_bytes()),
                     DeviceField::HardwareVersion => DefaultBytes::Slice(d.hardware_version.as_bytes()),
                     DeviceField::SoftwareVersion => DefaultBytes::Slice(d.software_version.as_bytes()),

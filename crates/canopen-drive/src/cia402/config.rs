@@ -1,0 +1,103 @@
+//! What a drive built on this crate supports of the profile: its configuration, fixed when the
+//! firmware creates the [`crate::Drive`]. The defaults are the CiA 402 ones (every option code
+//! value the standard defines, transition 16 allowed); a vendor narrows them to what its
+//! product does, and the SDO server then refuses the rest with 0x0609_0030.
+//!
+//! The supported modes are [`crate::od::DeviceInfo::drive_modes`] (they are also the value of
+//! 6502h).
+
+use crate::motion::TickRate;
+
+/// Which values of each option-code object are accepted: bit `n` set = value `n` supported.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct OptionCodes {
+    /// 6007h abort connection option code (standard values 0–3).
+    pub abort_connection: u16,
+    /// 605Ah quick stop option code (0–8).
+    pub quick_stop: u16,
+    /// 605Bh shutdown option code (0–1).
+    pub shutdown: u16,
+    /// 605Ch disable operation option code (0–1).
+    pub disable_operation: u16,
+    /// 605Dh halt option code (1–4).
+    pub halt: u16,
+    /// 605Eh fault reaction option code (0–4).
+    pub fault_reaction: u16,
+}
+
+impl OptionCodes {
+    /// Every value CiA 402 defines.
+    pub const ALL: OptionCodes = OptionCodes {
+        abort_connection: 0b1111,
+        quick_stop: 0b1_1111_1111,
+        shutdown: 0b11,
+        disable_operation: 0b11,
+        halt: 0b1_1110,
+        fault_reaction: 0b1_1111,
+    };
+
+    /// Whether `value` is supported by the mask `mask`.
+    pub const fn allows(mask: u16, value: i16) -> bool {
+        value >= 0 && value < 16 && mask & (1 << value) != 0
+    }
+}
+
+impl Default for OptionCodes {
+    fn default() -> Self {
+        OptionCodes::ALL
+    }
+}
+
+// Evaluated by the compiler: it can only fail the build, never run.
+#[allow(clippy::panic)]
+const ONE_KHZ: TickRate = match TickRate::new(1000) {
+    Ok(rate) => rate,
+    Err(_) => panic!("1 kHz is a valid tick rate"),
+};
+
+/// The drive profile's configuration.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ProfileConfig {
+    /// The rate at which the board calls [`crate::Drive::tick`]. The trajectory generator
+    /// advances one tick per call, so this must match the board's timer.
+    pub tick_rate: TickRate,
+    /// Supported option-code values.
+    pub option_codes: OptionCodes,
+    /// Transition 16 (Quick stop active → Operation enabled with 605Ah = 5–8).
+    pub transition_16: bool,
+    /// Profile position: how many set-points may wait behind the one being executed (set of
+    /// set-points, digest §9.4), 1..=[`ProfileConfig::MAX_SETPOINT_BUFFER`].
+    pub setpoint_buffer: u8,
+    /// A following error (6065h/6066h) is also a fault (8611h, reaction 605Eh); the standard
+    /// only requires statusword bit 13.
+    pub following_error_fault: bool,
+}
+
+impl ProfileConfig {
+    /// Largest [`ProfileConfig::setpoint_buffer`].
+    pub const MAX_SETPOINT_BUFFER: u8 = 4;
+
+    /// The CiA 402 defaults at a 1 kHz tick.
+    pub const fn new() -> Self {
+        ProfileConfig {
+            tick_rate: ONE_KHZ,
+            option_codes: OptionCodes::ALL,
+            transition_16: true,
+            setpoint_buffer: 1,
+            following_error_fault: false,
+        }
+    }
+
+    /// The same configuration at another tick rate.
+    pub const fn with_tick_rate(self, tick_rate: TickRate) -> Self {
+        ProfileConfig { tick_rate, ..self }
+    }
+}
+
+impl Default for ProfileConfig {
+    fn default() -> Self {
+        ProfileConfig::new()
+    }
+}

@@ -1,0 +1,346 @@
+//! Profile position mode (pp, 6060h = 1; digest §9, §11).
+//!
+//! The master writes 607Ah and raises controlword bit 4; the drive takes the set-point,
+//! acknowledges it with statusword bit 12 and moves along a trajectory from
+//! [`crate::motion::PositionPlanner`]. What is implemented, and the choices where the standard
+//! leaves room:
+//!
+//! - **Edges.** A set-point is taken on a 0→1 edge of bit 4 seen by a tick in Operation enabled
+//!   with pp active. The edge is tracked in every state and mode, so a bit 4 already at 1 when
+//!   the drive enters Operation enabled or switches to pp starts nothing (testable 73, 74).
+//! - **Single set-point** (bit 5 = 1): re-plans at once from the present position, velocity and
+//!   acceleration to the new target; waiting set-points are dropped (60F2h bits 3:2 = 00).
+//! - **Set of set-points** (bit 5 = 0): up to [`ProfileConfig::setpoint_buffer`] set-points wait
+//!   behind the one being executed and start when it is done. With the buffer full, a new
+//!   bit 5 = 0 set-point is not taken (no acknowledge; digest §9.4 case 4).
+//! - **Change on set-point** (bit 9 = 1 with bit 5 = 0): when a set-point waits behind the
+//!   executed one, the executed one is re-planned to pass its target at the end velocity 6082h
+//!   (or, when 6082h is 0, at the profile velocity 6081h) if the waiting target lies further in
+//!   the same direction, and the next positioning starts from that motion without stopping.
+//! - **Acknowledge** (bit 12): 1 from the tick that takes a set-point until the master clears
+//!   bit 4, and while the buffer is full.
+//! - **Relative** (bit 6 = 1): relative to the preceding target (60F2h bits 1:0 = 00), the
+//!   position demand value 6062h (01) or the position actual value 6064h (10). Other 60F2h bits
+//!   are refused by the SDO server.
+//! - **Limits on the target** (user units, before the factor group): the position range limit
+//!   607Bh wraps it (period `max − min + 1`), the software limits 607Dh, corrected by the home
+//!   offset 607Ch, clamp it; statusword bit 11 is 1 while the executed target was clamped.
+//! - **Limits on the motion**: velocity min(6081h, 607Fh, 6080h), acceleration
+//!   min(6083h, 60C5h), deceleration min(6084h, 60C6h); 6086h trapezoidal (0) or jerk-limited
+//!   (3) with 60A3h/60A4h.
+//! - **Halt** (bit 8): stops with the ramp 605Dh selects; releasing it resumes towards the
+//!   executed target.
+//! - **Target reached** (bit 10): with halt = 0, when no set-point is executed or waiting and
+//!   `|target − 6064h| ≤ 6067h` has held for 6068h ms (6067h = FFFF FFFFh: as soon as the
+//!   trajectory has arrived); with halt = 1, at standstill.
+
+use super::config::ProfileConfig;
+use super::factor::Factors;
+use super::objects::*;
+use crate::motion::{Jerks, Limits, MotionState, PositionPlanner, ProfileType};
+use crate::od::Dictionary;
+use crate::time::{Duration, Instant};
+
+/// Largest set-point buffer.
+const SLOTS: usize = ProfileConfig::MAX_SETPOINT_BUFFER as usize;
+
+/// One accepted set-point.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct SetPoint {
+    /// Target in user units after wrap and limits (mirrored by polarity: as the master sees it).
+    user: i64,
+    /// Target in increments.
+    internal: i64,
+    /// Clamped by the software limits.
+    limited: bool,
+    /// Change on set-point (bit 9) was set when it was given.
+    blend: bool,
+}
+
+/// What the profile hands pp each tick.
+pub struct Inputs<'a, const B: usize> {
+    /// The dictionary (parameters, 607Ah).
+    pub od: &'a Dictionary<B>,
+    /// The factor group.
+    pub factors: &'a Factors,
+    /// The controlword.
+    pub controlword: u16,
+    /// Bit 4 rose since the previous tick (and the drive did not just enter Operation enabled).
+    pub new_setpoint: bool,
+    /// Actual position, increments.
+    pub actual: i64,
+    /// Now.
+    pub now: Instant,
+}
+
+/// The statusword bits pp reports.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Status {
+    /// Bit 10.
+    pub target_reached: bool,
+    /// Bit 11.
+    pub internal_limit: bool,
+    /// Bit 12.
+    pub setpoint_acknowledge: bool,
+}
+
+/// Profile position run-time state.
+#[derive(Clone, Debug)]
+pub struct ProfilePosition {
+    planner: PositionPlanner,
+    depth: usize,
+    active: Option<SetPoint>,
+    queue: [Option<SetPoint>; SLOTS],
+    /// The preceding target (user units) for relative moves.
+    preceding: i64,
+    /// Waiting for the master to clear bit 4.
+    acknowledged: bool,
+    halted: bool,
+    in_window_since: Option<Instant>,
+    /// The last target's user value and clamp state (kept after it is reached).
+    last: Option<SetPoint>,
+}
+
+fn get<const B: usize, T: crate::od::Scalar + Default>(od: &Dictionary<B>, index: u16, sub: u8) -> T {
+    od.get::<T>(index, sub).unwrap_or_default()
+}
+
+/// The motion limits of pp and of the stops in pp, in increments (digest §9.5).
+pub fn limits<const B: usize>(od: &Dictionary<B>, factors: &Factors) -> Limits {
+    let user_velocity = get::<B, u32>(od, PROFILE_VELOCITY, 0).min(get(od, MAX_PROFILE_VELOCITY, 0));
+    let velocity =
+        factors.limit_to_internal(user_velocity).min(factors.rpm_to_internal(get(od, MAX_MOTOR_SPEED, 0)));
+    let acceleration = get::<B, u32>(od, PROFILE_ACCELERATION, 0).min(get(od, MAX_ACCELERATION, 0));
+    let deceleration = get::<B, u32>(od, PROFILE_DECELERATION, 0).min(get(od, MAX_DECELERATION, 0));
+    let limits = Limits::new(
+        velocity,
+        factors.limit_to_internal(acceleration),
+        factors.limit_to_internal(deceleration),
+    );
+    match ProfileType::from_raw(get(od, MOTION_PROFILE_TYPE, 0)) {
+        Some(ProfileType::JerkLimited) => {
+            let subs = [1, 2, 3, 4].map(|sub| factors.limit_to_internal(get(od, PROFILE_JERK, sub)));
+            let jerks = Jerks::from_profile_jerk(get(od, PROFILE_JERK_USE, 0), &subs)
+                .unwrap_or(Jerks::uniform(subs[0]));
+            limits.with_jerks(ProfileType::JerkLimited, jerks)
+        }
+        _ => limits,
+    }
+}
+
+impl ProfilePosition {
+    /// At rest at `position` (increments).
+    pub fn new(config: &ProfileConfig, position: i64) -> Self {
+        ProfilePosition {
+            planner: PositionPlanner::new(config.tick_rate, position),
+            depth: usize::from(config.setpoint_buffer).clamp(1, SLOTS),
+            active: None,
+            queue: [None; SLOTS],
+            preceding: 0,
+            acknowledged: false,
+            halted: false,
+            in_window_since: None,
+            last: None,
+        }
+    }
+
+    /// Drops every set-point and holds at `position` (transition 4, a mode switch to pp, or
+    /// the end of a stop). The preceding target for relative moves becomes `user`.
+    pub fn reset(&mut self, position: i64, user: i64) {
+        self.planner.reset(position);
+        self.active = None;
+        self.queue = [None; SLOTS];
+        self.preceding = user;
+        self.halted = false;
+        self.in_window_since = None;
+        self.last = None;
+    }
+
+    /// The present demand (increments).
+    pub fn state(&self) -> MotionState {
+        self.planner.state()
+    }
+
+    /// Stops with `deceleration` (increments/s²) under `limits`, dropping the set-points
+    /// (quick stop, fault reaction, disable operation / shutdown ramps). Steps are then made by
+    /// [`Self::step_stop`].
+    pub fn stop(&mut self, deceleration: u32, limits: &Limits) {
+        self.active = None;
+        self.queue = [None; SLOTS];
+        // A refused stop (deceleration 0) keeps the motion; the caller's limits never give 0
+        // because the FSA stops use non-zero ramps or coast.
+        let _ = self.planner.stop(deceleration.max(1), limits);
+    }
+
+    /// One tick of a stop started by [`Self::stop`].
+    pub fn step_stop(&mut self) -> MotionState {
+        self.planner.step()
+    }
+
+    fn queued(&self) -> usize {
+        self.queue.iter().filter(|s| s.is_some()).count()
+    }
+
+    fn push(&mut self, setpoint: SetPoint) -> bool {
+        match self.queue.iter_mut().take(self.depth).find(|s| s.is_none()) {
+            Some(slot) => {
+                *slot = Some(setpoint);
+                true
+            }
+            None => false,
+        }
+    }
+
+    fn pop(&mut self) -> Option<SetPoint> {
+        let first = self.queue.first().copied().flatten();
+        self.queue.rotate_left(1);
+        if let Some(last) = self.queue.last_mut() {
+            *last = None;
+        }
+        first
+    }
+
+    /// The target of a new set-point, from 607Ah and the controlword (digest §9.5, §11.3).
+    fn setpoint<const B: usize>(&self, input: &Inputs<'_, B>) -> SetPoint {
+        let od = input.od;
+        let sign = input.factors.position_sign();
+        let raw = i64::from(get::<B, i32>(od, TARGET_POSITION, 0));
+        let mut user = if input.controlword & 0x0040 != 0 {
+            let base = match get::<B, u16>(od, POSITIONING_OPTION_CODE, 0) & 0x3 {
+                0b01 => input.factors.to_user(self.planner.state().position) * sign,
+                0b10 => input.factors.to_user(input.actual) * sign,
+                _ => self.preceding,
+            };
+            base.saturating_add(raw)
+        } else {
+            raw
+        };
+        let (min, max) =
+            (get::<B, i32>(od, POSITION_RANGE_LIMIT, 1), get::<B, i32>(od, POSITION_RANGE_LIMIT, 2));
+        if min < max {
+            let period = i64::from(max) - i64::from(min) + 1;
+            user = i64::from(min) + (user - i64::from(min)).rem_euclid(period);
+        }
+        let offset = i64::from(get::<B, i32>(od, HOME_OFFSET, 0));
+        let low = i64::from(get::<B, i32>(od, SOFTWARE_POSITION_LIMIT, 1)) - offset;
+        let high = i64::from(get::<B, i32>(od, SOFTWARE_POSITION_LIMIT, 2)) - offset;
+        let mut limited = false;
+        if low <= high && !(low..=high).contains(&user) {
+            user = user.clamp(low, high);
+            limited = true;
+        }
+        let internal = input.factors.to_internal(user * sign);
+        SetPoint { user, internal, limited, blend: input.controlword & 0x0200 != 0 }
+    }
+
+    /// Plans the executed set-point from the present state; with a waiting set-point of change
+    /// on set-point beyond it in the same direction, passes the target at speed.
+    fn plan_active(&mut self, limits: &Limits, end_velocity: u32) -> bool {
+        let Some(active) = self.active else { return true };
+        let here = self.planner.state().position;
+        let end = match self.queue.first().copied().flatten() {
+            Some(next) if active.blend => {
+                let same_direction =
+                    (active.internal - here).signum() == (next.internal - active.internal).signum();
+                if same_direction && active.internal != here {
+                    if end_velocity != 0 {
+                        end_velocity
+                    } else {
+                        limits.velocity
+                    }
+                } else {
+                    0
+                }
+            }
+            _ => 0,
+        };
+        self.planner.plan(active.internal, end, limits).is_ok()
+    }
+
+    /// One tick of pp in Operation enabled (no FSA stop running).
+    pub fn tick<const B: usize>(&mut self, input: &Inputs<'_, B>, halt_deceleration: u32) -> MotionState {
+        let od = input.od;
+        let limits = limits(od, input.factors);
+        let end_velocity = input.factors.limit_to_internal(get(od, END_VELOCITY, 0));
+        if input.new_setpoint {
+            let setpoint = self.setpoint(input);
+            let immediate = input.controlword & 0x0020 != 0;
+            let accepted = if immediate || self.active.is_none() {
+                let previous = (self.active, self.queue);
+                self.queue = [None; SLOTS];
+                self.active = Some(setpoint);
+                let planned = self.halted || self.plan_active(&limits, end_velocity);
+                if !planned {
+                    (self.active, self.queue) = previous;
+                }
+                planned
+            } else if self.push(setpoint) {
+                // Change on set-point: the executed positioning now passes its target.
+                let _ = self.plan_active(&limits, end_velocity);
+                true
+            } else {
+                false
+            };
+            if accepted {
+                self.acknowledged = true;
+                self.preceding = setpoint.user;
+                if self.last.is_some_and(|last| last.internal != setpoint.internal) || self.last.is_none() {
+                    self.in_window_since = None;
+                }
+            }
+        }
+        if input.controlword & 0x0010 == 0 {
+            self.acknowledged = false;
+        }
+
+        let halt = input.controlword & 0x0100 != 0;
+        if halt && !self.halted {
+            self.halted = true;
+            let _ = self.planner.stop(halt_deceleration.max(1), &limits);
+        } else if !halt && self.halted {
+            self.halted = false;
+            let _ = self.plan_active(&limits, end_velocity);
+        }
+
+        let state = self.planner.step();
+        if !self.halted && self.planner.is_finished() {
+            if let Some(done) = self.active.take() {
+                self.last = Some(done);
+                self.active = self.pop();
+                let _ = self.plan_active(&limits, end_velocity);
+            }
+        }
+        state
+    }
+
+    /// The statusword bits of pp (bit 10 evaluated with the position window).
+    pub fn status<const B: usize>(&mut self, input: &Inputs<'_, B>) -> Status {
+        let od = input.od;
+        let halt = input.controlword & 0x0100 != 0;
+        let idle = self.active.is_none() && self.queued() == 0;
+        let target_reached = if halt {
+            self.planner.state().velocity == 0
+        } else if !idle {
+            self.in_window_since = None;
+            false
+        } else {
+            let target = self.last.map_or(self.preceding, |last| last.user);
+            let actual = input.factors.to_user(input.actual) * input.factors.position_sign();
+            let window = get::<B, u32>(od, POSITION_WINDOW, 0);
+            if window == u32::MAX || (target - actual).unsigned_abs() <= u64::from(window) {
+                let since = *self.in_window_since.get_or_insert(input.now);
+                let time = Duration::from_millis(u64::from(get::<B, u16>(od, POSITION_WINDOW_TIME, 0)));
+                window == u32::MAX || input.now - since >= time
+            } else {
+                self.in_window_since = None;
+                false
+            }
+        };
+        let executed = self.active.or(self.last);
+        Status {
+            target_reached,
+            internal_limit: executed.is_some_and(|s| s.limited),
+            setpoint_acknowledge: self.acknowledged || self.queued() >= self.depth,
+        }
+    }
+}
