@@ -625,3 +625,56 @@ fn k_115_following_error_fault_when_configured() {
     assert_eq!(bench.drive().od().get::<u16>(0x603F, 0), Ok(0x8611));
     assert!(is(&mut bench, FAULT) || is(&mut bench, FRA));
 }
+
+// --- The core's cascaded loops (ProfileConfig::cascade) ----------------------------------------
+
+static CASCADE_OBJECTS: [canopen_drive::od::Object; 1] =
+    canopen_drive::od::layout([canopen_drive::control::object(0x2400)]);
+
+fn cascade_bench() -> Bench {
+    let mut bench = Bench::with_config(|mut config| {
+        config.manufacturer_objects = &CASCADE_OBJECTS;
+        config.profile.cascade = Some(0x2400);
+        config
+    });
+    // Velocity loop 100/s on the simulated axis (1000 increments/s² per ‰): 0.1 ‰ per
+    // increment/s in Q8.24; integral time 20 ms; position loop 20/s.
+    write_sub(&mut bench, 0x2400, 2, &1_677_722u32.to_le_bytes());
+    write_sub(&mut bench, 0x2400, 1, &(20u32 << 16).to_le_bytes());
+    bench
+}
+
+#[test]
+fn cascade_turns_pp_into_torque_demands_and_reaches_the_target() {
+    let mut bench = cascade_bench();
+    setup_ramps(&mut bench, 20_000, 200_000);
+    enable(&mut bench, PP);
+    setpoint(&mut bench, 30_000, 0);
+    tick(&mut bench);
+    assert!(matches!(node(&mut bench).demand.setpoint, Setpoint::Torque(t) if t > 0));
+    assert!(od_i32(&mut bench, 0x60FA) > 0, "60FAh: the velocity command");
+    run_to_target(&mut bench, 5000);
+    bench.advance(Duration::from_millis(300));
+    let actual = read_i32(&mut bench, 0x6064);
+    assert!((actual - 30_000).abs() <= 20, "settles on the target: {actual}");
+    // Torque limit 6072h holds for the loop's output too.
+    write(&mut bench, 0x6072, &50u16.to_le_bytes());
+    setpoint(&mut bench, -30_000, 0);
+    for _ in 0..300 {
+        tick(&mut bench);
+        assert!(matches!(node(&mut bench).demand.setpoint, Setpoint::Torque(t) if t.abs() <= 50));
+    }
+}
+
+#[test]
+fn cascade_runs_the_velocity_loop_in_pv_and_refuses_bad_gains() {
+    let mut bench = cascade_bench();
+    enable(&mut bench, PV);
+    write(&mut bench, 0x60FF, &5000i32.to_le_bytes());
+    bench.advance(Duration::from_millis(1500));
+    let velocity = read_i32(&mut bench, 0x606C);
+    assert!((velocity - 5000).abs() <= 50, "{velocity}");
+    assert!(matches!(node(&mut bench).demand.setpoint, Setpoint::Torque(_)));
+    // A zero gain is refused with the object's own limit.
+    assert_eq!(bench.sdo1(&req(0x23, 0x2400, 2, [0; 4])), abort(0x2400, 2, 0x0609_0032));
+}

@@ -223,6 +223,8 @@ pub struct SimMotor {
     dc_link_millivolts: u32,
     forced_inputs: DigitalInputs,
     faults: HardwareFaults,
+    warnings: HardwareFaults,
+    local_control: bool,
     /// An index mark was crossed during the last step.
     index_seen: bool,
     index_pulses: u64,
@@ -255,6 +257,8 @@ impl SimMotor {
             dc_link_millivolts: params.dc_link_millivolts,
             forced_inputs: DigitalInputs::empty(),
             faults: HardwareFaults::empty(),
+            warnings: HardwareFaults::empty(),
+            local_control: false,
             index_seen: false,
             index_pulses: 0,
         };
@@ -292,6 +296,8 @@ impl SimMotor {
             dc_link_millivolts: self.dc_link_millivolts,
             inputs,
             faults: self.faults,
+            warnings: self.warnings,
+            local_control: self.local_control,
         }
     }
 
@@ -381,7 +387,17 @@ impl SimMotor {
         self.faults = HardwareFaults::empty();
     }
 
-    /// The hardware faults reported.
+    /// Reports `warnings` (statusword bit 7) until changed again.
+    pub fn set_warnings(&mut self, warnings: HardwareFaults) {
+        self.warnings = warnings;
+    }
+
+    /// Hands the drive to the board's local control (`true`) or back to the bus.
+    pub fn set_local_control(&mut self, local: bool) {
+        self.local_control = local;
+    }
+
+    /// Faults the power stage reports.
     pub fn faults(&self) -> HardwareFaults {
         self.faults
     }

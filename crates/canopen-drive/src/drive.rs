@@ -645,6 +645,11 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
         if let Some(code) = report.clear {
             self.clear_error(code);
         }
+        match report.notice {
+            Some((code, true)) => self.raise_error(code, ErrorRegister::DEVICE_PROFILE, [0; 5]),
+            Some((code, false)) => self.clear_error(code),
+            None => {}
+        }
         if self.nmt.serves_pdo() {
             self.pdos.detect_changes(now, &self.od, &mut self.tx);
         }
@@ -838,7 +843,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
     /// Side effects of a value written from the bus.
     fn after_write(&mut self, mux: Mux, now: Instant) {
         match mux.index {
-            0x6000..=0x67FF => self.profile.invalidate(),
+            0x2000..=0x67FF => self.profile.invalidate(),
             PRODUCER_HEARTBEAT_TIME => {
                 self.heartbeat.restart(now, self.heartbeat_period());
                 if self.heartbeat_period() != 0 {
@@ -1034,6 +1039,9 @@ fn check_communication<const B: usize>(
         ERROR_BEHAVIOUR if ErrorBehaviour::from_value(raw as u8).is_none() => Err(AbortCode::InvalidValue),
         index if PdoRecord::of(index).is_some() => pdo::check_write(od, index, mux.sub, data),
         0x6000..=0x67FF => crate::cia402::objects::check_write(od, profile, mux.index, mux.sub, data),
+        index if profile.cascade == Some(index) => {
+            crate::control::check_write(od, index, mux.sub, data, profile.tick_rate.hz())
+        }
         COB_ID_SYNC => {
             let new = CobId::parse(raw).map_err(|_| AbortCode::InvalidValue)?;
             if raw & cob_id::INVALID != 0 || cob_id::is_restricted(new.can_id) {

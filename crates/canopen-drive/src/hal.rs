@@ -60,6 +60,12 @@ pub struct Sample {
     pub inputs: DigitalInputs,
     /// Faults detected by the hardware.
     pub faults: HardwareFaults,
+    /// Conditions close to a fault (e.g. a temperature near its limit): statusword bit 7
+    /// (warning), no change of state.
+    pub warnings: HardwareFaults,
+    /// The board's local control owns the drive (e.g. a service switch): the controlword is not
+    /// processed and statusword bit 9 (remote) is 0; SDO access and actual values go on.
+    pub local_control: bool,
 }
 
 /// The set-point for the loops the board closes itself.

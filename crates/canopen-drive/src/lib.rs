@@ -63,6 +63,7 @@ mod fmt;
 pub mod can_io;
 pub mod cia402;
 pub mod comm;
+pub mod control;
 pub mod drive;
 pub mod frame;
 pub mod hal;

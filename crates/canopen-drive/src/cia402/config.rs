@@ -73,6 +73,16 @@ pub struct ProfileConfig {
     /// A following error (6065h/6066h) is also a fault (8611h, reaction 605Eh); the standard
     /// only requires statusword bit 13.
     pub following_error_fault: bool,
+    /// Profile position supports change on set-point (controlword bit 9). Without it, a
+    /// master that sets bit 9 in pp gets an EMCY 6320h (parameter error) until it clears the
+    /// bit, and the bit is treated as 0 (digest §4: a function that is not available).
+    pub change_on_setpoint: bool,
+    /// Close the position and velocity loops in the core ([`crate::control::Cascade`]) with
+    /// the parameters of the manufacturer RECORD at this index (put
+    /// [`crate::control::object`] there in [`crate::Config::manufacturer_objects`]): every
+    /// position or velocity demand then leaves the tick as a torque demand, for boards whose
+    /// power stage closes only a current loop. `None`: the board closes the loops it needs.
+    pub cascade: Option<u16>,
 }
 
 impl ProfileConfig {
@@ -87,6 +97,8 @@ impl ProfileConfig {
             transition_16: true,
             setpoint_buffer: 1,
             following_error_fault: false,
+            change_on_setpoint: true,
+            cascade: None,
         }
     }
 

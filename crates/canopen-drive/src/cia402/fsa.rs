@@ -413,7 +413,7 @@ mod tests {
     use super::*;
 
     #[test]
-    fn decoder_matches_the_masks_for_every_word() {
+    fn e_48_decoder_matches_the_masks_for_every_word() {
         for cw in 0u16..=0xFFFF {
             if cw & 0x80 != 0 {
                 continue;
@@ -437,7 +437,7 @@ mod tests {
     }
 
     #[test]
-    fn statusword_decoder_round_trips_the_masks() {
+    fn e_49_statusword_decoder_round_trips_the_masks() {
         let states = [
             State::NotReadyToSwitchOn,
             State::SwitchOnDisabled,

@@ -240,7 +240,7 @@ const DIGITAL_OUTPUT_SUBS: [(u8, Var); 3] = [
 ];
 
 /// The profile objects, ascending.
-pub static PROFILE: [Object; 73] = layout([
+pub static PROFILE: [Object; 76] = layout([
     option_code(ABORT_CONNECTION_OPTION_CODE, "Abort connection option code", 1),
     actual(ERROR_CODE, "Error code", DataType::Unsigned16),
     command(CONTROLWORD, "Controlword", DataType::Unsigned16),
@@ -337,6 +337,9 @@ pub static PROFILE: [Object; 73] = layout([
             .access(Access::ReadWrite)
             .default(DefaultValue::Unsigned(1_000_000)),
     ),
+    command(0x60B0, "Position offset", DataType::Integer32),
+    command(0x60B1, "Velocity offset", DataType::Integer32),
+    command(0x60B2, "Torque offset", DataType::Integer16),
     setting(MAX_ACCELERATION, "Max acceleration", DataType::Unsigned32, DefaultValue::Unsigned(100_000)),
     setting(MAX_DECELERATION, "Max deceleration", DataType::Unsigned32, DefaultValue::Unsigned(100_000)),
     parameter(POSITIONING_OPTION_CODE, "Positioning option code", DataType::Unsigned16, DefaultValue::Zero),

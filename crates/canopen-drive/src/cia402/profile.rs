@@ -40,8 +40,9 @@ use super::fsa::{Fsa, Options, State, StopKind};
 use super::objects::*;
 use super::pp::{self, ProfilePosition};
 use crate::comm::emcy::ErrorRegister;
+use crate::control::{Actual, Cascade, Parameters, Reference};
 use crate::drive::ConnectionEvent;
-use crate::hal::{Demand, HardwareFaults, Sample, Setpoint};
+use crate::hal::{Demand, DigitalInputs, HardwareFaults, Sample, Setpoint};
 use crate::od::Dictionary;
 use crate::time::{Duration, Instant};
 
@@ -55,6 +56,8 @@ pub struct Report {
     pub raise: Option<(u16, ErrorRegister)>,
     /// An error to clear.
     pub clear: Option<u16>,
+    /// A condition that comes and goes without a fault (code, present): EMCY while present.
+    pub notice: Option<(u16, bool)>,
 }
 
 /// A quantity ramped towards a target at a rate per second, in integer steps with the
@@ -93,6 +96,8 @@ pub struct Profile {
     fsa: Fsa,
     /// The factor group, re-read after [`Profile::invalidate`].
     factors: Option<Factors>,
+    /// The core's own position/velocity loops ([`ProfileConfig::cascade`]).
+    cascade: Option<Cascade>,
     active_mode: i8,
     /// Velocity demand (increments/s) of the velocity ramps (pv, stops outside pp).
     velocity: Ramp,
@@ -109,6 +114,8 @@ pub struct Profile {
     following_error_since: Option<Instant>,
     last_target_velocity: i32,
     forced: Option<u16>,
+    /// The master uses a controlword function this configuration lacks (EMCY 6320h sent).
+    unavailable_function: bool,
 }
 
 fn fault_code(faults: HardwareFaults) -> Option<(u16, ErrorRegister)> {
@@ -127,6 +134,8 @@ fn fault_code(faults: HardwareFaults) -> Option<(u16, ErrorRegister)> {
 
 /// Following error (digest §2.1 table, 8611h).
 const FOLLOWING_ERROR: u16 = 0x8611;
+/// Parameter error (6320h): a controlword function this configuration does not have.
+const PARAMETER_ERROR: u16 = 0x6320;
 
 fn get<const B: usize, T: crate::od::Scalar + Default>(od: &Dictionary<B>, index: u16) -> T {
     od.get::<T>(index, 0).unwrap_or_default()
@@ -150,6 +159,7 @@ impl Profile {
             config,
             fsa: Fsa::default(),
             factors: None,
+            cascade: None,
             active_mode: 0,
             velocity: Ramp::default(),
             torque: Ramp::default(),
@@ -164,6 +174,7 @@ impl Profile {
             following_error_since: None,
             last_target_velocity: 0,
             forced: None,
+            unavailable_function: false,
         }
     }
 
@@ -227,7 +238,10 @@ impl Profile {
         let dt = self.last_tick.map_or(Duration::ZERO, |t| (now - t).min(MAX_STEP));
         self.last_tick = Some(now);
         let mut report = Report::default();
-        let factors = *self.factors.get_or_insert_with(|| Factors::from_od(od));
+        let factors = match self.factors {
+            Some(factors) => factors,
+            None => self.refresh(od),
+        };
         let position_sign = factors.position_sign();
         let velocity_sign = factors.velocity_sign();
         let actual = i64::from(sample.position);
@@ -260,14 +274,35 @@ impl Profile {
             fault_reaction: get(od, FAULT_REACTION_OPTION_CODE),
             transition_16: self.config.transition_16,
         };
-        let controlword: u16 = get(od, CONTROLWORD);
+        // In local control the controlword is not processed: no command, no mode bits.
+        let local = sample.local_control;
+        let mut controlword: u16 = if local { 0 } else { get(od, CONTROLWORD) };
+        let unavailable = self.active_mode == mode::PROFILE_POSITION
+            && !self.config.change_on_setpoint
+            && controlword & 0x0200 != 0;
+        if unavailable != self.unavailable_function {
+            self.unavailable_function = unavailable;
+            report.notice = Some((PARAMETER_ERROR, unavailable));
+        }
+        if unavailable {
+            controlword &= !0x0200;
+        }
         let bit4_rose = controlword & 0x0010 != 0 && self.previous_controlword & 0x0010 == 0;
         self.previous_controlword = controlword;
-        let commanded = self.forced.take().unwrap_or(controlword);
+        let mut commanded = self.forced.take().or((!local).then_some(controlword));
+        if let Some(command) = commanded.as_mut().filter(|c| **c & 0x0080 == 0) {
+            // The board's inputs: quick stop (bit 2 = 0), interlock (disable voltage).
+            if sample.inputs.contains(DigitalInputs::QUICK_STOP) {
+                *command &= !0x0004;
+            }
+            if sample.inputs.contains(DigitalInputs::INTERLOCK) {
+                *command &= !0x0002;
+            }
+        }
         let before = self.fsa.state();
         let at_rest = self.velocity_demand() == 0;
         let step = self.fsa.step(
-            Some(commanded),
+            commanded,
             self.fault.is_some() && !before_fault_cleared(before, hardware),
             at_rest,
             &options,
@@ -303,7 +338,9 @@ impl Profile {
         }
         let operation = matches!(step.state, State::OperationEnabled { leaving: None });
         let stop = step.stop.or_else(|| {
-            let halting = halt && operation && !self.position_mode();
+            // pp halts on its trajectory, tq ramps its torque to 0 (digest §4.1).
+            let halting =
+                halt && operation && !self.position_mode() && self.active_mode != mode::PROFILE_TORQUE;
             let for_switch = switching && operation;
             (halting || for_switch)
                 .then(|| {
@@ -366,7 +403,7 @@ impl Profile {
                 status = self.pp.status(&inputs);
                 Setpoint::Position(state.position_demand())
             }
-            None if drive_enabled => self.run_mode(od, &factors, dt),
+            None if drive_enabled => self.run_mode(od, &factors, dt, halt),
             None => {
                 self.velocity = Ramp::default();
                 self.torque = Ramp::default();
@@ -404,13 +441,75 @@ impl Profile {
         // 60FEh: a master may engage the brake (sub 1 bit 0) where the mask (sub 2) enables it.
         let outputs =
             od.get::<u32>(DIGITAL_OUTPUTS, 1).unwrap_or(0) & od.get::<u32>(DIGITAL_OUTPUTS, 2).unwrap_or(0);
+        let setpoint =
+            if drive_enabled { self.close_loops(setpoint, sample, od, &factors) } else { Setpoint::None };
+        if !drive_enabled {
+            if let Some(cascade) = self.cascade.as_mut() {
+                cascade.reset(0);
+            }
+        }
         let demand = Demand {
             high_voltage: step.state.high_voltage(),
             drive_enabled,
             brake_released: drive_enabled && outputs & 1 == 0,
-            setpoint: if drive_enabled { setpoint } else { Setpoint::None },
+            setpoint,
         };
         (demand, report)
+    }
+
+    /// Reads the parameters cached between writes: the factor group and the cascade's gains
+    /// (the integrator is kept across a re-tuning).
+    fn refresh<const B: usize>(&mut self, od: &Dictionary<B>) -> Factors {
+        let factors = Factors::from_od(od);
+        self.factors = Some(factors);
+        if let Some(index) = self.config.cascade {
+            let parameters = Parameters::from_dictionary(od, index).unwrap_or(Parameters::DEFAULT);
+            let hz = self.config.tick_rate.hz();
+            match self.cascade.as_mut() {
+                Some(cascade) => {
+                    let _ = cascade.set_parameters(parameters);
+                }
+                None => {
+                    self.cascade = Cascade::new(hz, parameters).or(Cascade::new(hz, Parameters::DEFAULT)).ok()
+                }
+            }
+        }
+        factors
+    }
+
+    /// The core's loops turn a position or velocity demand into a torque demand (60FAh gets
+    /// the velocity command). Without them, 60FAh reports 0.
+    fn close_loops<const B: usize>(
+        &mut self,
+        setpoint: Setpoint,
+        sample: &Sample,
+        od: &mut Dictionary<B>,
+        factors: &Factors,
+    ) -> Setpoint {
+        let Some(cascade) = self.cascade.as_mut() else {
+            let _ = od.set::<i32>(CONTROL_EFFORT, 0, 0);
+            return setpoint;
+        };
+        let torque_limit = get::<B, u16>(od, MAX_TORQUE).min(get(od, MAX_CURRENT));
+        cascade.set_limits(velocity_limit(od, factors), torque_limit);
+        let actual = Actual::from(sample);
+        let output = match setpoint {
+            Setpoint::Position(position) => {
+                let velocity =
+                    if self.active_mode == mode::PROFILE_POSITION { self.pp.state().velocity } else { 0 };
+                let reference = Reference { position, velocity: saturate(velocity), torque: 0 };
+                cascade.step(reference, actual)
+            }
+            Setpoint::Velocity(velocity) => cascade.step_velocity(velocity, 0, actual.velocity),
+            Setpoint::Torque(_) | Setpoint::None => {
+                cascade.reset(0);
+                let _ = od.set::<i32>(CONTROL_EFFORT, 0, 0);
+                return setpoint;
+            }
+        };
+        let effort = factors.to_user(i64::from(output.velocity)) * factors.velocity_sign();
+        let _ = od.set::<i32>(CONTROL_EFFORT, 0, saturate(effort));
+        Setpoint::Torque(output.torque)
     }
 
     /// Following error (digest §11.2): |6062h − 6064h| > 6065h for longer than 6066h ms.
@@ -431,7 +530,13 @@ impl Profile {
         self.active_mode == mode::PROFILE_VELOCITY && max > 0 && (demand - actual).abs() >= i64::from(max)
     }
 
-    fn run_mode<const B: usize>(&mut self, od: &Dictionary<B>, factors: &Factors, dt: Duration) -> Setpoint {
+    fn run_mode<const B: usize>(
+        &mut self,
+        od: &Dictionary<B>,
+        factors: &Factors,
+        dt: Duration,
+        halt: bool,
+    ) -> Setpoint {
         match self.active_mode {
             mode::PROFILE_VELOCITY => {
                 let limit = i64::from(velocity_limit(od, factors));
@@ -450,7 +555,8 @@ impl Profile {
             }
             mode::PROFILE_TORQUE => {
                 let max = i64::from(get::<B, u16>(od, MAX_TORQUE).min(get(od, MAX_CURRENT)));
-                let target = i64::from(get::<B, i16>(od, TARGET_TORQUE)).clamp(-max, max);
+                let target =
+                    if halt { 0 } else { i64::from(get::<B, i16>(od, TARGET_TORQUE)).clamp(-max, max) };
                 self.torque.toward(target, get(od, TORQUE_SLOPE), dt);
                 Setpoint::Torque(self.torque.value as i16)
             }
@@ -478,14 +584,22 @@ impl Profile {
         if state.high_voltage() && sample.dc_link_millivolts > 0 {
             sw |= 1 << 4;
         }
+        if !sample.warnings.is_empty() {
+            sw |= 1 << 7;
+        }
         // Bit 9 remote: the controlword is processed.
-        sw |= 1 << 9;
+        if !sample.local_control {
+            sw |= 1 << 9;
+        }
         let at_rest = self.velocity_demand() == 0;
         let target_reached = match state {
             State::QuickStopActive => {
                 at_rest && StopKind::quick_stop(options.quick_stop).is_some_and(|(_, stay)| stay)
             }
             State::OperationEnabled { .. } if self.position_mode() => pp.target_reached,
+            State::OperationEnabled { .. } if halt && self.active_mode == mode::PROFILE_TORQUE => {
+                self.torque.value == 0
+            }
             State::OperationEnabled { .. } if halt => at_rest,
             State::OperationEnabled { .. } => self.mode_target_reached(od, now),
             _ => false,
