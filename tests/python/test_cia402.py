@@ -1,5 +1,6 @@
 """The CiA 402 drive profile of canopen-drive-linux driven by python-canopen's BaseNode402:
-state machine through PDOs, profile velocity, a fault injected through the board's manufacturer
+state machine through PDOs, a profile position move with the set-point handshake, profile
+velocity, a fault injected through the board's manufacturer
 object 2100h, and the way back to Operation enabled by a fault reset (shared/spec/cia402.md §3).
 """
 
@@ -21,7 +22,7 @@ def wait_until(predicate, timeout=3.0):
     return False
 
 
-def test_state_machine_profile_velocity_fault_and_reset(network, node, eds_file):
+def test_state_machine_profile_position_velocity_fault_and_reset(network, node, eds_file):
     # Keep RPDO1 (6040h) and TPDO1 (6041h) only, so the controlword never travels with another
     # object's stale value; the mode and targets go by SDO.
     for index in (0x1401, 0x1402, 0x1403):
@@ -37,6 +38,23 @@ def test_state_machine_profile_velocity_fault_and_reset(network, node, eds_file)
 
     drive.state = "OPERATION ENABLED"
     assert drive.state == "OPERATION ENABLED"
+
+    # Profile position: one absolute move with the new-set-point handshake (digest §9.3).
+    drive.op_mode = "PROFILED POSITION"
+    assert drive.op_mode == "PROFILED POSITION"
+    drive.sdo[0x6081].raw = 20_000
+    drive.sdo[0x6083].raw = 100_000
+    drive.sdo[0x6084].raw = 100_000
+    drive.sdo[0x6067].raw = 50
+    drive.sdo[0x607A].raw = 30_000
+    drive.controlword = 0x001F  # new set-point, absolute, single set-point off
+    assert wait_until(lambda: drive.statusword & 0x1000), "set-point acknowledged"
+    drive.controlword = 0x000F
+    assert wait_until(lambda: not drive.statusword & 0x1000), "acknowledge released"
+    assert wait_until(lambda: drive.statusword & 0x0400), "target reached"
+    assert abs(drive.sdo[0x6064].raw - 30_000) <= 50, drive.sdo[0x6064].raw
+    assert drive.sdo[0x6062].raw == 30_000
+
     drive.op_mode = "PROFILED VELOCITY"
     assert drive.op_mode == "PROFILED VELOCITY"
     drive.sdo[0x6083].raw = 20_000

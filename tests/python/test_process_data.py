@@ -34,11 +34,14 @@ def test_tpdo1_remapped_through_python_canopen_arrives_at_sync(node, network):
     time.sleep(0.05)
     statusword = node.sdo[0x6041].raw
     position = node.sdo[0x6064].raw
-    received = []
-    for _ in range(3):
+    # Record before sending: the drive answers a SYNC within a tick, possibly before
+    # wait_for_reception would start waiting.
+    frames = Recorder(network, 0x180 + NODE_ID)
+    for n in range(1, 4):
         network.sync.transmit()
-        received.append(tpdo.wait_for_reception(timeout=1.0))
-    assert all(t is not None for t in received), "one TPDO per SYNC"
+        frames.wait_count(n, timeout=1.0)
+    time.sleep(0.05)
+    assert len(frames.frames) == 3, "one TPDO per SYNC"
     assert tpdo["Statusword"].raw == statusword
     assert tpdo["Position actual value"].raw == position
     assert len(tpdo.data) == 6
