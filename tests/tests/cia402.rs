@@ -826,3 +826,37 @@ fn p_162_halt_ramps_torque_to_zero_and_back() {
     cw(&mut bench, 0x000F, 400);
     assert_eq!(bench.drive().od().get::<i16>(0x6074, 0), Ok(300), "back to 6071h");
 }
+
+#[test]
+fn brake_opens_before_motion_and_closes_before_the_drive_function_is_disabled() {
+    let mut bench = Bench::with_config(|mut config| {
+        config.profile.brake_release_delay = Duration::from_millis(50);
+        config.profile.brake_engage_delay = Duration::from_millis(30);
+        config
+    });
+    write(&mut bench, 0x6060, &[3]);
+    write(&mut bench, 0x60FF, &1000i32.to_le_bytes());
+    write(&mut bench, 0x6083, &100_000u32.to_le_bytes());
+    write(&mut bench, 0x6084, &100_000u32.to_le_bytes());
+    cw(&mut bench, 0x0006, 2);
+    cw(&mut bench, 0x000F, 1);
+    for _ in 0..48 {
+        let demand = node(&mut bench).demand;
+        assert!(demand.drive_enabled && demand.brake_released, "{demand:?}");
+        assert!(matches!(demand.setpoint, Setpoint::Position(_)), "holding while the brake opens");
+        assert_eq!(velocity_demand(&mut bench), 0);
+        bench.advance(Duration::from_millis(1));
+    }
+    bench.advance(Duration::from_millis(60));
+    assert_eq!(velocity_demand(&mut bench), 1000, "moves once the brake is open");
+    // Disable operation (605Ch = 1): ramp (10 ms), then 30 ms with the brake closing.
+    cw(&mut bench, 0x0007, 15);
+    let demand = node(&mut bench).demand;
+    assert!(demand.drive_enabled && !demand.brake_released, "holding while the brake closes");
+    assert!(is(&mut bench, OE));
+    bench.advance(Duration::from_millis(20));
+    assert!(is(&mut bench, OE));
+    bench.advance(Duration::from_millis(15));
+    assert!(is(&mut bench, SO));
+    assert!(!node(&mut bench).demand.drive_enabled);
+}

@@ -7,6 +7,7 @@
 //! 6502h).
 
 use crate::motion::TickRate;
+use crate::time::Duration;
 
 /// Which values of each option-code object are accepted: bit `n` set = value `n` supported.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -83,6 +84,13 @@ pub struct ProfileConfig {
     /// position or velocity demand then leaves the tick as a torque demand, for boards whose
     /// power stage closes only a current loop. `None`: the board closes the loops it needs.
     pub cascade: Option<u16>,
+    /// Time the holding brake needs to open: after the drive function is enabled the demand
+    /// holds the axis still this long before a mode may move it.
+    pub brake_release_delay: Duration,
+    /// Time the holding brake needs to close: a ramped stop that ends with the drive function
+    /// disabled (605Ah/605Bh/605Ch/605Eh) engages the brake at standstill and keeps the motor
+    /// energised, holding, this long before the state changes.
+    pub brake_engage_delay: Duration,
 }
 
 impl ProfileConfig {
@@ -99,6 +107,8 @@ impl ProfileConfig {
             following_error_fault: false,
             change_on_setpoint: true,
             cascade: None,
+            brake_release_delay: Duration::ZERO,
+            brake_engage_delay: Duration::ZERO,
         }
     }
 

@@ -116,6 +116,12 @@ pub struct Profile {
     forced: Option<u16>,
     /// The master uses a controlword function this configuration lacks (EMCY 6320h sent).
     unavailable_function: bool,
+    /// When the brake was told to open (drive function enabled).
+    released_at: Option<Instant>,
+    /// When the brake was told to close at the end of a stop.
+    engaging_since: Option<Instant>,
+    /// A bit-4 edge that came while the brake was still opening.
+    pending_edge: bool,
 }
 
 fn fault_code(faults: HardwareFaults) -> Option<(u16, ErrorRegister)> {
@@ -175,6 +181,9 @@ impl Profile {
             last_target_velocity: 0,
             forced: None,
             unavailable_function: false,
+            released_at: None,
+            engaging_since: None,
+            pending_edge: false,
         }
     }
 
@@ -301,10 +310,14 @@ impl Profile {
         }
         let before = self.fsa.state();
         let at_rest = self.velocity_demand() == 0;
+        // A stop is complete once the brake has had its time to close.
+        let stopped = at_rest
+            && (self.config.brake_engage_delay == Duration::ZERO
+                || self.engaging_since.is_some_and(|since| now - since >= self.config.brake_engage_delay));
         let step = self.fsa.step(
             commanded,
             self.fault.is_some() && !before_fault_cleared(before, hardware),
-            at_rest,
+            stopped,
             &options,
         );
         if matches!(before, State::Fault) && !matches!(step.state, State::Fault) {
@@ -373,7 +386,33 @@ impl Profile {
 
         let mut drive_enabled = enabled;
         let mut status = pp::Status::default();
+        // Brake: opens when the drive function is enabled; the axis is held until it is open.
+        // At the end of a ramped stop it closes while the motor still holds.
+        if !enabled || step.entered_operation {
+            self.released_at = None;
+            self.engaging_since = None;
+        }
+        if stop.is_some_and(|kind| kind != StopKind::Coast) && self.velocity_demand() == 0 {
+            self.engaging_since.get_or_insert(now);
+        } else if stop.is_none() {
+            self.engaging_since = None;
+        }
+        let released_at = *self.released_at.get_or_insert(now);
+        let opening = enabled && now - released_at < self.config.brake_release_delay;
+        let bit4_rose = if opening {
+            // The edge of the enabling command itself starts nothing (testable item 74).
+            self.pending_edge |= bit4_rose && !step.entered_operation;
+            false
+        } else {
+            bit4_rose || core::mem::take(&mut self.pending_edge) && controlword & 0x0010 != 0
+        };
         let setpoint = match stop {
+            None if opening => {
+                self.pp.reset(actual, actual_user);
+                self.velocity = Ramp::default();
+                self.torque = Ramp::default();
+                Setpoint::Position(sample.position)
+            }
             Some(StopKind::Coast) => {
                 drive_enabled = false;
                 self.velocity = Ramp::default();
@@ -451,7 +490,7 @@ impl Profile {
         let demand = Demand {
             high_voltage: step.state.high_voltage(),
             drive_enabled,
-            brake_released: drive_enabled && outputs & 1 == 0,
+            brake_released: drive_enabled && outputs & 1 == 0 && self.engaging_since.is_none(),
             setpoint,
         };
         (demand, report)
