@@ -289,6 +289,13 @@ fn s_179_s_180_s_181_s_182_s_183_object_attributes() {
     for index in [0x6041u16, 0x6502, 0x6061, 0x6064] {
         assert_eq!(bench.sdo1(&req(0x23, index, 0, [0; 4])), abort(index, 0, 0x0601_0002), "{index:04X}");
     }
+    // s_180: the mandatory objects of the built modes (pp, pv, tq; digest §20.1) exist.
+    for index in [
+        0x1000u16, 0x1001, 0x1018, 0x6040, 0x6041, 0x6502, 0x6060, 0x6061, 0x607A, 0x6064, 0x6081, 0x6083,
+        0x606C, 0x60FF, 0x6071, 0x6087,
+    ] {
+        assert_ne!(bench.sdo1(&req(0x40, index, 0, [0; 4]))[0], 0x80, "{index:04X}");
+    }
     for index in [0x6045u16, 0x6050, 0x6089] {
         assert_eq!(bench.sdo1(&req(0x40, index, 0, [0; 4])), abort(index, 0, 0x0602_0000), "{index:04X}");
     }

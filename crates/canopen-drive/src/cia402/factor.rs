@@ -17,10 +17,12 @@
 //! increments per second, so 6090h is kept and validated but does not enter a conversion.
 //! 6080h max motor speed is in rpm and becomes increments/s through 608Fh alone.
 //!
-//! Polarity (607Eh, digest §8.2, its recommended reading): with bit 7 set, the commanded
-//! positions (607Ah) are negated on the way in and the reported positions (6062h, 6064h, 60F4h)
-//! on the way out, in profile position mode only; with bit 6 set the same happens to 60FFh and
-//! 606Bh/606Ch in profile velocity mode only. Other modes (homing included) ignore 607Eh.
+//! Polarity (607Eh, digest §8.2, its recommended reading): position polarity (bit 7) negates
+//! the commanded target 607Ah in profile position mode, and the reported positions 6062h,
+//! 6064h and 60F4h in every mode, so that the master's frame stays one mirror image whatever
+//! the mode; velocity polarity (bit 6) negates the target velocity 60FFh in profile velocity
+//! mode and the reported velocities 606Bh/606Ch. Homing will ignore 607Eh for its search
+//! directions (digest §8.2); torque modes ignore it.
 
 use super::objects::{
     FEED_CONSTANT, GEAR_RATIO, POLARITY, POSITION_ENCODER_RESOLUTION, VELOCITY_ENCODER_RESOLUTION,
