@@ -678,3 +678,51 @@ fn cascade_runs_the_velocity_loop_in_pv_and_refuses_bad_gains() {
     // A zero gain is refused with the object's own limit.
     assert_eq!(bench.sdo1(&req(0x23, 0x2400, 2, [0; 4])), abort(0x2400, 2, 0x0609_0032));
 }
+
+// --- DESIGN invariant 2 under random set-points -----------------------------------------------
+
+#[test]
+fn random_setpoints_halts_and_replans_never_exceed_the_limits() {
+    let mut seed = 0x2545_F491_4F6C_DD1Du64;
+    let mut next = move |range: u64| {
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        seed % range
+    };
+    for profile in [0i16, 3] {
+        let mut bench = Bench::new();
+        setup_ramps(&mut bench, 60_000, 400_000);
+        write(&mut bench, 0x607F, &25_000u32.to_le_bytes());
+        write(&mut bench, 0x60C5, &150_000u32.to_le_bytes());
+        write(&mut bench, 0x60C6, &200_000u32.to_le_bytes());
+        write(&mut bench, 0x6086, &profile.to_le_bytes());
+        write_sub(&mut bench, 0x60A4, 1, &20_000_000u32.to_le_bytes());
+        enable(&mut bench, PP);
+        let mut last = 0i32;
+        for step in 0..300 {
+            let target = next(200_000) as i32 - 100_000;
+            let bits = [0x0020u16, 0x0000, 0x0200, 0x0060][next(4) as usize];
+            if next(5) == 0 {
+                cw(&mut bench, 0x010F, 0); // halt
+            } else {
+                write(&mut bench, 0x6081, &(5_000 + next(60_000) as u32).to_le_bytes());
+                write(&mut bench, 0x607A, &target.to_le_bytes());
+                cw(&mut bench, 0x001F | bits, 0);
+            }
+            for n in 0..next(150) + 2 {
+                if n == 1 {
+                    cw(&mut bench, 0x000F | bits, 0);
+                }
+                tick(&mut bench);
+                let v = od_i32(&mut bench, 0x606B);
+                assert!(v.abs() <= 25_000, "step {step}, profile {profile}: velocity {v} beyond 607Fh");
+                let dv = v - last;
+                // Speeding up: 60C5h = 150 per ms; slowing down: 60C6h = 200 per ms (+1 rounding).
+                let rate = if v.abs() > last.abs() { 151 } else { 201 };
+                assert!(dv.abs() <= rate, "step {step}, profile {profile}: {last} → {v} per ms");
+                last = v;
+            }
+        }
+    }
+}
