@@ -25,6 +25,10 @@ bitflags! {
         const INDEX = 1 << 4;
         /// Local quick-stop input (active).
         const QUICK_STOP = 1 << 5;
+        /// Touch probe 1 input (active).
+        const TOUCH_PROBE_1 = 1 << 6;
+        /// Touch probe 2 input (active).
+        const TOUCH_PROBE_2 = 1 << 7;
     }
 }
 
