@@ -645,10 +645,12 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
         if let Some(code) = report.clear {
             self.clear_error(code);
         }
-        match report.notice {
-            Some((code, true)) => self.raise_error(code, ErrorRegister::DEVICE_PROFILE, [0; 5]),
-            Some((code, false)) => self.clear_error(code),
-            None => {}
+        for notice in report.notices {
+            match notice {
+                Some((code, true)) => self.raise_error(code, ErrorRegister::DEVICE_PROFILE, [0; 5]),
+                Some((code, false)) => self.clear_error(code),
+                None => {}
+            }
         }
         if self.nmt.serves_pdo() {
             self.pdos.detect_changes(now, &self.od, &mut self.tx);

@@ -6,6 +6,7 @@
 //! The supported modes are [`crate::od::DeviceInfo::drive_modes`] (they are also the value of
 //! 6502h).
 
+use super::hm::HomingConfig;
 use crate::motion::TickRate;
 use crate::time::Duration;
 
@@ -91,6 +92,8 @@ pub struct ProfileConfig {
     /// disabled (605Ah/605Bh/605Ch/605Eh) engages the brake at standstill and keeps the motor
     /// energised, holding, this long before the state changes.
     pub brake_engage_delay: Duration,
+    /// Homing methods beyond the standard ones, and the homing time limit.
+    pub homing: HomingConfig,
 }
 
 impl ProfileConfig {
@@ -109,6 +112,7 @@ impl ProfileConfig {
             cascade: None,
             brake_release_delay: Duration::ZERO,
             brake_engage_delay: Duration::ZERO,
+            homing: HomingConfig::new(),
         }
     }
 

@@ -4,6 +4,8 @@
 //! - [`config`]: what a drive supports (option codes, set-point buffer, tick rate).
 //! - [`factor`]: the factor group and polarity (user units ↔ increments).
 //! - [`pp`]: profile position mode.
+//! - [`hm`]: homing mode.
+//! - [`probe`]: the touch probe function (60B8h–60BDh), latching positions at probe edges.
 //! - [`objects`]: the profile objects with their defaults and value rules.
 //! - [`profile`]: the run-time of one axis: FSA, option-code stops, modes (pv, tq), statusword,
 //!   actual values and the demand for the power stage.
@@ -11,8 +13,10 @@
 pub mod config;
 pub mod factor;
 pub mod fsa;
+pub mod hm;
 pub mod objects;
 pub mod pp;
+pub mod probe;
 pub mod profile;
 
 pub use config::{OptionCodes, ProfileConfig};

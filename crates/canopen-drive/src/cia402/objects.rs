@@ -106,6 +106,12 @@ pub const VELOCITY_ENCODER_RESOLUTION: u16 = 0x6090;
 pub const GEAR_RATIO: u16 = 0x6091;
 /// 6092h feed constant (sub 1 feed, sub 2 shaft revolutions).
 pub const FEED_CONSTANT: u16 = 0x6092;
+/// 6098h homing method.
+pub const HOMING_METHOD: u16 = 0x6098;
+/// 6099h homing speeds (sub 1 switch search, sub 2 zero search).
+pub const HOMING_SPEEDS: u16 = 0x6099;
+/// 609Ah homing acceleration.
+pub const HOMING_ACCELERATION: u16 = 0x609A;
 /// 60A3h profile jerk use.
 pub const PROFILE_JERK_USE: u16 = 0x60A3;
 /// 60A4h profile jerk (subs 1–4).
@@ -143,6 +149,8 @@ pub mod mode {
     pub const PROFILE_VELOCITY: i8 = 3;
     /// Profile torque.
     pub const PROFILE_TORQUE: i8 = 4;
+    /// Homing.
+    pub const HOMING: i8 = 6;
 }
 
 /// 6502h bits (digest §7.3) of each mode.
@@ -153,12 +161,14 @@ pub mod mode_bit {
     pub const PROFILE_VELOCITY: u32 = 1 << 2;
     /// Profile torque.
     pub const PROFILE_TORQUE: u32 = 1 << 3;
+    /// Homing.
+    pub const HOMING: u32 = 1 << 5;
 }
 
-/// The modes this crate runs: pp, pv and tq (the default of
+/// The modes this crate runs: pp, pv, tq and hm (the default of
 /// [`crate::od::DeviceInfo::drive_modes`]).
 pub const IMPLEMENTED_MODES: u32 =
-    mode_bit::PROFILE_POSITION | mode_bit::PROFILE_VELOCITY | mode_bit::PROFILE_TORQUE;
+    mode_bit::PROFILE_POSITION | mode_bit::PROFILE_VELOCITY | mode_bit::PROFILE_TORQUE | mode_bit::HOMING;
 
 /// A value the master commands (rw, RPDO-mappable).
 const fn command(index: u16, name: &'static str, data_type: DataType) -> Object {
@@ -221,6 +231,24 @@ const POSITION_RANGE_SUBS: [(u8, Var); 3] = [
     (1, bound("Min position range limit", i32::MIN)),
     (2, bound("Max position range limit", i32::MAX)),
 ];
+/// 6099h.
+const HOMING_SPEED_SUBS: [(u8, Var); 3] = [
+    (0, highest_sub(2)),
+    (
+        1,
+        Var::new("Speed during search for switch", DataType::Unsigned32)
+            .access(Access::ReadWrite)
+            .pdo(PdoMapping::Rpdo)
+            .default(DefaultValue::Unsigned(10_000)),
+    ),
+    (
+        2,
+        Var::new("Speed during search for zero", DataType::Unsigned32)
+            .access(Access::ReadWrite)
+            .pdo(PdoMapping::Rpdo)
+            .default(DefaultValue::Unsigned(1_000)),
+    ),
+];
 /// 607Dh: no limit within the i32 range by default.
 const SOFTWARE_LIMIT_SUBS: [(u8, Var); 3] = [
     (0, highest_sub(2)),
@@ -240,7 +268,7 @@ const DIGITAL_OUTPUT_SUBS: [(u8, Var); 3] = [
 ];
 
 /// The profile objects, ascending.
-pub static PROFILE: [Object; 76] = layout([
+pub static PROFILE: [Object; 79] = layout([
     option_code(ABORT_CONNECTION_OPTION_CODE, "Abort connection option code", 1),
     actual(ERROR_CODE, "Error code", DataType::Unsigned16),
     command(CONTROLWORD, "Controlword", DataType::Unsigned16),
@@ -328,6 +356,14 @@ pub static PROFILE: [Object; 76] = layout([
     ratio(VELOCITY_ENCODER_RESOLUTION, "Velocity encoder resolution"),
     ratio(GEAR_RATIO, "Gear ratio"),
     ratio(FEED_CONSTANT, "Feed constant"),
+    setting(HOMING_METHOD, "Homing method", DataType::Integer8, DefaultValue::Zero),
+    Object::record(HOMING_SPEEDS, "Homing speeds", &HOMING_SPEED_SUBS),
+    setting(
+        HOMING_ACCELERATION,
+        "Homing acceleration",
+        DataType::Unsigned32,
+        DefaultValue::Unsigned(100_000),
+    ),
     parameter(PROFILE_JERK_USE, "Profile jerk use", DataType::Unsigned8, DefaultValue::Unsigned(1)),
     Object::array(
         PROFILE_JERK,
@@ -397,6 +433,7 @@ pub fn check_write<const B: usize>(
         MOTION_PROFILE_TYPE => crate::motion::ProfileType::from_raw(value).is_some(),
         TORQUE_PROFILE_TYPE => value == 0,
         PROFILE_JERK_USE => matches!(raw, 1 | 2 | 4),
+        HOMING_METHOD => config.homing.supports(raw as u8 as i8),
         // Relative option 00/01/10 only; change-immediately and request-response options are not
         // implemented (testable item 100).
         POSITIONING_OPTION_CODE => raw & !0x0003 == 0 && raw & 0x0003 != 0x0003,

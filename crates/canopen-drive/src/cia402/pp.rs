@@ -67,8 +67,10 @@ pub struct Inputs<'a, const B: usize> {
     pub controlword: u16,
     /// Bit 4 rose since the previous tick (and the drive did not just enter Operation enabled).
     pub new_setpoint: bool,
-    /// Actual position, increments.
+    /// Actual position, increments (encoder count).
     pub actual: i64,
+    /// The encoder count at the user zero (moved by homing).
+    pub origin: i64,
     /// Now.
     pub now: Instant,
 }
@@ -207,8 +209,8 @@ impl ProfilePosition {
         let raw = i64::from(get::<B, i32>(od, TARGET_POSITION, 0));
         let mut user = if input.controlword & 0x0040 != 0 {
             let base = match get::<B, u16>(od, POSITIONING_OPTION_CODE, 0) & 0x3 {
-                0b01 => input.factors.to_user(self.planner.state().position) * sign,
-                0b10 => input.factors.to_user(input.actual) * sign,
+                0b01 => input.factors.to_user(self.planner.state().position - input.origin) * sign,
+                0b10 => input.factors.to_user(input.actual - input.origin) * sign,
                 _ => self.preceding,
             };
             base.saturating_add(raw)
@@ -229,7 +231,7 @@ impl ProfilePosition {
             user = user.clamp(low, high);
             limited = true;
         }
-        let internal = input.factors.to_internal(user * sign);
+        let internal = input.factors.to_internal(user * sign).saturating_add(input.origin);
         SetPoint { user, internal, limited, blend: input.controlword & 0x0200 != 0 }
     }
 
@@ -325,7 +327,7 @@ impl ProfilePosition {
             false
         } else {
             let target = self.last.map_or(self.preceding, |last| last.user);
-            let actual = input.factors.to_user(input.actual) * input.factors.position_sign();
+            let actual = input.factors.to_user(input.actual - input.origin) * input.factors.position_sign();
             let window = get::<B, u32>(od, POSITION_WINDOW, 0);
             if window == u32::MAX || (target - actual).unsigned_abs() <= u64::from(window) {
                 let since = *self.in_window_since.get_or_insert(input.now);

@@ -37,6 +37,7 @@
 use super::config::ProfileConfig;
 use super::factor::Factors;
 use super::fsa::{Fsa, Options, State, StopKind};
+use super::hm::{self, Homing};
 use super::objects::*;
 use super::pp::{self, ProfilePosition};
 use crate::comm::emcy::ErrorRegister;
@@ -56,8 +57,8 @@ pub struct Report {
     pub raise: Option<(u16, ErrorRegister)>,
     /// An error to clear.
     pub clear: Option<u16>,
-    /// A condition that comes and goes without a fault (code, present): EMCY while present.
-    pub notice: Option<(u16, bool)>,
+    /// Conditions that come and go without a fault (code, present): EMCY while present.
+    pub notices: [Option<(u16, bool)>; 2],
 }
 
 /// A quantity ramped towards a target at a rate per second, in integer steps with the
@@ -104,6 +105,11 @@ pub struct Profile {
     /// Torque demand (‰).
     torque: Ramp,
     pp: ProfilePosition,
+    homing: Homing,
+    /// The encoder count at the user zero: moved by homing (digest §10.5).
+    origin: i64,
+    /// A homing error EMCY (8613h) is active.
+    homing_error: bool,
     last_tick: Option<Instant>,
     fault: Option<u16>,
     stopping: bool,
@@ -170,6 +176,9 @@ impl Profile {
             velocity: Ramp::default(),
             torque: Ramp::default(),
             pp: ProfilePosition::new(&config, 0),
+            homing: Homing::new(config.homing, config.tick_rate, 0),
+            origin: 0,
+            homing_error: false,
             last_tick: None,
             fault: None,
             stopping: false,
@@ -224,17 +233,32 @@ impl Profile {
         }
     }
 
+    /// The modes whose demand is a trajectory of positions (pp, hm).
     fn position_mode(&self) -> bool {
-        self.active_mode == mode::PROFILE_POSITION
+        matches!(self.active_mode, mode::PROFILE_POSITION | mode::HOMING)
+    }
+
+    /// The trajectory state of the position modes.
+    fn trajectory(&self) -> crate::motion::MotionState {
+        if self.active_mode == mode::HOMING {
+            self.homing.state()
+        } else {
+            self.pp.state()
+        }
     }
 
     /// Velocity demand of the running motion, increments/s.
     fn velocity_demand(&self) -> i64 {
         if self.position_mode() {
-            self.pp.state().velocity
+            self.trajectory().velocity
         } else {
             self.velocity.value
         }
+    }
+
+    /// Whether a homing run has completed (statusword bit 12 in hm).
+    pub fn is_homed(&self) -> bool {
+        self.homing.is_homed()
     }
 
     /// One control tick.
@@ -256,7 +280,10 @@ impl Profile {
         let actual = i64::from(sample.position);
 
         // Actual values.
-        let actual_user = factors.to_user(actual) * position_sign;
+        if sample.faults.contains(HardwareFaults::ENCODER) {
+            self.homing.forget();
+        }
+        let actual_user = factors.to_user(actual - self.origin) * position_sign;
         let _ = od.set::<i32>(POSITION_ACTUAL_INTERNAL_VALUE, 0, sample.position);
         let _ = od.set::<i32>(POSITION_ACTUAL_VALUE, 0, saturate(actual_user));
         let velocity_user = factors.to_user(i64::from(sample.velocity)) * velocity_sign;
@@ -291,7 +318,7 @@ impl Profile {
             && controlword & 0x0200 != 0;
         if unavailable != self.unavailable_function {
             self.unavailable_function = unavailable;
-            report.notice = Some((PARAMETER_ERROR, unavailable));
+            report.notices[0] = Some((PARAMETER_ERROR, unavailable));
         }
         if unavailable {
             controlword &= !0x0200;
@@ -338,6 +365,7 @@ impl Profile {
             self.active_mode = requested;
             self.mode_changed = true;
             self.pp.reset(actual, actual_user);
+            self.homing.reset(actual);
             self.velocity = Ramp { value: i64::from(sample.velocity), remainder: 0 };
         }
         let _ = od.set::<i8>(MODES_OF_OPERATION_DISPLAY, 0, self.active_mode);
@@ -348,12 +376,14 @@ impl Profile {
             self.velocity = Ramp { value: i64::from(sample.velocity), remainder: 0 };
             self.torque = Ramp::default();
             self.pp.reset(actual, actual_user);
+            self.homing.reset(actual);
         }
         let operation = matches!(step.state, State::OperationEnabled { leaving: None });
         let stop = step.stop.or_else(|| {
             // pp halts on its trajectory, tq ramps its torque to 0 (digest §4.1).
             let halting =
                 halt && operation && !self.position_mode() && self.active_mode != mode::PROFILE_TORQUE;
+            // (hm halts on its own trajectory, like pp.)
             let for_switch = switching && operation;
             (halting || for_switch)
                 .then(|| {
@@ -376,7 +406,9 @@ impl Profile {
             factors.limit_to_internal(user).min(max_deceleration)
         };
         if let Some(kind) = stop.filter(|_| !self.stopping) {
-            if self.position_mode() {
+            if self.active_mode == mode::HOMING {
+                self.homing.stop(stop_deceleration(kind), &pp_limits);
+            } else if self.position_mode() {
                 self.pp.stop(stop_deceleration(kind), &pp_limits);
             } else {
                 self.velocity = Ramp { value: i64::from(sample.velocity), remainder: 0 };
@@ -417,15 +449,56 @@ impl Profile {
                 drive_enabled = false;
                 self.velocity = Ramp::default();
                 self.pp.reset(actual, actual_user);
+                self.homing.reset(actual);
                 Setpoint::None
             }
-            Some(kind) if self.position_mode() => {
-                let _ = kind;
-                Setpoint::Position(self.pp.step_stop().position_demand())
+            Some(_) if self.active_mode == mode::HOMING => {
+                Setpoint::Position(self.homing.step_stop().position_demand())
             }
+            Some(_) if self.position_mode() => Setpoint::Position(self.pp.step_stop().position_demand()),
             Some(kind) => {
                 self.velocity.toward(0, stop_deceleration(kind), dt);
                 Setpoint::Velocity(self.velocity.value as i32)
+            }
+            None if self.active_mode == mode::HOMING => {
+                let speeds = (
+                    factors.limit_to_internal(od.get::<u32>(HOMING_SPEEDS, 1).unwrap_or(0)),
+                    factors.limit_to_internal(od.get::<u32>(HOMING_SPEEDS, 2).unwrap_or(0)),
+                    factors.limit_to_internal(get::<B, u32>(od, HOMING_ACCELERATION)).min(max_deceleration),
+                );
+                let inputs = hm::Inputs {
+                    od,
+                    controlword,
+                    // Method 35 may start outside Operation enabled (digest §10.2).
+                    start: bit4_rose && !step.entered_operation && !self.mode_changed,
+                    actual,
+                    torque: sample.torque,
+                    inputs: sample.inputs,
+                    enabled: drive_enabled,
+                    speeds,
+                    following_error: self.following_error_since.is_some_and(|since| {
+                        let time = u64::from(get::<B, u16>(od, FOLLOWING_ERROR_TIME_OUT));
+                        now - since > Duration::from_millis(time)
+                    }),
+                    now,
+                };
+                let halt_kind =
+                    StopKind::halt_or_fault(get(od, HALT_OPTION_CODE)).unwrap_or(StopKind::SlowDown);
+                let (position, outcome) = self.homing.tick(&inputs, stop_deceleration(halt_kind));
+                if let Some(home) = outcome.home {
+                    // 6064h reads −607Ch at home.
+                    let offset = i64::from(get::<B, i32>(od, HOME_OFFSET)) * position_sign;
+                    self.origin = home.saturating_add(factors.to_internal(offset));
+                }
+                if outcome.error != self.homing_error || (inputs.start && self.homing_error) {
+                    self.homing_error = outcome.error;
+                    report.notices[1] = Some((hm::HOMING_ERROR, outcome.error));
+                }
+                if drive_enabled {
+                    Setpoint::Position(position as i32)
+                } else {
+                    Setpoint::None
+                }
             }
             None if drive_enabled && self.position_mode() => {
                 let inputs = pp::Inputs {
@@ -434,6 +507,7 @@ impl Profile {
                     controlword,
                     new_setpoint: bit4_rose && operation && !step.entered_operation && !self.mode_changed,
                     actual,
+                    origin: self.origin,
                     now,
                 };
                 let halt_kind =
@@ -452,12 +526,12 @@ impl Profile {
         };
 
         // Demands and the position control function (digest §11).
-        let (demand_internal, demand_user) = if self.position_mode() && drive_enabled {
-            let position = self.pp.state().position;
-            (position, factors.to_user(position) * position_sign)
+        let demand_internal = if self.position_mode() && drive_enabled {
+            self.trajectory().position - self.origin
         } else {
-            (actual, actual_user)
+            actual - self.origin
         };
+        let demand_user = factors.to_user(demand_internal) * position_sign;
         let _ = od.set::<i32>(POSITION_DEMAND_INTERNAL_VALUE, 0, demand_internal as i32);
         let _ = od.set::<i32>(POSITION_DEMAND_VALUE, 0, saturate(demand_user));
         let following_error = demand_user - actual_user;
@@ -473,8 +547,13 @@ impl Profile {
         }
 
         let mut statusword = self.statusword(step.state, sample, od, now, halt, options, status);
-        if following || (!self.position_mode() && self.slipping(od, velocity_demand, velocity_user)) {
+        let following_bit = following && self.active_mode == mode::PROFILE_POSITION;
+        if following_bit || (!self.position_mode() && self.slipping(od, velocity_demand, velocity_user)) {
             statusword |= 1 << 13;
+        }
+        if self.active_mode == mode::HOMING {
+            // Bits 10, 12, 13 are the homing status in every state (digest §10.4).
+            statusword = (statusword & !0x3400) | self.homing.status().bits();
         }
         let _ = od.set::<u16>(STATUSWORD, 0, statusword);
         // 60FEh: a master may engage the brake (sub 1 bit 0) where the mask (sub 2) enables it.

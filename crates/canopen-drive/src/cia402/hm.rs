@@ -1,0 +1,723 @@
+//! Homing mode (hm, 6060h = 6; digest §10).
+//!
+//! A homing run is a short program of *searches*: move in a direction at the switch-search
+//! speed (6099h sub 1) or the zero-search speed (6099h sub 2), with the homing acceleration
+//! 609Ah, until an event — a switch turns on or off, an index pulse, the torque of a hard stop —
+//! then the next search. The event of the last search is the home position. The axis then stops
+//! and moves back onto the home position (statusword "homing attained", bits 13/12/10 = 0/1/0);
+//! at rest there the run is complete (0/1/1).
+//!
+//! # The home position and 607Ch
+//!
+//! The drive keeps the encoder count it is given (6063h) and moves its user zero instead:
+//! after homing, 6064h at the home position reads **−607Ch** (digest §10.5: zero position = home
+//! position + home offset), so a pp move to 0 then goes +607Ch from home, and the software
+//! limits 607Dh corrected by 607Ch keep their meaning. The offset is applied when a run
+//! completes. Polarity 607Eh plays no part in homing directions.
+//!
+//! # Methods (digest §10.3 table; the left/right assignment is the digest's reconstruction)
+//!
+//! - **1, 2, 17, 18** — limit switch: move towards it (switch speed), then away at zero speed
+//!   until it releases; 17/18 home there, 1/2 at the next index pulse.
+//! - **3–6, 19–22** — one-sided home switch: 3, 4, 19, 20 a *positive* home switch (active on the
+//!   positive side of its edge), 5, 6, 21, 22 a *negative* one. The edge is crossed slowly in the
+//!   final direction of the table (index left of the edge → crossing moving negative, right →
+//!   moving positive); the start direction follows from the switch state. 19–22 home on the
+//!   edge, 3–6 at the next index pulse after it.
+//! - **7–14, 23–30** — home switch active over a zone: search in the method's direction (7–10,
+//!   23–26 positive; 11–14, 27–30 negative) for the zone, reversing once on the limit switch in
+//!   that direction; then cross the sought edge slowly in the final direction, and for 7–14
+//!   continue to the index pulse.
+//! - **33, 34** — the first index pulse moving negative / positive.
+//! - **35** — the current position is home; no motion, and it also works outside Operation
+//!   enabled (on the bit 4 edge in Switched on, say). **37** is the later editions' number for
+//!   the same thing, accepted when [`HomingConfig::method_37`] is set.
+//! - **36** — touch probe: not in this build (refused).
+//! - **Negative numbers** — the vendor's, from [`HomingConfig::vendor_methods`]: drive into a
+//!   mechanical stop until |torque| ≥ the threshold for the set time, back off, optionally search
+//!   the index pulse; or home midway between the two stops, or between the two limit switches.
+//!   Thresholds, time and back-off are the RECORD at [`HomingConfig::hard_stop_object`]
+//!   ([`hard_stop_object`]).
+//!
+//! # Errors (status 1/0/0 while stopping, 1/0/1 at rest; EMCY 8613h)
+//!
+//! A limit switch in the direction of travel that the search does not expect (a switch that
+//! never came), both limit switches active, a search that ends without its event (it runs for at
+//! most ten minutes at its speed), the time limit [`HomingConfig::timeout`], and a following
+//! error (6065h/6066h). A halt (bit 8) or bit 4 going back to 0 stops the run: 0/0/0 while
+//! stopping, then 0/0/1 (interrupted). A quick stop or a fault ends the run the same way.
+//!
+//! An event is taken at the position of the tick that saw it (the switch state or the index
+//! flag of [`crate::hal::Sample::inputs`]), so the home position is exact to the distance moved
+//! in one tick at the zero-search speed.
+
+use super::objects::HOMING_METHOD;
+use crate::hal::DigitalInputs;
+use crate::motion::{Limits, PositionPlanner, TickRate};
+use crate::od::{Access, DataType, DefaultValue, Dictionary, Object, Var};
+use crate::time::{Duration, Instant};
+
+/// EMCY code of a homing error (digest §10.4).
+pub const HOMING_ERROR: u16 = 0x8613;
+
+/// A homing method a vendor adds under a negative number.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum VendorMethod {
+    /// Into the mechanical stop in `positive` (or negative) direction; home is the stop, the axis
+    /// rests backed off; with `index`, home is the first index pulse after backing off.
+    HardStop {
+        /// Search direction.
+        positive: bool,
+        /// Then search the index pulse moving away from the stop.
+        index: bool,
+    },
+    /// Both mechanical stops, negative first; home is midway.
+    MidpointOfHardStops,
+    /// Both limit switches' release points, negative first; home is midway.
+    MidpointOfLimitSwitches,
+}
+
+/// Homing configuration.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct HomingConfig {
+    /// Accept 6098h = 37 as "current position" (as 35).
+    pub method_37: bool,
+    /// Vendor methods by their (negative) 6098h numbers.
+    pub vendor_methods: &'static [(i8, VendorMethod)],
+    /// Index of the hard-stop parameter RECORD ([`hard_stop_object`]) in the manufacturer
+    /// objects; needed by the hard-stop methods.
+    pub hard_stop_object: Option<u16>,
+    /// A run that takes longer fails (0 = no limit).
+    pub timeout: Duration,
+}
+
+impl HomingConfig {
+    /// The standard methods only.
+    pub const fn new() -> Self {
+        HomingConfig {
+            method_37: false,
+            vendor_methods: &[],
+            hard_stop_object: None,
+            timeout: Duration::ZERO,
+        }
+    }
+
+    fn vendor(&self, method: i8) -> Option<VendorMethod> {
+        self.vendor_methods.iter().find(|(number, _)| *number == method).map(|(_, m)| *m)
+    }
+
+    /// Whether 6098h may hold `method`.
+    pub fn supports(&self, method: i8) -> bool {
+        matches!(method, 0..=14 | 17..=30 | 33..=35)
+            || (method == 37 && self.method_37)
+            || (method < 0 && self.vendor(method).is_some())
+    }
+}
+
+impl Default for HomingConfig {
+    fn default() -> Self {
+        HomingConfig::new()
+    }
+}
+
+const fn stop_sub(name: &'static str, data_type: DataType, default: u64) -> Var {
+    Var::new(name, data_type).access(Access::ReadWrite).default(DefaultValue::Unsigned(default))
+}
+
+static HARD_STOP_SUBS: [(u8, Var); 4] = [
+    (
+        0,
+        Var::new("Highest sub-index supported", DataType::Unsigned8)
+            .access(Access::Const)
+            .default(DefaultValue::Unsigned(3)),
+    ),
+    (1, stop_sub("Torque threshold", DataType::Unsigned16, 500)),
+    (2, stop_sub("Detection time", DataType::Unsigned16, 50)),
+    (3, stop_sub("Back-off distance", DataType::Unsigned32, 100)),
+];
+
+/// The hard-stop parameter RECORD at `index`: sub 1 torque threshold (‰ of rated torque,
+/// default 500), sub 2 time the torque must stay above it (ms, default 50), sub 3 back-off
+/// distance (increments, default 100).
+pub const fn hard_stop_object(index: u16) -> Object {
+    Object::record(index, "Hard stop homing", &HARD_STOP_SUBS)
+}
+
+/// What ends a search.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Until {
+    On(Signal),
+    Off(Signal),
+    Index,
+    HardStop,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Signal {
+    NegativeLimit,
+    PositiveLimit,
+    Home,
+}
+
+impl Signal {
+    fn active(self, inputs: DigitalInputs) -> bool {
+        inputs.contains(match self {
+            Signal::NegativeLimit => DigitalInputs::NEGATIVE_LIMIT,
+            Signal::PositiveLimit => DigitalInputs::POSITIVE_LIMIT,
+            Signal::Home => DigitalInputs::HOME,
+        })
+    }
+}
+
+/// What to do with the position where a search ended.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Mark {
+    None,
+    /// It is the home position.
+    Home,
+    /// First of two positions whose middle is home.
+    First,
+    /// Second of two: home is midway.
+    Midpoint,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Step {
+    /// Move at the switch speed (`fast`) or zero speed until the event.
+    Search { positive: bool, fast: bool, until: Until, mark: Mark, reverse_on_limit: bool },
+    /// Move by a distance (increments) at the zero speed.
+    BackOff { distance: i64 },
+}
+
+const MAX_STEPS: usize = 6;
+
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+struct Program {
+    steps: [Option<Step>; MAX_STEPS],
+    len: usize,
+    /// Where the axis rests relative to home (hard stops: backed off).
+    rest_offset: i64,
+}
+
+impl Program {
+    fn push(&mut self, step: Step) {
+        if let Some(slot) = self.steps.get_mut(self.len) {
+            *slot = Some(step);
+            self.len += 1;
+        }
+    }
+
+    fn get(&self, n: usize) -> Option<Step> {
+        self.steps.get(n).copied().flatten()
+    }
+
+    fn search(&mut self, positive: bool, fast: bool, until: Until, mark: Mark) {
+        self.push(Step::Search { positive, fast, until, mark, reverse_on_limit: false });
+    }
+
+    /// A switch with one edge, active on the `active_positive` side: cross the edge slowly
+    /// moving `approach_positive`, then optionally on to the index pulse.
+    fn edge(
+        &mut self,
+        signal: Signal,
+        active: bool,
+        active_positive: bool,
+        approach_positive: bool,
+        index: bool,
+    ) {
+        let mark = if index { Mark::None } else { Mark::Home };
+        if approach_positive != active_positive {
+            // Leaving the active side.
+            if !active {
+                self.search(active_positive, true, Until::On(signal), Mark::None);
+            }
+            self.search(approach_positive, false, Until::Off(signal), mark);
+        } else {
+            if active {
+                self.search(!approach_positive, true, Until::Off(signal), Mark::None);
+            }
+            self.search(approach_positive, false, Until::On(signal), mark);
+        }
+        if index {
+            self.search(approach_positive, false, Until::Index, Mark::Home);
+        }
+    }
+
+    /// A home switch zone searched moving `positive` (reversing on the limit switch), whose
+    /// `upper` (or lower) edge is crossed moving `approach_positive`.
+    fn zone(&mut self, active: bool, positive: bool, upper: bool, approach_positive: bool, index: bool) {
+        if !active {
+            self.push(Step::Search {
+                positive,
+                fast: true,
+                until: Until::On(Signal::Home),
+                mark: Mark::None,
+                reverse_on_limit: true,
+            });
+        }
+        let mark = if index { Mark::None } else { Mark::Home };
+        // Leaving the zone through the sought edge in the approach direction, or entering.
+        if approach_positive == upper {
+            self.search(approach_positive, false, Until::Off(Signal::Home), mark);
+        } else {
+            self.search(!approach_positive, true, Until::Off(Signal::Home), Mark::None);
+            self.search(approach_positive, false, Until::On(Signal::Home), mark);
+        }
+        if index {
+            self.search(approach_positive, false, Until::Index, Mark::Home);
+        }
+    }
+
+    /// The program of `method`, from the switch states at the start; `None` for a method
+    /// without motion (35, 37) or one this build does not run.
+    fn of(method: i8, inputs: DigitalInputs, vendor: Option<VendorMethod>, back_off: i64) -> Option<Program> {
+        let mut p = Program::default();
+        let home = Signal::Home.active(inputs);
+        let negative_limit = Signal::NegativeLimit.active(inputs);
+        let positive_limit = Signal::PositiveLimit.active(inputs);
+        match method {
+            1 | 17 => p.edge(Signal::NegativeLimit, negative_limit, false, true, method == 1),
+            2 | 18 => p.edge(Signal::PositiveLimit, positive_limit, true, false, method == 2),
+            3 | 19 => p.edge(Signal::Home, home, true, false, method == 3),
+            4 | 20 => p.edge(Signal::Home, home, true, true, method == 4),
+            5 | 21 => p.edge(Signal::Home, home, false, true, method == 5),
+            6 | 22 => p.edge(Signal::Home, home, false, false, method == 6),
+            7..=14 | 23..=30 => {
+                let n = if method > 14 { method - 16 } else { method };
+                let positive = n <= 10;
+                // (upper edge, final approach positive) of 7..10 and 11..14.
+                let (upper, approach) = match n {
+                    7 => (false, false),
+                    8 => (false, true),
+                    9 => (true, false),
+                    10 => (true, true),
+                    11 => (true, true),
+                    12 => (true, false),
+                    13 => (false, true),
+                    _ => (false, false),
+                };
+                p.zone(home, positive, upper, approach, method <= 14);
+            }
+            33 => p.search(false, false, Until::Index, Mark::Home),
+            34 => p.search(true, false, Until::Index, Mark::Home),
+            _ => match vendor? {
+                VendorMethod::HardStop { positive, index } => {
+                    let away = if positive { -back_off } else { back_off };
+                    p.search(positive, false, Until::HardStop, if index { Mark::None } else { Mark::Home });
+                    p.push(Step::BackOff { distance: away });
+                    if index {
+                        p.search(!positive, false, Until::Index, Mark::Home);
+                    } else {
+                        p.rest_offset = away;
+                    }
+                }
+                VendorMethod::MidpointOfHardStops => {
+                    p.search(false, false, Until::HardStop, Mark::First);
+                    p.push(Step::BackOff { distance: back_off });
+                    p.search(true, false, Until::HardStop, Mark::Midpoint);
+                }
+                VendorMethod::MidpointOfLimitSwitches => {
+                    if !negative_limit {
+                        p.search(false, true, Until::On(Signal::NegativeLimit), Mark::None);
+                    }
+                    p.search(true, false, Until::Off(Signal::NegativeLimit), Mark::First);
+                    p.search(true, true, Until::On(Signal::PositiveLimit), Mark::None);
+                    p.search(false, false, Until::Off(Signal::PositiveLimit), Mark::Midpoint);
+                }
+            },
+        }
+        Some(p)
+    }
+}
+
+/// Homing status (statusword bits 13, 12, 10; digest §10.4).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Status {
+    /// 0/0/0.
+    InProgress,
+    /// 0/0/1.
+    Interrupted,
+    /// 0/1/0: home found, still moving onto it.
+    Attained,
+    /// 0/1/1.
+    Completed,
+    /// 1/0/0.
+    ErrorMoving,
+    /// 1/0/1.
+    ErrorAtRest,
+}
+
+impl Status {
+    /// Bits 10, 12, 13 of the statusword.
+    pub const fn bits(self) -> u16 {
+        match self {
+            Status::InProgress => 0,
+            Status::Interrupted => 1 << 10,
+            Status::Attained => 1 << 12,
+            Status::Completed => (1 << 12) | (1 << 10),
+            Status::ErrorMoving => 1 << 13,
+            Status::ErrorAtRest => (1 << 13) | (1 << 10),
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Phase {
+    Idle,
+    /// Running step `n` of the program.
+    Running(usize),
+    /// Home found: stopping, then moving onto the rest position.
+    Finishing,
+    /// Stopping because of a halt, bit 4 = 0, or an error.
+    Stopping {
+        error: bool,
+    },
+    Done,
+    Failed,
+}
+
+/// What the profile hands homing each tick.
+pub struct Inputs<'a, const B: usize> {
+    /// The dictionary.
+    pub od: &'a Dictionary<B>,
+    /// Controlword.
+    pub controlword: u16,
+    /// Bit 4 rose (not with the enabling command).
+    pub start: bool,
+    /// Actual position (encoder count, increments).
+    pub actual: i64,
+    /// Torque actual (‰).
+    pub torque: i16,
+    /// Switches and index pulse.
+    pub inputs: DigitalInputs,
+    /// The drive function is enabled (Operation enabled).
+    pub enabled: bool,
+    /// 6099h/609Ah converted to increments: (switch speed, zero speed, acceleration).
+    pub speeds: (u32, u32, u32),
+    /// The following error condition of the position control function.
+    pub following_error: bool,
+    /// Now.
+    pub now: Instant,
+}
+
+/// What homing tells the profile after a tick.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Outcome {
+    /// The home position was found: the encoder count at home.
+    pub home: Option<i64>,
+    /// A homing error to report (EMCY 8613h).
+    pub error: bool,
+}
+
+/// Homing run-time state.
+#[derive(Clone, Debug)]
+pub struct Homing {
+    config: HomingConfig,
+    planner: PositionPlanner,
+    phase: Phase,
+    program: Program,
+    /// The direction of the present search, after a reversal.
+    positive: bool,
+    reversed: bool,
+    previous_inputs: DigitalInputs,
+    first_mark: Option<i64>,
+    home: Option<i64>,
+    homed: bool,
+    started_at: Option<Instant>,
+    above_threshold_since: Option<Instant>,
+}
+
+/// A search runs at most this long at its speed before it counts as "the switch never came".
+const SEARCH_SECONDS: i64 = 600;
+
+impl Homing {
+    /// Idle at `position`.
+    pub fn new(config: HomingConfig, rate: TickRate, position: i64) -> Self {
+        Homing {
+            config,
+            planner: PositionPlanner::new(rate, position),
+            phase: Phase::Idle,
+            program: Program::default(),
+            positive: true,
+            reversed: false,
+            previous_inputs: DigitalInputs::empty(),
+            first_mark: None,
+            home: None,
+            homed: false,
+            started_at: None,
+            above_threshold_since: None,
+        }
+    }
+
+    /// The demand holds `position`; a run in progress is interrupted (mode switch, the drive
+    /// function disabled). Whether the axis is homed is kept.
+    pub fn reset(&mut self, position: i64) {
+        self.planner.reset(position);
+        if !matches!(self.phase, Phase::Done | Phase::Failed | Phase::Idle) {
+            self.phase = Phase::Idle;
+        }
+    }
+
+    /// The reference is lost (e.g. an encoder fault).
+    pub fn forget(&mut self) {
+        self.homed = false;
+    }
+
+    /// Whether a homing run has completed since the reference was last lost.
+    pub fn is_homed(&self) -> bool {
+        self.homed
+    }
+
+    /// The demand state (increments, encoder count).
+    pub fn state(&self) -> crate::motion::MotionState {
+        self.planner.state()
+    }
+
+    /// Stops with `deceleration` (quick stop, fault reaction): the run is interrupted.
+    pub fn stop(&mut self, deceleration: u32, limits: &Limits) {
+        let _ = self.planner.stop(deceleration.max(1), limits);
+        if matches!(self.phase, Phase::Running(_) | Phase::Finishing) {
+            self.phase = Phase::Stopping { error: false };
+        }
+    }
+
+    /// One tick of a stop started by [`Self::stop`].
+    pub fn step_stop(&mut self) -> crate::motion::MotionState {
+        self.planner.step()
+    }
+
+    /// The statusword bits 10/12/13 now.
+    pub fn status(&self) -> Status {
+        let moving = self.planner.state().velocity != 0;
+        match self.phase {
+            Phase::Running(_) => Status::InProgress,
+            Phase::Finishing => Status::Attained,
+            Phase::Stopping { error: true } => Status::ErrorMoving,
+            Phase::Stopping { error: false } => Status::InProgress,
+            Phase::Failed if moving => Status::ErrorMoving,
+            Phase::Failed => Status::ErrorAtRest,
+            Phase::Done if moving => Status::Attained,
+            Phase::Done if self.homed => Status::Completed,
+            Phase::Done | Phase::Idle if self.homed => Status::Completed,
+            Phase::Done | Phase::Idle => Status::Interrupted,
+        }
+    }
+
+    fn limits(&self, speed: u32, acceleration: u32) -> Limits {
+        Limits::new(speed.max(1), acceleration.max(1), acceleration.max(1))
+    }
+
+    fn search(&mut self, positive: bool, speed: u32, acceleration: u32) -> bool {
+        let here = self.planner.state().position;
+        let reach = i64::from(speed).saturating_mul(SEARCH_SECONDS);
+        let target = if positive { here.saturating_add(reach) } else { here.saturating_sub(reach) };
+        self.positive = positive;
+        self.planner.plan(target, 0, &self.limits(speed, acceleration)).is_ok()
+    }
+
+    /// Starts step `n` (or finishes when the program is done).
+    fn begin<const B: usize>(&mut self, n: usize, input: &Inputs<'_, B>) -> bool {
+        let (fast, slow, acceleration) = input.speeds;
+        self.above_threshold_since = None;
+        match self.program.get(n) {
+            Some(Step::Search { positive, fast: quick, .. }) => {
+                self.phase = Phase::Running(n);
+                self.reversed = false;
+                self.search(positive, if quick { fast } else { slow }, acceleration)
+            }
+            Some(Step::BackOff { distance }) => {
+                self.phase = Phase::Running(n);
+                let target = self.planner.state().position.saturating_add(distance);
+                self.planner.plan(target, 0, &self.limits(slow, acceleration)).is_ok()
+            }
+            None => {
+                self.phase = Phase::Finishing;
+                let rest = self.home.unwrap_or(input.actual).saturating_add(self.program.rest_offset);
+                self.planner.plan(rest, 0, &self.limits(slow, acceleration)).is_ok()
+            }
+        }
+    }
+
+    fn fail(&mut self, acceleration: u32, outcome: &mut Outcome) {
+        let limits = self.limits(u32::MAX, acceleration);
+        let _ = self.planner.stop(acceleration.max(1), &limits);
+        self.phase = Phase::Stopping { error: true };
+        outcome.error = true;
+    }
+
+    /// One tick of homing; returns the demand position (increments) and what happened.
+    pub fn tick<const B: usize>(&mut self, input: &Inputs<'_, B>, halt_deceleration: u32) -> (i64, Outcome) {
+        let mut outcome = Outcome::default();
+        let (_, _, acceleration) = input.speeds;
+        let bit4 = input.controlword & 0x0010 != 0;
+        let halt = input.controlword & 0x0100 != 0;
+        let inputs = input.inputs;
+        let previous = core::mem::replace(&mut self.previous_inputs, inputs);
+
+        if input.start && !halt {
+            self.start(input, &mut outcome);
+        }
+        if !input.enabled {
+            // Only method 35 completes outside Operation enabled; nothing moves here.
+            self.planner.reset(input.actual);
+            if matches!(self.phase, Phase::Running(_) | Phase::Finishing | Phase::Stopping { .. }) {
+                self.phase = Phase::Idle;
+            }
+            return (input.actual, outcome);
+        }
+
+        let running = matches!(self.phase, Phase::Running(_) | Phase::Finishing);
+        if running && (halt || !bit4) {
+            let limits = self.limits(u32::MAX, halt_deceleration);
+            let _ = self.planner.stop(halt_deceleration.max(1), &limits);
+            self.phase = Phase::Stopping { error: false };
+        }
+        if running && input.following_error {
+            self.fail(acceleration, &mut outcome);
+        }
+        if let (Some(since), true) = (self.started_at, running) {
+            if self.config.timeout != Duration::ZERO && input.now - since > self.config.timeout {
+                self.fail(acceleration, &mut outcome);
+            }
+        }
+        if matches!(self.phase, Phase::Running(_))
+            && Signal::NegativeLimit.active(inputs)
+            && Signal::PositiveLimit.active(inputs)
+        {
+            self.fail(acceleration, &mut outcome);
+        }
+
+        if let Phase::Running(n) = self.phase {
+            self.run_step(n, input, previous, &mut outcome);
+        }
+
+        let state = self.planner.step();
+        if self.planner.is_finished() {
+            match self.phase {
+                Phase::Finishing => {
+                    self.phase = Phase::Done;
+                    self.homed = true;
+                }
+                Phase::Stopping { error } => self.phase = if error { Phase::Failed } else { Phase::Idle },
+                Phase::Running(n) => match self.program.get(n) {
+                    Some(Step::BackOff { .. }) => {
+                        if !self.begin(n + 1, input) {
+                            self.fail(acceleration, &mut outcome);
+                        }
+                    }
+                    // A search that ran out of road: its event never came.
+                    _ => self.fail(acceleration, &mut outcome),
+                },
+                _ => {}
+            }
+        }
+        (state.position, outcome)
+    }
+
+    fn start<const B: usize>(&mut self, input: &Inputs<'_, B>, outcome: &mut Outcome) {
+        let method: i8 = input.od.get(HOMING_METHOD, 0).unwrap_or(0);
+        self.homed = false;
+        self.home = None;
+        self.first_mark = None;
+        self.started_at = Some(input.now);
+        if matches!(method, 35) || (method == 37 && self.config.method_37) {
+            // The current position is home: no motion, also outside Operation enabled.
+            self.planner.reset(input.actual);
+            self.home = Some(input.actual);
+            outcome.home = self.home;
+            self.homed = true;
+            self.phase = Phase::Done;
+            return;
+        }
+        if !input.enabled {
+            return;
+        }
+        let back_off = self
+            .config
+            .hard_stop_object
+            .and_then(|index| input.od.get::<u32>(index, 3).ok())
+            .map_or(100, i64::from);
+        match Program::of(method, input.inputs, self.config.vendor(method), back_off) {
+            Some(program) if method != 0 => {
+                self.program = program;
+                self.planner.reset(input.actual);
+                if !self.begin(0, input) {
+                    self.fail(input.speeds.2, outcome);
+                }
+            }
+            _ => self.fail(input.speeds.2, outcome),
+        }
+    }
+
+    fn run_step<const B: usize>(
+        &mut self,
+        n: usize,
+        input: &Inputs<'_, B>,
+        previous: DigitalInputs,
+        outcome: &mut Outcome,
+    ) {
+        let Some(Step::Search { until, mark, reverse_on_limit, .. }) = self.program.get(n) else { return };
+        let inputs = input.inputs;
+        let acceleration = input.speeds.2;
+        let rose = |s: Signal| s.active(inputs) && !s.active(previous);
+        let fell = |s: Signal| !s.active(inputs) && s.active(previous);
+        let event = match until {
+            Until::On(s) => rose(s),
+            Until::Off(s) => fell(s),
+            Until::Index => inputs.contains(DigitalInputs::INDEX),
+            Until::HardStop => self.hard_stop(input),
+        };
+        if event {
+            match mark {
+                Mark::Home => self.home = Some(input.actual),
+                Mark::First => self.first_mark = Some(input.actual),
+                Mark::Midpoint => {
+                    let first = self.first_mark.unwrap_or(input.actual);
+                    self.home = Some(first + (input.actual - first) / 2);
+                }
+                Mark::None => {}
+            }
+            if matches!(mark, Mark::Home | Mark::Midpoint) {
+                outcome.home = self.home;
+            }
+            if matches!(until, Until::HardStop) {
+                // Stop pushing: the demand jumps back to where the shaft is.
+                self.planner.reset(input.actual);
+            }
+            if !self.begin(n + 1, input) {
+                self.fail(acceleration, outcome);
+            }
+            return;
+        }
+        // A limit switch ahead that the search does not look for.
+        let ahead = if self.positive { Signal::PositiveLimit } else { Signal::NegativeLimit };
+        let sought = matches!(until, Until::On(s) | Until::Off(s) if s == ahead);
+        if rose(ahead) && !sought {
+            if reverse_on_limit && !self.reversed {
+                let (fast, _, _) = input.speeds;
+                self.reversed = true;
+                if !self.search(!self.positive, fast, acceleration) {
+                    self.fail(acceleration, outcome);
+                }
+            } else {
+                self.fail(acceleration, outcome);
+            }
+        }
+    }
+
+    /// |torque| at or above the threshold for the detection time.
+    fn hard_stop<const B: usize>(&mut self, input: &Inputs<'_, B>) -> bool {
+        let index = self.config.hard_stop_object;
+        let threshold = index.and_then(|i| input.od.get::<u16>(i, 1).ok()).unwrap_or(500);
+        let time = index.and_then(|i| input.od.get::<u16>(i, 2).ok()).unwrap_or(50);
+        if input.torque.unsigned_abs() < threshold {
+            self.above_threshold_since = None;
+            return false;
+        }
+        let since = *self.above_threshold_since.get_or_insert(input.now);
+        input.now - since >= Duration::from_millis(u64::from(time))
+    }
+}
