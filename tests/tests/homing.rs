@@ -304,7 +304,7 @@ fn l_132_homed_status_survives_a_mode_round_trip() {
 #[test]
 fn l_133_l_134_method_values_and_sizes() {
     let mut bench = Bench::new();
-    for method in [15i8, 16, 31, 32, 36, 37, 100, 127, -1] {
+    for method in [15i8, 16, 31, 32, 37, 100, 127, -1] {
         assert_eq!(
             bench.sdo1(&req(0x2F, 0x6098, 0, [method as u8, 0, 0, 0])),
             abort(0x6098, 0, 0x0609_0030),
@@ -316,6 +316,16 @@ fn l_133_l_134_method_values_and_sizes() {
     // hm is listed in 6502h.
     let modes = bench.sdo1(&req(0x40, 0x6502, 0, [0; 4]));
     assert_eq!(modes[4] & 0x20, 0x20);
+}
+
+#[test]
+fn i_81_polarity_has_no_effect_on_homing_directions() {
+    let mut bench = enabled_hm(scene(34), 0);
+    write(&mut bench, 0x607E, &[0x80]);
+    let run = home(&mut bench, 34, 10);
+    assert_eq!(run.statuses.last(), Some(&(0, 1, 1)));
+    assert_eq!(run.home, 150, "first index moving positive in encoder counts");
+    assert!(run.span.0 >= 0, "never moved negative: {run:?}");
 }
 
 #[test]

@@ -70,6 +70,9 @@ pub struct Sample {
     /// The board's local control owns the drive (e.g. a service switch): the controlword is not
     /// processed and statusword bit 9 (remote) is 0; SDO access and actual values go on.
     pub local_control: bool,
+    /// Where the board's capture hardware (if any) saw the edges of this sample: touch probe
+    /// inputs and the index pulse. Default: edges are taken at the sampled position.
+    pub captures: crate::cia402::probe::Capture,
 }
 
 /// The set-point for the loops the board closes itself.

@@ -32,7 +32,9 @@
 //! - **35** — the current position is home; no motion, and it also works outside Operation
 //!   enabled (on the bit 4 edge in Switched on, say). **37** is the later editions' number for
 //!   the same thing, accepted when [`HomingConfig::method_37`] is set.
-//! - **36** — touch probe: not in this build (refused).
+//! - **36** — touch probe: moves positive at the zero-search speed until touch probe 1
+//!   (60B8h, enabled and configured by the master: input or index pulse, edge) latches; home is
+//!   the latched position (the probe's own capture, so as exact as the board's capture).
 //! - **Negative numbers** — the vendor's, from [`HomingConfig::vendor_methods`]: drive into a
 //!   mechanical stop until |torque| ≥ the threshold for the set time, back off, optionally search
 //!   the index pulse; or home midway between the two stops, or between the two limit switches.
@@ -110,7 +112,7 @@ impl HomingConfig {
 
     /// Whether 6098h may hold `method`.
     pub fn supports(&self, method: i8) -> bool {
-        matches!(method, 0..=14 | 17..=30 | 33..=35)
+        matches!(method, 0..=14 | 17..=30 | 33..=36)
             || (method == 37 && self.method_37)
             || (method < 0 && self.vendor(method).is_some())
     }
@@ -152,6 +154,8 @@ enum Until {
     Off(Signal),
     Index,
     HardStop,
+    /// Touch probe 1 latched a position.
+    Probe,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -301,6 +305,7 @@ impl Program {
                 p.zone(home, positive, upper, approach, method <= 14);
             }
             33 => p.search(false, false, Until::Index, Mark::Home),
+            36 => p.search(true, false, Until::Probe, Mark::Home),
             34 => p.search(true, false, Until::Index, Mark::Home),
             _ => match vendor? {
                 VendorMethod::HardStop { positive, index } => {
@@ -397,6 +402,8 @@ pub struct Inputs<'a, const B: usize> {
     pub enabled: bool,
     /// 6099h/609Ah converted to increments: (switch speed, zero speed, acceleration).
     pub speeds: (u32, u32, u32),
+    /// The position touch probe 1 latched in this tick (method 36).
+    pub probe: Option<i64>,
     /// The following error condition of the position control function.
     pub following_error: bool,
     /// Now.
@@ -664,19 +671,25 @@ impl Homing {
         let acceleration = input.speeds.2;
         let rose = |s: Signal| s.active(inputs) && !s.active(previous);
         let fell = |s: Signal| !s.active(inputs) && s.active(previous);
+        // Where the event happened: the probe's latch, else the position of this tick.
+        let at = match until {
+            Until::Probe => input.probe.unwrap_or(input.actual),
+            _ => input.actual,
+        };
         let event = match until {
             Until::On(s) => rose(s),
             Until::Off(s) => fell(s),
             Until::Index => inputs.contains(DigitalInputs::INDEX),
             Until::HardStop => self.hard_stop(input),
+            Until::Probe => input.probe.is_some(),
         };
         if event {
             match mark {
-                Mark::Home => self.home = Some(input.actual),
-                Mark::First => self.first_mark = Some(input.actual),
+                Mark::Home => self.home = Some(at),
+                Mark::First => self.first_mark = Some(at),
                 Mark::Midpoint => {
-                    let first = self.first_mark.unwrap_or(input.actual);
-                    self.home = Some(first + (input.actual - first) / 2);
+                    let first = self.first_mark.unwrap_or(at);
+                    self.home = Some(first + (at - first) / 2);
                 }
                 Mark::None => {}
             }

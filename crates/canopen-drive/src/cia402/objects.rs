@@ -2,6 +2,10 @@
 //! `cia402-objects.csv`), with their CiA 402 defaults, and the value rules SDO writes must obey.
 
 use super::config::{OptionCodes, ProfileConfig};
+pub use super::probe::{
+    TOUCH_PROBE_1_NEGATIVE_EDGE, TOUCH_PROBE_1_POSITIVE_EDGE, TOUCH_PROBE_2_NEGATIVE_EDGE,
+    TOUCH_PROBE_2_POSITIVE_EDGE, TOUCH_PROBE_FUNCTION, TOUCH_PROBE_STATUS,
+};
 use crate::od::{
     layout, AbortCode, Access, DataType, DefaultValue, DeviceField, Dictionary, Object, PdoMapping, Var,
 };
@@ -268,7 +272,7 @@ const DIGITAL_OUTPUT_SUBS: [(u8, Var); 3] = [
 ];
 
 /// The profile objects, ascending.
-pub static PROFILE: [Object; 79] = layout([
+pub static PROFILE: [Object; 85] = layout([
     option_code(ABORT_CONNECTION_OPTION_CODE, "Abort connection option code", 1),
     actual(ERROR_CODE, "Error code", DataType::Unsigned16),
     command(CONTROLWORD, "Controlword", DataType::Unsigned16),
@@ -376,6 +380,12 @@ pub static PROFILE: [Object; 79] = layout([
     command(0x60B0, "Position offset", DataType::Integer32),
     command(0x60B1, "Velocity offset", DataType::Integer32),
     command(0x60B2, "Torque offset", DataType::Integer16),
+    parameter(TOUCH_PROBE_FUNCTION, "Touch probe function", DataType::Unsigned16, DefaultValue::Zero),
+    actual(TOUCH_PROBE_STATUS, "Touch probe status", DataType::Unsigned16),
+    actual(TOUCH_PROBE_1_POSITIVE_EDGE, "Touch probe 1 positive edge", DataType::Integer32),
+    actual(TOUCH_PROBE_1_NEGATIVE_EDGE, "Touch probe 1 negative edge", DataType::Integer32),
+    actual(TOUCH_PROBE_2_POSITIVE_EDGE, "Touch probe 2 positive edge", DataType::Integer32),
+    actual(TOUCH_PROBE_2_NEGATIVE_EDGE, "Touch probe 2 negative edge", DataType::Integer32),
     setting(MAX_ACCELERATION, "Max acceleration", DataType::Unsigned32, DefaultValue::Unsigned(100_000)),
     setting(MAX_DECELERATION, "Max deceleration", DataType::Unsigned32, DefaultValue::Unsigned(100_000)),
     parameter(POSITIONING_OPTION_CODE, "Positioning option code", DataType::Unsigned16, DefaultValue::Zero),
@@ -434,6 +444,7 @@ pub fn check_write<const B: usize>(
         TORQUE_PROFILE_TYPE => value == 0,
         PROFILE_JERK_USE => matches!(raw, 1 | 2 | 4),
         HOMING_METHOD => config.homing.supports(raw as u8 as i8),
+        TOUCH_PROBE_FUNCTION => return super::probe::check_write(raw as u16),
         // Relative option 00/01/10 only; change-immediately and request-response options are not
         // implemented (testable item 100).
         POSITIONING_OPTION_CODE => raw & !0x0003 == 0 && raw & 0x0003 != 0x0003,

@@ -40,6 +40,7 @@ use super::fsa::{Fsa, Options, State, StopKind};
 use super::hm::{self, Homing};
 use super::objects::*;
 use super::pp::{self, ProfilePosition};
+use super::probe::{Changed, TouchProbe};
 use crate::comm::emcy::ErrorRegister;
 use crate::control::{Actual, Cascade, Parameters, Reference};
 use crate::drive::ConnectionEvent;
@@ -106,6 +107,7 @@ pub struct Profile {
     torque: Ramp,
     pp: ProfilePosition,
     homing: Homing,
+    probe: TouchProbe,
     /// The encoder count at the user zero: moved by homing (digest §10.5).
     origin: i64,
     /// A homing error EMCY (8613h) is active.
@@ -177,6 +179,7 @@ impl Profile {
             torque: Ramp::default(),
             pp: ProfilePosition::new(&config, 0),
             homing: Homing::new(config.homing, config.tick_rate, 0),
+            probe: TouchProbe::new(),
             origin: 0,
             homing_error: false,
             last_tick: None,
@@ -293,6 +296,31 @@ impl Profile {
         let _ = od.set::<u32>(DC_LINK_VOLTAGE, 0, sample.dc_link_millivolts);
         // 60FDh bits 0..3: negative/positive limit, home, interlock (the hal uses the same bits).
         let _ = od.set::<u32>(DIGITAL_INPUTS, 0, sample.inputs.bits() & 0x0F);
+
+        // Touch probe (digest §10.6): latched in increments, reported in user units.
+        let probe =
+            self.probe.tick(get(od, TOUCH_PROBE_FUNCTION), sample.inputs, sample.position, &sample.captures);
+        let _ = od.set::<u16>(TOUCH_PROBE_STATUS, 0, probe.status);
+        let to_user = |p: i32| saturate(factors.to_user(i64::from(p) - self.origin) * position_sign);
+        let latched = [
+            (Changed::PROBE_1_POSITIVE, TOUCH_PROBE_1_POSITIVE_EDGE, probe.positive[0]),
+            (Changed::PROBE_1_NEGATIVE, TOUCH_PROBE_1_NEGATIVE_EDGE, probe.negative[0]),
+            (Changed::PROBE_2_POSITIVE, TOUCH_PROBE_2_POSITIVE_EDGE, probe.positive[1]),
+            (Changed::PROBE_2_NEGATIVE, TOUCH_PROBE_2_NEGATIVE_EDGE, probe.negative[1]),
+        ];
+        for (flag, index, position) in latched {
+            if probe.changed.contains(flag) {
+                let _ = od.set::<i32>(index, 0, to_user(position));
+            }
+        }
+        // Probe 1's latch of this tick, for touch-probe homing (method 36).
+        let probe_1 = if probe.changed.contains(Changed::PROBE_1_POSITIVE) {
+            Some(i64::from(probe.positive[0]))
+        } else if probe.changed.contains(Changed::PROBE_1_NEGATIVE) {
+            Some(i64::from(probe.negative[0]))
+        } else {
+            None
+        };
 
         // Faults: a new one is latched and reported; it stays until a fault reset succeeds.
         let hardware = fault_code(sample.faults);
@@ -476,6 +504,7 @@ impl Profile {
                     inputs: sample.inputs,
                     enabled: drive_enabled,
                     speeds,
+                    probe: probe_1,
                     following_error: self.following_error_since.is_some_and(|since| {
                         let time = u64::from(get::<B, u16>(od, FOLLOWING_ERROR_TIME_OUT));
                         now - since > Duration::from_millis(time)
