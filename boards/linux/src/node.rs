@@ -25,7 +25,7 @@ use std::path::Path;
 use canopen_drive::drive::DEFAULT_OD_BYTES;
 use canopen_drive::storage::Persistence;
 use canopen_drive::{CanFrame, Config, Drive, Duration, Instant};
-use canopen_drive_sim::motor::SimMotor;
+use canopen_drive_sim::motor::{MotorParams, SimMotor, Zone};
 
 use crate::board_objects::{BoardHooks, BOARD_OBJECTS};
 use crate::bus::Bus;
@@ -86,6 +86,22 @@ impl Clock {
     }
 }
 
+/// The simulated axis of this program (README): 10 000 increments per revolution, an index
+/// pulse every revolution at 0, limit switches active beyond ±100 000, a home switch active from
+/// 20 000 to 30 000, elastic hard stops at ±120 000 — every homing method has a scene.
+pub fn axis() -> MotorParams {
+    MotorParams {
+        negative_limit_switch: Some(-100_000),
+        positive_limit_switch: Some(100_000),
+        home_switch: Some(Zone::between(20_000, 30_000)),
+        negative_hard_stop: Some(-120_000),
+        positive_hard_stop: Some(120_000),
+        hard_stop_stiffness: 1000.0,
+        hard_stop_damping: 2.0,
+        ..MotorParams::default()
+    }
+}
+
 /// Runs `drive` on `bus` until `stop` is set. `frames` are the frames the bus addresses to
 /// the drive.
 pub fn run<S: Persistence>(
@@ -96,7 +112,7 @@ pub fn run<S: Persistence>(
     lss_file: Option<&Path>,
 ) {
     let clock = Clock(std::time::Instant::now());
-    let mut motor = SimMotor::new();
+    let mut motor = SimMotor::with_params(axis());
     let mut last_tick = clock.now();
     let mut next_tick = last_tick + TICK_PERIOD;
     let mut tx_dropped = 0;
