@@ -482,3 +482,21 @@ fn vendor_methods_are_accepted_only_when_configured() {
     }
     assert_eq!(bench.sdo1(&req(0x2F, 0x6098, 0, [0xFB, 0, 0, 0])), abort(0x6098, 0, 0x0609_0030));
 }
+
+#[test]
+fn hard_stop_homing_against_elastic_stops_stays_at_the_stop() {
+    let params = MotorParams {
+        negative_limit_switch: None,
+        positive_limit_switch: None,
+        ..MotorParams::homing_axis()
+    };
+    // −1: home at the stop; −2: backed off from −2000 to −1800, then the next index (−850).
+    for (method, stop) in [(-1i8, 22_000), (-2, -850)] {
+        let mut bench = hard_stop_bench(params, 10_000);
+        let run = home(&mut bench, method, 60);
+        assert_eq!(run.statuses.last(), Some(&(0, 1, 1)), "{run:?}");
+        assert!((run.home - stop).abs() <= 10, "home: {run:?}");
+        let penetration = node(&mut bench).motor.max_hard_stop_penetration();
+        assert!(penetration < 10.0, "pressed {penetration} increments into the stop");
+    }
+}
