@@ -75,8 +75,10 @@
 //! - [`Setpoint::Velocity`]: a PI velocity loop
 //!   (`τ = kp·(v* − v) + ki·∫(v* − v)`).
 //! - [`Setpoint::Position`]: a P position loop giving the velocity set-point of the same PI
-//!   loop (`v* = position_gain·(x* − x)`); the position error is taken modulo 2³², like the
-//!   encoder count.
+//!   loop (`v* = position_gain·(x* − x) + v_ff`); the position error is taken modulo 2³², like
+//!   the encoder count.
+//! - The demand's [`canopen_drive::hal::FeedForward`]: its velocity is added to the velocity
+//!   set-point of the position loop, its torque to the output of the velocity loop.
 //!
 //! The torque is always clamped to ±[`MotorParams::max_torque`]. The integrator stops
 //! integrating while the output saturates in the direction of the error (anti-windup), is
@@ -931,6 +933,7 @@ impl SimMotor {
         let p = &self.params;
         let max = p.max_torque.max(0.0);
         let resolution = self.resolution();
+        let feed_forward = self.demand.feed_forward;
         let velocity_setpoint = match setpoint {
             Setpoint::None => return 0.0,
             Setpoint::Torque(torque) => return f64::from(torque).clamp(-max, max),
@@ -940,11 +943,11 @@ impl SimMotor {
                 // fraction the count rounded away.
                 let position = self.position();
                 let error = f64::from(target.wrapping_sub(self.count())) - (position - position.round());
-                p.position_gain * error / resolution
+                (p.position_gain * error + f64::from(feed_forward.velocity)) / resolution
             }
         };
         let error = velocity_setpoint - self.velocity;
-        let unlimited = p.velocity_proportional_gain * error + self.integral;
+        let unlimited = p.velocity_proportional_gain * error + self.integral + f64::from(feed_forward.torque);
         let torque = unlimited.clamp(-max, max);
         let winding_up = (unlimited > max && error > 0.0) || (unlimited < -max && error < 0.0);
         if !winding_up {
@@ -986,12 +989,12 @@ mod tests {
     use super::*;
 
     fn on(setpoint: Setpoint) -> Demand {
-        Demand { high_voltage: true, drive_enabled: true, brake_released: true, setpoint }
+        Demand { high_voltage: true, drive_enabled: true, brake_released: true, setpoint, ..Demand::OFF }
     }
 
     /// Brake released, stage off.
     const FREE: Demand =
-        Demand { high_voltage: true, drive_enabled: false, brake_released: true, setpoint: Setpoint::None };
+        Demand { high_voltage: true, drive_enabled: false, brake_released: true, ..Demand::OFF };
 
     fn run(motor: &mut SimMotor, demand: Demand, millis: u64) {
         for _ in 0..millis {
@@ -1076,9 +1079,27 @@ mod tests {
     fn no_torque_unless_enabled_with_high_voltage_and_dc_link() {
         let push = Setpoint::Torque(1000);
         let cases = [
-            Demand { high_voltage: true, drive_enabled: false, brake_released: true, setpoint: push },
-            Demand { high_voltage: false, drive_enabled: true, brake_released: true, setpoint: push },
-            Demand { high_voltage: false, drive_enabled: false, brake_released: true, setpoint: push },
+            Demand {
+                high_voltage: true,
+                drive_enabled: false,
+                brake_released: true,
+                setpoint: push,
+                ..Demand::OFF
+            },
+            Demand {
+                high_voltage: false,
+                drive_enabled: true,
+                brake_released: true,
+                setpoint: push,
+                ..Demand::OFF
+            },
+            Demand {
+                high_voltage: false,
+                drive_enabled: false,
+                brake_released: true,
+                setpoint: push,
+                ..Demand::OFF
+            },
         ];
         for demand in cases {
             let mut m = SimMotor::new();

@@ -160,6 +160,8 @@ pub struct Drive<
     bus_off: bool,
     connection_event: Option<ConnectionEvent>,
     sync: Sync,
+    /// What the tick learns about the SYNC cycle (cyclic modes).
+    cycle: CycleFlags,
     pdos: PdoSet<RPDOS, TPDOS>,
     lss: LssSlave,
     lss_requests: LssRequests,
@@ -167,6 +169,19 @@ pub struct Drive<
     tx: TxQueue,
     hooks: H,
     storage: S,
+}
+
+/// The SYNC cycle as the tick sees it.
+#[derive(Clone, Copy, Debug, Default)]
+struct CycleFlags {
+    /// A SYNC arrived since the last tick; `fresh`: an RPDO came in the cycle before it.
+    sync: Option<bool>,
+    /// An RPDO arrived since the last SYNC.
+    rpdo_since_sync: bool,
+    /// The last tick.
+    last_tick: Option<Instant>,
+    /// Time from the last tick to the last SYNC.
+    phase: Option<Duration>,
 }
 
 /// What LSS services asked of the drive during one frame.
@@ -279,6 +294,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
             bus_off: false,
             connection_event: None,
             sync: Sync::default(),
+            cycle: CycleFlags::default(),
             pdos: PdoSet::default(),
             lss: LssSlave::new(
                 LssAddress {
@@ -638,7 +654,10 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
         if self.nmt.serves_pdo() {
             self.pdos.apply_ready(&mut self.od, &mut self.hooks);
         }
-        let (demand, report) = self.profile.tick(now, sample, &mut self.od);
+        let sync = self.cycle.sync.take();
+        self.cycle.last_tick = Some(now);
+        let cycle = crate::cia402::profile::SyncInput { sync: sync.is_some(), fresh: sync.unwrap_or(false) };
+        let (demand, report) = self.profile.tick(now, sample, &mut self.od, cycle);
         if let Some((code, register)) = report.raise {
             self.raise_error(code, register, [0; 5]);
         }
@@ -656,6 +675,12 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
             self.pdos.detect_changes(now, &self.od, &mut self.tx);
         }
         demand
+    }
+
+    /// Time from the last tick to the last SYNC: a board that steers its PWM timer onto SYNC
+    /// keeps it constant. Also in [`crate::cia402::cyclic::CyclicConfig::sync_phase_object`].
+    pub fn sync_phase(&self) -> Option<Duration> {
+        self.cycle.phase
     }
 
     /// The CiA 402 state of the axis.
@@ -687,6 +712,15 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
             }
             SyncReception::Sync(event) => {
                 self.clear_error(code::SYNC_LENGTH);
+                self.cycle.sync = Some(core::mem::take(&mut self.cycle.rpdo_since_sync));
+                if let Some(tick) = self.cycle.last_tick {
+                    let phase = now - tick;
+                    self.cycle.phase = Some(phase);
+                    if let Some(index) = self.profile.config().cyclic.sync_phase_object {
+                        let micros = u32::try_from(phase.as_micros()).unwrap_or(u32::MAX);
+                        let _ = self.od.set::<u32>(index, 0, micros);
+                    }
+                }
                 if self.sync.take_recovered() {
                     self.clear_error(code::COMMUNICATION);
                 }
@@ -714,6 +748,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
         for event in events {
             self.pdo_event(event, now);
         }
+        self.cycle.rpdo_since_sync |= taken;
         taken
     }
 

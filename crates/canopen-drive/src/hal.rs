@@ -100,12 +100,33 @@ pub struct Demand {
     pub brake_released: bool,
     /// The set-point, meaningful while `drive_enabled`.
     pub setpoint: Setpoint,
+    /// Feed-forward for the loops under the set-point (trajectory velocity, 60B1h/60B2h).
+    pub feed_forward: FeedForward,
+}
+
+/// Feed-forward values that come with a position or velocity set-point.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct FeedForward {
+    /// Velocity in increments per second (with a position set-point).
+    pub velocity: i32,
+    /// Torque in thousandths of the rated torque (with a position or velocity set-point).
+    pub torque: i16,
+}
+
+impl FeedForward {
+    /// No feed-forward.
+    pub const NONE: FeedForward = FeedForward { velocity: 0, torque: 0 };
 }
 
 impl Demand {
     /// Everything off: no power, brake engaged, no set-point.
-    pub const OFF: Demand =
-        Demand { high_voltage: false, drive_enabled: false, brake_released: false, setpoint: Setpoint::None };
+    pub const OFF: Demand = Demand {
+        high_voltage: false,
+        drive_enabled: false,
+        brake_released: false,
+        setpoint: Setpoint::None,
+        feed_forward: FeedForward::NONE,
+    };
 }
 
 /// The sensors of a board.

@@ -33,10 +33,16 @@ impl Bench {
 
     /// A booted drive whose configuration `adjust` changed.
     pub fn with_config(adjust: impl FnOnce(Config) -> Config) -> Self {
+        Bench::with_config_and_tick(adjust, Duration::from_millis(1))
+    }
+
+    /// A booted drive whose configuration `adjust` changed, ticked every `tick` (the
+    /// configuration's tick rate must agree).
+    pub fn with_config_and_tick(adjust: impl FnOnce(Config) -> Config, tick: Duration) -> Self {
         let config = adjust(Config { manufacturer_objects: &TEST_OBJECTS, ..Config::new(NODE) });
         let drive = Drive::with_hooks(config, TestHooks::default()).unwrap();
         let mut bus = VirtualBus::new();
-        let node = bus.add_node(DriveNode::new(drive, Duration::from_millis(1)));
+        let node = bus.add_node(DriveNode::new(drive, tick));
         let mut bench = Bench { bus, node };
         let boot = bench.advance(Duration::ZERO);
         assert_eq!(boot, vec![frame(ERROR_CONTROL, &[0x00])]);

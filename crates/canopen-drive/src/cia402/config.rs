@@ -6,6 +6,7 @@
 //! The supported modes are [`crate::od::DeviceInfo::drive_modes`] (they are also the value of
 //! 6502h).
 
+use super::cyclic::CyclicConfig;
 use super::hm::HomingConfig;
 use crate::motion::TickRate;
 use crate::time::Duration;
@@ -94,6 +95,8 @@ pub struct ProfileConfig {
     pub brake_engage_delay: Duration,
     /// Homing methods beyond the standard ones, and the homing time limit.
     pub homing: HomingConfig,
+    /// Cyclic synchronous modes: bridging of a lost stream, the SYNC phase object.
+    pub cyclic: CyclicConfig,
 }
 
 impl ProfileConfig {
@@ -113,6 +116,7 @@ impl ProfileConfig {
             brake_release_delay: Duration::ZERO,
             brake_engage_delay: Duration::ZERO,
             homing: HomingConfig::new(),
+            cyclic: CyclicConfig::new(),
         }
     }
 

@@ -36,7 +36,8 @@
 //!   (60B8h, enabled and configured by the master: input or index pulse, edge) latches; home is
 //!   the latched position (the probe's own capture, so as exact as the board's capture).
 //! - **Negative numbers** — the vendor's, from [`HomingConfig::vendor_methods`]: drive into a
-//!   mechanical stop until |torque| ≥ the threshold for the set time, back off, optionally search
+//!   mechanical stop until |torque| ≥ the threshold for the set time while the shaft moves at
+//!   less than half the search speed, back off, optionally search
 //!   the index pulse; or home midway between the two stops, or between the two limit switches.
 //!   Thresholds, time and back-off are the RECORD at [`HomingConfig::hard_stop_object`]
 //!   ([`hard_stop_object`]).
@@ -396,6 +397,8 @@ pub struct Inputs<'a, const B: usize> {
     pub actual: i64,
     /// Torque actual (‰).
     pub torque: i16,
+    /// Velocity actual (increments/s).
+    pub velocity: i32,
     /// Switches and index pulse.
     pub inputs: DigitalInputs,
     /// The drive function is enabled (Operation enabled).
@@ -721,12 +724,14 @@ impl Homing {
         }
     }
 
-    /// |torque| at or above the threshold for the detection time.
+    /// |torque| at or above the threshold for the detection time while the shaft is held back
+    /// (below half the search speed: accelerating to the search speed needs torque too).
     fn hard_stop<const B: usize>(&mut self, input: &Inputs<'_, B>) -> bool {
         let index = self.config.hard_stop_object;
         let threshold = index.and_then(|i| input.od.get::<u16>(i, 1).ok()).unwrap_or(500);
         let time = index.and_then(|i| input.od.get::<u16>(i, 2).ok()).unwrap_or(50);
-        if input.torque.unsigned_abs() < threshold {
+        let blocked = i64::from(input.velocity).unsigned_abs() * 2 < u64::from(input.speeds.1);
+        if input.torque.unsigned_abs() < threshold || !blocked {
             self.above_threshold_since = None;
             return false;
         }

@@ -5,12 +5,14 @@
 //! - [`factor`]: the factor group and polarity (user units ↔ increments).
 //! - [`pp`]: profile position mode.
 //! - [`hm`]: homing mode.
+//! - [`cyclic`]: cyclic synchronous position, velocity and torque modes.
 //! - [`probe`]: the touch probe function (60B8h–60BDh), latching positions at probe edges.
 //! - [`objects`]: the profile objects with their defaults and value rules.
 //! - [`profile`]: the run-time of one axis: FSA, option-code stops, modes (pv, tq), statusword,
 //!   actual values and the demand for the power stage.
 
 pub mod config;
+pub mod cyclic;
 pub mod factor;
 pub mod fsa;
 pub mod hm;

@@ -120,6 +120,14 @@ pub const HOMING_ACCELERATION: u16 = 0x609A;
 pub const PROFILE_JERK_USE: u16 = 0x60A3;
 /// 60A4h profile jerk (subs 1–4).
 pub const PROFILE_JERK: u16 = 0x60A4;
+/// 60B0h position offset.
+pub const POSITION_OFFSET: u16 = 0x60B0;
+/// 60B1h velocity offset.
+pub const VELOCITY_OFFSET: u16 = 0x60B1;
+/// 60B2h torque offset.
+pub const TORQUE_OFFSET: u16 = 0x60B2;
+/// 60C2h interpolation time period (sub 1 value, sub 2 index: value × 10^index s).
+pub const INTERPOLATION_TIME_PERIOD: u16 = 0x60C2;
 /// 60C5h max acceleration.
 pub const MAX_ACCELERATION: u16 = 0x60C5;
 /// 60C6h max deceleration.
@@ -155,6 +163,12 @@ pub mod mode {
     pub const PROFILE_TORQUE: i8 = 4;
     /// Homing.
     pub const HOMING: i8 = 6;
+    /// Cyclic synchronous position.
+    pub const CYCLIC_POSITION: i8 = 8;
+    /// Cyclic synchronous velocity.
+    pub const CYCLIC_VELOCITY: i8 = 9;
+    /// Cyclic synchronous torque.
+    pub const CYCLIC_TORQUE: i8 = 10;
 }
 
 /// 6502h bits (digest §7.3) of each mode.
@@ -167,12 +181,23 @@ pub mod mode_bit {
     pub const PROFILE_TORQUE: u32 = 1 << 3;
     /// Homing.
     pub const HOMING: u32 = 1 << 5;
+    /// Cyclic synchronous position.
+    pub const CYCLIC_POSITION: u32 = 1 << 7;
+    /// Cyclic synchronous velocity.
+    pub const CYCLIC_VELOCITY: u32 = 1 << 8;
+    /// Cyclic synchronous torque.
+    pub const CYCLIC_TORQUE: u32 = 1 << 9;
 }
 
-/// The modes this crate runs: pp, pv, tq and hm (the default of
+/// The modes this crate runs: pp, pv, tq, hm, csp, csv and cst (the default of
 /// [`crate::od::DeviceInfo::drive_modes`]).
-pub const IMPLEMENTED_MODES: u32 =
-    mode_bit::PROFILE_POSITION | mode_bit::PROFILE_VELOCITY | mode_bit::PROFILE_TORQUE | mode_bit::HOMING;
+pub const IMPLEMENTED_MODES: u32 = mode_bit::PROFILE_POSITION
+    | mode_bit::PROFILE_VELOCITY
+    | mode_bit::PROFILE_TORQUE
+    | mode_bit::HOMING
+    | mode_bit::CYCLIC_POSITION
+    | mode_bit::CYCLIC_VELOCITY
+    | mode_bit::CYCLIC_TORQUE;
 
 /// A value the master commands (rw, RPDO-mappable).
 const fn command(index: u16, name: &'static str, data_type: DataType) -> Object {

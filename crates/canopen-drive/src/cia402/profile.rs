@@ -35,6 +35,7 @@
 //! i64 µs arithmetic with the remainder carried, so a ramp does not drift.
 
 use super::config::ProfileConfig;
+use super::cyclic::{Bridge, Cycle, Interpolator, Limiter, TickLimits, STREAM_LOST};
 use super::factor::Factors;
 use super::fsa::{Fsa, Options, State, StopKind};
 use super::hm::{self, Homing};
@@ -44,7 +45,7 @@ use super::probe::{Changed, TouchProbe};
 use crate::comm::emcy::ErrorRegister;
 use crate::control::{Actual, Cascade, Parameters, Reference};
 use crate::drive::ConnectionEvent;
-use crate::hal::{Demand, DigitalInputs, HardwareFaults, Sample, Setpoint};
+use crate::hal::{Demand, DigitalInputs, FeedForward, HardwareFaults, Sample, Setpoint};
 use crate::od::Dictionary;
 use crate::time::{Duration, Instant};
 
@@ -60,6 +61,15 @@ pub struct Report {
     pub clear: Option<u16>,
     /// Conditions that come and go without a fault (code, present): EMCY while present.
     pub notices: [Option<(u16, bool)>; 2],
+}
+
+/// What the communication side learnt about the SYNC cycle since the previous tick.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SyncInput {
+    /// A SYNC arrived.
+    pub sync: bool,
+    /// An RPDO arrived in the cycle before that SYNC (the stream delivered).
+    pub fresh: bool,
 }
 
 /// A quantity ramped towards a target at a rate per second, in integer steps with the
@@ -108,6 +118,15 @@ pub struct Profile {
     pp: ProfilePosition,
     homing: Homing,
     probe: TouchProbe,
+    /// Cyclic modes: the interpolated stream and (csp) the position limiter.
+    interpolator: Interpolator,
+    limiter: Limiter,
+    /// The stream is lost beyond the bridged cycles (EMCY 8700h sent).
+    stream_lost: bool,
+    /// A limit acted on the cyclic demand in this tick (statusword bit 11).
+    cyclic_limited: bool,
+    /// Feed-forward of this tick's demand.
+    feed_forward: FeedForward,
     /// The encoder count at the user zero: moved by homing (digest §10.5).
     origin: i64,
     /// A homing error EMCY (8613h) is active.
@@ -180,6 +199,11 @@ impl Profile {
             pp: ProfilePosition::new(&config, 0),
             homing: Homing::new(config.homing, config.tick_rate, 0),
             probe: TouchProbe::new(),
+            interpolator: Interpolator::default(),
+            limiter: Limiter::default(),
+            stream_lost: false,
+            cyclic_limited: false,
+            feed_forward: FeedForward::NONE,
             origin: 0,
             homing_error: false,
             last_tick: None,
@@ -238,16 +262,36 @@ impl Profile {
 
     /// The modes whose demand is a trajectory of positions (pp, hm).
     fn position_mode(&self) -> bool {
-        matches!(self.active_mode, mode::PROFILE_POSITION | mode::HOMING)
+        matches!(self.active_mode, mode::PROFILE_POSITION | mode::HOMING | mode::CYCLIC_POSITION)
+    }
+
+    /// The cyclic synchronous modes.
+    fn cyclic_mode(&self) -> bool {
+        matches!(self.active_mode, mode::CYCLIC_POSITION | mode::CYCLIC_VELOCITY | mode::CYCLIC_TORQUE)
     }
 
     /// The trajectory state of the position modes.
     fn trajectory(&self) -> crate::motion::MotionState {
-        if self.active_mode == mode::HOMING {
-            self.homing.state()
-        } else {
-            self.pp.state()
+        match self.active_mode {
+            mode::HOMING => self.homing.state(),
+            mode::CYCLIC_POSITION => crate::motion::MotionState {
+                position: self.limiter.position(),
+                velocity: self.limiter.velocity(self.config.tick_rate.hz()),
+                acceleration: 0,
+            },
+            _ => self.pp.state(),
         }
+    }
+
+    /// Resets the cyclic modes' state to the axis as it is.
+    fn reset_cyclic(&mut self, actual: i64, velocity: i64) {
+        self.limiter.reset(actual);
+        let start = match self.active_mode {
+            mode::CYCLIC_POSITION => actual,
+            mode::CYCLIC_VELOCITY => velocity,
+            _ => 0,
+        };
+        self.interpolator.reset(start);
     }
 
     /// Velocity demand of the running motion, increments/s.
@@ -270,6 +314,7 @@ impl Profile {
         now: Instant,
         sample: &Sample,
         od: &mut Dictionary<B>,
+        cycle: SyncInput,
     ) -> (Demand, Report) {
         let dt = self.last_tick.map_or(Duration::ZERO, |t| (now - t).min(MAX_STEP));
         self.last_tick = Some(now);
@@ -395,6 +440,7 @@ impl Profile {
             self.pp.reset(actual, actual_user);
             self.homing.reset(actual);
             self.velocity = Ramp { value: i64::from(sample.velocity), remainder: 0 };
+            self.reset_cyclic(actual, i64::from(sample.velocity));
         }
         let _ = od.set::<i8>(MODES_OF_OPERATION_DISPLAY, 0, self.active_mode);
 
@@ -405,12 +451,15 @@ impl Profile {
             self.torque = Ramp::default();
             self.pp.reset(actual, actual_user);
             self.homing.reset(actual);
+            self.reset_cyclic(actual, i64::from(sample.velocity));
         }
         let operation = matches!(step.state, State::OperationEnabled { leaving: None });
         let stop = step.stop.or_else(|| {
             // pp halts on its trajectory, tq ramps its torque to 0 (digest §4.1).
-            let halting =
-                halt && operation && !self.position_mode() && self.active_mode != mode::PROFILE_TORQUE;
+            let halting = halt
+                && operation
+                && !self.position_mode()
+                && !matches!(self.active_mode, mode::PROFILE_TORQUE | mode::CYCLIC_TORQUE);
             // (hm halts on its own trajectory, like pp.)
             let for_switch = switching && operation;
             (halting || for_switch)
@@ -433,8 +482,13 @@ impl Profile {
             };
             factors.limit_to_internal(user).min(max_deceleration)
         };
+        let hz = self.config.tick_rate.hz();
+        let vmax = velocity_limit(od, &factors);
+        let max_acceleration = factors.limit_to_internal(get(od, MAX_ACCELERATION));
         if let Some(kind) = stop.filter(|_| !self.stopping) {
-            if self.active_mode == mode::HOMING {
+            if self.active_mode == mode::CYCLIC_POSITION {
+                self.limiter.stop(&TickLimits::new(vmax, max_acceleration, stop_deceleration(kind), hz));
+            } else if self.active_mode == mode::HOMING {
                 self.homing.stop(stop_deceleration(kind), &pp_limits);
             } else if self.position_mode() {
                 self.pp.stop(stop_deceleration(kind), &pp_limits);
@@ -446,6 +500,8 @@ impl Profile {
 
         let mut drive_enabled = enabled;
         let mut status = pp::Status::default();
+        self.feed_forward = FeedForward::NONE;
+        self.cyclic_limited = false;
         // Brake: opens when the drive function is enabled; the axis is held until it is open.
         // At the end of a ramped stop it closes while the motor still holds.
         if !enabled || step.entered_operation {
@@ -478,7 +534,12 @@ impl Profile {
                 self.velocity = Ramp::default();
                 self.pp.reset(actual, actual_user);
                 self.homing.reset(actual);
+                self.reset_cyclic(actual, 0);
                 Setpoint::None
+            }
+            Some(_) if self.active_mode == mode::CYCLIC_POSITION => {
+                self.limiter.tick(0, &TickLimits::new(vmax, max_acceleration, max_deceleration, hz));
+                Setpoint::Position(self.limiter.position() as i32)
             }
             Some(_) if self.active_mode == mode::HOMING => {
                 Setpoint::Position(self.homing.step_stop().position_demand())
@@ -501,6 +562,7 @@ impl Profile {
                     start: bit4_rose && !step.entered_operation && !self.mode_changed,
                     actual,
                     torque: sample.torque,
+                    velocity: sample.velocity,
                     inputs: sample.inputs,
                     enabled: drive_enabled,
                     speeds,
@@ -529,6 +591,14 @@ impl Profile {
                     Setpoint::None
                 }
             }
+            None if drive_enabled && self.cyclic_mode() => {
+                let halt_kind =
+                    StopKind::halt_or_fault(get(od, HALT_OPTION_CODE)).unwrap_or(StopKind::SlowDown);
+                let limits = TickLimits::new(vmax, max_acceleration, max_deceleration, hz);
+                let halt_limits = TickLimits::new(vmax, max_acceleration, stop_deceleration(halt_kind), hz);
+                let input = CyclicInput { cycle, halt, factors: &factors, dt, limits, halt_limits };
+                self.run_cyclic(od, &input, &mut report)
+            }
             None if drive_enabled && self.position_mode() => {
                 let inputs = pp::Inputs {
                     od,
@@ -554,6 +624,10 @@ impl Profile {
             }
         };
 
+        if matches!(self.active_mode, mode::PROFILE_POSITION | mode::HOMING) && drive_enabled {
+            self.feed_forward.velocity = saturate(self.trajectory().velocity);
+        }
+
         // Demands and the position control function (digest §11).
         let demand_internal = if self.position_mode() && drive_enabled {
             self.trajectory().position - self.origin
@@ -576,7 +650,17 @@ impl Profile {
         }
 
         let mut statusword = self.statusword(step.state, sample, od, now, halt, options, status);
-        let following_bit = following && self.active_mode == mode::PROFILE_POSITION;
+        let following_bit =
+            following && matches!(self.active_mode, mode::PROFILE_POSITION | mode::CYCLIC_POSITION);
+        if self.cyclic_mode() {
+            if self.cyclic_limited {
+                statusword |= 1 << 11;
+            }
+            // Bit 12: the target is used (Operation enabled, no halt, the stream alive).
+            if operation && !halt && !self.stream_lost && drive_enabled {
+                statusword |= 1 << 12;
+            }
+        }
         if following_bit || (!self.position_mode() && self.slipping(od, velocity_demand, velocity_user)) {
             statusword |= 1 << 13;
         }
@@ -600,6 +684,7 @@ impl Profile {
             drive_enabled,
             brake_released: drive_enabled && outputs & 1 == 0 && self.engaging_since.is_none(),
             setpoint,
+            feed_forward: if drive_enabled { self.feed_forward } else { FeedForward::NONE },
         };
         (demand, report)
     }
@@ -657,6 +742,101 @@ impl Profile {
         let effort = factors.to_user(i64::from(output.velocity)) * factors.velocity_sign();
         let _ = od.set::<i32>(CONTROL_EFFORT, 0, saturate(effort));
         Setpoint::Torque(output.torque)
+    }
+
+    /// One tick of csp, csv or cst (digest §16–§18; [`super::cyclic`]).
+    fn run_cyclic<const B: usize>(
+        &mut self,
+        od: &Dictionary<B>,
+        input: &CyclicInput<'_>,
+        report: &mut Report,
+    ) -> Setpoint {
+        let factors = input.factors;
+        let hz = self.config.tick_rate.hz();
+        // 60C2h: value × 10^index s; 1 ms when absent.
+        let value = od.get::<u8>(INTERPOLATION_TIME_PERIOD, 1).unwrap_or(1);
+        let index = od.get::<i8>(INTERPOLATION_TIME_PERIOD, 2).unwrap_or(-3);
+        let period_us = period_micros(value, index);
+        let period_ticks =
+            ((period_us * u64::from(hz) + 500_000) / 1_000_000).clamp(1, u64::from(u32::MAX)) as u32;
+        let window_us = u64::from(od.get::<u32>(0x1007, 0).unwrap_or(0));
+        let window_ticks = (window_us * u64::from(hz) / 1_000_000).min(u64::from(u32::MAX)) as u32;
+        let cycle = Cycle {
+            sync: input.cycle.sync,
+            fresh: input.cycle.fresh,
+            period_ticks,
+            tolerance_ticks: window_ticks.max(period_ticks / 2),
+        };
+        let velocity_offset = factors.to_internal(i64::from(get::<B, i32>(od, VELOCITY_OFFSET)));
+        let torque_offset = get::<B, i16>(od, TORQUE_OFFSET);
+        let bridge: Bridge = self.config.cyclic.bridge;
+        let target = match self.active_mode {
+            mode::CYCLIC_POSITION => {
+                let user = i64::from(get::<B, i32>(od, TARGET_POSITION))
+                    + i64::from(get::<B, i32>(od, POSITION_OFFSET));
+                factors.to_internal(user * factors.position_sign()).saturating_add(self.origin)
+            }
+            mode::CYCLIC_VELOCITY => {
+                factors.to_internal(i64::from(get::<B, i32>(od, TARGET_VELOCITY)) * factors.velocity_sign())
+            }
+            _ => i64::from(get::<B, i16>(od, TARGET_TORQUE)),
+        };
+        let stream = self.interpolator.tick(&cycle, target, bridge);
+        let lost = stream.missed > u32::from(self.config.cyclic.max_missed_cycles);
+        if lost != self.stream_lost {
+            self.stream_lost = lost;
+            report.notices[1] = Some((STREAM_LOST, lost));
+            if lost {
+                // As a lost connection (6007h).
+                match get::<B, i16>(od, ABORT_CONNECTION_OPTION_CODE) {
+                    1 => self.fault = self.fault.or(Some(STREAM_LOST)),
+                    2 => self.forced = Some(0x0000),
+                    3 => self.forced = Some(0x0002),
+                    _ => {}
+                }
+            }
+        }
+        let value = self.interpolator.value();
+        match self.active_mode {
+            mode::CYCLIC_POSITION => {
+                if input.halt && !self.limiter.is_stopping() {
+                    self.limiter.stop(&input.halt_limits);
+                } else if !input.halt && self.limiter.is_stopping() {
+                    self.limiter.resume();
+                }
+                self.cyclic_limited = self.limiter.tick_fixed(self.interpolator.value_fixed(), &input.limits);
+                let velocity = self.limiter.velocity(hz).saturating_add(velocity_offset);
+                self.feed_forward = FeedForward { velocity: saturate(velocity), torque: torque_offset };
+                Setpoint::Position(self.limiter.position() as i32)
+            }
+            mode::CYCLIC_VELOCITY => {
+                let limit = i64::from(velocity_limit(od, factors));
+                let wanted = value.saturating_add(velocity_offset);
+                let clamped = wanted.clamp(-limit, limit);
+                let speeding_up = clamped.abs() > self.velocity.value.abs();
+                let rate = if speeding_up {
+                    factors.limit_to_internal(get(od, MAX_ACCELERATION))
+                } else {
+                    factors.limit_to_internal(get(od, MAX_DECELERATION))
+                };
+                self.velocity.toward(clamped, rate, input.dt);
+                self.cyclic_limited = clamped != wanted || self.velocity.value != clamped;
+                self.feed_forward.torque = torque_offset;
+                Setpoint::Velocity(saturate(self.velocity.value))
+            }
+            _ => {
+                let max = i64::from(get::<B, u16>(od, MAX_TORQUE).min(get(od, MAX_CURRENT)));
+                let wanted = value.saturating_add(i64::from(torque_offset));
+                let clamped = wanted.clamp(-max, max);
+                if input.halt {
+                    self.torque.toward(0, get(od, TORQUE_SLOPE), input.dt);
+                } else {
+                    self.torque = Ramp { value: clamped, remainder: 0 };
+                }
+                self.cyclic_limited = clamped != wanted;
+                Setpoint::Torque(self.torque.value as i16)
+            }
+        }
     }
 
     /// Following error (digest §11.2): |6062h − 6064h| > 6065h for longer than 6066h ms.
@@ -743,6 +923,7 @@ impl Profile {
             State::QuickStopActive => {
                 at_rest && StopKind::quick_stop(options.quick_stop).is_some_and(|(_, stay)| stay)
             }
+            State::OperationEnabled { .. } if self.cyclic_mode() => false,
             State::OperationEnabled { .. } if self.position_mode() => pp.target_reached,
             State::OperationEnabled { .. } if halt && self.active_mode == mode::PROFILE_TORQUE => {
                 self.torque.value == 0
@@ -805,6 +986,29 @@ impl Profile {
         let since = *self.above_threshold_since.get_or_insert(now);
         now - since <= Duration::from_millis(u64::from(get::<B, u16>(od, VELOCITY_THRESHOLD_TIME)))
     }
+}
+
+/// The inputs of a cyclic-mode tick.
+struct CyclicInput<'a> {
+    cycle: SyncInput,
+    halt: bool,
+    factors: &'a Factors,
+    dt: Duration,
+    limits: TickLimits,
+    halt_limits: TickLimits,
+}
+
+/// 60C2h as µs: `value × 10^index` s, at least 1 µs, at most an hour.
+fn period_micros(value: u8, index: i8) -> u64 {
+    let mut micros = u64::from(value);
+    let exponent = i32::from(index) + 6;
+    for _ in 0..exponent.clamp(0, 12) {
+        micros = micros.saturating_mul(10);
+    }
+    for _ in 0..(-exponent).clamp(0, 12) {
+        micros /= 10;
+    }
+    micros.clamp(1, 3_600_000_000)
 }
 
 /// While in Fault, the fault counts as present only while the hardware still reports it (so a

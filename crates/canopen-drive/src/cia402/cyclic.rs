@@ -1,0 +1,434 @@
+//! Cyclic synchronous modes: position (csp, 8), velocity (csv, 9), torque (cst, 10)
+//! (digest §16–§18), and the interpolation they share with interpolated position mode.
+//!
+//! # The stream
+//!
+//! The master sends a target (607Ah, 60FFh or 6071h) in a synchronous RPDO each SYNC. The drive
+//! takes it in the first tick after the SYNC and moves the demand linearly from where it is to
+//! the new target over one interpolation period 60C2h, at the tick rate — with a 4 kHz tick and
+//! a 1 kHz SYNC the demand changes every tick, not every SYNC. That costs one period of delay,
+//! which the master's trajectory absorbs; it never jumps.
+//!
+//! # Loss of the stream
+//!
+//! A SYNC without a new target (the RPDO was lost) and a SYNC that does not come within the
+//! period plus the tolerated jitter (the synchronous window 1007h, at least half a period) are
+//! *missed cycles*. Each is bridged as [`CyclicConfig::bridge`] says: hold the last target, or
+//! extrapolate it with the last segment's slope. After more than
+//! [`CyclicConfig::max_missed_cycles`] missed cycles in a row the profile reacts as for a lost
+//! connection (6007h) and sends EMCY 8700h (sync controller); a new target ends the loss.
+//!
+//! # Limits (DESIGN invariant 2)
+//!
+//! - csp: the demand follows the interpolated target through a limiter with the velocity limit
+//!   min(607Fh, 6080h) and the acceleration limits 60C5h/60C6h. A stream within the limits goes
+//!   through unchanged; a jump beyond them is chased at the limits (braking so as not to
+//!   overshoot) and statusword bit 11 (internal limit active) is 1 while the demand is a whole
+//!   increment or more away from the stream. Note that an integer stream's own quantisation
+//!   changes its slope by whole increments per period: at 1 kHz that asks for accelerations of
+//!   up to 2·10⁶ increments/s² for a period, which a lower 60C5h smooths (and flags once the
+//!   demand is an increment off).
+//! - csv: the velocity demand is clamped to the velocity limit and ramps at most at 60C5h
+//!   (speeding up) / 60C6h (slowing down); bit 11 while it does.
+//! - cst: the torque demand is clamped to min(6072h, 6073h); bit 11 while it is.
+//!
+//! The offsets 60B0h (position, added to 607Ah), 60B1h (velocity feed-forward, added to 60FFh in
+//! csv) and 60B2h (torque feed-forward, added to 6071h in cst) are absolute values: each tick
+//! uses their present value, so the same value received twice is added once.
+//!
+//! # Arithmetic
+//!
+//! The limiter works in increments with 32 fractional bits in `i128`; interpolation is exact
+//! (`from + (to − from)·k/N` from integers each tick), so nothing drifts.
+
+use crate::od::{Access, DataType, DefaultValue, Object, Var};
+
+/// EMCY code when the stream is lost for longer than configured (CiA 402: sync controller).
+pub const STREAM_LOST: u16 = 0x8700;
+
+const ONE: i128 = 1 << 32;
+
+/// How a missed cycle is bridged.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Bridge {
+    /// Keep the last target.
+    Hold,
+    /// Continue with the slope of the last segment.
+    #[default]
+    Extrapolate,
+}
+
+/// Configuration of the cyclic modes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct CyclicConfig {
+    /// What a missed cycle does.
+    pub bridge: Bridge,
+    /// Missed cycles in a row that are bridged; one more is a lost stream.
+    pub max_missed_cycles: u8,
+    /// Index of a manufacturer object (UNSIGNED32, µs, ro; [`sync_phase_object`]) where the
+    /// drive reports the phase of the last SYNC against the tick.
+    pub sync_phase_object: Option<u16>,
+}
+
+impl CyclicConfig {
+    /// Extrapolate up to 2 missed cycles; no phase object.
+    pub const fn new() -> Self {
+        CyclicConfig { bridge: Bridge::Extrapolate, max_missed_cycles: 2, sync_phase_object: None }
+    }
+}
+
+impl Default for CyclicConfig {
+    fn default() -> Self {
+        CyclicConfig::new()
+    }
+}
+
+/// The SYNC phase object at `index`: the time from the last tick before a SYNC to the SYNC's
+/// reception, in µs (UNSIGNED32, ro, TPDO-mappable). A board steering its PWM timer onto SYNC
+/// keeps it constant.
+pub const fn sync_phase_object(index: u16) -> Object {
+    Object::var(
+        index,
+        "SYNC phase",
+        Var::new("SYNC phase", DataType::Unsigned32)
+            .access(Access::ReadOnly)
+            .pdo(crate::od::PdoMapping::Tpdo)
+            .default(DefaultValue::Zero),
+    )
+}
+
+/// What the profile hands the cyclic modes at a tick.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Cycle {
+    /// A SYNC arrived since the previous tick.
+    pub sync: bool,
+    /// An RPDO was applied since the previous SYNC (the stream delivered).
+    pub fresh: bool,
+    /// Ticks per interpolation period (60C2h × tick rate), at least 1.
+    pub period_ticks: u32,
+    /// Extra ticks a SYNC may be late (jitter), at least half a period.
+    pub tolerance_ticks: u32,
+}
+
+/// The interpolation of a stream of targets, shared by csp, csv, cst and ip.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Interpolator {
+    from: i64,
+    to: i64,
+    /// Slope of the previous segment (to − from), for extrapolation.
+    slope: i64,
+    ticks: u32,
+    k: u32,
+    since_sync: u32,
+    missed: u32,
+    started: bool,
+}
+
+/// What happened to the stream in a tick.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct StreamState {
+    /// Consecutive missed cycles.
+    pub missed: u32,
+    /// A new segment started this tick.
+    pub new_segment: bool,
+}
+
+impl Interpolator {
+    /// Holds `value` until the first target.
+    pub fn reset(&mut self, value: i64) {
+        *self = Interpolator { from: value, to: value, ticks: 1, k: 1, ..Interpolator::default() };
+    }
+
+    /// The interpolated value now.
+    pub fn value(&self) -> i64 {
+        (self.value_fixed() >> 32) as i64
+    }
+
+    /// The interpolated value now with 32 fractional bits (for the position limiter, so a slow
+    /// stream is not quantised into steps).
+    pub fn value_fixed(&self) -> i128 {
+        let span = (i128::from(self.to) - i128::from(self.from)) * ONE;
+        i128::from(self.from) * ONE + span * i128::from(self.k) / i128::from(self.ticks.max(1))
+    }
+
+    /// The change per tick of the present segment (a velocity in units per tick).
+    pub fn step(&self) -> i64 {
+        if self.k >= self.ticks {
+            0
+        } else {
+            (self.to - self.from) / i64::from(self.ticks.max(1))
+        }
+    }
+
+    fn segment(&mut self, to: i64, ticks: u32) {
+        let here = self.value();
+        self.slope = to - here;
+        self.from = here;
+        self.to = to;
+        self.ticks = ticks.max(1);
+        self.k = 0;
+    }
+
+    /// One tick: `target` is the stream's value now (read after the SYNC's RPDO was applied).
+    pub fn tick(&mut self, cycle: &Cycle, target: i64, bridge: Bridge) -> StreamState {
+        let mut state = StreamState::default();
+        self.since_sync = self.since_sync.saturating_add(1);
+        let late = self.since_sync > cycle.period_ticks.saturating_add(cycle.tolerance_ticks);
+        if cycle.sync || (self.started && late) {
+            let delivered = cycle.sync && cycle.fresh;
+            if cycle.sync {
+                self.since_sync = 0;
+            } else {
+                // A missing SYNC: count it and wait a period for the next one.
+                self.since_sync = cycle.tolerance_ticks;
+            }
+            let next = if delivered || !self.started {
+                self.missed = 0;
+                self.started = true;
+                target
+            } else {
+                self.missed = self.missed.saturating_add(1);
+                match bridge {
+                    Bridge::Hold => self.to,
+                    Bridge::Extrapolate => self.to.saturating_add(self.slope),
+                }
+            };
+            self.segment(next, cycle.period_ticks);
+            state.new_segment = true;
+        }
+        if self.k < self.ticks {
+            self.k += 1;
+        }
+        state.missed = self.missed;
+        state
+    }
+}
+
+/// Position limiter of csp: follows a target through velocity and acceleration limits.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Limiter {
+    /// Position, increments × 2³².
+    position: i128,
+    /// Velocity, increments per tick × 2³².
+    velocity: i128,
+    /// Target of the previous tick (for the target's own velocity).
+    last_target: i128,
+    stopping: Option<i128>,
+}
+
+/// Per-tick limits of the limiter, increments per tick (× 2³²) and per tick².
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct TickLimits {
+    velocity: i128,
+    acceleration: i128,
+    deceleration: i128,
+}
+
+impl TickLimits {
+    /// From increments/s and increments/s² at `hz` ticks per second.
+    pub fn new(velocity: u32, acceleration: u32, deceleration: u32, hz: u32) -> Self {
+        let hz = i128::from(hz.max(1));
+        let per_tick = |v: u32| (i128::from(v) * ONE / hz).max(1);
+        let per_tick2 = |a: u32| (i128::from(a) * ONE / (hz * hz)).max(1);
+        TickLimits {
+            velocity: per_tick(velocity),
+            acceleration: per_tick2(acceleration),
+            deceleration: per_tick2(deceleration),
+        }
+    }
+}
+
+impl Limiter {
+    /// At rest at `position`.
+    pub fn reset(&mut self, position: i64) {
+        let p = i128::from(position) * ONE;
+        *self = Limiter { position: p, velocity: 0, last_target: p, stopping: None };
+    }
+
+    /// The demand position (increments).
+    pub fn position(&self) -> i64 {
+        (self.position >> 32) as i64
+    }
+
+    /// The demand velocity in increments per tick × 2³² (for the caller to convert).
+    pub fn velocity_per_tick(&self) -> i128 {
+        self.velocity
+    }
+
+    /// The demand velocity in increments/s at `hz`.
+    pub fn velocity(&self, hz: u32) -> i64 {
+        let v = self.velocity * i128::from(hz) / ONE;
+        v.clamp(i128::from(i64::MIN), i128::from(i64::MAX)) as i64
+    }
+
+    /// Stops with `deceleration` (increments per tick² × 2³², see [`TickLimits`]).
+    pub fn stop(&mut self, limits: &TickLimits) {
+        self.stopping = Some(limits.deceleration);
+    }
+
+    /// Ends a stop (halt released): the limiter chases the target again.
+    pub fn resume(&mut self) {
+        self.stopping = None;
+        self.last_target = self.position;
+    }
+
+    /// Whether a stop is running or done.
+    pub fn is_stopping(&self) -> bool {
+        self.stopping.is_some()
+    }
+
+    /// One tick towards `target` (increments); returns whether a limit acted.
+    pub fn tick(&mut self, target: i64, limits: &TickLimits) -> bool {
+        self.tick_fixed(i128::from(target) * ONE, limits)
+    }
+
+    /// One tick towards `target` (increments × 2³²); returns whether a limit acted.
+    pub fn tick_fixed(&mut self, target: i128, limits: &TickLimits) -> bool {
+        if let Some(deceleration) = self.stopping {
+            let v = self.velocity;
+            self.velocity = if v.abs() <= deceleration { 0 } else { v - v.signum() * deceleration };
+            self.position += self.velocity;
+            self.last_target = self.position;
+            return false;
+        }
+        let target_velocity = target - self.last_target;
+        self.last_target = target;
+        let error = target - self.position;
+        // The step that lands on the target now, within the velocity limit.
+        let wanted = error.clamp(-limits.velocity, limits.velocity);
+        let mut change = wanted - self.velocity;
+        // Relative to the target's own motion: brake when the remaining gap is within the
+        // stopping distance of the relative velocity.
+        let relative = self.velocity - target_velocity;
+        if relative != 0 && relative.signum() == error.signum() {
+            let stopping = relative.saturating_mul(relative) / (2 * limits.deceleration.max(1));
+            if stopping >= error.abs() {
+                change = -relative.signum() * limits.deceleration;
+            }
+        }
+        let speeding_up = (self.velocity + change).abs() > self.velocity.abs();
+        let rate = if speeding_up { limits.acceleration } else { limits.deceleration };
+        let limited_change = change.clamp(-rate, rate);
+        let clipped = limited_change != change || wanted != error;
+        self.velocity = (self.velocity + limited_change).clamp(-limits.velocity, limits.velocity);
+        self.position += self.velocity;
+        // Landed within a rounding step of the target: snap (keeps an in-limit stream exact).
+        if !clipped && (target - self.position).abs() < ONE {
+            self.position = target;
+        }
+        // A limit that moved the demand off the stream by less than an increment is the
+        // quantisation of an integer stream (its slope changes by whole increments per
+        // period), not a target beyond the limits: only a whole increment counts.
+        (target - self.position).abs() >= ONE
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cycle(sync: bool, fresh: bool) -> Cycle {
+        Cycle { sync, fresh, period_ticks: 4, tolerance_ticks: 2 }
+    }
+
+    #[test]
+    fn interpolates_linearly_over_the_period() {
+        let mut i = Interpolator::default();
+        i.reset(0);
+        i.tick(&cycle(true, true), 400, Bridge::Hold);
+        assert_eq!(i.value(), 100);
+        let mut values = [0i64; 3];
+        for v in values.iter_mut() {
+            i.tick(&cycle(false, false), 400, Bridge::Hold);
+            *v = i.value();
+        }
+        assert_eq!(values, [200, 300, 400]);
+        assert_eq!(i.step(), 0);
+    }
+
+    #[test]
+    fn a_lost_rpdo_is_bridged_and_counted() {
+        let mut i = Interpolator::default();
+        i.reset(0);
+        i.tick(&cycle(true, true), 400, Bridge::Extrapolate);
+        for _ in 0..3 {
+            i.tick(&cycle(false, false), 0, Bridge::Extrapolate);
+        }
+        // The SYNC comes, the RPDO does not: extrapolated to 800.
+        let s = i.tick(&cycle(true, false), 12345, Bridge::Extrapolate);
+        assert_eq!(s.missed, 1);
+        for _ in 0..3 {
+            i.tick(&cycle(false, false), 0, Bridge::Extrapolate);
+        }
+        assert_eq!(i.value(), 800);
+        let s = i.tick(&cycle(true, true), 1200, Bridge::Extrapolate);
+        assert_eq!(s.missed, 0);
+    }
+
+    #[test]
+    fn a_missing_sync_is_a_missed_cycle_after_the_tolerance() {
+        let mut i = Interpolator::default();
+        i.reset(0);
+        i.tick(&cycle(true, true), 400, Bridge::Hold);
+        let mut missed = 0;
+        for _ in 0..7 {
+            missed = i.tick(&cycle(false, false), 0, Bridge::Hold).missed;
+        }
+        assert_eq!(missed, 1, "more than 4 + 2 ticks without SYNC");
+        assert_eq!(i.value(), 400, "held");
+    }
+
+    #[test]
+    fn limiter_is_transparent_within_the_limits() {
+        let limits = TickLimits::new(100_000, 1_000_000, 1_000_000, 1000);
+        let mut l = Limiter::default();
+        l.reset(0);
+        for k in 1..=1000i64 {
+            // A parabola with acceleration 20 000 increments/s².
+            let target = 10 * k * k / 1000;
+            assert!(!l.tick(target, &limits));
+            assert_eq!(l.position(), target);
+        }
+    }
+
+    #[test]
+    fn limiter_chases_a_jump_at_the_limits_without_overshoot() {
+        let limits = TickLimits::new(10_000, 100_000, 100_000, 1000);
+        let mut l = Limiter::default();
+        l.reset(0);
+        let mut last_v = 0i64;
+        let mut flagged = false;
+        for _ in 0..2000 {
+            flagged |= l.tick(5000, &limits);
+            let v = l.velocity(1000);
+            assert!(v.abs() <= 10_000);
+            assert!((v - last_v).abs() <= 101, "{last_v} → {v}");
+            assert!(l.position() <= 5000, "no overshoot: {}", l.position());
+            last_v = v;
+        }
+        assert!(flagged);
+        assert_eq!(l.position(), 5000);
+        assert!(!l.tick(5000, &limits), "back within the limits");
+    }
+
+    #[test]
+    fn limiter_stop_decelerates() {
+        let limits = TickLimits::new(10_000, 100_000, 50_000, 1000);
+        let mut l = Limiter::default();
+        l.reset(0);
+        // A ramp at 5000 increments/s: caught up with after the acceleration phase.
+        for k in 0..400 {
+            l.tick(5 * k, &limits);
+        }
+        assert_eq!(l.velocity(1000), 5000);
+        l.stop(&limits);
+        l.tick(0, &limits);
+        assert_eq!(l.velocity(1000), 4950);
+        for _ in 0..200 {
+            l.tick(0, &limits);
+        }
+        assert_eq!(l.velocity(1000), 0);
+    }
+}
