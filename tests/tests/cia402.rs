@@ -215,10 +215,10 @@ fn g_60_g_61_abort_connection_as_disable_voltage_or_quick_stop() {
 fn h_66_h_68_h_69_h_70_h_71_modes_of_operation() {
     let mut bench = Bench::new();
     assert_eq!(bench.sdo1(&req(0x40, 0x6060, 0, [0; 4])), req(0x4F, 0x6060, 0, [0; 4]));
-    // pp + pv + tq + hm + csp + csv + cst.
-    assert_eq!(bench.sdo1(&req(0x40, 0x6502, 0, [0; 4])), req(0x43, 0x6502, 0, [0xAD, 0x03, 0, 0]));
-    // h_68 reserved, h_69 not in 6502h (vl, ip).
-    for mode in [5u8, 11, 0x80, 2, 7] {
+    // pp + pv + tq + hm + ip + csp + csv + cst.
+    assert_eq!(bench.sdo1(&req(0x40, 0x6502, 0, [0; 4])), req(0x43, 0x6502, 0, [0xED, 0x03, 0, 0]));
+    // h_68 reserved, h_69 not in 6502h (vl).
+    for mode in [5u8, 11, 0x80, 2] {
         assert_eq!(bench.sdo1(&req(0x2F, 0x6060, 0, [mode, 0, 0, 0])), abort(0x6060, 0, 0x0609_0030));
     }
     assert_eq!(bench.sdo1(&req(0x2F, 0x6061, 0, [3, 0, 0, 0])), abort(0x6061, 0, 0x0601_0002));

@@ -171,6 +171,41 @@ pub struct Drive<
     storage: S,
 }
 
+/// The firmware's hooks, plus a note of RPDO writes the drive profile must see (ip data records
+/// and buffer configuration).
+struct Tap<'a, H> {
+    hooks: &'a mut H,
+    log: heapless::Vec<(u16, u8), 16>,
+}
+
+impl<'a, H: ObjectHooks> Tap<'a, H> {
+    fn new(hooks: &'a mut H) -> Self {
+        Tap { hooks, log: heapless::Vec::new() }
+    }
+}
+
+impl<H: ObjectHooks> ObjectHooks for Tap<'_, H> {
+    fn read_len(&mut self, index: u16, sub: u8) -> Option<Result<usize, AbortCode>> {
+        self.hooks.read_len(index, sub)
+    }
+
+    fn read(&mut self, index: u16, sub: u8, offset: usize, buf: &mut [u8]) -> Result<usize, AbortCode> {
+        self.hooks.read(index, sub, offset, buf)
+    }
+
+    fn validate(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        self.hooks.validate(index, sub, data)
+    }
+
+    fn written(&mut self, index: u16, sub: u8, data: &[u8]) {
+        if matches!(index, 0x60C1 | 0x60C4) {
+            // Two full RPDOs of ip data per tick; more in one tick are not buffered.
+            let _ = self.log.push((index, sub));
+        }
+        self.hooks.written(index, sub, data);
+    }
+}
+
 /// The SYNC cycle as the tick sees it.
 #[derive(Clone, Copy, Debug, Default)]
 struct CycleFlags {
@@ -352,12 +387,12 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
     /// Applies the stored values of `group`; a corrupt or foreign image is never loaded and is
     /// reported with EMCY 0x6300 (data set), active until the next successful store.
     fn load_stored(&mut self, group: Group) {
-        self.profile.invalidate();
         match self.storage.load(&mut self.od, group) {
             Ok(report) if !report.image.is_lost() => {}
             // Unreadable, corrupt or foreign: the defaults stay.
             _ => self.raise_error(code::DATA_SET, ErrorRegister::empty(), [group as u8, 0, 0, 0, 0]),
         }
+        self.profile.parameters_loaded(&self.od);
     }
 
     /// Frames dropped because the transmit queue was full (the board did not drain it).
@@ -411,13 +446,8 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
                 self.nmt_command(transition(self.nmt, control.command), now);
             }
         } else if id == SDO_RX_BASE + u16::from(node_id) && self.nmt.serves_sdo() {
-            let mut access = Access::new(
-                &mut self.od,
-                &mut self.hooks,
-                &mut self.storage,
-                self.nmt,
-                self.profile.config(),
-            );
+            let mut access =
+                Access::new(&mut self.od, &mut self.hooks, &mut self.storage, self.nmt, &self.profile);
             let response = self.sdo.on_request(data, now, &mut access);
             let written = access.written;
             let stored = access.stored;
@@ -652,7 +682,11 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
     /// whose values changed. Returns what the power stage must do until the next tick.
     pub fn tick(&mut self, now: Instant, sample: &Sample) -> Demand {
         if self.nmt.serves_pdo() {
-            self.pdos.apply_ready(&mut self.od, &mut self.hooks);
+            let mut tap = Tap::new(&mut self.hooks);
+            self.pdos.apply_ready(&mut self.od, &mut tap);
+            for (index, sub) in tap.log {
+                self.profile.ip_written(&mut self.od, index, sub);
+            }
         }
         let sync = self.cycle.sync.take();
         self.cycle.last_tick = Some(now);
@@ -737,14 +771,14 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
         let window = u64::from(self.od.get::<u32>(SYNCHRONOUS_WINDOW_LENGTH, 0).unwrap_or(0));
         let late = window != 0 && self.sync.last().is_some_and(|at| now - at > Duration::from_micros(window));
         let mut events = heapless::Vec::<PdoEvent, 4>::new();
-        let taken = self.pdos.on_frame(
-            RpdoFrame { can_id: id, data, now, late },
-            &mut self.od,
-            &mut self.hooks,
-            &mut |e| {
+        let mut tap = Tap::new(&mut self.hooks);
+        let taken =
+            self.pdos.on_frame(RpdoFrame { can_id: id, data, now, late }, &mut self.od, &mut tap, &mut |e| {
                 let _ = events.push(e);
-            },
-        );
+            });
+        for (index, sub) in tap.log {
+            self.profile.ip_written(&mut self.od, index, sub);
+        }
         for event in events {
             self.pdo_event(event, now);
         }
@@ -880,6 +914,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
     /// Side effects of a value written from the bus.
     fn after_write(&mut self, mux: Mux, now: Instant) {
         match mux.index {
+            0x60C1 | 0x60C4 => self.profile.ip_written(&mut self.od, mux.index, mux.sub),
             0x2000..=0x67FF => self.profile.invalidate(),
             PRODUCER_HEARTBEAT_TIME => {
                 self.heartbeat.restart(now, self.heartbeat_period());
@@ -919,13 +954,8 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
     fn drain_sdo(&mut self, now: Instant) {
         let node_id = self.node_id();
         while !self.tx.frames.is_full() {
-            let mut access = Access::new(
-                &mut self.od,
-                &mut self.hooks,
-                &mut self.storage,
-                self.nmt,
-                self.profile.config(),
-            );
+            let mut access =
+                Access::new(&mut self.od, &mut self.hooks, &mut self.storage, self.nmt, &self.profile);
             match self.sdo.poll(now, &mut access) {
                 Some(frame) => self.send(SDO_TX_BASE + u16::from(node_id), &frame),
                 None => break,
@@ -948,7 +978,7 @@ struct Access<'a, H, S, const B: usize> {
     hooks: &'a mut H,
     storage: &'a mut S,
     nmt: NmtState,
-    profile: &'a ProfileConfig,
+    profile: &'a Profile,
     written: Option<Mux>,
     /// A store on command succeeded.
     stored: bool,
@@ -960,7 +990,7 @@ impl<'a, H: ObjectHooks, S: Persistence, const B: usize> Access<'a, H, S, B> {
         hooks: &'a mut H,
         storage: &'a mut S,
         nmt: NmtState,
-        profile: &'a ProfileConfig,
+        profile: &'a Profile,
     ) -> Self {
         Access { od, hooks, storage, nmt, profile, written: None, stored: false }
     }
@@ -1065,7 +1095,7 @@ impl<H: ObjectHooks, S: Persistence, const B: usize> ObjectAccess for Access<'_,
 /// Value rules of the communication objects beyond type and limits (digest §1.3, §9.3).
 fn check_communication<const B: usize>(
     od: &Dictionary<B>,
-    profile: &ProfileConfig,
+    profile: &Profile,
     mux: Mux,
     data: &[u8],
 ) -> Result<(), AbortCode> {
@@ -1075,9 +1105,12 @@ fn check_communication<const B: usize>(
         PRE_DEFINED_ERROR_FIELD if raw != 0 => Err(AbortCode::InvalidValue),
         ERROR_BEHAVIOUR if ErrorBehaviour::from_value(raw as u8).is_none() => Err(AbortCode::InvalidValue),
         index if PdoRecord::of(index).is_some() => pdo::check_write(od, index, mux.sub, data),
-        0x6000..=0x67FF => crate::cia402::objects::check_write(od, profile, mux.index, mux.sub, data),
-        index if profile.cascade == Some(index) => {
-            crate::control::check_write(od, index, mux.sub, data, profile.tick_rate.hz())
+        0x60C0..=0x60C4 => crate::cia402::ip::check_write(od, profile.ip_buffer(), mux.index, mux.sub, data),
+        0x6000..=0x67FF => {
+            crate::cia402::objects::check_write(od, profile.config(), mux.index, mux.sub, data)
+        }
+        index if profile.config().cascade == Some(index) => {
+            crate::control::check_write(od, index, mux.sub, data, profile.config().tick_rate.hz())
         }
         COB_ID_SYNC => {
             let new = CobId::parse(raw).map_err(|_| AbortCode::InvalidValue)?;

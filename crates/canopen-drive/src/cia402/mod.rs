@@ -6,6 +6,7 @@
 //! - [`pp`]: profile position mode.
 //! - [`hm`]: homing mode.
 //! - [`cyclic`]: cyclic synchronous position, velocity and torque modes.
+//! - [`ip`]: the input buffer of interpolated position mode (60C0h–60C4h) and its value rules.
 //! - [`probe`]: the touch probe function (60B8h–60BDh), latching positions at probe edges.
 //! - [`objects`]: the profile objects with their defaults and value rules.
 //! - [`profile`]: the run-time of one axis: FSA, option-code stops, modes (pv, tq), statusword,
@@ -16,6 +17,7 @@ pub mod cyclic;
 pub mod factor;
 pub mod fsa;
 pub mod hm;
+pub mod ip;
 pub mod objects;
 pub mod pp;
 pub mod probe;

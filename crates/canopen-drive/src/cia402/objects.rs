@@ -163,6 +163,8 @@ pub mod mode {
     pub const PROFILE_TORQUE: i8 = 4;
     /// Homing.
     pub const HOMING: i8 = 6;
+    /// Interpolated position.
+    pub const INTERPOLATED_POSITION: i8 = 7;
     /// Cyclic synchronous position.
     pub const CYCLIC_POSITION: i8 = 8;
     /// Cyclic synchronous velocity.
@@ -181,6 +183,8 @@ pub mod mode_bit {
     pub const PROFILE_TORQUE: u32 = 1 << 3;
     /// Homing.
     pub const HOMING: u32 = 1 << 5;
+    /// Interpolated position.
+    pub const INTERPOLATED_POSITION: u32 = 1 << 6;
     /// Cyclic synchronous position.
     pub const CYCLIC_POSITION: u32 = 1 << 7;
     /// Cyclic synchronous velocity.
@@ -189,12 +193,13 @@ pub mod mode_bit {
     pub const CYCLIC_TORQUE: u32 = 1 << 9;
 }
 
-/// The modes this crate runs: pp, pv, tq, hm, csp, csv and cst (the default of
+/// The modes this crate runs: pp, pv, tq, hm, ip, csp, csv and cst (the default of
 /// [`crate::od::DeviceInfo::drive_modes`]).
 pub const IMPLEMENTED_MODES: u32 = mode_bit::PROFILE_POSITION
     | mode_bit::PROFILE_VELOCITY
     | mode_bit::PROFILE_TORQUE
     | mode_bit::HOMING
+    | mode_bit::INTERPOLATED_POSITION
     | mode_bit::CYCLIC_POSITION
     | mode_bit::CYCLIC_VELOCITY
     | mode_bit::CYCLIC_TORQUE;
@@ -297,7 +302,7 @@ const DIGITAL_OUTPUT_SUBS: [(u8, Var); 3] = [
 ];
 
 /// The profile objects, ascending.
-pub static PROFILE: [Object; 85] = layout([
+pub static PROFILE: [Object; 89] = layout([
     option_code(ABORT_CONNECTION_OPTION_CODE, "Abort connection option code", 1),
     actual(ERROR_CODE, "Error code", DataType::Unsigned16),
     command(CONTROLWORD, "Controlword", DataType::Unsigned16),
@@ -411,6 +416,10 @@ pub static PROFILE: [Object; 85] = layout([
     actual(TOUCH_PROBE_1_NEGATIVE_EDGE, "Touch probe 1 negative edge", DataType::Integer32),
     actual(TOUCH_PROBE_2_POSITIVE_EDGE, "Touch probe 2 positive edge", DataType::Integer32),
     actual(TOUCH_PROBE_2_NEGATIVE_EDGE, "Touch probe 2 negative edge", DataType::Integer32),
+    super::ip::SUB_MODE_SELECT_OBJECT,
+    super::ip::DATA_RECORD_OBJECT,
+    super::ip::TIME_PERIOD_OBJECT,
+    super::ip::DATA_CONFIGURATION_OBJECT,
     setting(MAX_ACCELERATION, "Max acceleration", DataType::Unsigned32, DefaultValue::Unsigned(100_000)),
     setting(MAX_DECELERATION, "Max deceleration", DataType::Unsigned32, DefaultValue::Unsigned(100_000)),
     parameter(POSITIONING_OPTION_CODE, "Positioning option code", DataType::Unsigned16, DefaultValue::Zero),

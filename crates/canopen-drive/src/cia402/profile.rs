@@ -39,6 +39,7 @@ use super::cyclic::{Bridge, Cycle, Interpolator, Limiter, TickLimits, STREAM_LOS
 use super::factor::Factors;
 use super::fsa::{Fsa, Options, State, StopKind};
 use super::hm::{self, Homing};
+use super::ip::{IpBuffer, Written};
 use super::objects::*;
 use super::pp::{self, ProfilePosition};
 use super::probe::{Changed, TouchProbe};
@@ -127,6 +128,11 @@ pub struct Profile {
     cyclic_limited: bool,
     /// Feed-forward of this tick's demand.
     feed_forward: FeedForward,
+    /// Interpolated position mode: the data-record buffer, an overflow not yet cleared, and
+    /// whether interpolation is active (controlword bit 4).
+    ip: IpBuffer,
+    ip_overflow: bool,
+    ip_active: bool,
     /// The encoder count at the user zero: moved by homing (digest §10.5).
     origin: i64,
     /// A homing error EMCY (8613h) is active.
@@ -204,6 +210,9 @@ impl Profile {
             stream_lost: false,
             cyclic_limited: false,
             feed_forward: FeedForward::NONE,
+            ip: IpBuffer::new(),
+            ip_overflow: false,
+            ip_active: false,
             origin: 0,
             homing_error: false,
             last_tick: None,
@@ -262,7 +271,10 @@ impl Profile {
 
     /// The modes whose demand is a trajectory of positions (pp, hm).
     fn position_mode(&self) -> bool {
-        matches!(self.active_mode, mode::PROFILE_POSITION | mode::HOMING | mode::CYCLIC_POSITION)
+        matches!(
+            self.active_mode,
+            mode::PROFILE_POSITION | mode::HOMING | mode::CYCLIC_POSITION | mode::INTERPOLATED_POSITION
+        )
     }
 
     /// The cyclic synchronous modes.
@@ -274,7 +286,7 @@ impl Profile {
     fn trajectory(&self) -> crate::motion::MotionState {
         match self.active_mode {
             mode::HOMING => self.homing.state(),
-            mode::CYCLIC_POSITION => crate::motion::MotionState {
+            mode::CYCLIC_POSITION | mode::INTERPOLATED_POSITION => crate::motion::MotionState {
                 position: self.limiter.position(),
                 velocity: self.limiter.velocity(self.config.tick_rate.hz()),
                 acceleration: 0,
@@ -286,8 +298,9 @@ impl Profile {
     /// Resets the cyclic modes' state to the axis as it is.
     fn reset_cyclic(&mut self, actual: i64, velocity: i64) {
         self.limiter.reset(actual);
+        self.ip_active = false;
         let start = match self.active_mode {
-            mode::CYCLIC_POSITION => actual,
+            mode::CYCLIC_POSITION | mode::INTERPOLATED_POSITION => actual,
             mode::CYCLIC_VELOCITY => velocity,
             _ => 0,
         };
@@ -301,6 +314,26 @@ impl Profile {
         } else {
             self.velocity.value
         }
+    }
+
+    /// The ip data-record buffer (for the SDO server's value rules).
+    pub fn ip_buffer(&self) -> &IpBuffer {
+        &self.ip
+    }
+
+    /// A 60C1h/60C4h entry was written (SDO or RPDO): the ip buffer takes it.
+    pub fn ip_written<const B: usize>(&mut self, od: &mut Dictionary<B>, index: u16, sub: u8) {
+        match self.ip.written(od, index, sub) {
+            Written::Overflow(_) => self.ip_overflow = true,
+            Written::Cleared | Written::Reorganised => self.ip_overflow = false,
+            _ => {}
+        }
+    }
+
+    /// Stored parameters were loaded: the ip buffer takes its configuration again.
+    pub fn parameters_loaded<const B: usize>(&mut self, od: &Dictionary<B>) {
+        self.factors = None;
+        self.ip.reload(od);
     }
 
     /// Whether a homing run has completed (statusword bit 12 in hm).
@@ -486,7 +519,7 @@ impl Profile {
         let vmax = velocity_limit(od, &factors);
         let max_acceleration = factors.limit_to_internal(get(od, MAX_ACCELERATION));
         if let Some(kind) = stop.filter(|_| !self.stopping) {
-            if self.active_mode == mode::CYCLIC_POSITION {
+            if matches!(self.active_mode, mode::CYCLIC_POSITION | mode::INTERPOLATED_POSITION) {
                 self.limiter.stop(&TickLimits::new(vmax, max_acceleration, stop_deceleration(kind), hz));
             } else if self.active_mode == mode::HOMING {
                 self.homing.stop(stop_deceleration(kind), &pp_limits);
@@ -537,7 +570,7 @@ impl Profile {
                 self.reset_cyclic(actual, 0);
                 Setpoint::None
             }
-            Some(_) if self.active_mode == mode::CYCLIC_POSITION => {
+            Some(_) if matches!(self.active_mode, mode::CYCLIC_POSITION | mode::INTERPOLATED_POSITION) => {
                 self.limiter.tick(0, &TickLimits::new(vmax, max_acceleration, max_deceleration, hz));
                 Setpoint::Position(self.limiter.position() as i32)
             }
@@ -590,6 +623,23 @@ impl Profile {
                 } else {
                     Setpoint::None
                 }
+            }
+            None if drive_enabled && self.active_mode == mode::INTERPOLATED_POSITION => {
+                let halt_kind =
+                    StopKind::halt_or_fault(get(od, HALT_OPTION_CODE)).unwrap_or(StopKind::SlowDown);
+                let limits = TickLimits::new(vmax, max_acceleration, max_deceleration, hz);
+                let halt_limits = TickLimits::new(vmax, max_acceleration, stop_deceleration(halt_kind), hz);
+                let input = CyclicInput { cycle, halt, factors: &factors, dt, limits, halt_limits };
+                let setpoint = self.run_ip(od, &input, controlword);
+                if self.ip_active {
+                    status.setpoint_acknowledge = true;
+                }
+                status.target_reached = if halt {
+                    self.limiter.velocity(hz) == 0
+                } else {
+                    self.ip.is_empty() && self.interpolator.step() == 0 && !self.cyclic_limited
+                };
+                setpoint
             }
             None if drive_enabled && self.cyclic_mode() => {
                 let halt_kind =
@@ -650,8 +700,15 @@ impl Profile {
         }
 
         let mut statusword = self.statusword(step.state, sample, od, now, halt, options, status);
-        let following_bit =
-            following && matches!(self.active_mode, mode::PROFILE_POSITION | mode::CYCLIC_POSITION);
+        let following_bit = following
+            && matches!(
+                self.active_mode,
+                mode::PROFILE_POSITION | mode::CYCLIC_POSITION | mode::INTERPOLATED_POSITION
+            );
+        if self.active_mode == mode::INTERPOLATED_POSITION && self.ip_overflow {
+            // A record arrived with the buffer full and was dropped.
+            statusword |= 1 << 7;
+        }
         if self.cyclic_mode() {
             if self.cyclic_limited {
                 statusword |= 1 << 11;
@@ -744,6 +801,60 @@ impl Profile {
         Setpoint::Torque(output.torque)
     }
 
+    /// Ticks per interpolation period (60C2h) and the SYNC jitter tolerated.
+    fn cycle_timing<const B: usize>(&self, od: &Dictionary<B>) -> (u32, u32) {
+        let hz = u64::from(self.config.tick_rate.hz());
+        let value = od.get::<u8>(INTERPOLATION_TIME_PERIOD, 1).unwrap_or(1);
+        let index = od.get::<i8>(INTERPOLATION_TIME_PERIOD, 2).unwrap_or(-3);
+        let period_us = period_micros(value, index);
+        let period_ticks = ((period_us * hz + 500_000) / 1_000_000).clamp(1, u64::from(u32::MAX)) as u32;
+        let window_us = u64::from(od.get::<u32>(0x1007, 0).unwrap_or(0));
+        let window_ticks = (window_us * hz / 1_000_000).min(u64::from(u32::MAX)) as u32;
+        (period_ticks, window_ticks.max(period_ticks / 2))
+    }
+
+    /// One tick of interpolated position mode (digest §12): while controlword bit 4 is 1 each
+    /// SYNC takes the next data record (60C1h sub 1, a position) and the demand moves linearly
+    /// to it over 60C2h; with bit 4 = 0 or an empty buffer it holds.
+    fn run_ip<const B: usize>(
+        &mut self,
+        od: &Dictionary<B>,
+        input: &CyclicInput<'_>,
+        controlword: u16,
+    ) -> Setpoint {
+        let factors = input.factors;
+        let active = controlword & 0x0010 != 0 && !input.halt;
+        if active && !self.ip_active {
+            self.interpolator.reset(self.limiter.position());
+        }
+        self.ip_active = active;
+        if input.halt && !self.limiter.is_stopping() {
+            self.limiter.stop(&input.halt_limits);
+        } else if !input.halt && self.limiter.is_stopping() {
+            self.limiter.resume();
+            self.interpolator.reset(self.limiter.position());
+        }
+        if active {
+            let (period_ticks, tolerance_ticks) = self.cycle_timing(od);
+            let record = if input.cycle.sync { self.ip.next() } else { None };
+            let target = record.map_or(0, |r| {
+                let user = i64::from(r[0]) * factors.position_sign();
+                factors.to_internal(user).saturating_add(self.origin)
+            });
+            let cycle =
+                Cycle { sync: input.cycle.sync, fresh: record.is_some(), period_ticks, tolerance_ticks };
+            // Underflow holds the last point (no extrapolation, no stream-loss reaction).
+            self.interpolator.tick(&cycle, target, Bridge::Hold);
+            if !self.ip.is_full() {
+                self.ip_overflow = false;
+            }
+        }
+        self.cyclic_limited = self.limiter.tick_fixed(self.interpolator.value_fixed(), &input.limits);
+        let hz = self.config.tick_rate.hz();
+        self.feed_forward.velocity = saturate(self.limiter.velocity(hz));
+        Setpoint::Position(self.limiter.position() as i32)
+    }
+
     /// One tick of csp, csv or cst (digest §16–§18; [`super::cyclic`]).
     fn run_cyclic<const B: usize>(
         &mut self,
@@ -753,20 +864,8 @@ impl Profile {
     ) -> Setpoint {
         let factors = input.factors;
         let hz = self.config.tick_rate.hz();
-        // 60C2h: value × 10^index s; 1 ms when absent.
-        let value = od.get::<u8>(INTERPOLATION_TIME_PERIOD, 1).unwrap_or(1);
-        let index = od.get::<i8>(INTERPOLATION_TIME_PERIOD, 2).unwrap_or(-3);
-        let period_us = period_micros(value, index);
-        let period_ticks =
-            ((period_us * u64::from(hz) + 500_000) / 1_000_000).clamp(1, u64::from(u32::MAX)) as u32;
-        let window_us = u64::from(od.get::<u32>(0x1007, 0).unwrap_or(0));
-        let window_ticks = (window_us * u64::from(hz) / 1_000_000).min(u64::from(u32::MAX)) as u32;
-        let cycle = Cycle {
-            sync: input.cycle.sync,
-            fresh: input.cycle.fresh,
-            period_ticks,
-            tolerance_ticks: window_ticks.max(period_ticks / 2),
-        };
+        let (period_ticks, tolerance_ticks) = self.cycle_timing(od);
+        let cycle = Cycle { sync: input.cycle.sync, fresh: input.cycle.fresh, period_ticks, tolerance_ticks };
         let velocity_offset = factors.to_internal(i64::from(get::<B, i32>(od, VELOCITY_OFFSET)));
         let torque_offset = get::<B, i16>(od, TORQUE_OFFSET);
         let bridge: Bridge = self.config.cyclic.bridge;
@@ -940,7 +1039,7 @@ impl Profile {
         }
         let bit12 = match self.active_mode {
             mode::PROFILE_VELOCITY => self.speed_is_zero(od, now),
-            mode::PROFILE_POSITION => pp.setpoint_acknowledge,
+            mode::PROFILE_POSITION | mode::INTERPOLATED_POSITION => pp.setpoint_acknowledge,
             _ => false,
         };
         if bit12 {
