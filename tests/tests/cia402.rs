@@ -215,16 +215,34 @@ fn g_60_g_61_abort_connection_as_disable_voltage_or_quick_stop() {
 fn h_66_h_68_h_69_h_70_h_71_modes_of_operation() {
     let mut bench = Bench::new();
     assert_eq!(bench.sdo1(&req(0x40, 0x6060, 0, [0; 4])), req(0x4F, 0x6060, 0, [0; 4]));
-    // pp + pv + tq + hm + ip + csp + csv + cst.
-    assert_eq!(bench.sdo1(&req(0x40, 0x6502, 0, [0; 4])), req(0x43, 0x6502, 0, [0xED, 0x03, 0, 0]));
-    // h_68 reserved, h_69 not in 6502h (vl).
-    for mode in [5u8, 11, 0x80, 2] {
+    // Every mode of the standard: pp, vl, pv, tq, hm, ip, csp, csv, cst.
+    assert_eq!(bench.sdo1(&req(0x40, 0x6502, 0, [0; 4])), req(0x43, 0x6502, 0, [0xEF, 0x03, 0, 0]));
+    // h_68 reserved values (h_69, a mode missing from 6502h, in modes_not_listed_are_refused).
+    for mode in [5u8, 11, 0x80] {
         assert_eq!(bench.sdo1(&req(0x2F, 0x6060, 0, [mode, 0, 0, 0])), abort(0x6060, 0, 0x0609_0030));
     }
     assert_eq!(bench.sdo1(&req(0x2F, 0x6061, 0, [3, 0, 0, 0])), abort(0x6061, 0, 0x0601_0002));
     write(&mut bench, 0x6060, &[4]);
     bench.advance(Duration::from_millis(2));
     assert_eq!(bench.sdo1(&req(0x40, 0x6061, 0, [0; 4])), req(0x4F, 0x6061, 0, [4, 0, 0, 0]));
+}
+
+#[test]
+fn h_69_modes_missing_from_6502_are_refused() {
+    let mut bench = Bench::with_config(|mut config| {
+        config.device.drive_modes = 0x0005; // pp and pv only
+        config
+    });
+    for mode in [2u8, 4, 6, 7, 8, 9, 10] {
+        assert_eq!(
+            bench.sdo1(&req(0x2F, 0x6060, 0, [mode, 0, 0, 0])),
+            abort(0x6060, 0, 0x0609_0030),
+            "{mode}"
+        );
+    }
+    write(&mut bench, 0x6060, &[3]);
+    bench.advance(Duration::from_millis(2));
+    assert_eq!(bench.drive().od().get::<i8>(0x6061, 0), Ok(3));
 }
 
 #[test]

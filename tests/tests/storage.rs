@@ -29,7 +29,7 @@ fn power_on(flash: SimFlash) -> (StoredDrive, Vec<canopen_drive::CanFrame>) {
 }
 
 fn blank() -> SimFlash {
-    SimFlash::new(4096, 512, 4)
+    SimFlash::new(8192, 512, 4)
 }
 
 /// One SDO request, one response.

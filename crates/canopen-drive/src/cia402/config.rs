@@ -97,6 +97,8 @@ pub struct ProfileConfig {
     pub homing: HomingConfig,
     /// Cyclic synchronous modes: bridging of a lost stream, the SYNC phase object.
     pub cyclic: CyclicConfig,
+    /// Velocity mode: whether controlword bits 4–6 (ramp enable, unlock, reference) count.
+    pub vl: super::vl::Config,
 }
 
 impl ProfileConfig {
@@ -117,6 +119,7 @@ impl ProfileConfig {
             brake_engage_delay: Duration::ZERO,
             homing: HomingConfig::new(),
             cyclic: CyclicConfig::new(),
+            vl: super::vl::Config::new(),
         }
     }
 

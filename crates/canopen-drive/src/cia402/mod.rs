@@ -7,6 +7,7 @@
 //! - [`hm`]: homing mode.
 //! - [`cyclic`]: cyclic synchronous position, velocity and torque modes.
 //! - [`ip`]: the input buffer of interpolated position mode (60C0h–60C4h) and its value rules.
+//! - [`vl`]: velocity mode (6042h–604Ch): limit, ramp generator and factors of the inverter mode.
 //! - [`probe`]: the touch probe function (60B8h–60BDh), latching positions at probe edges.
 //! - [`objects`]: the profile objects with their defaults and value rules.
 //! - [`profile`]: the run-time of one axis: FSA, option-code stops, modes (pv, tq), statusword,
@@ -22,5 +23,6 @@ pub mod objects;
 pub mod pp;
 pub mod probe;
 pub mod profile;
+pub mod vl;
 
 pub use config::{OptionCodes, ProfileConfig};

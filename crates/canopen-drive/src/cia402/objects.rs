@@ -193,9 +193,10 @@ pub mod mode_bit {
     pub const CYCLIC_TORQUE: u32 = 1 << 9;
 }
 
-/// The modes this crate runs: pp, pv, tq, hm, ip, csp, csv and cst (the default of
+/// The modes this crate runs: all of CiA 402's: pp, vl, pv, tq, hm, ip, csp, csv, cst (the default of
 /// [`crate::od::DeviceInfo::drive_modes`]).
 pub const IMPLEMENTED_MODES: u32 = mode_bit::PROFILE_POSITION
+    | super::vl::MODE_BIT
     | mode_bit::PROFILE_VELOCITY
     | mode_bit::PROFILE_TORQUE
     | mode_bit::HOMING
@@ -302,11 +303,20 @@ const DIGITAL_OUTPUT_SUBS: [(u8, Var); 3] = [
 ];
 
 /// The profile objects, ascending.
-pub static PROFILE: [Object; 89] = layout([
+pub static PROFILE: [Object; 98] = layout([
     option_code(ABORT_CONNECTION_OPTION_CODE, "Abort connection option code", 1),
     actual(ERROR_CODE, "Error code", DataType::Unsigned16),
     command(CONTROLWORD, "Controlword", DataType::Unsigned16),
     actual(STATUSWORD, "Statusword", DataType::Unsigned16),
+    super::vl::VL_TARGET_VELOCITY_OBJECT,
+    super::vl::VL_VELOCITY_DEMAND_OBJECT,
+    super::vl::VL_VELOCITY_ACTUAL_VALUE_OBJECT,
+    super::vl::VL_VELOCITY_MIN_MAX_AMOUNT_OBJECT,
+    super::vl::VL_VELOCITY_ACCELERATION_OBJECT,
+    super::vl::VL_VELOCITY_DECELERATION_OBJECT,
+    super::vl::VL_VELOCITY_QUICK_STOP_OBJECT,
+    super::vl::VL_SET_POINT_FACTOR_OBJECT,
+    super::vl::VL_DIMENSION_FACTOR_OBJECT,
     option_code(QUICK_STOP_OPTION_CODE, "Quick stop option code", 2),
     option_code(SHUTDOWN_OPTION_CODE, "Shutdown option code", 0),
     option_code(DISABLE_OPERATION_OPTION_CODE, "Disable operation option code", 1),
@@ -482,6 +492,7 @@ pub fn check_write<const B: usize>(
         // Relative option 00/01/10 only; change-immediately and request-response options are not
         // implemented (testable item 100).
         POSITIONING_OPTION_CODE => raw & !0x0003 == 0 && raw & 0x0003 != 0x0003,
+        0x6042..=0x604C => return super::vl::check_write(index, sub, data),
         _ => return super::factor::check_write(index, sub, raw),
     };
     if valid {

@@ -43,6 +43,7 @@ use super::ip::{IpBuffer, Written};
 use super::objects::*;
 use super::pp::{self, ProfilePosition};
 use super::probe::{Changed, TouchProbe};
+use super::vl;
 use crate::comm::emcy::ErrorRegister;
 use crate::control::{Actual, Cascade, Parameters, Reference};
 use crate::drive::ConnectionEvent;
@@ -133,6 +134,9 @@ pub struct Profile {
     ip: IpBuffer,
     ip_overflow: bool,
     ip_active: bool,
+    /// Velocity mode's ramp, and its statusword bits 10/11 of this tick.
+    vl: vl::Velocity,
+    vl_bits: (bool, bool),
     /// The encoder count at the user zero: moved by homing (digest §10.5).
     origin: i64,
     /// A homing error EMCY (8613h) is active.
@@ -213,6 +217,8 @@ impl Profile {
             ip: IpBuffer::new(),
             ip_overflow: false,
             ip_active: false,
+            vl: vl::Velocity::new(config.vl),
+            vl_bits: (false, false),
             origin: 0,
             homing_error: false,
             last_tick: None,
@@ -474,6 +480,7 @@ impl Profile {
             self.homing.reset(actual);
             self.velocity = Ramp { value: i64::from(sample.velocity), remainder: 0 };
             self.reset_cyclic(actual, i64::from(sample.velocity));
+            self.vl.reset(i64::from(sample.velocity));
         }
         let _ = od.set::<i8>(MODES_OF_OPERATION_DISPLAY, 0, self.active_mode);
 
@@ -485,6 +492,7 @@ impl Profile {
             self.pp.reset(actual, actual_user);
             self.homing.reset(actual);
             self.reset_cyclic(actual, i64::from(sample.velocity));
+            self.vl.reset(i64::from(sample.velocity));
         }
         let operation = matches!(step.state, State::OperationEnabled { leaving: None });
         let stop = step.stop.or_else(|| {
@@ -492,7 +500,7 @@ impl Profile {
             let halting = halt
                 && operation
                 && !self.position_mode()
-                && !matches!(self.active_mode, mode::PROFILE_TORQUE | mode::CYCLIC_TORQUE);
+                && !matches!(self.active_mode, mode::PROFILE_TORQUE | mode::CYCLIC_TORQUE | vl::MODE);
             // (hm halts on its own trajectory, like pp.)
             let for_switch = switching && operation;
             (halting || for_switch)
@@ -519,7 +527,9 @@ impl Profile {
         let vmax = velocity_limit(od, &factors);
         let max_acceleration = factors.limit_to_internal(get(od, MAX_ACCELERATION));
         if let Some(kind) = stop.filter(|_| !self.stopping) {
-            if matches!(self.active_mode, mode::CYCLIC_POSITION | mode::INTERPOLATED_POSITION) {
+            if self.active_mode == vl::MODE {
+                self.vl.stop(kind);
+            } else if matches!(self.active_mode, mode::CYCLIC_POSITION | mode::INTERPOLATED_POSITION) {
                 self.limiter.stop(&TickLimits::new(vmax, max_acceleration, stop_deceleration(kind), hz));
             } else if self.active_mode == mode::HOMING {
                 self.homing.stop(stop_deceleration(kind), &pp_limits);
@@ -574,6 +584,7 @@ impl Profile {
                 self.limiter.tick(0, &TickLimits::new(vmax, max_acceleration, max_deceleration, hz));
                 Setpoint::Position(self.limiter.position() as i32)
             }
+            Some(_) if self.active_mode == vl::MODE => self.run_vl(od, &factors, controlword, sample, dt),
             Some(_) if self.active_mode == mode::HOMING => {
                 Setpoint::Position(self.homing.step_stop().position_demand())
             }
@@ -623,6 +634,9 @@ impl Profile {
                 } else {
                     Setpoint::None
                 }
+            }
+            None if drive_enabled && self.active_mode == vl::MODE => {
+                self.run_vl(od, &factors, controlword, sample, dt)
             }
             None if drive_enabled && self.active_mode == mode::INTERPOLATED_POSITION => {
                 let halt_kind =
@@ -799,6 +813,31 @@ impl Profile {
         let effort = factors.to_user(i64::from(output.velocity)) * factors.velocity_sign();
         let _ = od.set::<i32>(CONTROL_EFFORT, 0, saturate(effort));
         Setpoint::Torque(output.torque)
+    }
+
+    /// One tick of velocity mode (digest §15; [`vl`]), also while a stop ramps it down.
+    fn run_vl<const B: usize>(
+        &mut self,
+        od: &mut Dictionary<B>,
+        factors: &Factors,
+        controlword: u16,
+        sample: &Sample,
+        dt: Duration,
+    ) -> Setpoint {
+        let input = vl::Inputs {
+            parameters: vl::Parameters::from_od(od),
+            resolution: vl::Resolution::from_od(od),
+            controlword,
+            halt: StopKind::halt_or_fault(get(od, HALT_OPTION_CODE)).unwrap_or(StopKind::SlowDown),
+            velocity_limit: velocity_limit(od, factors),
+            actual_velocity: i64::from(sample.velocity),
+            dt,
+        };
+        let output = self.vl.tick(&input);
+        output.publish(od);
+        self.vl_bits = (output.target_reached, output.limit_active);
+        self.velocity = Ramp { value: output.demand, remainder: 0 };
+        Setpoint::Velocity(saturate(output.demand))
     }
 
     /// Ticks per interpolation period (60C2h) and the SYNC jitter tolerated.
@@ -1023,6 +1062,7 @@ impl Profile {
                 at_rest && StopKind::quick_stop(options.quick_stop).is_some_and(|(_, stay)| stay)
             }
             State::OperationEnabled { .. } if self.cyclic_mode() => false,
+            State::OperationEnabled { .. } if self.active_mode == vl::MODE => self.vl_bits.0,
             State::OperationEnabled { .. } if self.position_mode() => pp.target_reached,
             State::OperationEnabled { .. } if halt && self.active_mode == mode::PROFILE_TORQUE => {
                 self.torque.value == 0
@@ -1034,7 +1074,7 @@ impl Profile {
         if target_reached || core::mem::take(&mut self.mode_changed) {
             sw |= 1 << 10;
         }
-        if pp.internal_limit {
+        if pp.internal_limit || (self.active_mode == vl::MODE && self.vl_bits.1) {
             sw |= 1 << 11;
         }
         let bit12 = match self.active_mode {
