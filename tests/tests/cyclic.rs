@@ -215,7 +215,7 @@ fn csv_and_cst_sine_streams_are_followed() {
     let mut bench = bench_4k();
     stream_setup(&mut bench, CSV, 0x60FF, 0x20);
     let mut worst = 0;
-    for k in 0..3000 {
+    for k in 0..10_000 {
         let t = f64::from(k) / 1000.0;
         let target = (20_000.0 * (std::f64::consts::PI * t).sin()).round() as i32;
         period(&mut bench, 0x000F, target, 4, true, true);
@@ -231,7 +231,7 @@ fn csv_and_cst_sine_streams_are_followed() {
     let mut bench = bench_4k();
     stream_setup(&mut bench, CST, 0x6071, 0x10);
     node(&mut bench).motor.set_load_torque(0.0);
-    for k in 0..1000 {
+    for k in 0..10_000 {
         let t = f64::from(k) / 1000.0;
         let target = (300.0 * (2.0 * std::f64::consts::PI * t).sin()).round() as i32;
         period(&mut bench, 0x000F, target, 2, true, true);
@@ -322,12 +322,50 @@ fn lost_stream_with_quick_stop_reaction() {
     assert!(is(&mut bench, QSA) || is(&mut bench, SOD), "quick stop for 6007h = 3");
 }
 
+static PHASE_OBJECT: [canopen_drive::od::Object; 1] =
+    canopen_drive::od::layout([canopen_drive::cia402::cyclic::sync_phase_object(0x2600)]);
+
 #[test]
-fn the_sync_phase_is_measured() {
-    let mut bench = bench_4k();
+fn the_sync_phase_is_measured_and_published() {
+    let mut bench = Bench::with_config_and_tick(
+        |mut config| {
+            config.profile.tick_rate = TickRate::new(4000).unwrap();
+            config.manufacturer_objects = &PHASE_OBJECT;
+            config.profile.cyclic.sync_phase_object = Some(0x2600);
+            config
+        },
+        Duration::from_micros(250),
+    );
     stream_setup(&mut bench, CSP, 0x607A, 0x20);
     // The SYNC comes 100 µs after a tick.
     bench.advance(Duration::from_micros(100));
     bench.send(frame(0x080, &[]));
     assert_eq!(bench.drive().sync_phase(), Some(Duration::from_micros(100)));
+    assert_eq!(read_i32(&mut bench, 0x2600), 100, "µs, in the manufacturer object");
+}
+
+#[test]
+fn a_stream_through_a_lossy_bus_is_bridged() {
+    let mut bench = bench_4k();
+    stream_setup(&mut bench, CSP, 0x607A, 0x20);
+    // 3 % of the master's RPDOs and SYNCs lost (seeded: the same frames every run).
+    let rule = bench.bus.add_fault(
+        canopen_drive_sim::FaultRule::drop()
+            .when(|f, _| matches!(f.standard_id(), Some(0x080) | Some(RPDO1)))
+            .rate(0.03, 7),
+    );
+    let mut worst = 0;
+    for k in 0..5000 {
+        let t = f64::from(k) / 1000.0;
+        let target = (10_000.0 * (1.0 - (std::f64::consts::PI * t).cos())).round() as i32;
+        period(&mut bench, 0x000F, target, 4, true, true);
+        if k > 100 {
+            worst = worst.max(od_i32(&mut bench, 0x60F4).abs());
+        }
+        assert!(is(&mut bench, OE), "k = {k}: the stream stayed alive");
+    }
+    let dropped = bench.bus.fault(rule).unwrap().applied();
+    println!("lossy stream: {dropped} frames dropped, worst following error {worst}");
+    assert!(dropped > 100);
+    assert!(worst <= 100, "{worst}");
 }
