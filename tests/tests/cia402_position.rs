@@ -14,22 +14,9 @@ use embedded_can::Frame;
 const PP: u8 = 1;
 const PV: u8 = 3;
 
-fn od_u16(bench: &mut Bench, index: u16) -> u16 {
-    bench.drive().od().get::<u16>(index, 0).unwrap()
-}
-
-fn od_i32(bench: &mut Bench, index: u16) -> i32 {
-    bench.drive().od().get::<i32>(index, 0).unwrap()
-}
-
 /// One millisecond (one tick).
 fn tick(bench: &mut Bench) {
     bench.advance(Duration::from_millis(1));
-}
-
-/// Statusword as the dictionary holds it after the last tick.
-fn sw(bench: &mut Bench) -> u16 {
-    od_u16(bench, 0x6041)
 }
 
 /// One sample per tick: (position demand 6062h, velocity demand 606Bh, statusword).

@@ -70,18 +70,6 @@ fn period(
     frames
 }
 
-fn od_i32(bench: &mut Bench, index: u16) -> i32 {
-    bench.drive().od().get::<i32>(index, 0).unwrap()
-}
-
-fn od_i16(bench: &mut Bench, index: u16) -> i16 {
-    bench.drive().od().get::<i16>(index, 0).unwrap()
-}
-
-fn sw(bench: &mut Bench) -> u16 {
-    bench.drive().od().get::<u16>(0x6041, 0).unwrap()
-}
-
 #[test]
 fn csp_sine_stream_is_tracked_within_the_limits() {
     let mut bench = bench_4k();

@@ -25,14 +25,6 @@ fn homing_status(statusword: u16) -> (u8, u8, u8) {
     (((statusword >> 13) & 1) as u8, ((statusword >> 12) & 1) as u8, ((statusword >> 10) & 1) as u8)
 }
 
-fn od_i32(bench: &mut Bench, index: u16) -> i32 {
-    bench.drive().od().get::<i32>(index, 0).unwrap()
-}
-
-fn sw(bench: &mut Bench) -> u16 {
-    bench.drive().od().get::<u16>(0x6041, 0).unwrap()
-}
-
 /// The axis of the item-120 scene, extended: 1000 increments per revolution, index pulses at
 /// 150 + k·1000, limit switches active beyond ±10 000, hard stops at ±12 000.
 fn axis() -> MotorParams {

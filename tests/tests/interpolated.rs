@@ -37,10 +37,6 @@ fn demand(bench: &mut Bench) -> i32 {
     bench.drive().od().get::<i32>(0x6062, 0).unwrap()
 }
 
-fn sw(bench: &mut Bench) -> u16 {
-    bench.drive().od().get::<u16>(0x6041, 0).unwrap()
-}
-
 /// A SYNC and 1 ms.
 fn sync(bench: &mut Bench) {
     bench.send(frame(0x080, &[]));

@@ -67,3 +67,24 @@ pub fn enable(bench: &mut Bench, mode: u8) {
 pub fn enable_pv(bench: &mut Bench) {
     enable(bench, 3);
 }
+
+/// The dictionary's value now (what the master would read), without an SDO round trip: for
+/// per-tick observations.
+pub fn od_i32(bench: &mut Bench, index: u16) -> i32 {
+    bench.drive().od().get::<i32>(index, 0).unwrap()
+}
+
+/// See [`od_i32`].
+pub fn od_i16(bench: &mut Bench, index: u16) -> i16 {
+    bench.drive().od().get::<i16>(index, 0).unwrap()
+}
+
+/// See [`od_i32`].
+pub fn od_u16(bench: &mut Bench, index: u16) -> u16 {
+    bench.drive().od().get::<u16>(index, 0).unwrap()
+}
+
+/// The statusword as the dictionary holds it after the last tick.
+pub fn sw(bench: &mut Bench) -> u16 {
+    od_u16(bench, 0x6041)
+}
