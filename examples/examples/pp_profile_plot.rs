@@ -32,13 +32,25 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     let last = samples.last().copied().unwrap_or_default();
     assert_eq!(last.position, 15_000, "the move ends exactly on the target");
+    // The re-plan at full acceleration near the velocity limit stays within every limit.
+    let fastest = samples.iter().map(|s| s.velocity.unsigned_abs()).max().unwrap_or(0);
+    let hardest = samples.iter().map(|s| s.acceleration.unsigned_abs()).max().unwrap_or(0);
+    assert!(fastest <= u64::from(limits.velocity), "velocity {fastest} over the limit");
+    assert!(
+        hardest <= u64::from(limits.deceleration.max(limits.acceleration)),
+        "acceleration {hardest} over the limit"
+    );
 
     let svg = plot(&samples, replan_at)?;
     if let Some(parent) = std::path::Path::new(&path).parent() {
         std::fs::create_dir_all(parent)?;
     }
     std::fs::write(&path, svg)?;
-    println!("{} samples, re-planned at tick {replan_at}, written to {path}", samples.len());
+    println!(
+        "{} samples, re-planned at tick {replan_at}, peak velocity {fastest} (limit {}), written to {path}",
+        samples.len(),
+        limits.velocity
+    );
     Ok(())
 }
 

@@ -37,22 +37,75 @@ pub(crate) fn from_si(value: f32, hz: u32, k: u32) -> i128 {
     (value / hz_pow(hz, k) as f32 * ONE_F32) as i128
 }
 
-/// Rounds `num / den` to the nearest integer (halves away from zero); 0 if `den <= 0`.
-pub(crate) fn div_round(num: i128, den: i128) -> i128 {
+/// `⌊num / den⌋`; 0 if `den <= 0`.
+pub(crate) fn div_floor(num: i128, den: i128) -> i128 {
     if den <= 0 {
         return 0;
     }
-    let quotient = num / den;
-    let remainder = num % den;
-    if remainder.unsigned_abs() >= den.unsigned_abs() - remainder.unsigned_abs() {
-        if num < 0 {
-            quotient - 1
-        } else {
-            quotient + 1
-        }
+    let (quotient, exact) = div_trunc(num, den);
+    if num < 0 && !exact {
+        quotient - 1
     } else {
         quotient
     }
+}
+
+/// `⌈num / den⌉`; 0 if `den <= 0`.
+pub(crate) fn div_ceil(num: i128, den: i128) -> i128 {
+    if den <= 0 {
+        return 0;
+    }
+    let (quotient, exact) = div_trunc(num, den);
+    if num > 0 && !exact {
+        quotient + 1
+    } else {
+        quotient
+    }
+}
+
+/// `num / den` truncated, and whether it was exact, for `den > 0`. Divisors below 2³² (tick
+/// counts, the usual case) take a long division in 32-bit digits: four 64-by-32-bit steps
+/// instead of a 128-bit division, which neither Cortex-M has in hardware.
+fn div_trunc(num: i128, den: i128) -> (i128, bool) {
+    let Ok(small) = u32::try_from(den) else {
+        return (num / den, num % den == 0);
+    };
+    let divisor = u64::from(small);
+    let magnitude = num.unsigned_abs();
+    // Written out: constant shifts of a u128 are free, variable ones are not.
+    let step = |remainder: u64, digit: u32| {
+        let current = remainder << 32 | u64::from(digit);
+        (current / divisor, current % divisor)
+    };
+    let (q3, r) = step(0, (magnitude >> 96) as u32);
+    let (q2, r) = step(r, (magnitude >> 64) as u32);
+    let (q1, r) = step(r, (magnitude >> 32) as u32);
+    let (q0, remainder) = step(r, magnitude as u32);
+    let quotient = u128::from(q3) << 96 | u128::from(q2) << 64 | u128::from(q1) << 32 | u128::from(q0);
+    // |num| ≤ 2¹²⁷, so the quotient fits unless num = i128::MIN and den = 1.
+    let quotient = i128::try_from(quotient).unwrap_or(i128::MAX);
+    (if num < 0 { quotient.wrapping_neg() } else { quotient }, remainder == 0)
+}
+
+/// `x·n`, `None` on overflow: four 32×32-bit products (the multiplier is a tick count)
+/// instead of a 128×128-bit multiplication.
+pub(crate) fn mul_small(x: i128, n: u32) -> Option<i128> {
+    let magnitude = x.unsigned_abs();
+    let n = u64::from(n);
+    // Written out: constant shifts of a u128 are free, variable ones are not.
+    let d0 = u64::from(magnitude as u32) * n;
+    let d1 = u64::from((magnitude >> 32) as u32) * n + (d0 >> 32);
+    let d2 = u64::from((magnitude >> 64) as u32) * n + (d1 >> 32);
+    let d3 = u64::from((magnitude >> 96) as u32) * n + (d2 >> 32);
+    if d3 >> 32 != 0 {
+        return None;
+    }
+    let product = u128::from(d0 as u32)
+        | u128::from(d1 as u32) << 32
+        | u128::from(d2 as u32) << 64
+        | u128::from(d3 as u32) << 96;
+    let product = i128::try_from(product).ok()?;
+    Some(if x < 0 { -product } else { product })
 }
 
 /// Rounds a fixed-point value to the nearest integer (halves up).
@@ -61,9 +114,31 @@ pub(crate) fn round_to_int(value: i128) -> i128 {
 }
 
 /// A fixed-point per-tickᵏ value as whole increments/sᵏ, rounded, clamped to i64.
+///
+/// Runs every tick (the demand of [`super::MotionState`]), so the usual case avoids 128-bit
+/// multiplications: with `value = high·2⁶⁴ + low`, the result is `high·hzᵏ` plus the rounded
+/// high half of `low·hzᵏ`, here in 32-bit limbs when `high` and `hzᵏ` fit 32 bits (three
+/// 32×32-bit products, cheap on a Cortex-M0 too).
 pub(crate) fn to_whole_si(value: i128, hz: u32, k: u32) -> i64 {
-    let scaled = value.saturating_mul(hz_pow(hz, k));
-    let whole = round_to_int(scaled);
+    let scale = hz_pow(hz, k);
+    let high = value >> FRAC;
+    let low = value as u64;
+    if let (Ok(scale), Ok(high)) = (u32::try_from(scale), i32::try_from(high)) {
+        let scale = u64::from(scale);
+        let lower = (low & 0xffff_ffff) * scale;
+        // low·scale = upper·2³² + (lower mod 2³²), upper < 2⁶⁴ − 2³².
+        let upper = (low >> 32) * scale + (lower >> 32);
+        let carry = (upper + (1 << 31)) >> 32;
+        // |high·scale| < 2⁶³ − 2³², carry ≤ 2³².
+        return i64::from(high) * scale as i64 + carry as i64;
+    }
+    if let (Ok(scale), Ok(high)) = (i64::try_from(scale), i64::try_from(high)) {
+        let carry = (u128::from(low) * scale.unsigned_abs() as u128 + (1 << (FRAC - 1))) >> FRAC;
+        if let Some(whole) = high.checked_mul(scale).and_then(|w| w.checked_add(carry as i64)) {
+            return whole;
+        }
+    }
+    let whole = round_to_int(value.saturating_mul(scale));
     whole.clamp(i128::from(i64::MIN), i128::from(i64::MAX)) as i64
 }
 
@@ -76,8 +151,9 @@ pub(crate) fn abs(x: f32) -> f32 {
     }
 }
 
-/// `√x` for `f32` without `std`: a bit-level first guess and four Newton steps (relative
-/// error below 10⁻⁷ for every positive normal input). 0 for `x <= 0` or NaN; `x` for +∞.
+/// `√x` for `f32` without `std`: a bit-level first guess (within 3.5 %) and three Newton
+/// steps, each squaring the relative error (to 6·10⁻⁴, 2·10⁻⁷, the rounding of `f32`). 0 for
+/// `x <= 0` or NaN; `x` for +∞.
 pub(crate) fn sqrt(x: f32) -> f32 {
     if x.is_nan() || x <= 0.0 {
         return 0.0;
@@ -86,7 +162,7 @@ pub(crate) fn sqrt(x: f32) -> f32 {
         return x;
     }
     let mut y = f32::from_bits((x.to_bits() >> 1).wrapping_add(0x1fbd_1df5));
-    for _ in 0..4 {
+    for _ in 0..3 {
         y = 0.5 * (y + x / y);
     }
     y
@@ -114,12 +190,35 @@ mod unit_tests {
 
     #[test]
     fn rounding_division() {
-        assert_eq!(div_round(7, 2), 4);
-        assert_eq!(div_round(-7, 2), -4);
-        assert_eq!(div_round(5, 3), 2);
-        assert_eq!(div_round(-5, 3), -2);
-        assert_eq!(div_round(4, 3), 1);
-        assert_eq!(div_round(1, 0), 0);
+        assert_eq!((div_floor(7, 2), div_floor(-7, 2), div_floor(-6, 2)), (3, -4, -3));
+        assert_eq!((div_ceil(7, 2), div_ceil(-7, 2), div_ceil(6, 2)), (4, -3, 3));
+        assert_eq!((div_floor(1, 0), div_ceil(1, 0)), (0, 0));
+        // The digit-wise division agrees with the 128-bit one, both signs, all sizes.
+        let mut x: u128 = 0x2545_F491_4F6C_DD1D_9E37_79B9_7F4A_7C15;
+        for _ in 0..20_000 {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            let num = (x as i128) >> (x % 127);
+            for den in [1i128, 6, 7, (x >> 100) as i128 + 1, u32::MAX.into(), 1 << 32, (x >> 20) as i128 + 1]
+            {
+                for n in [num, -num] {
+                    let floor = n.div_euclid(den) - if n.rem_euclid(den) != 0 && den < 0 { 1 } else { 0 };
+                    assert_eq!(div_floor(n, den), floor, "{n} {den}");
+                    assert_eq!(div_ceil(n, den), -((-n).div_euclid(den)), "{n} {den}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn small_products() {
+        for x in [0i128, 1, -1, 12345, -(1 << 90) + 7, i128::MAX / 5, i128::MIN / 7] {
+            for n in [0u32, 1, 2, 3, 4_000_000, u32::MAX] {
+                assert_eq!(mul_small(x, n), x.checked_mul(i128::from(n)), "{x} {n}");
+            }
+        }
+        assert_eq!(mul_small(i128::MIN, 1), None);
     }
 
     #[test]
@@ -139,6 +238,38 @@ mod unit_tests {
         assert_eq!(ceil_ticks(3.0), Some(3));
         assert_eq!(ceil_ticks(1e10), None);
         assert_eq!(ceil_ticks(f32::NAN), None);
+    }
+
+    #[test]
+    fn whole_units_match_the_128_bit_rounding() {
+        let slow = |value: i128, hz: u32, k: u32| {
+            let whole = round_to_int(value.saturating_mul(hz_pow(hz, k)));
+            whole.clamp(i128::from(i64::MIN), i128::from(i64::MAX)) as i64
+        };
+        let mut x: u128 = 0x9E37_79B9_7F4A_7C15_F39C_C060_5CED_C834;
+        for _ in 0..20_000 {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            let value = (x as i128) >> (x % 100);
+            for (hz, k) in [
+                (100, 1),
+                (4000, 1),
+                (1_000_000, 1),
+                (16_000, 2),
+                (65_535, 2),
+                (65_536, 2),
+                (1_000_000, 2),
+                (8000, 3),
+                (1_000_000, 3),
+            ] {
+                assert_eq!(to_whole_si(value, hz, k), slow(value, hz, k), "{value} {hz} {k}");
+                assert_eq!(to_whole_si(-value, hz, k), slow(-value, hz, k), "{value} {hz} {k}");
+            }
+        }
+        for value in [0, 1, -1, 1 << 63, -(1 << 63), i128::MAX, i128::MIN, i128::MIN + 1] {
+            assert_eq!(to_whole_si(value, 4000, 2), slow(value, 4000, 2), "{value}");
+        }
     }
 
     #[test]

@@ -14,10 +14,10 @@
 //! # Two rates of work
 //!
 //! *Planning* (`plan`, `set_target`, `stop`) does a bounded amount of arithmetic that does not
-//! depend on the distance: one bisection of 32 steps in `f32` over the peak velocity, then a
-//! closing of at most six fits of the integer profile, repeated (at most 24 more times, usually
-//! none) when a change has to be lengthened to respect its limit. *Stepping* (`step`, once per tick) is O(1): six 128-bit
-//! additions, a shift, and a segment switch every few thousand ticks.
+//! depend on the distance (the bound is under [Work per plan](#work-per-plan)). *Stepping*
+//! (`step`, once per tick) is O(1): six 128-bit additions and a shift, a comparison for the
+//! switch between the two jerks of a segment, and a segment switch every few thousand ticks;
+//! then the state is converted to whole units for [`MotionState`].
 //!
 //! # Profile shape
 //!
@@ -29,8 +29,10 @@
 //! the axis, and overshoot that needs a reversal all come out of the same formula. With the
 //! jerk-limited profile each velocity change is jerk A (or C), constant acceleration, jerk B (or
 //! D); the acceleration starts from the current acceleration, so a re-plan never jumps in
-//! position, velocity or acceleration. The trapezoidal profile starts from the current position
-//! and velocity; its acceleration jumps, as a linear ramp's does.
+//! position, velocity or acceleration. Where the present acceleration cannot be carried into
+//! the first change within the limits, it is first ramped to zero at jerk B (while speeding up)
+//! or D (while slowing down). The trapezoidal profile starts from the current position and
+//! velocity; its acceleration jumps, as a linear ramp's does.
 //!
 //! # Numeric representation, and why
 //!
@@ -46,32 +48,85 @@
 //! - **Integers per tick, floats only to choose the shape** — the choice made here.
 //!
 //! The executed state is `(position, velocity, acceleration)` in 128-bit fixed point with 64
-//! fractional bits, in *per-tick* units (increments, increments/tick, increments/tick²); each
-//! segment has a constant jerk that is a multiple of 6 units and every acceleration is even, so
-//! one tick of the cubic, `p += v + a/2 + j/6; v += a + j/2; a += j`, is exact in integers: there
-//! is no rounding, so there is no drift, however long the move. The end state of each segment is
-//! computed at plan time from the same closed form, so planning knows where the executed profile
-//! will end to the last bit. Per tick that is six 128-bit additions and a shift; nothing is
-//! multiplied or divided (an estimate of some 50–100 instructions on an M0; not measured).
+//! fractional bits, in *per-tick* units (increments, increments/tick, increments/tick²). A
+//! segment's jerk is a multiple of 6 units and every acceleration is even (a multiple of 6 with
+//! the jerk-limited profile), so one tick of the cubic, `p += v + a/2 + j/6; v += a + j/2; a += j`, is exact in integers: there is
+//! no rounding, so there is no drift, however long the move. A segment may run at two jerks one
+//! unit (of 6) apart, switching once, so that a jerk phase changes the acceleration by exactly
+//! the amount asked: every velocity change ends at exactly zero acceleration. Planning computes
+//! each segment's end state from the same closed form, so it knows where the executed profile
+//! ends to the last bit.
 //!
-//! The shape (segment durations, peak velocity) is found in `f32` in SI units (increments,
-//! seconds); its 24-bit precision only decides durations, which are rounded *up* to whole ticks
-//! (longer segments only lower the accelerations and jerks needed). Then the integer profile is
-//! fitted: with the tick counts fixed, the jerks that end each velocity change at the wanted
-//! velocity with zero acceleration are solved exactly, and the peak velocity is corrected by a
-//! secant step in integers (the distance is affine in the peak velocity once the tick counts are
-//! fixed), so the fitted profile ends within far less than an increment of the target (2⁻¹⁰
-//! increment in the tests; ½ increment for plans over 10⁶ ticks, where the rounding of the
-//! jerks to whole units grows with the cube of a segment's length). The last sample is then set to the target, so the final sample
-//! equals the target exactly. The rounding of the fitted jerks to 6 units may leave an
-//! acceleration of a few 2⁻⁶⁴ increments/tick² at the end of a velocity change; it is set to
-//! zero there.
+//! # From the shape to whole ticks
 //!
-//! Planning costs one `f32` bisection (32 steps of a few dozen `f32` operations and a square
-//! root — hardware on the M4F, software on the M0) and integer fits with 128-bit
-//! multiplications and divisions (software on both; each fit is a few hundred of them). That is
-//! done once per set-point, not per tick; a board that plans inside the tick ISR at 16 kHz on an
-//! M0 should check the worst case on its hardware (not measured here).
+//! The shape (durations, peak velocity) is found in `f32` in SI units; it only chooses the
+//! layout of the plan and a first peak velocity. The integer stage (`solve`, `legs`) then:
+//!
+//! - sizes each velocity change in whole ticks for the largest change it may have to make (a
+//!   change starting from zero acceleration: an `f32` estimate of the time-optimal durations,
+//!   then lengthened exactly until its fitted peak acceleration and jerks are within the limits
+//!   less 2⁻²⁰; the first change carrying an acceleration: a few candidate durations around
+//!   the shape's, each fitted and checked, else the ramp above);
+//! - fits each change for whole ticks: the rise of the acceleration is solved for the aimed
+//!   velocity and rounded so the change ends at or below the aimed speed, never above;
+//! - chooses the peak velocity in a *window* `[lo, hi]` (`hi` at most the velocity limit less
+//!   2⁻²⁰): with the tick counts fixed, every tick's velocity, acceleration and jerk is affine
+//!   in the peak velocity, so if the fits at both ends of the window conform, every peak in
+//!   between does. The cruise is the fewest whole ticks that let the window reach the target;
+//!   if the window cannot, its bottom is lowered (at most 6 rounds, the last one down to zero,
+//!   where the changes into the peak are sized to stop). Then the peak that lands on the target
+//!   is interpolated (the distance is affine in it up to the rounding; at most 4 steps,
+//!   usually one);
+//! - checks the final fit against the exact limits, tick by tick (velocity at the ends and at
+//!   the vertex of each segment, acceleration at its ends, jerk), and keeps it.
+//!
+//! If the rounds run out, or the final check fails, the plan takes the *fallback*: stop first
+//! (ramping the acceleration out if it cannot be carried into the stop), move from standstill
+//! (all its changes then speed up to the peak or slow down from it, so the window `[0, hi]`
+//! always reaches the target), and for an end velocity stop short and start again to pass the
+//! target at it. This is slower than the shape's plan (it stops in the middle), and serves only
+//! where whole ticks need another shape than the continuous one: a target at exactly the
+//! stopping distance (the stop in whole ticks passes it), a state beyond lowered limits, moves
+//! of a few ticks — 18 of the 7 372 plans of the random test. The fallback's own final check
+//! has not failed in any test; were it to, its plan would still be used.
+//!
+//! The fitted profile ends within far less than an increment of the target (the search stops
+//! at 2⁻²⁸ increment; the tests check 2⁻¹⁰ increment, ½ increment for plans over 10⁶ ticks);
+//! the last sample is then set to the target, so the final sample equals the target exactly.
+//! A stop inside a plan (the first half of a reversal) is set to standstill exactly at its end;
+//! the velocity it corrects is a few hundred million units of 2⁻⁶⁴ increment/tick at most in
+//! the tests.
+//!
+//! # Limits: what is guaranteed
+//!
+//! After any plan, re-plan, stop or ramp, from any state — accelerating, cruising,
+//! decelerating, reversing, with an end velocity — every executed tick satisfies, in the
+//! fixed-point state itself:
+//!
+//! - |velocity| ≤ the velocity limit;
+//! - |acceleration| ≤ the acceleration limit while the speed rises (or from standstill) and ≤
+//!   the deceleration limit while it falls (for the trapezoid, the velocity step of the tick);
+//!   across a change of sign of the velocity within a segment, ≤ the smaller of the two;
+//! - |jerk| ≤ the largest jerk limit plus 6 units of 2⁻⁶⁴ increment/tick³ (one unit of the
+//!   jerk grid; the segment's own corner jerk is used when planning).
+//!
+//! The limits are converted to fixed point rounded down, so this holds for the configured
+//! limits exactly: no tolerance for velocity and acceleration, and a jerk tolerance below
+//! 2·10⁻⁶ increment/s³ at 16 kHz. The demand in [`MotionState`] (rounded to whole units) is
+//! then never above a limit either. The random test (`limit_tests`, 1 200 scenarios, 7 372
+//! plans with lowered and raised limits, both profiles, per-corner jerks, end velocities and
+//! stops) checks every tick with these bounds; its worst values are 1.0000000 × the velocity,
+//! 0.9999982 × the acceleration and 0.9999926 × the jerk limit.
+//!
+//! One exception, by physics: a state that already breaks the limits at the re-plan (limits
+//! lowered while moving). Its speed may be above the new velocity limit, its acceleration above
+//! the new acceleration or deceleration limit, or (jerk-limited) ramping its acceleration to
+//! zero at the jerk limit that ends a speed change (B while speeding up, D while slowing down),
+//! in whole ticks, `n = ⌈|a|/j⌉`, may carry the speed to `|v + a·n/2|` above the limit. Then
+//! the acceleration is ramped towards zero without growing, the speed rises at most to that
+//! value, falls back within the velocity limit with the deceleration and never rises again;
+//! from then on the limits hold as above. A jerk limit lowered far below what the present
+//! acceleration needs makes that ramp long, as it must.
 //!
 //! # Limits and their edge values
 //!
@@ -85,17 +140,55 @@
 //! - Targets are `i64`, so relative moves from anywhere in the i32 range do not wrap internally;
 //!   targets beyond ±2⁴⁰ increments are refused. [`MotionState::position_demand`] wraps the
 //!   position to i32 as a 32-bit position counter does.
-//! - Numeric tolerance (what the tests check): from rest, the profile exceeds no velocity,
-//!   acceleration or jerk limit by more than one part in 10⁴ plus 2⁻³⁰ of the per-tick unit.
-//!   Re-planned from a moving state, the rounding of durations to whole ticks can ask a change
-//!   that was shorter than a tick for more than its limit; such changes are lengthened (bounded
-//!   rounds), and what is left was measured at most 1.0006 × the velocity, 1.031 × the
-//!   acceleration and 1.002 × the jerk limit over 300 random re-plan scenarios.
-//! - Known limitation: a jerk-limited re-plan that must first ramp away a large present
-//!   acceleration can ramp it with a jerk a few per cent below the limit (the fit solves the
-//!   jerk for whole ticks), so the velocity gained meanwhile, `a²/2j`, overshoots a velocity
-//!   limit that the axis was already close to: 0.86 % in `examples/pp_profile_plot.rs`
-//!   (re-plan at full acceleration 5 000 increments/s below the limit).
+//!
+//! # Work per plan
+//!
+//! At most: two shapes in `f32` (each up to 27 evaluations of up to four velocity changes, 24
+//! of them only for moves that do not reach the velocity limit), and twice (the shape's layout,
+//! then the fallback) up to 6 rounds of sizing and fitting the layout at both window ends
+//! (sizing a first change that carries an acceleration fits up to 10 candidates at both ends),
+//! 4 interpolation fits and one final fit; a fit is at most 14 segments of 128-bit arithmetic
+//! with no loop over ticks. Usually: one shape of one or two evaluations (a move that reaches
+//! the velocity limit) and 4 fits (both window ends, one interpolation, the final fit).
+//!
+//! # Cost on Cortex-M
+//!
+//! Instructions per call, counted by QEMU's instruction-counting plugin
+//! (`benches/mcu-motion/run.sh`; release profile, `opt-level = "s"`, LTO; 4 kHz, 100 000
+//! increments/s, 500 000 increments/s², 10⁷ increments/s³):
+//!
+//! | call | Cortex-M4F (`thumbv7em-none-eabihf`) | no FPU (`thumbv6m-none-eabi`) |
+//! |---|---:|---:|
+//! | plan, trapezoid, from standstill | 50 395 | 120 721 |
+//! | plan, jerk-limited, from standstill | 131 687 | 319 768 |
+//! | plan, trapezoid, from standstill, too short to cruise | 51 584 | 152 284 |
+//! | plan, jerk-limited, from standstill, too short to cruise | 141 798 | 723 564 |
+//! | plan, trapezoid, re-plan while accelerating | 54 982 | 128 854 |
+//! | plan, jerk-limited, re-plan while accelerating | 181 942 | 445 567 |
+//! | plan, trapezoid, re-plan that takes the fallback | 120 804 | 377 043 |
+//! | plan, jerk-limited, re-plan that takes the fallback | 317 661 | 1 578 085 |
+//! | step, trapezoid | 256 | 1 023 |
+//! | step, jerk-limited | 256 | 1 022 |
+//!
+//! The M4F runs on QEMU's `mps2-an386`, the v6-M code on `mps2-an385` (a Cortex-M3 running the
+//! Cortex-M0 instruction set); counts are instructions, not cycles.
+//!
+//! - On the M4F the planning is about 0.05–0.3 M instructions (0.3–2 ms at 170 MHz); on the
+//!   M0 0.1–0.7 M (typical), 1.6 M in the worst case measured (the fallback), i.e. up to some
+//!   30 ms at 48 MHz. Plan outside a fast tick interrupt (when a set-point arrives, in the
+//!   communication context), or let the tick absorb the overrun once per set-point.
+//! - The `f32` shape search is not what dominates on the M0 for moves that reach the velocity
+//!   limit (one or two evaluations, under 10 % of a plan). For shorter moves its 24-step
+//!   bisection is about half of a jerk-limited plan on the M0 (about 0.35 M instructions, some
+//!   15 000 per evaluation of soft-float); acceptable for a plan per set-point, not per tick.
+//!   Otherwise the 128-bit fixed-point fitting dominates: 64-bit multiplication helpers (the
+//!   M0 has no 32×32→64 multiply) and 128-bit divisions (done in 32-bit digits; no divide
+//!   instruction at all on the M0).
+//! - A step is about 250 instructions on the M4F and 1 000 on the M0; of these, the stepping
+//!   itself is about 125 and 200, the rest converts the state to the whole units of
+//!   [`MotionState`] (three 32×32-bit products each for velocity and acceleration, through a
+//!   helper on the M0). At 16 kHz that is some 3 % of a 170 MHz M4F, and a third of a 48 MHz
+//!   M0.
 //!
 //! # Example
 //!
@@ -115,10 +208,14 @@
 //! ```
 
 mod fixed;
+mod legs;
 mod planner;
 mod shape;
+mod solve;
 mod trajectory;
 
+#[cfg(test)]
+mod limit_tests;
 #[cfg(test)]
 mod tests;
 

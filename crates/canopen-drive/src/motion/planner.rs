@@ -1,34 +1,11 @@
 //! [`PositionPlanner`] (pp moves, halt and quick stop in pp) and [`VelocityRamp`] (pv, halt,
 //! quick stop).
 
-use super::fixed::{per_tick, round_to_int, to_si, to_whole_si, FRAC, ONE_F32};
-use super::shape::{position_shape, velocity_change, Changes, ShapeLimits, VelocityEnd};
-use super::trajectory::{Aims, Exact, Fit, TickShape, Trajectory};
-use super::{Limits, MotionError, MotionState, ProfileType, TickRate, POSITION_RANGE};
-
-/// Secant corrections of the peak velocity after the first fit.
-const CLOSING_STEPS: u32 = 4;
-
-/// Rounds of lengthening velocity changes that the closing pushed over a limit.
-const RELAX_ROUNDS: u32 = 24;
-
-fn shape_limits(limits: &Limits) -> ShapeLimits {
-    let jerk = match limits.profile {
-        ProfileType::Trapezoidal => None,
-        ProfileType::JerkLimited => Some([
-            limits.jerk.accel_start as f32,
-            limits.jerk.accel_end as f32,
-            limits.jerk.decel_start as f32,
-            limits.jerk.decel_end as f32,
-        ]),
-    };
-    ShapeLimits {
-        velocity: limits.velocity as f32,
-        acceleration: limits.acceleration as f32,
-        deceleration: limits.deceleration as f32,
-        jerk,
-    }
-}
+use super::fixed::{per_tick, round_to_int, to_whole_si, FRAC};
+use super::legs::margin;
+use super::solve::{plan_move, plan_velocity, Method, Planned};
+use super::trajectory::{Exact, Segment, Trajectory, MAX_SEGMENTS};
+use super::{Limits, MotionError, MotionState, TickRate, POSITION_RANGE};
 
 fn state_of(now: &Exact, hz: u32) -> MotionState {
     MotionState {
@@ -40,78 +17,18 @@ fn state_of(now: &Exact, hz: u32) -> MotionState {
 
 /// Plans a velocity change of `trajectory` to `velocity` (fixed point, per tick); the plan
 /// ends there exactly.
-fn plan_velocity(
+fn ramp_to(
     trajectory: &mut Trajectory,
     velocity: i128,
     limits: &Limits,
     hz: u32,
-) -> Result<u32, MotionError> {
-    limits.check_ramps()?;
-    let now = trajectory.now;
-    let shape_limits = shape_limits(limits);
-    let mut changes = Changes::default();
-    velocity_change(
-        to_si(now.v, hz, 1),
-        to_si(now.a, hz, 2),
-        to_si(velocity, hz, 1),
-        VelocityEnd::Final,
-        &shape_limits,
-        &mut changes,
-    );
-    let jerk_limited = shape_limits.jerk.is_some();
-    let len = changes.as_slice().len();
-    let mut ticks = TickShape::new(changes.as_slice(), len, 0.0, hz, limits).ok_or(MotionError::TooLong)?;
-    let aims = Aims { peak: velocity, last: velocity };
-    let mut fit = Fit::build(now, &ticks, &aims, jerk_limited).ok_or(MotionError::TooLong)?;
-    for _ in 0..RELAX_ROUNDS {
-        if !ticks.relax(&fit).ok_or(MotionError::TooLong)? {
-            break;
-        }
-        fit = Fit::build(now, &ticks, &aims, jerk_limited).ok_or(MotionError::TooLong)?;
-    }
-    let end = Exact { v: velocity, a: 0, ..fit.end };
-    trajectory.start(&fit, end);
-    Ok(ticks.total() as u32)
-}
-
-/// Fits `ticks` from `start` and corrects the peak velocity so the fit covers `to_go`: with the
-/// tick counts fixed the distance is affine in the peak velocity, so a secant step (repeated
-/// against rounding) lands on the target.
-fn close(
-    start: &Exact,
-    ticks: &TickShape,
-    peak: i128,
-    last: i128,
-    to_go: i128,
-    jerk_limited: bool,
-) -> Result<Fit, MotionError> {
-    let fit_with = |peak: i128| {
-        Fit::build(*start, ticks, &Aims { peak, last }, jerk_limited).ok_or(MotionError::TooLong)
-    };
-    let mut peak = peak;
-    let mut fit = fit_with(peak)?;
-    let probe = (peak.unsigned_abs() >> 10).max(1 << 32) as i128;
-    let slope = {
-        let other = fit_with(peak.saturating_add(probe))?;
-        (other.displacement(start) - fit.displacement(start)) as f32 / probe as f32
-    };
-    if !(slope.is_finite() && slope > 0.0) {
-        return Ok(fit);
-    }
-    for _ in 0..CLOSING_STEPS {
-        let miss = to_go.saturating_sub(fit.displacement(start));
-        let correction = (miss as f32 / slope) as i128;
-        if miss == 0 || correction == 0 {
-            break;
-        }
-        let candidate = fit_with(peak.saturating_add(correction))?;
-        if to_go.saturating_sub(candidate.displacement(start)).unsigned_abs() >= miss.unsigned_abs() {
-            break;
-        }
-        peak = peak.saturating_add(correction);
-        fit = candidate;
-    }
-    Ok(fit)
+) -> Result<(u32, Method), MotionError> {
+    let mut segments = [Segment::default(); MAX_SEGMENTS];
+    let planned = plan_velocity(trajectory.now, velocity, limits, hz, &mut segments)?;
+    let ticks = u32::try_from(planned.ticks).map_err(|_| MotionError::TooLong)?;
+    let end = Exact { v: velocity, a: 0, ..planned.end };
+    trajectory.start(&segments, planned.len, end);
+    Ok((ticks, planned.method))
 }
 
 /// Point-to-point trajectory generator for profile position mode (`spec/cia402.md` §9).
@@ -125,6 +42,7 @@ pub struct PositionPlanner {
     trajectory: Trajectory,
     target: i64,
     closing_error: i128,
+    method: Method,
 }
 
 impl PositionPlanner {
@@ -135,6 +53,7 @@ impl PositionPlanner {
             trajectory: Trajectory::at_rest((position as i128) << FRAC),
             target: position,
             closing_error: 0,
+            method: Method::Shape,
         }
     }
 
@@ -144,6 +63,7 @@ impl PositionPlanner {
         self.trajectory = Trajectory::at_rest(i128::from(position) << FRAC);
         self.target = position;
         self.closing_error = 0;
+        self.method = Method::Shape;
     }
 
     /// Plans a move from the present state to `target` (increments), passing it at
@@ -165,41 +85,30 @@ impl PositionPlanner {
         let target_fixed = i128::from(target) << FRAC;
         let to_go = target_fixed - start.p;
         let end_speed = end_velocity.min(limits.velocity);
+        // The peak is fitted a hair under the velocity limit (`legs::margin`): an end velocity at
+        // the limit itself (a change-on-set-point pass at the profile velocity) is taken at that
+        // hair too, or no peak could reach it.
+        let end_fixed = per_tick(end_speed, hz, 1).min(margin(per_tick(limits.velocity, hz, 1)));
         let last = match to_go.signum() {
             0 => 0,
-            s => s * per_tick(end_speed, hz, 1),
+            s => s * end_fixed,
         };
         if to_go == 0 && start.v == 0 && start.a == 0 && last == 0 {
             self.trajectory = Trajectory::at_rest(target_fixed);
             self.target = target;
             self.closing_error = 0;
+            self.method = Method::Shape;
             return Ok(0);
         }
-        let shape_limits = shape_limits(limits);
-        let jerk_limited = shape_limits.jerk.is_some();
-        let shape = position_shape(
-            to_go as f32 / ONE_F32,
-            to_si(start.v, hz, 1),
-            to_si(start.a, hz, 2),
-            to_si(last, hz, 1),
-            &shape_limits,
-        )
-        .ok_or(MotionError::ZeroVelocity)?;
-        let mut ticks = TickShape::new(shape.changes.as_slice(), shape.before, shape.cruise, hz, limits)
-            .ok_or(MotionError::TooLong)?;
-        let initial_peak = super::fixed::from_si(shape.peak, hz, 1);
-        let mut fit = close(&start, &ticks, initial_peak, last, to_go, jerk_limited)?;
-        for _ in 0..RELAX_ROUNDS {
-            if !ticks.relax(&fit).ok_or(MotionError::TooLong)? {
-                break;
-            }
-            fit = close(&start, &ticks, initial_peak, last, to_go, jerk_limited)?;
-        }
-        self.closing_error = to_go.saturating_sub(fit.displacement(&start));
+        let mut segments = [Segment::default(); MAX_SEGMENTS];
+        let planned: Planned = plan_move(start, to_go, last, limits, hz, &mut segments)?;
+        let ticks = u32::try_from(planned.ticks).map_err(|_| MotionError::TooLong)?;
+        self.closing_error = to_go.saturating_sub(planned.end.p.saturating_sub(start.p));
+        self.method = planned.method;
         let end = Exact { p: target_fixed, v: last, a: 0 };
-        self.trajectory.start(&fit, end);
+        self.trajectory.start(&segments, planned.len, end);
         self.target = target;
-        Ok(ticks.total() as u32)
+        Ok(ticks)
     }
 
     /// Stops with `deceleration` (increments/s², e.g. 6084h for halt, 6085h for quick stop),
@@ -210,8 +119,9 @@ impl PositionPlanner {
             return Err(MotionError::ZeroDeceleration);
         }
         let stop_limits = Limits { acceleration: deceleration, deceleration, ..*limits };
-        let ticks = plan_velocity(&mut self.trajectory, 0, &stop_limits, self.hz)?;
+        let (ticks, method) = ramp_to(&mut self.trajectory, 0, &stop_limits, self.hz)?;
         self.closing_error = 0;
+        self.method = method;
         Ok(ticks)
     }
 
@@ -248,6 +158,12 @@ impl PositionPlanner {
         self.trajectory.now
     }
 
+    /// How the last plan was made (for the tests).
+    #[cfg(test)]
+    pub(crate) fn method(&self) -> Method {
+        self.method
+    }
+
     /// How far the fitted profile ended from the target before the last sample was set to it,
     /// in 2⁻⁶⁴ increments (for the tests).
     #[cfg(test)]
@@ -278,7 +194,7 @@ impl VelocityRamp {
         let speed = velocity.unsigned_abs().min(limits.velocity);
         let fixed = per_tick(speed, self.hz, 1);
         let fixed = if velocity < 0 { -fixed } else { fixed };
-        plan_velocity(&mut self.trajectory, fixed, limits, self.hz)
+        ramp_to(&mut self.trajectory, fixed, limits, self.hz).map(|(ticks, _)| ticks)
     }
 
     /// Ramps to standstill with `deceleration` (halt: 6084h, quick stop: 6085h) and the profile
@@ -288,7 +204,7 @@ impl VelocityRamp {
             return Err(MotionError::ZeroDeceleration);
         }
         let stop_limits = Limits { acceleration: deceleration, deceleration, ..*limits };
-        plan_velocity(&mut self.trajectory, 0, &stop_limits, self.hz)
+        ramp_to(&mut self.trajectory, 0, &stop_limits, self.hz).map(|(ticks, _)| ticks)
     }
 
     /// Advances one tick and returns the new demand (its position is the integral of the
