@@ -336,11 +336,14 @@ fn the_sync_phase_is_measured_and_published() {
 fn a_stream_through_a_lossy_bus_is_bridged() {
     let mut bench = bench_4k();
     stream_setup(&mut bench, CSP, 0x607A, 0x20);
-    // 3 % of the master's RPDOs and SYNCs lost (seeded: the same frames every run).
+    // 3 % of the master's RPDOs and SYNCs lost (seeded: the same frames every run). Seed 9
+    // loses at most two cycles in a row; three in a row are a lost stream (the 6007h reaction,
+    // robustness test "SYNC loss in csp"), which seed 7 hit once missed SYNCs were counted one
+    // per period.
     let rule = bench.bus.add_fault(
         canopen_drive_sim::FaultRule::drop()
             .when(|f, _| matches!(f.standard_id(), Some(0x080) | Some(RPDO1)))
-            .rate(0.03, 7),
+            .rate(0.03, 9),
     );
     let mut worst = 0;
     for k in 0..5000 {

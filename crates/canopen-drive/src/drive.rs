@@ -12,6 +12,7 @@ use core::fmt;
 
 use heapless::Deque;
 
+use crate::cia402::fsa::State;
 use crate::cia402::profile::Profile;
 use crate::cia402::ProfileConfig;
 use crate::comm::emcy::{code, EmcyProducer, ErrorRegister};
@@ -33,7 +34,9 @@ use crate::od::standard::{
     PRE_DEFINED_ERROR_FIELD, PRODUCER_HEARTBEAT_TIME, SYNCHRONOUS_COUNTER_OVERFLOW,
     SYNCHRONOUS_WINDOW_LENGTH,
 };
-use crate::od::{AbortCode, ConfigError, DeviceInfo, Dictionary, Entry, Object, ObjectHooks, WriteRule};
+use crate::od::{
+    AbortCode, ConfigError, DefaultOverride, DeviceInfo, Dictionary, Entry, Object, ObjectHooks, WriteRule,
+};
 use crate::storage::{
     Group, Persistence, LOAD_SIGNATURE, RESTORE_DEFAULT_PARAMETERS, SAVE_SIGNATURE, STORE_PARAMETERS,
 };
@@ -121,6 +124,12 @@ pub struct Config {
     /// The drive profile: tick rate, supported option codes, set-point buffer, … (the modes are
     /// [`DeviceInfo::drive_modes`]).
     pub profile: ProfileConfig,
+    /// The firmware's own power-on values of entries of the crate's tables (default: none, the
+    /// CiA defaults). They are the values after power-on and restore defaults, and the EDS's.
+    pub default_overrides: &'static [DefaultOverride],
+    /// What each value of 1029h sub 1 means (default [`ErrorBehaviour::CIA_301`]: 0
+    /// Pre-operational, 1 no change, 2 Stopped); other values below 80h are refused.
+    pub error_behaviour_values: &'static [(u8, ErrorBehaviour)],
 }
 
 impl Config {
@@ -135,6 +144,8 @@ impl Config {
             long_rpdo: pdo::LongRpdo::ApplyAndReport,
             pdo_objects: &pdo::DEFAULT_OBJECTS,
             profile: ProfileConfig::new(),
+            default_overrides: &[],
+            error_behaviour_values: &ErrorBehaviour::CIA_301,
         }
     }
 }
@@ -166,6 +177,8 @@ pub struct Drive<
     lss: LssSlave,
     lss_requests: LssRequests,
     profile: Profile,
+    /// The meaning of 1029h's values ([`Config::error_behaviour_values`]).
+    error_behaviour: &'static [(u8, ErrorBehaviour)],
     tx: TxQueue,
     hooks: H,
     storage: S,
@@ -203,6 +216,10 @@ impl<H: ObjectHooks> ObjectHooks for Tap<'_, H> {
             let _ = self.log.push((index, sub));
         }
         self.hooks.written(index, sub, data);
+    }
+
+    fn stored(&mut self, sub: u8) {
+        self.hooks.stored(sub);
     }
 }
 
@@ -317,7 +334,8 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
             config.manufacturer_objects,
             &crate::cia402::objects::PROFILE,
         ];
-        let od = Dictionary::new(&tables, config.device, config.node_id)?;
+        let mut od = Dictionary::new(&tables, config.device, config.node_id)?;
+        od.set_default_overrides(config.default_overrides)?;
         let mut drive = Drive {
             od,
             sdo: SdoServer::new(config.sdo_timeout),
@@ -342,6 +360,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
             ),
             lss_requests: LssRequests { store_supported: config.lss_store, ..LssRequests::default() },
             profile: Profile::new(config.profile),
+            error_behaviour: config.error_behaviour_values,
             tx: TxQueue { frames: Deque::new(), dropped: 0 },
             hooks,
             storage,
@@ -448,6 +467,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
         } else if id == SDO_RX_BASE + u16::from(node_id) && self.nmt.serves_sdo() {
             let mut access =
                 Access::new(&mut self.od, &mut self.hooks, &mut self.storage, self.nmt, &self.profile);
+            access.error_behaviour = self.error_behaviour;
             let response = self.sdo.on_request(data, now, &mut access);
             let written = access.written;
             let stored = access.stored;
@@ -594,7 +614,9 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
     fn communication_reaction(&mut self, event: ConnectionEvent, now: Instant) {
         self.connection_lost(event);
         let value = self.od.get::<u8>(ERROR_BEHAVIOUR, 1).unwrap_or(0);
-        if let Some(state) = ErrorBehaviour::from_value(value).and_then(|b| b.next_state(self.nmt)) {
+        if let Some(state) =
+            ErrorBehaviour::lookup(self.error_behaviour, value).and_then(|b| b.next_state(self.nmt))
+        {
             self.nmt_command(NmtAction::Enter(state), now);
         }
     }
@@ -683,7 +705,11 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
     pub fn tick(&mut self, now: Instant, sample: &Sample) -> Demand {
         if self.nmt.serves_pdo() {
             let mut tap = Tap::new(&mut self.hooks);
-            self.pdos.apply_ready(&mut self.od, &mut tap);
+            let (profile, error_behaviour) = (&self.profile, self.error_behaviour);
+            let rules = |od: &Dictionary<OD_BYTES>, entry: &Entry, data: &[u8]| {
+                rpdo_rules(od, profile, error_behaviour, entry, data)
+            };
+            self.pdos.apply_ready(&mut self.od, &mut tap, &rules);
             for (index, sub) in tap.log {
                 self.profile.ip_written(&mut self.od, index, sub);
             }
@@ -772,10 +798,14 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
         let late = window != 0 && self.sync.last().is_some_and(|at| now - at > Duration::from_micros(window));
         let mut events = heapless::Vec::<PdoEvent, 4>::new();
         let mut tap = Tap::new(&mut self.hooks);
-        let taken =
-            self.pdos.on_frame(RpdoFrame { can_id: id, data, now, late }, &mut self.od, &mut tap, &mut |e| {
-                let _ = events.push(e);
-            });
+        let (profile, error_behaviour) = (&self.profile, self.error_behaviour);
+        let rules = |od: &Dictionary<OD_BYTES>, entry: &Entry, data: &[u8]| {
+            rpdo_rules(od, profile, error_behaviour, entry, data)
+        };
+        let frame = RpdoFrame { can_id: id, data, now, late };
+        let taken = self.pdos.on_frame(frame, &mut self.od, &mut tap, &rules, &mut |e| {
+            let _ = events.push(e);
+        });
         for (index, sub) in tap.log {
             self.profile.ip_written(&mut self.od, index, sub);
         }
@@ -795,7 +825,9 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
                 // No 1029h-driven connection event: the RPDO timeout is a process-data error.
                 self.raise_error(code::RPDO_TIMEOUT, ErrorRegister::COMMUNICATION, [lo, hi, 0, 0, 0]);
                 let value = self.od.get::<u8>(ERROR_BEHAVIOUR, 1).unwrap_or(0);
-                if let Some(state) = ErrorBehaviour::from_value(value).and_then(|b| b.next_state(self.nmt)) {
+                if let Some(state) =
+                    ErrorBehaviour::lookup(self.error_behaviour, value).and_then(|b| b.next_state(self.nmt))
+                {
                     self.nmt_command(NmtAction::Enter(state), now);
                 }
             }
@@ -915,6 +947,11 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
     fn after_write(&mut self, mux: Mux, now: Instant) {
         match mux.index {
             0x60C1 | 0x60C4 => self.profile.ip_written(&mut self.od, mux.index, mux.sub),
+            0x607A | 0x60FF | 0x6071 if self.profile.config().cyclic.sdo_set_points => {
+                // A set-point by SDO counts for the cyclic stream as an RPDO would.
+                self.cycle.rpdo_since_sync = true;
+                self.profile.invalidate();
+            }
             0x2000..=0x67FF => self.profile.invalidate(),
             PRODUCER_HEARTBEAT_TIME => {
                 self.heartbeat.restart(now, self.heartbeat_period());
@@ -956,6 +993,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
         while !self.tx.frames.is_full() {
             let mut access =
                 Access::new(&mut self.od, &mut self.hooks, &mut self.storage, self.nmt, &self.profile);
+            access.error_behaviour = self.error_behaviour;
             match self.sdo.poll(now, &mut access) {
                 Some(frame) => self.send(SDO_TX_BASE + u16::from(node_id), &frame),
                 None => break,
@@ -979,6 +1017,7 @@ struct Access<'a, H, S, const B: usize> {
     storage: &'a mut S,
     nmt: NmtState,
     profile: &'a Profile,
+    error_behaviour: &'static [(u8, ErrorBehaviour)],
     written: Option<Mux>,
     /// A store on command succeeded.
     stored: bool,
@@ -992,7 +1031,16 @@ impl<'a, H: ObjectHooks, S: Persistence, const B: usize> Access<'a, H, S, B> {
         nmt: NmtState,
         profile: &'a Profile,
     ) -> Self {
-        Access { od, hooks, storage, nmt, profile, written: None, stored: false }
+        Access {
+            od,
+            hooks,
+            storage,
+            nmt,
+            profile,
+            error_behaviour: &ErrorBehaviour::CIA_301,
+            written: None,
+            stored: false,
+        }
     }
 
     /// 1010h/1011h subs 1..=4: the read value says whether the command is supported (§11).
@@ -1013,6 +1061,7 @@ impl<'a, H: ObjectHooks, S: Persistence, const B: usize> Access<'a, H, S, B> {
         if mux.index == STORE_PARAMETERS {
             self.storage.store(self.od, group)?;
             self.stored = true;
+            self.hooks.stored(mux.sub);
         } else {
             self.storage.restore_defaults(group)?;
         }
@@ -1025,6 +1074,11 @@ impl<'a, H: ObjectHooks, S: Persistence, const B: usize> Access<'a, H, S, B> {
             return Err(AbortCode::WriteOfReadOnly);
         }
         if entry.var.rule == WriteRule::NotOperational && self.nmt == NmtState::Operational {
+            return Err(AbortCode::CannotStoreDeviceState);
+        }
+        if entry.var.rule == WriteRule::SwitchOnDisabled
+            && !matches!(self.profile.state(), State::SwitchOnDisabled | State::NotReadyToSwitchOn)
+        {
             return Err(AbortCode::CannotStoreDeviceState);
         }
         Ok(entry)
@@ -1083,7 +1137,7 @@ impl<H: ObjectHooks, S: Persistence, const B: usize> ObjectAccess for Access<'_,
         if self.command_capability(mux).is_some() {
             return self.storage_command(mux, data);
         }
-        check_communication(self.od, self.profile, mux, data)?;
+        check_communication(self.od, self.profile, self.error_behaviour, mux, data)?;
         self.hooks.validate(mux.index, mux.sub, data)?;
         self.od.commit(&entry, data);
         self.hooks.written(mux.index, mux.sub, data);
@@ -1096,6 +1150,7 @@ impl<H: ObjectHooks, S: Persistence, const B: usize> ObjectAccess for Access<'_,
 fn check_communication<const B: usize>(
     od: &Dictionary<B>,
     profile: &Profile,
+    error_behaviour: &[(u8, ErrorBehaviour)],
     mux: Mux,
     data: &[u8],
 ) -> Result<(), AbortCode> {
@@ -1103,7 +1158,17 @@ fn check_communication<const B: usize>(
     match mux.index {
         // Only 0 may be written to the number of errors: it clears the history.
         PRE_DEFINED_ERROR_FIELD if raw != 0 => Err(AbortCode::InvalidValue),
-        ERROR_BEHAVIOUR if ErrorBehaviour::from_value(raw as u8).is_none() => Err(AbortCode::InvalidValue),
+        ERROR_BEHAVIOUR if ErrorBehaviour::lookup(error_behaviour, raw as u8).is_none() => {
+            Err(AbortCode::InvalidValue)
+        }
+        // A device that changes modes only outside Operation enabled refuses a new mode there.
+        crate::cia402::objects::MODES_OF_OPERATION
+            if !profile.config().mode_change_in_operation
+                && matches!(profile.state(), State::OperationEnabled { .. })
+                && od.get::<i8>(mux.index, 0).ok() != Some(raw as u8 as i8) =>
+        {
+            Err(AbortCode::CannotStoreDeviceState)
+        }
         index if PdoRecord::of(index).is_some() => pdo::check_write(od, index, mux.sub, data),
         0x60C0..=0x60C4 => crate::cia402::ip::check_write(od, profile.ip_buffer(), mux.index, mux.sub, data),
         0x6000..=0x67FF => {
@@ -1164,6 +1229,24 @@ fn check_communication<const B: usize>(
         }
         _ => Ok(()),
     }
+}
+
+/// The value rules of an RPDO's values: those of an SDO download ([`check_communication`]), so
+/// that process data cannot store what the SDO server refuses (an unsupported 6060h mode, a
+/// homing method the drive lacks, …: DESIGN invariant 3). The ip data record 60C1h is the
+/// exception: a record for a full or disabled buffer is taken, and the buffer drops it and
+/// reports it in the statusword (bit 7), as the profile documents for RPDOs.
+fn rpdo_rules<const B: usize>(
+    od: &Dictionary<B>,
+    profile: &Profile,
+    error_behaviour: &[(u8, ErrorBehaviour)],
+    entry: &Entry,
+    data: &[u8],
+) -> Result<(), AbortCode> {
+    if entry.index() == crate::cia402::ip::INTERPOLATION_DATA_RECORD {
+        return Ok(());
+    }
+    check_communication(od, profile, error_behaviour, Mux { index: entry.index(), sub: entry.sub }, data)
 }
 
 /// Up to four little-endian bytes as a number (missing bytes read as 0).

@@ -94,6 +94,29 @@ impl Bench {
     }
 }
 
+/// With `CANOPEN_DRIVE_TRACE_DIR` set, every bench leaves the frames its master sent (with
+/// their times) in `<dir>/<test name>-<n>.trace`: the seeds of the fuzz targets
+/// (`fuzz/src/bin/seeds.rs`). One line per frame: `time_us id D<len>|R<len> hex`.
+impl Drop for Bench {
+    fn drop(&mut self) {
+        let Some(dir) = std::env::var_os("CANOPEN_DRIVE_TRACE_DIR") else { return };
+        let mut text = String::new();
+        for record in self.bus.trace().iter().filter(|r| r.from == canopen_drive_sim::Port::Master) {
+            let frame = &record.frame;
+            let kind = if frame.is_remote_frame() { 'R' } else { 'D' };
+            let hex: String = frame.data().iter().map(|b| format!("{b:02X}")).collect();
+            let id = frame.standard_id().unwrap_or(0);
+            text.push_str(&format!("{} {id:03X} {kind}{} {hex}\n", record.time.as_micros(), frame.dlc()));
+        }
+        let name = std::thread::current().name().unwrap_or("bench").replace("::", "-");
+        static COUNT: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+        let n = COUNT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let path = std::path::Path::new(&dir).join(format!("{name}-{}-{n}.trace", std::process::id()));
+        // Best effort: a trace that cannot be written only means one seed less.
+        let _ = std::fs::create_dir_all(&dir).and_then(|()| std::fs::write(path, text));
+    }
+}
+
 pub fn frame(id: u16, data: &[u8]) -> CanFrame {
     CanFrame::new_standard(id, data).unwrap()
 }

@@ -52,6 +52,23 @@ impl Default for OptionCodes {
     }
 }
 
+/// What a manufacturer-specific statusword bit (14 or 15; CiA 402 leaves them to the
+/// manufacturer) shows.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum StatusFlag {
+    /// Always 0 (the default).
+    Off,
+    /// 1 while the axis moves: the velocity demand is not 0 (in the torque modes, which have
+    /// none: the velocity actual is beyond the velocity threshold 606Fh).
+    Moving,
+    /// 1 while the axis moves in the negative direction (as [`StatusFlag::Moving`], below 0).
+    Negative,
+    /// 1 while the drive is getting ready to move or coming to a stop: the holding brake is
+    /// still opening after the drive function was enabled, or a quick stop is still ramping.
+    Transition,
+}
+
 // Evaluated by the compiler: it can only fail the build, never run.
 #[allow(clippy::panic)]
 const ONE_KHZ: TickRate = match TickRate::new(1000) {
@@ -99,6 +116,20 @@ pub struct ProfileConfig {
     pub cyclic: CyclicConfig,
     /// Velocity mode: whether controlword bits 4–6 (ramp enable, unlock, reference) count.
     pub vl: super::vl::Config,
+    /// NMT Stopped puts an axis in Operation enabled into Fault (code 8100h), whatever 6007h
+    /// says. Default false: only 6007h decides (CiA 402).
+    pub nmt_stopped_fault: bool,
+    /// What statusword bit 14 shows (default [`StatusFlag::Off`]).
+    pub statusword_bit_14: StatusFlag,
+    /// What statusword bit 15 shows (default [`StatusFlag::Off`]).
+    pub statusword_bit_15: StatusFlag,
+    /// A new mode may be written in Operation enabled (CiA 402; the default). When false, a
+    /// write of another value to 6060h in Operation enabled is refused with 0x0800_0022 (and a
+    /// mode that arrives by RPDO waits until the drive function is disabled).
+    pub mode_change_in_operation: bool,
+    /// A following error window 6065h of 0 switches the following error check off (as
+    /// FFFF FFFFh does). Default false: 0 is a window of 0 (CiA 402).
+    pub zero_following_error_window_off: bool,
 }
 
 impl ProfileConfig {
@@ -120,6 +151,11 @@ impl ProfileConfig {
             homing: HomingConfig::new(),
             cyclic: CyclicConfig::new(),
             vl: super::vl::Config::new(),
+            nmt_stopped_fault: false,
+            statusword_bit_14: StatusFlag::Off,
+            statusword_bit_15: StatusFlag::Off,
+            mode_change_in_operation: true,
+            zero_following_error_window_off: false,
         }
     }
 

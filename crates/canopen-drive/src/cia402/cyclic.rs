@@ -70,12 +70,21 @@ pub struct CyclicConfig {
     /// Index of a manufacturer object (UNSIGNED32, µs, ro; [`sync_phase_object`]) where the
     /// drive reports the phase of the last SYNC against the tick.
     pub sync_phase_object: Option<u16>,
+    /// A set-point written by SDO (607Ah, 60FFh, 6071h) feeds the stream as an RPDO does, for
+    /// masters that stream by SDO. Default false: the stream is process data (CiA 402), and a
+    /// cycle without an RPDO is a missed one.
+    pub sdo_set_points: bool,
 }
 
 impl CyclicConfig {
     /// Extrapolate up to 2 missed cycles; no phase object.
     pub const fn new() -> Self {
-        CyclicConfig { bridge: Bridge::Extrapolate, max_missed_cycles: 2, sync_phase_object: None }
+        CyclicConfig {
+            bridge: Bridge::Extrapolate,
+            max_missed_cycles: 2,
+            sync_phase_object: None,
+            sdo_set_points: false,
+        }
     }
 }
 
@@ -181,8 +190,10 @@ impl Interpolator {
             if cycle.sync {
                 self.since_sync = 0;
             } else {
-                // A missing SYNC: count it and wait a period for the next one.
-                self.since_sync = cycle.tolerance_ticks;
+                // A missing SYNC: count it and wait a period for the next one. It was due
+                // `tolerance + 1` ticks ago, so the next one is late `period` ticks from now
+                // (not `period + 1`: consecutive losses are counted one per period).
+                self.since_sync = cycle.tolerance_ticks.saturating_add(1);
             }
             let next = if delivered || !self.started {
                 self.missed = 0;
@@ -378,6 +389,35 @@ mod tests {
         }
         assert_eq!(missed, 1, "more than 4 + 2 ticks without SYNC");
         assert_eq!(i.value(), 400, "held");
+    }
+
+    #[test]
+    fn consecutive_missing_syncs_are_counted_one_per_period() {
+        // Regression: after a missed cycle the next one was counted a tick late (every
+        // period + 1 ticks), so three lost SYNCs at 4 ticks per period looked like two.
+        let mut i = Interpolator::default();
+        i.reset(0);
+        i.tick(&cycle(true, true), 400, Bridge::Hold);
+        let mut missed = [0u32; 15];
+        for m in missed.iter_mut() {
+            *m = i.tick(&cycle(false, false), 0, Bridge::Hold).missed;
+        }
+        // Late after 4 + 2 ticks (tick 7), then every 4 ticks: 11, 15.
+        assert_eq!(missed[6], 1);
+        assert_eq!(missed[9], 1);
+        assert_eq!(missed[10], 2);
+        assert_eq!(missed[14], 3);
+        // A period of 1 tick, tolerance 0: every tick after the first late one.
+        let mut i = Interpolator::default();
+        i.reset(0);
+        let one = Cycle { sync: true, fresh: true, period_ticks: 1, tolerance_ticks: 0 };
+        i.tick(&one, 0, Bridge::Hold);
+        let none = Cycle { sync: false, fresh: false, ..one };
+        let mut missed = [0u32; 4];
+        for m in missed.iter_mut() {
+            *m = i.tick(&none, 0, Bridge::Hold).missed;
+        }
+        assert_eq!(missed, [0, 1, 2, 3]);
     }
 
     #[test]

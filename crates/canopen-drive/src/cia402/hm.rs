@@ -79,6 +79,45 @@ pub enum VendorMethod {
     MidpointOfHardStops,
     /// Both limit switches' release points, negative first; home is midway.
     MidpointOfLimitSwitches,
+    /// Both mechanical stops, positive first; home is midway.
+    MidpointOfHardStopsPositiveFirst,
+    /// Both limit switches' release points, positive first; home is midway.
+    MidpointOfLimitSwitchesPositiveFirst,
+    /// The middle of the home switch: searched moving `positive` (or negative) first, reversing
+    /// once on a limit switch; both edges are then crossed slowly, home is midway.
+    MidpointOfHomeSwitch {
+        /// The first search direction.
+        positive: bool,
+    },
+    /// Into the mechanical stop in `positive` (or negative) direction, then back off: home is
+    /// the backed-off position (the axis rests there), and the software position limit on that
+    /// side (607Dh sub 2 after a positive stop, sub 1 after a negative one) is set to it.
+    HardStopLimit {
+        /// Search direction.
+        positive: bool,
+    },
+    /// Both mechanical stops, the positive one first when `positive_first`, each followed by a
+    /// back-off: home is the position backed off from the second stop, and 607Dh is set to the
+    /// two backed-off positions (the travel between the stops, less the back-offs).
+    HardStopRange {
+        /// The first search direction.
+        positive_first: bool,
+    },
+}
+
+/// Where a device keeps the hard-stop homing parameters in its own layout (instead of the
+/// RECORD of [`hard_stop_object`]): each is an entry (index, sub-index) of the dictionary.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct HardStopEntries {
+    /// Torque threshold, ‰ of rated torque (UNSIGNED16).
+    pub threshold: (u16, u8),
+    /// Time the torque must stay above the threshold, ms (UNSIGNED16); `None`: 50 ms.
+    pub time: Option<(u16, u8)>,
+    /// Back-off distance from a positive stop, increments (UNSIGNED32).
+    pub back_off_positive: (u16, u8),
+    /// Back-off distance from a negative stop, increments (UNSIGNED32).
+    pub back_off_negative: (u16, u8),
 }
 
 /// Homing configuration.
@@ -87,11 +126,21 @@ pub enum VendorMethod {
 pub struct HomingConfig {
     /// Accept 6098h = 37 as "current position" (as 35).
     pub method_37: bool,
+    /// The standard methods 6098h accepts: bit `n` set = method `n` (default: every bit set,
+    /// so every method this crate runs: 1–14, 17–30, 33–36, and 37 with
+    /// [`HomingConfig::method_37`]). A device that offers fewer clears the others.
+    pub standard_methods: u64,
     /// Vendor methods by their (negative) 6098h numbers.
     pub vendor_methods: &'static [(i8, VendorMethod)],
     /// Index of the hard-stop parameter RECORD ([`hard_stop_object`]) in the manufacturer
     /// objects; needed by the hard-stop methods.
     pub hard_stop_object: Option<u16>,
+    /// The hard-stop parameters in a device's own objects; when set, they are used instead of
+    /// [`HomingConfig::hard_stop_object`].
+    pub hard_stop_entries: Option<HardStopEntries>,
+    /// A search for a hard stop passes the limit switch in its way (it drives on to the
+    /// mechanical stop). Default false: the limit switch ends the run with a homing error.
+    pub hard_stop_passes_limit_switches: bool,
     /// A run that takes longer fails (0 = no limit).
     pub timeout: Duration,
 }
@@ -101,10 +150,30 @@ impl HomingConfig {
     pub const fn new() -> Self {
         HomingConfig {
             method_37: false,
+            standard_methods: u64::MAX,
             vendor_methods: &[],
             hard_stop_object: None,
+            hard_stop_entries: None,
+            hard_stop_passes_limit_switches: false,
             timeout: Duration::ZERO,
         }
+    }
+
+    /// The hard-stop parameters now: (threshold ‰, time ms, back-off from a positive stop,
+    /// back-off from a negative stop).
+    fn hard_stop_parameters<const B: usize>(&self, od: &Dictionary<B>) -> (u16, u16, i64, i64) {
+        if let Some(e) = self.hard_stop_entries {
+            let threshold = od.get::<u16>(e.threshold.0, e.threshold.1).unwrap_or(500);
+            let time = e.time.and_then(|(i, s)| od.get::<u16>(i, s).ok()).unwrap_or(50);
+            let positive = od.get::<u32>(e.back_off_positive.0, e.back_off_positive.1).map_or(100, i64::from);
+            let negative = od.get::<u32>(e.back_off_negative.0, e.back_off_negative.1).map_or(100, i64::from);
+            return (threshold, time, positive, negative);
+        }
+        let index = self.hard_stop_object;
+        let threshold = index.and_then(|i| od.get::<u16>(i, 1).ok()).unwrap_or(500);
+        let time = index.and_then(|i| od.get::<u16>(i, 2).ok()).unwrap_or(50);
+        let back_off = index.and_then(|i| od.get::<u32>(i, 3).ok()).map_or(100, i64::from);
+        (threshold, time, back_off, back_off)
     }
 
     fn vendor(&self, method: i8) -> Option<VendorMethod> {
@@ -113,8 +182,10 @@ impl HomingConfig {
 
     /// Whether 6098h may hold `method`.
     pub fn supports(&self, method: i8) -> bool {
-        matches!(method, 0..=14 | 17..=30 | 33..=36)
-            || (method == 37 && self.method_37)
+        let offered = (1..=63).contains(&method) && self.standard_methods & (1u64 << method) != 0;
+        method == 0
+            || (matches!(method, 1..=14 | 17..=30 | 33..=36) && offered)
+            || (method == 37 && self.method_37 && offered)
             || (method < 0 && self.vendor(method).is_some())
     }
 }
@@ -186,14 +257,22 @@ enum Mark {
     First,
     /// Second of two: home is midway.
     Midpoint,
+    /// A software position limit (607Dh sub 2 when `positive`, sub 1 otherwise).
+    Limit {
+        positive: bool,
+    },
+    /// The home position, and a software position limit.
+    HomeAndLimit {
+        positive: bool,
+    },
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Step {
     /// Move at the switch speed (`fast`) or zero speed until the event.
     Search { positive: bool, fast: bool, until: Until, mark: Mark, reverse_on_limit: bool },
-    /// Move by a distance (increments) at the zero speed.
-    BackOff { distance: i64 },
+    /// Move by a distance (increments) at the zero speed; the end is marked.
+    BackOff { distance: i64, mark: Mark },
 }
 
 const MAX_STEPS: usize = 6;
@@ -277,7 +356,14 @@ impl Program {
 
     /// The program of `method`, from the switch states at the start; `None` for a method
     /// without motion (35, 37) or one this build does not run.
-    fn of(method: i8, inputs: DigitalInputs, vendor: Option<VendorMethod>, back_off: i64) -> Option<Program> {
+    /// `back_off`: the distances to back off from a positive and from a negative stop.
+    fn of(
+        method: i8,
+        inputs: DigitalInputs,
+        vendor: Option<VendorMethod>,
+        back_off: (i64, i64),
+    ) -> Option<Program> {
+        let away_from = |positive: bool| if positive { -back_off.0 } else { back_off.1 };
         let mut p = Program::default();
         let home = Signal::Home.active(inputs);
         let negative_limit = Signal::NegativeLimit.active(inputs);
@@ -310,9 +396,9 @@ impl Program {
             34 => p.search(true, false, Until::Index, Mark::Home),
             _ => match vendor? {
                 VendorMethod::HardStop { positive, index } => {
-                    let away = if positive { -back_off } else { back_off };
+                    let away = away_from(positive);
                     p.search(positive, false, Until::HardStop, if index { Mark::None } else { Mark::Home });
-                    p.push(Step::BackOff { distance: away });
+                    p.push(Step::BackOff { distance: away, mark: Mark::None });
                     if index {
                         p.search(!positive, false, Until::Index, Mark::Home);
                     } else {
@@ -321,8 +407,50 @@ impl Program {
                 }
                 VendorMethod::MidpointOfHardStops => {
                     p.search(false, false, Until::HardStop, Mark::First);
-                    p.push(Step::BackOff { distance: back_off });
+                    p.push(Step::BackOff { distance: away_from(false), mark: Mark::None });
                     p.search(true, false, Until::HardStop, Mark::Midpoint);
+                }
+                VendorMethod::MidpointOfHardStopsPositiveFirst => {
+                    p.search(true, false, Until::HardStop, Mark::First);
+                    p.push(Step::BackOff { distance: away_from(true), mark: Mark::None });
+                    p.search(false, false, Until::HardStop, Mark::Midpoint);
+                }
+                VendorMethod::MidpointOfLimitSwitchesPositiveFirst => {
+                    if !positive_limit {
+                        p.search(true, true, Until::On(Signal::PositiveLimit), Mark::None);
+                    }
+                    p.search(false, false, Until::Off(Signal::PositiveLimit), Mark::First);
+                    p.search(false, true, Until::On(Signal::NegativeLimit), Mark::None);
+                    p.search(true, false, Until::Off(Signal::NegativeLimit), Mark::Midpoint);
+                }
+                VendorMethod::MidpointOfHomeSwitch { positive } => {
+                    if !home {
+                        p.push(Step::Search {
+                            positive,
+                            fast: true,
+                            until: Until::On(Signal::Home),
+                            mark: Mark::None,
+                            reverse_on_limit: true,
+                        });
+                    }
+                    // Leaving the switch one way, then crossing it the other way: its two edges.
+                    p.search(!positive, false, Until::Off(Signal::Home), Mark::First);
+                    p.search(positive, false, Until::Off(Signal::Home), Mark::Midpoint);
+                }
+                VendorMethod::HardStopLimit { positive } => {
+                    p.search(positive, false, Until::HardStop, Mark::None);
+                    p.push(Step::BackOff {
+                        distance: away_from(positive),
+                        mark: Mark::HomeAndLimit { positive },
+                    });
+                }
+                VendorMethod::HardStopRange { positive_first } => {
+                    p.search(positive_first, false, Until::HardStop, Mark::None);
+                    let first = Mark::Limit { positive: positive_first };
+                    p.push(Step::BackOff { distance: away_from(positive_first), mark: first });
+                    p.search(!positive_first, false, Until::HardStop, Mark::None);
+                    let second = Mark::HomeAndLimit { positive: !positive_first };
+                    p.push(Step::BackOff { distance: away_from(!positive_first), mark: second });
                 }
                 VendorMethod::MidpointOfLimitSwitches => {
                     if !negative_limit {
@@ -420,6 +548,9 @@ pub struct Outcome {
     pub home: Option<i64>,
     /// A homing error to report (EMCY 8613h).
     pub error: bool,
+    /// Software position limits the run found, encoder counts (607Dh sub 1, sub 2); given with
+    /// the home position.
+    pub limits: (Option<i64>, Option<i64>),
 }
 
 /// Homing run-time state.
@@ -435,6 +566,8 @@ pub struct Homing {
     previous_inputs: DigitalInputs,
     first_mark: Option<i64>,
     home: Option<i64>,
+    /// Software position limits marked so far (min, max).
+    limits: (Option<i64>, Option<i64>),
     homed: bool,
     started_at: Option<Instant>,
     above_threshold_since: Option<Instant>,
@@ -456,6 +589,7 @@ impl Homing {
             previous_inputs: DigitalInputs::empty(),
             first_mark: None,
             home: None,
+            limits: (None, None),
             homed: false,
             started_at: None,
             above_threshold_since: None,
@@ -538,7 +672,7 @@ impl Homing {
                 self.reversed = false;
                 self.search(positive, if quick { fast } else { slow }, acceleration)
             }
-            Some(Step::BackOff { distance }) => {
+            Some(Step::BackOff { distance, .. }) => {
                 self.phase = Phase::Running(n);
                 let target = self.planner.state().position.saturating_add(distance);
                 self.planner.plan(target, 0, &self.limits(slow, acceleration)).is_ok()
@@ -613,7 +747,8 @@ impl Homing {
                 }
                 Phase::Stopping { error } => self.phase = if error { Phase::Failed } else { Phase::Idle },
                 Phase::Running(n) => match self.program.get(n) {
-                    Some(Step::BackOff { .. }) => {
+                    Some(Step::BackOff { mark, .. }) => {
+                        self.mark(mark, state.position, &mut outcome);
                         if !self.begin(n + 1, input) {
                             self.fail(acceleration, &mut outcome);
                         }
@@ -632,6 +767,7 @@ impl Homing {
         self.homed = false;
         self.home = None;
         self.first_mark = None;
+        self.limits = (None, None);
         self.started_at = Some(input.now);
         if matches!(method, 35) || (method == 37 && self.config.method_37) {
             // The current position is home: no motion, also outside Operation enabled.
@@ -645,11 +781,8 @@ impl Homing {
         if !input.enabled {
             return;
         }
-        let back_off = self
-            .config
-            .hard_stop_object
-            .and_then(|index| input.od.get::<u32>(index, 3).ok())
-            .map_or(100, i64::from);
+        let (_, _, positive, negative) = self.config.hard_stop_parameters(input.od);
+        let back_off = (positive, negative);
         match Program::of(method, input.inputs, self.config.vendor(method), back_off) {
             Some(program) if method != 0 => {
                 self.program = program;
@@ -687,18 +820,7 @@ impl Homing {
             Until::Probe => input.probe.is_some(),
         };
         if event {
-            match mark {
-                Mark::Home => self.home = Some(at),
-                Mark::First => self.first_mark = Some(at),
-                Mark::Midpoint => {
-                    let first = self.first_mark.unwrap_or(at);
-                    self.home = Some(first + (at - first) / 2);
-                }
-                Mark::None => {}
-            }
-            if matches!(mark, Mark::Home | Mark::Midpoint) {
-                outcome.home = self.home;
-            }
+            self.mark(mark, at, outcome);
             if matches!(until, Until::HardStop) {
                 // Stop pushing: the demand jumps back to where the shaft is.
                 self.planner.reset(input.actual);
@@ -710,7 +832,8 @@ impl Homing {
         }
         // A limit switch ahead that the search does not look for.
         let ahead = if self.positive { Signal::PositiveLimit } else { Signal::NegativeLimit };
-        let sought = matches!(until, Until::On(s) | Until::Off(s) if s == ahead);
+        let sought = matches!(until, Until::On(s) | Until::Off(s) if s == ahead)
+            || (until == Until::HardStop && self.config.hard_stop_passes_limit_switches);
         if rose(ahead) && !sought {
             if reverse_on_limit && !self.reversed {
                 let (fast, _, _) = input.speeds;
@@ -724,12 +847,38 @@ impl Homing {
         }
     }
 
+    /// Records the position `at` as `mark` says; a home position goes into `outcome`, with the
+    /// software limits found so far.
+    fn mark(&mut self, mark: Mark, at: i64, outcome: &mut Outcome) {
+        match mark {
+            Mark::Home => self.home = Some(at),
+            Mark::First => self.first_mark = Some(at),
+            Mark::Midpoint => {
+                let first = self.first_mark.unwrap_or(at);
+                self.home = Some(first + (at - first) / 2);
+            }
+            Mark::Limit { positive } | Mark::HomeAndLimit { positive } => {
+                if positive {
+                    self.limits.1 = Some(at);
+                } else {
+                    self.limits.0 = Some(at);
+                }
+                if matches!(mark, Mark::HomeAndLimit { .. }) {
+                    self.home = Some(at);
+                }
+            }
+            Mark::None => {}
+        }
+        if matches!(mark, Mark::Home | Mark::Midpoint | Mark::HomeAndLimit { .. }) {
+            outcome.home = self.home;
+            outcome.limits = self.limits;
+        }
+    }
+
     /// |torque| at or above the threshold for the detection time while the shaft is held back
     /// (below half the search speed: accelerating to the search speed needs torque too).
     fn hard_stop<const B: usize>(&mut self, input: &Inputs<'_, B>) -> bool {
-        let index = self.config.hard_stop_object;
-        let threshold = index.and_then(|i| input.od.get::<u16>(i, 1).ok()).unwrap_or(500);
-        let time = index.and_then(|i| input.od.get::<u16>(i, 2).ok()).unwrap_or(50);
+        let (threshold, time, _, _) = self.config.hard_stop_parameters(input.od);
         let blocked = i64::from(input.velocity).unsigned_abs() * 2 < u64::from(input.speeds.1);
         if input.torque.unsigned_abs() < threshold || !blocked {
             self.above_threshold_since = None;
@@ -737,5 +886,27 @@ impl Homing {
         }
         let since = *self.above_threshold_since.get_or_insert(input.now);
         input.now - since >= Duration::from_millis(u64::from(time))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_device_may_offer_fewer_standard_methods() {
+        let all = HomingConfig::new();
+        assert!([0, 1, 14, 17, 30, 33, 36].iter().all(|&m| all.supports(m)));
+        assert!(![15, 16, 31, 32, 37, 38, -1].iter().any(|&m| all.supports(m)));
+        let few = HomingConfig {
+            standard_methods: (1 << 17) | (1 << 18) | (1 << 35) | (1 << 37),
+            method_37: true,
+            vendor_methods: &[(-1, VendorMethod::HardStop { positive: true, index: false })],
+            ..HomingConfig::new()
+        };
+        let offered: [i8; 6] = [0, 17, 18, 35, 37, -1];
+        for method in -128..=127i8 {
+            assert_eq!(few.supports(method), offered.contains(&method), "method {method}");
+        }
     }
 }

@@ -25,4 +25,4 @@ pub mod probe;
 pub mod profile;
 pub mod vl;
 
-pub use config::{OptionCodes, ProfileConfig};
+pub use config::{OptionCodes, ProfileConfig, StatusFlag};

@@ -34,7 +34,7 @@
 //! Arithmetic: velocities are integers in increments/s; the ramps advance by `rate × dt` in
 //! i64 µs arithmetic with the remainder carried, so a ramp does not drift.
 
-use super::config::ProfileConfig;
+use super::config::{ProfileConfig, StatusFlag};
 use super::cyclic::{Bridge, Cycle, Interpolator, Limiter, TickLimits, STREAM_LOST};
 use super::factor::Factors;
 use super::fsa::{Fsa, Options, State, StopKind};
@@ -263,8 +263,14 @@ impl Profile {
     /// the drive function is enabled (an idle axis has nothing to stop, and faulting it would
     /// make every NMT reset leave the drive in Fault).
     pub fn connection_lost<const B: usize>(&mut self, event: ConnectionEvent, od: &Dictionary<B>) {
-        let _ = event;
         if !self.fsa.state().drive_function_enabled() {
+            return;
+        }
+        if event == ConnectionEvent::NmtStopped
+            && self.config.nmt_stopped_fault
+            && matches!(self.fsa.state(), State::OperationEnabled { .. })
+        {
+            self.fault = self.fault.or(Some(0x8100));
             return;
         }
         match get::<B, i16>(od, ABORT_CONNECTION_OPTION_CODE) {
@@ -473,7 +479,10 @@ impl Profile {
         // Mode switching: at once while the drive function is disabled, after a stop otherwise.
         let requested: i8 = get(od, MODES_OF_OPERATION);
         let switching = requested != self.active_mode;
-        if switching && (!enabled || at_rest) {
+        // A device without mode changes in Operation enabled keeps the mode until it is left.
+        let may_switch =
+            self.config.mode_change_in_operation || !matches!(step.state, State::OperationEnabled { .. });
+        if switching && may_switch && (!enabled || at_rest) {
             self.active_mode = requested;
             self.mode_changed = true;
             self.pp.reset(actual, actual_user);
@@ -502,7 +511,7 @@ impl Profile {
                 && !self.position_mode()
                 && !matches!(self.active_mode, mode::PROFILE_TORQUE | mode::CYCLIC_TORQUE | vl::MODE);
             // (hm halts on its own trajectory, like pp.)
-            let for_switch = switching && operation;
+            let for_switch = switching && may_switch && operation;
             (halting || for_switch)
                 .then(|| {
                     if halting {
@@ -629,6 +638,17 @@ impl Profile {
                     self.homing_error = outcome.error;
                     report.notices[1] = Some((hm::HOMING_ERROR, outcome.error));
                 }
+                if outcome.home.is_some() {
+                    // Limits a method found become 607Dh (compared after the 607Ch correction).
+                    let home_offset = i64::from(get::<B, i32>(od, HOME_OFFSET));
+                    for (count, sub) in [(outcome.limits.0, 1u8), (outcome.limits.1, 2u8)] {
+                        if let Some(count) = count {
+                            let user = factors.to_user(count - self.origin) * position_sign + home_offset;
+                            let sub = if position_sign < 0 { 3 - sub } else { sub };
+                            let _ = od.set::<i32>(SOFTWARE_POSITION_LIMIT, sub, saturate(user));
+                        }
+                    }
+                }
                 if drive_enabled {
                     Setpoint::Position(position as i32)
                 } else {
@@ -738,6 +758,28 @@ impl Profile {
         if self.active_mode == mode::HOMING {
             // Bits 10, 12, 13 are the homing status in every state (digest §10.4).
             statusword = (statusword & !0x3400) | self.homing.status().bits();
+        }
+        // The manufacturer-specific bits 14 and 15, as the configuration defines them.
+        let transition = opening || (matches!(step.state, State::QuickStopActive) && !at_rest);
+        // The shaft's motion: the velocity demand, or in the torque modes (no velocity demand)
+        // the velocity actual beyond the threshold 606Fh.
+        let motion =
+            if drive_enabled && matches!(self.active_mode, mode::PROFILE_TORQUE | mode::CYCLIC_TORQUE) {
+                let threshold = i64::from(get::<B, u16>(od, VELOCITY_THRESHOLD));
+                Some(i64::from(sample.velocity)).filter(|v| v.abs() > threshold).unwrap_or(0)
+            } else {
+                self.velocity_demand()
+            };
+        for (bit, flag) in [(14, self.config.statusword_bit_14), (15, self.config.statusword_bit_15)] {
+            let on = match flag {
+                StatusFlag::Off => false,
+                StatusFlag::Moving => motion != 0,
+                StatusFlag::Negative => motion < 0,
+                StatusFlag::Transition => transition,
+            };
+            if on {
+                statusword |= 1 << bit;
+            }
         }
         let _ = od.set::<u16>(STATUSWORD, 0, statusword);
         // 60FEh: a master may engage the brake (sub 1 bit 0) where the mask (sub 2) enables it.
@@ -907,6 +949,10 @@ impl Profile {
         let cycle = Cycle { sync: input.cycle.sync, fresh: input.cycle.fresh, period_ticks, tolerance_ticks };
         let velocity_offset = factors.to_internal(i64::from(get::<B, i32>(od, VELOCITY_OFFSET)));
         let torque_offset = get::<B, i16>(od, TORQUE_OFFSET);
+        // The offsets reach the power stage as feed-forward: within the limits of the demand
+        // (DESIGN invariant 2), as the set-point is.
+        let max_torque = i64::from(get::<B, u16>(od, MAX_TORQUE).min(get(od, MAX_CURRENT)));
+        let torque_feed_forward = i64::from(torque_offset).clamp(-max_torque, max_torque) as i16;
         let bridge: Bridge = self.config.cyclic.bridge;
         let target = match self.active_mode {
             mode::CYCLIC_POSITION => {
@@ -943,8 +989,11 @@ impl Profile {
                     self.limiter.resume();
                 }
                 self.cyclic_limited = self.limiter.tick_fixed(self.interpolator.value_fixed(), &input.limits);
-                let velocity = self.limiter.velocity(hz).saturating_add(velocity_offset);
-                self.feed_forward = FeedForward { velocity: saturate(velocity), torque: torque_offset };
+                let trajectory = self.limiter.velocity(hz);
+                // (A limit lowered below the running velocity: the limiter ramps down to it.)
+                let bound = i64::from(velocity_limit(od, factors)).max(trajectory.abs());
+                let velocity = trajectory.saturating_add(velocity_offset).clamp(-bound, bound);
+                self.feed_forward = FeedForward { velocity: saturate(velocity), torque: torque_feed_forward };
                 Setpoint::Position(self.limiter.position() as i32)
             }
             mode::CYCLIC_VELOCITY => {
@@ -959,7 +1008,7 @@ impl Profile {
                 };
                 self.velocity.toward(clamped, rate, input.dt);
                 self.cyclic_limited = clamped != wanted || self.velocity.value != clamped;
-                self.feed_forward.torque = torque_offset;
+                self.feed_forward.torque = torque_feed_forward;
                 Setpoint::Velocity(saturate(self.velocity.value))
             }
             _ => {
@@ -968,6 +1017,8 @@ impl Profile {
                 let clamped = wanted.clamp(-max, max);
                 if input.halt {
                     self.torque.toward(0, get(od, TORQUE_SLOPE), input.dt);
+                    // A limit lowered while halting holds at once.
+                    self.torque.value = self.torque.value.clamp(-max, max);
                 } else {
                     self.torque = Ramp { value: clamped, remainder: 0 };
                 }
@@ -980,7 +1031,8 @@ impl Profile {
     /// Following error (digest §11.2): |6062h − 6064h| > 6065h for longer than 6066h ms.
     fn following_error<const B: usize>(&mut self, od: &Dictionary<B>, error: i64, now: Instant) -> bool {
         let window: u32 = get(od, FOLLOWING_ERROR_WINDOW);
-        if window == u32::MAX || error.unsigned_abs() <= u64::from(window) {
+        let off = window == u32::MAX || (window == 0 && self.config.zero_following_error_window_off);
+        if off || error.unsigned_abs() <= u64::from(window) {
             self.following_error_since = None;
             return false;
         }
@@ -1023,6 +1075,9 @@ impl Profile {
                 let target =
                     if halt { 0 } else { i64::from(get::<B, i16>(od, TARGET_TORQUE)).clamp(-max, max) };
                 self.torque.toward(target, get(od, TORQUE_SLOPE), dt);
+                // The slope (6087h) shapes changes of the target; a limit lowered below the
+                // running torque holds at once (DESIGN invariant 2).
+                self.torque.value = self.torque.value.clamp(-max, max);
                 Setpoint::Torque(self.torque.value as i16)
             }
             // No mode (or one this build does not run): hold still.

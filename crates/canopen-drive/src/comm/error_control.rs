@@ -228,6 +228,22 @@ pub enum ErrorBehaviour {
 }
 
 impl ErrorBehaviour {
+    /// The values of CiA 301 (§7.5.2.32): 0 Pre-operational (from Operational), 1 no change,
+    /// 2 Stopped; the default of [`crate::Config::error_behaviour_values`].
+    pub const CIA_301: [(u8, ErrorBehaviour); 3] =
+        [(0, ErrorBehaviour::PreOperational), (1, ErrorBehaviour::NoChange), (2, ErrorBehaviour::Stopped)];
+
+    /// The reaction for a 1029h value under a device's own table of values (`table`, e.g.
+    /// [`ErrorBehaviour::CIA_301`]); 80h..=FFh are manufacturer-specific in any table, the other
+    /// values the table lacks are `None`.
+    pub fn lookup(table: &[(u8, ErrorBehaviour)], value: u8) -> Option<Self> {
+        match table.iter().find(|(v, _)| *v == value) {
+            Some((_, behaviour)) => Some(*behaviour),
+            None if value >= 0x80 => Some(ErrorBehaviour::Manufacturer(value)),
+            None => None,
+        }
+    }
+
     /// The reaction for a 1029h value; reserved values (3..=0x7F) are `None`.
     pub const fn from_value(value: u8) -> Option<Self> {
         match value {
@@ -301,5 +317,21 @@ mod tests {
         assert_eq!(ErrorBehaviour::from_value(3), None);
         assert_eq!(ErrorBehaviour::from_value(0x7F), None);
         assert_eq!(ErrorBehaviour::from_value(0x80), Some(ErrorBehaviour::Manufacturer(0x80)));
+    }
+
+    #[test]
+    fn a_device_may_give_1029h_values_other_meanings() {
+        for value in 0..=255u8 {
+            assert_eq!(
+                ErrorBehaviour::lookup(&ErrorBehaviour::CIA_301, value),
+                ErrorBehaviour::from_value(value),
+                "the CiA table is the standard's"
+            );
+        }
+        let own = [(0, ErrorBehaviour::Stopped), (1, ErrorBehaviour::NoChange)];
+        assert_eq!(ErrorBehaviour::lookup(&own, 0), Some(ErrorBehaviour::Stopped));
+        assert_eq!(ErrorBehaviour::lookup(&own, 1), Some(ErrorBehaviour::NoChange));
+        assert_eq!(ErrorBehaviour::lookup(&own, 2), None);
+        assert_eq!(ErrorBehaviour::lookup(&own, 0x81), Some(ErrorBehaviour::Manufacturer(0x81)));
     }
 }

@@ -24,7 +24,8 @@
 //! - An RPDO shorter than its mapping raises EMCY 0x8210 and is not applied; a longer one is
 //!   applied and raises EMCY 0x8220 as CiA 301 says (both cleared by the next correct frame).
 //!   [`LongRpdo`] makes the long case silent or discarded instead. An RPDO whose
-//!   values fail a limit check (or the firmware's hook) is not applied at all.
+//!   values fail a limit check, the drive's value rules ([`ValueRules`], the same as for SDO)
+//!   or the firmware's hook is not applied at all.
 //! - A synchronous RPDO (types 0–240) is latched on reception and applied at the first tick
 //!   after the next SYNC; synchronous TPDOs are sampled and queued when the SYNC is processed.
 //! - A valid PDO whose stored mapping cannot be resolved (e.g. after a firmware change) is
@@ -664,13 +665,15 @@ impl<const R: usize, const T: usize> PdoSet<R, T> {
         }
     }
 
-    /// Handles a data frame; returns false when no RPDO uses its identifier. `events` receives
-    /// the EMCY changes to make.
+    /// Handles a data frame; returns false when no RPDO uses its identifier. `rules` are the
+    /// value rules beyond type and limits that every mapped value must pass ([`ValueRules`]);
+    /// `events` receives the EMCY changes to make.
     pub fn on_frame<const B: usize>(
         &mut self,
         frame: RpdoFrame<'_>,
         od: &mut Dictionary<B>,
         hooks: &mut impl ObjectHooks,
+        rules: &impl ValueRules<B>,
         events: &mut impl FnMut(PdoEvent),
     ) -> bool {
         let RpdoFrame { can_id, data, now, late } = frame;
@@ -709,7 +712,7 @@ impl<const R: usize, const T: usize> PdoSet<R, T> {
                 rpdo.latched = Some(frame);
             }
         } else {
-            apply(od, hooks, &rpdo.mapping, &frame);
+            apply(od, hooks, rules, &rpdo.mapping, &frame);
         }
         true
     }
@@ -758,11 +761,17 @@ impl<const R: usize, const T: usize> PdoSet<R, T> {
         let _ = now;
     }
 
-    /// Applies the RPDOs made ready by the last SYNC (the tick calls this first).
-    pub fn apply_ready<const B: usize>(&mut self, od: &mut Dictionary<B>, hooks: &mut impl ObjectHooks) {
+    /// Applies the RPDOs made ready by the last SYNC (the tick calls this first), each value
+    /// checked against `rules` as in [`on_frame`](Self::on_frame).
+    pub fn apply_ready<const B: usize>(
+        &mut self,
+        od: &mut Dictionary<B>,
+        hooks: &mut impl ObjectHooks,
+        rules: &impl ValueRules<B>,
+    ) {
         for rpdo in self.rpdos.iter_mut() {
             if let Some(frame) = rpdo.ready.take() {
-                apply(od, hooks, &rpdo.mapping, &frame);
+                apply(od, hooks, rules, &rpdo.mapping, &frame);
             }
         }
     }
@@ -870,10 +879,26 @@ fn send(tx: &mut impl FrameSink, can_id: u16, data: &[u8; 8], mapping: &Mapping)
     tx.send(can_id, data.get(..mapping.bytes()).unwrap_or(&[]))
 }
 
-/// Writes an RPDO's values into the dictionary: all or nothing (limits and hooks checked first).
+/// The value rules beyond type and limits that the drive applies to writes from the bus (the
+/// modes 6502h lists, supported option codes, …): an RPDO must not store a value that an SDO
+/// download of the same entry would be refused. Any `Fn(&Dictionary, &Entry, &[u8])` is one.
+pub trait ValueRules<const B: usize> {
+    /// Checks `data` (size and limits already checked) as the new value of `entry`.
+    fn check(&self, od: &Dictionary<B>, entry: &Entry, data: &[u8]) -> Result<(), AbortCode>;
+}
+
+impl<const B: usize, F: Fn(&Dictionary<B>, &Entry, &[u8]) -> Result<(), AbortCode>> ValueRules<B> for F {
+    fn check(&self, od: &Dictionary<B>, entry: &Entry, data: &[u8]) -> Result<(), AbortCode> {
+        self(od, entry, data)
+    }
+}
+
+/// Writes an RPDO's values into the dictionary: all or nothing (limits, value rules and hooks
+/// checked first).
 fn apply<const B: usize>(
     od: &mut Dictionary<B>,
     hooks: &mut impl ObjectHooks,
+    rules: &impl ValueRules<B>,
     mapping: &Mapping,
     frame: &[u8; 8],
 ) {
@@ -887,7 +912,10 @@ fn apply<const B: usize>(
         let size = entry.var.data_type.fixed_size().unwrap_or(0);
         let bytes = value.0.to_le_bytes();
         let data = bytes.get(..size).unwrap_or(&[]);
-        if od.check_write(&entry, data).is_err() || hooks.validate(entry.index(), entry.sub, data).is_err() {
+        if od.check_write(&entry, data).is_err()
+            || rules.check(od, &entry, data).is_err()
+            || hooks.validate(entry.index(), entry.sub, data).is_err()
+        {
             return;
         }
     }

@@ -144,16 +144,16 @@ fn write_object<const B: usize>(od: &Dictionary<B>, object: &Object, w: &mut imp
     match &object.kind {
         Kind::Var(var) => {
             writeln!(w, "\n[{index:04X}]\nParameterName={}", ObjectName(object))?;
-            write_var(od, var, w)
+            write_var(od, var, od.default_of(index, 0, var), w)
         }
         Kind::Array { sub0, element, len } => {
             writeln!(w, "\n[{index:04X}]\nParameterName={}", ObjectName(object))?;
             writeln!(w, "ObjectType=0x8\nSubNumber=0x{:X}", u16::from(*len) + 1)?;
             writeln!(w, "\n[{index:04X}sub0]\nParameterName={}", Clean(sub0.name))?;
-            write_var(od, sub0, w)?;
+            write_var(od, sub0, od.default_of(index, 0, sub0), w)?;
             for sub in 1..=*len {
                 writeln!(w, "\n[{index:04X}sub{sub:X}]\nParameterName={} {sub}", Clean(element.name))?;
-                write_var(od, element, w)?;
+                write_var(od, element, od.default_of(index, sub, element), w)?;
             }
             Ok(())
         }
@@ -162,14 +162,19 @@ fn write_object<const B: usize>(od: &Dictionary<B>, object: &Object, w: &mut imp
             writeln!(w, "ObjectType=0x9\nSubNumber=0x{:X}", subs.len())?;
             for (sub, var) in subs.iter() {
                 writeln!(w, "\n[{index:04X}sub{sub:X}]\nParameterName={}", Clean(var.name))?;
-                write_var(od, var, w)?;
+                write_var(od, var, od.default_of(index, *sub, var), w)?;
             }
             Ok(())
         }
     }
 }
 
-fn write_var<const B: usize>(od: &Dictionary<B>, var: &Var, w: &mut impl Write) -> fmt::Result {
+fn write_var<const B: usize>(
+    od: &Dictionary<B>,
+    var: &Var,
+    default: DefaultValue,
+    w: &mut impl Write,
+) -> fmt::Result {
     writeln!(w, "ObjectType=0x7\nDataType=0x{:04X}", var.data_type as u16)?;
     let access = match (var.access, var.pdo) {
         (Access::Const, _) => "const",
@@ -180,7 +185,7 @@ fn write_var<const B: usize>(od: &Dictionary<B>, var: &Var, w: &mut impl Write) 
         (Access::ReadWrite, _) => "rw",
     };
     writeln!(w, "AccessType={access}")?;
-    write_default(od, var, w)?;
+    write_default(od, var, default, w)?;
     writeln!(w, "PDOMapping={}", u8::from(var.pdo != PdoMapping::No))?;
     for (key, bound) in [("LowLimit", var.low), ("HighLimit", var.high)] {
         match bound {
@@ -193,7 +198,12 @@ fn write_var<const B: usize>(od: &Dictionary<B>, var: &Var, w: &mut impl Write) 
     Ok(())
 }
 
-fn write_default<const B: usize>(od: &Dictionary<B>, var: &Var, w: &mut impl Write) -> fmt::Result {
+fn write_default<const B: usize>(
+    od: &Dictionary<B>,
+    var: &Var,
+    default: DefaultValue,
+    w: &mut impl Write,
+) -> fmt::Result {
     let device = od.device();
     let number = |value: u64| -> u64 {
         // Numbers are shown in the entry's own width (a signed default as two's complement
@@ -203,7 +213,7 @@ fn write_default<const B: usize>(od: &Dictionary<B>, var: &Var, w: &mut impl Wri
             _ => value,
         }
     };
-    match var.default {
+    match default {
         _ if var.data_type == DataType::Domain => Ok(()),
         DefaultValue::Zero => match var.data_type {
             DataType::VisibleString | DataType::OctetString | DataType::UnicodeString => Ok(()),
@@ -285,7 +295,7 @@ mod tests {
     use std::vec::Vec;
 
     use super::*;
-    use crate::od::{layout, standard, DeviceInfo, Object};
+    use crate::od::{layout, standard, DefaultOverride, DeviceInfo, Object};
 
     static VENDOR: [Object; 2] = layout([
         Object::var(
@@ -347,6 +357,23 @@ mod tests {
         assert!(section(&eds, "2000").contains(&"LowLimit=-5"));
         assert_eq!(section(&eds, "2001"), ["ParameterName=Gains", "ObjectType=0x8", "SubNumber=0x3"]);
         assert!(section(&eds, "2001sub2").contains(&"ParameterName=Gain 2"));
+    }
+
+    #[test]
+    fn the_firmwares_defaults_are_the_eds_defaults() {
+        static OVERRIDES: [DefaultOverride; 2] = [
+            DefaultOverride { index: 0x2000, sub: 0, value: DefaultValue::Signed(-3) },
+            DefaultOverride { index: 0x2001, sub: 2, value: DefaultValue::Real(0.5) },
+        ];
+        let mut od =
+            Dictionary::<1024>::new(&[&standard::COMMUNICATION, &VENDOR], DeviceInfo::servo_drive(), 1)
+                .unwrap();
+        od.set_default_overrides(&OVERRIDES).unwrap();
+        let mut eds = String::new();
+        write(&od, &EdsInfo::default(), &mut eds).unwrap();
+        assert!(section(&eds, "2000").contains(&"DefaultValue=-3"));
+        assert!(section(&eds, "2001sub1").contains(&"DefaultValue=0"));
+        assert!(section(&eds, "2001sub2").contains(&"DefaultValue=0.5"));
     }
 
     #[test]

@@ -169,6 +169,10 @@ pub enum WriteRule {
     Always,
     /// Only outside Operational; in Operational the write is refused with 0x0800_0022.
     NotOperational,
+    /// Only while the CiA 402 state machine is in Switch on disabled (or still Not ready to
+    /// switch on); in any other state the write is refused with 0x0800_0022. CiA 402 has no
+    /// such rule; it is for parameters a device lets change only with the power stage off.
+    SwitchOnDisabled,
 }
 
 /// A low or high limit of a numeric entry.

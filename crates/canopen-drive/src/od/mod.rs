@@ -82,6 +82,21 @@ impl Default for DeviceInfo {
     }
 }
 
+/// The firmware's own power-on value for an entry of the crate's tables (a default its
+/// documentation gives instead of the crate's, e.g. 6085h quick stop deceleration): used at
+/// power-on, by every reset of the entry's area, after restore defaults (1011h), and in the EDS.
+/// See [`crate::Config::default_overrides`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct DefaultOverride {
+    /// Index of the entry.
+    pub index: u16,
+    /// Sub-index of the entry.
+    pub sub: u8,
+    /// Its power-on value.
+    pub value: DefaultValue,
+}
+
 /// Callbacks of the firmware for its own objects (manufacturer area 2000h–5FFFh, or refinements
 /// of any other entry). Every method has a default that does nothing, so a firmware implements
 /// only what it needs. Hooks run inside [`crate::Drive::on_frame`]: keep them short.
@@ -110,6 +125,12 @@ pub trait ObjectHooks {
     /// Called after a value from the bus was stored.
     fn written(&mut self, index: u16, sub: u8, data: &[u8]) {
         let _ = (index, sub, data);
+    }
+
+    /// Called after a store on command (1010h sub `sub`, the group) succeeded: the firmware
+    /// may keep its own data that belongs to the group (a node-ID, a bit rate).
+    fn stored(&mut self, sub: u8) {
+        let _ = sub;
     }
 }
 
@@ -208,6 +229,7 @@ pub struct Dictionary<const BYTES: usize> {
     store: [u8; BYTES],
     device: DeviceInfo,
     node_id: u8,
+    overrides: &'static [DefaultOverride],
 }
 
 /// A default value resolved to bytes.
@@ -239,6 +261,7 @@ impl<const BYTES: usize> Dictionary<BYTES> {
             store: [0; BYTES],
             device,
             node_id,
+            overrides: &[],
         };
         let mut region = 0usize;
         let mut previous: Option<u16> = None;
@@ -264,6 +287,37 @@ impl<const BYTES: usize> Dictionary<BYTES> {
         }
         dict.reset(0x0000..=0xFFFF);
         Ok(dict)
+    }
+
+    /// Replaces the crate's defaults of some entries with the firmware's own
+    /// ([`DefaultOverride`]) and sets every value to its (new) default. An override of an
+    /// entry that does not exist, or whose value does not fit the entry, is refused.
+    pub fn set_default_overrides(
+        &mut self,
+        overrides: &'static [DefaultOverride],
+    ) -> Result<(), ConfigError> {
+        for o in overrides {
+            let bad = ConfigError::BadEntry { index: o.index };
+            let entry = self.entry(o.index, o.sub).map_err(|_| bad)?;
+            let fits = match (o.value, entry.var.data_type.fixed_size()) {
+                (DefaultValue::Text(t), None) => t.len() <= usize::from(entry.var.capacity),
+                (DefaultValue::Bytes(b), None) => b.len() <= usize::from(entry.var.capacity),
+                (DefaultValue::Text(_) | DefaultValue::Bytes(_), Some(_)) => false,
+                (_, fixed) => fixed.is_some(),
+            };
+            if !fits {
+                return Err(bad);
+            }
+        }
+        self.overrides = overrides;
+        self.reset(0x0000..=0xFFFF);
+        Ok(())
+    }
+
+    /// The power-on value of sub-index `sub` of `index`, described by `var`: the firmware's
+    /// override, or the table's default.
+    pub fn default_of(&self, index: u16, sub: u8, var: &Var) -> DefaultValue {
+        self.overrides.iter().find(|o| o.index == index && o.sub == sub).map_or(var.default, |o| o.value)
     }
 
     /// Bytes of the store the tables use.
@@ -317,12 +371,12 @@ impl<const BYTES: usize> Dictionary<BYTES> {
         Ok(Entry { object, var, sub, offset: offset as u16 })
     }
 
-    fn default_bytes(&self, var: &Var) -> DefaultBytes {
+    fn default_bytes(&self, var: &Var, default: DefaultValue) -> DefaultBytes {
         let number = |v: u64| {
             let size = var.data_type.fixed_size().unwrap_or(0).min(8);
             DefaultBytes::Number(v.to_le_bytes(), size)
         };
-        match var.default {
+        match default {
             DefaultValue::Zero => number(0),
             DefaultValue::Unsigned(v) => number(v),
             DefaultValue::Signed(v) => number(v as u64),
@@ -371,7 +425,10 @@ impl<const BYTES: usize> Dictionary<BYTES> {
     pub fn value_len(&self, entry: &Entry) -> usize {
         match self.stored(entry) {
             Some(bytes) => bytes.len(),
-            None => self.default_bytes(entry.var).bytes().len(),
+            None => self
+                .default_bytes(entry.var, self.default_of(entry.index(), entry.sub, entry.var))
+                .bytes()
+                .len(),
         }
     }
 
@@ -381,7 +438,7 @@ impl<const BYTES: usize> Dictionary<BYTES> {
         let value = match self.stored(entry) {
             Some(bytes) => bytes,
             None => {
-                default = self.default_bytes(entry.var);
+                default = self.default_bytes(entry.var, self.default_of(entry.index(), entry.sub, entry.var));
                 default.bytes()
             }
         };
@@ -474,7 +531,7 @@ impl<const BYTES: usize> Dictionary<BYTES> {
                     if let Some((var, offset)) = object.sub(sub) {
                         let offset = usize::from(region) + usize::from(object.base) + offset;
                         let entry = Entry { object, var, sub, offset: offset as u16 };
-                        let default = self.default_bytes(var);
+                        let default = self.default_bytes(var, self.default_of(object.index, sub, var));
                         self.commit(&entry, default.bytes());
                     }
                 }
@@ -691,6 +748,40 @@ mod tests {
         );
         let too_many: [&'static [Object]; 5] = [&[], &[], &[], &[], &[]];
         assert_eq!(Dictionary::<8>::new(&too_many, info, 1).err(), Some(ConfigError::TooManyTables));
+    }
+
+    #[test]
+    fn overridden_defaults_hold_at_power_on_and_after_a_reset() {
+        static OVERRIDES: [DefaultOverride; 3] = [
+            DefaultOverride { index: 0x2001, sub: 2, value: DefaultValue::Unsigned(7) },
+            DefaultOverride { index: 0x2000, sub: 0, value: DefaultValue::Text("xy") },
+            DefaultOverride { index: 0x2003, sub: 0, value: DefaultValue::NodeIdPlus(0x100) },
+        ];
+        let mut od = dict();
+        od.set_default_overrides(&OVERRIDES).unwrap();
+        assert_eq!(od.get::<u16>(0x2001, 1), Ok(0xBEEF), "not overridden");
+        assert_eq!(od.get::<u16>(0x2001, 2), Ok(7));
+        assert_eq!(od.get::<u32>(0x2003, 0), Ok(0x109));
+        let text = od.entry(0x2000, 0).unwrap();
+        assert_eq!(od.value_len(&text), 2);
+        od.set::<u16>(0x2001, 2, 1).unwrap();
+        od.reset(0x2001..=0x2001);
+        assert_eq!(od.get::<u16>(0x2001, 2), Ok(7), "a reset restores the firmware's default");
+        let var = od.entry(0x2001, 2).unwrap().var;
+        assert_eq!(od.default_of(0x2001, 2, var), DefaultValue::Unsigned(7));
+        assert_eq!(od.default_of(0x2001, 3, var), DefaultValue::Unsigned(0xBEEF));
+
+        // Entries that do not exist, and values that do not fit, are refused.
+        static MISSING: [DefaultOverride; 1] =
+            [DefaultOverride { index: 0x2001, sub: 9, value: DefaultValue::Unsigned(1) }];
+        static TOO_LONG: [DefaultOverride; 1] =
+            [DefaultOverride { index: 0x2000, sub: 0, value: DefaultValue::Text("123456789") }];
+        static NOT_TEXT: [DefaultOverride; 1] =
+            [DefaultOverride { index: 0x2001, sub: 1, value: DefaultValue::Text("1") }];
+        for bad in [&MISSING, &TOO_LONG, &NOT_TEXT] {
+            let index = bad[0].index;
+            assert_eq!(dict().set_default_overrides(bad), Err(ConfigError::BadEntry { index }));
+        }
     }
 
     #[test]

@@ -226,7 +226,7 @@ impl<const BYTES: usize> Dictionary<BYTES> {
 
     /// Sets `entry` back to its default value.
     fn reset_entry(&mut self, entry: &Entry) {
-        let default = self.default_bytes(entry.var);
+        let default = self.default_bytes(entry.var, self.default_of(entry.index(), entry.sub, entry.var));
         self.commit(entry, default.bytes());
     }
 }

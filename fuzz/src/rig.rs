@@ -1,0 +1,521 @@
+//! A whole drive with its simulated motor, run by [`Op`]s, with the invariants checked after
+//! every step.
+//!
+//! The rig plays the board: it ticks the drive every millisecond with a sample of the simulated
+//! motor and hands the demand back to the motor, polls the drive whenever its deadline comes,
+//! and drains every frame the drive sends. After each tick it checks invariants 1 and 2 and
+//! that the statusword reports the state; after each op it checks the dictionary (invariant
+//! 3), and it counts the SDO answers to every request and the LSS answers to every LSS
+//! request.
+
+use canopen_drive::cia402::fsa::State;
+use canopen_drive::cia402::{OptionCodes, ProfileConfig};
+use canopen_drive::comm::NmtState;
+use canopen_drive::drive::CanState;
+use canopen_drive::hal::{Demand, DigitalInputs, HardwareFaults};
+use canopen_drive::od::{
+    layout, AbortCode, Access, DataType, DefaultValue, Object, ObjectHooks, PdoMapping, Var,
+};
+use canopen_drive::{CanFrame, Config, Drive, Duration, Instant};
+use canopen_drive_sim::invariants::{self, DemandLimits, DemandWatch, SdoWatch};
+use canopen_drive_sim::SimMotor;
+use embedded_can::Frame;
+
+use crate::ops::Op;
+
+/// Bit 15 of a frame op's identifier: send it as an extended frame.
+pub const EXTENDED: u16 = 0x8000;
+/// The node-ID of a configured rig.
+pub const NODE: u8 = 5;
+/// The control-loop period.
+pub const TICK: Duration = Duration::from_millis(1);
+/// Ticks an `Advance` runs at most before the rest of the span passes in one jump.
+const MAX_TICKS_PER_STEP: u32 = 1000;
+/// Ticks a `Jump` runs before the jump.
+const TICKS_BEFORE_JUMP: u32 = 8;
+/// Polls at one instant before the rig calls it a livelock.
+const MAX_POLLS_PER_INSTANT: u32 = 64;
+
+/// 2400h: the cascade's parameter record (used by [`Variant::Cascade`]).
+pub const CASCADE: u16 = 0x2400;
+
+/// The rig's manufacturer objects: one of each kind the RPDO and SDO paths treat differently.
+pub static OBJECTS: [Object; 6] = layout([
+    Object::var(
+        0x2000,
+        "Text",
+        Var::new("Text", DataType::VisibleString)
+            .access(Access::ReadWrite)
+            .capacity(32)
+            .default(DefaultValue::Text("fuzz")),
+    ),
+    Object::var(
+        0x2001,
+        "Limited",
+        Var::new("Limited", DataType::Unsigned8)
+            .access(Access::ReadWrite)
+            .pdo(PdoMapping::Both)
+            .default(DefaultValue::Unsigned(15))
+            .limits_unsigned(10, 20),
+    ),
+    Object::var(
+        0x2002,
+        "Flag",
+        Var::new("Flag", DataType::Boolean).access(Access::ReadWrite).pdo(PdoMapping::Both),
+    ),
+    Object::var(
+        0x2003,
+        "Signed",
+        Var::new("Signed", DataType::Integer32)
+            .access(Access::ReadWrite)
+            .pdo(PdoMapping::Rpdo)
+            .limits_signed(-1000, 1000),
+    ),
+    Object::var(
+        0x2006,
+        "Refused",
+        Var::new("Refused", DataType::Unsigned32).access(Access::ReadWrite).pdo(PdoMapping::Rpdo),
+    ),
+    canopen_drive::control::object(CASCADE),
+]);
+
+/// The firmware side: 2006h refuses every write (as a hook may).
+#[derive(Debug, Default)]
+pub struct RigHooks;
+
+impl ObjectHooks for RigHooks {
+    fn validate(&mut self, index: u16, _sub: u8, _data: &[u8]) -> Result<(), AbortCode> {
+        if index == 0x2006 {
+            Err(AbortCode::General)
+        } else {
+            Ok(())
+        }
+    }
+}
+
+/// Drive configurations the fuzzers run.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Variant {
+    /// The CiA defaults.
+    Standard,
+    /// Loops closed in the core, brake delays, following error as a fault, a deeper set-point
+    /// buffer.
+    Cascade,
+    /// A vendor that narrowed everything: pp and pv only, a few option codes, no transition
+    /// 16, no change on set-point, long RPDOs discarded.
+    Narrow,
+    /// Node-ID 255: LSS only until a master configures it.
+    Unconfigured,
+}
+
+impl Variant {
+    /// The variant a selector byte picks.
+    pub fn from_byte(byte: u8) -> Self {
+        match byte % 4 {
+            0 => Variant::Standard,
+            1 => Variant::Cascade,
+            2 => Variant::Narrow,
+            _ => Variant::Unconfigured,
+        }
+    }
+
+    /// The drive's configuration.
+    pub fn config(self) -> Config {
+        let mut config = Config { manufacturer_objects: &OBJECTS, ..Config::new(NODE) };
+        config.device.vendor_id = 0x0000_0ABC;
+        config.device.product_code = 0x0004_0002;
+        config.device.revision_number = 0x0001_0003;
+        config.device.serial_number = 0x1234_5678;
+        match self {
+            Variant::Standard => {}
+            Variant::Cascade => {
+                config.profile.cascade = Some(CASCADE);
+                config.profile.brake_release_delay = Duration::from_millis(20);
+                config.profile.brake_engage_delay = Duration::from_millis(20);
+                config.profile.following_error_fault = true;
+                config.profile.setpoint_buffer = ProfileConfig::MAX_SETPOINT_BUFFER;
+                config.lss_store = true;
+            }
+            Variant::Narrow => {
+                config.device.drive_modes = 0b101;
+                config.profile.option_codes = OptionCodes {
+                    abort_connection: 0b0110,
+                    quick_stop: 0b0000_0110,
+                    shutdown: 0b01,
+                    disable_operation: 0b10,
+                    halt: 0b0010,
+                    fault_reaction: 0b0100,
+                };
+                config.profile.transition_16 = false;
+                config.profile.change_on_setpoint = false;
+                config.long_rpdo = canopen_drive::comm::pdo::LongRpdo::DiscardAndReport;
+            }
+            Variant::Unconfigured => config.node_id = 0xFF,
+        }
+        config
+    }
+}
+
+/// Counters of one run.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Stats {
+    /// Ticks run.
+    pub ticks: u64,
+    /// Frames the drive sent.
+    pub sent: u64,
+    /// SDO requests and answers.
+    pub sdo: (usize, usize),
+}
+
+/// The drive, its motor, the clock and the watchers (see the [module docs](self)).
+pub struct Rig {
+    /// The drive under test.
+    pub drive: Drive<RigHooks>,
+    /// Its motor.
+    pub motor: SimMotor,
+    profile: ProfileConfig,
+    now: Instant,
+    next_tick: Instant,
+    deadline: Option<Instant>,
+    demand: Demand,
+    sdo: SdoWatch,
+    demands: DemandWatch,
+    stats: Stats,
+    /// Every entry of the dictionary, resolved once.
+    entries: Vec<canopen_drive::od::Entry>,
+    /// Mappable entries (index << 16 | sub << 8 | bits) for RPDOs and TPDOs.
+    mappable: (Vec<u32>, Vec<u32>),
+    /// Frames the drive sent during the last op.
+    pub sent: Vec<CanFrame>,
+}
+
+type Checked = Result<(), String>;
+
+impl Rig {
+    /// A booted drive of `variant` at time zero.
+    pub fn new(variant: Variant) -> Result<Rig, String> {
+        let config = variant.config();
+        let drive = Drive::with_hooks(config, RigHooks).map_err(|e| format!("{e:?}"))?;
+        let mappable = mappable_entries(&drive);
+        let entries = invariants::entries(drive.od());
+        let mut rig = Rig {
+            drive,
+            motor: SimMotor::new(),
+            profile: config.profile,
+            now: Instant::ZERO,
+            next_tick: Instant::ZERO,
+            deadline: None,
+            demand: Demand::OFF,
+            sdo: SdoWatch::default(),
+            demands: DemandWatch::default(),
+            stats: Stats::default(),
+            entries,
+            mappable,
+            sent: Vec::new(),
+        };
+        rig.poll()?;
+        rig.check_dictionary()?;
+        Ok(rig)
+    }
+
+    /// The virtual time.
+    pub fn now(&self) -> Instant {
+        self.now
+    }
+
+    /// The demand of the last tick.
+    pub fn demand(&self) -> Demand {
+        self.demand
+    }
+
+    /// Counters so far.
+    pub fn stats(&self) -> Stats {
+        Stats { sdo: self.sdo.counts(), ..self.stats }
+    }
+
+    /// Invariant 3 now.
+    pub fn check_dictionary(&self) -> Checked {
+        invariants::check_entries(self.drive.od(), &self.entries, &self.profile)
+    }
+
+    /// Runs one op; then checks the dictionary.
+    pub fn run(&mut self, op: &Op) -> Checked {
+        self.sent.clear();
+        self.apply(op)?;
+        self.check_dictionary().map_err(|e| format!("after {op:?}: {e}"))
+    }
+
+    fn apply(&mut self, op: &Op) -> Checked {
+        let node = self.drive.node_id();
+        match op {
+            Op::Advance(us) => self.advance(Duration::from_micros(*us), MAX_TICKS_PER_STEP),
+            Op::Jump(us) => self.advance(Duration::from_micros(*us), TICKS_BEFORE_JUMP),
+            Op::Controlword(value) => {
+                let v = value.to_le_bytes();
+                self.frame(0x600 + u16::from(node), &[0x2B, 0x40, 0x60, 0, v[0], v[1], 0, 0], false)
+            }
+            Op::Rpdo { n, data } => {
+                let index = 0x1400 + u16::from(n % 4);
+                let cob = self.drive.od().get::<u32>(index, 1).unwrap_or(0);
+                self.frame((cob & 0x7FF) as u16, data, false)
+            }
+            Op::Remote(n) => {
+                let index = 0x1800 + u16::from(n % 4);
+                let cob = self.drive.od().get::<u32>(index, 1).unwrap_or(0);
+                self.frame((cob & 0x7FF) as u16, &[0; 8][..usize::from(n >> 4).min(8)], true)
+            }
+            Op::Sync(counter) => {
+                let cob = self.drive.od().get::<u32>(0x1005, 0).unwrap_or(0x80);
+                let data: Vec<u8> = counter.iter().copied().collect();
+                self.frame((cob & 0x7FF) as u16, &data, false)
+            }
+            Op::PdoConfig { which, sub, kind, raw } => self.pdo_config(*which, *sub, *kind, *raw),
+            Op::Motor { kind, arg } => {
+                match kind % 6 {
+                    0 => self.motor.inject_fault(HardwareFaults::from_bits_truncate(u32::from(*arg))),
+                    1 => self.motor.clear_faults(),
+                    2 => self.motor.set_input(DigitalInputs::from_bits_truncate(u32::from(*arg)), true),
+                    3 => self.motor.set_input(DigitalInputs::all(), false),
+                    4 => self.motor.set_load_torque(f64::from(*arg as i16) / 10.0),
+                    _ => self.motor.set_local_control(arg & 1 != 0),
+                }
+                Ok(())
+            }
+            Op::CanState(state) => {
+                let state = match state % 4 {
+                    0 => CanState::BusOff,
+                    1 => CanState::ErrorActive,
+                    2 => CanState::ErrorPassive,
+                    _ => CanState::Overrun,
+                };
+                self.drive.on_can_state(state, self.now);
+                self.drain(Origin::Timer)?;
+                self.poll()
+            }
+            other => match other.as_frame(node) {
+                Some(Op::Frame { id, rtr, data }) => self.frame(id, &data, rtr),
+                _ => match other {
+                    Op::Frame { id, rtr, data } => self.frame(*id, data, *rtr),
+                    _ => Ok(()),
+                },
+            },
+        }
+    }
+
+    /// A write to a PDO record, its value chosen from `kind` and `raw` (see [`Op::PdoConfig`]).
+    fn pdo_config(&mut self, which: u8, sub: u8, kind: u8, raw: u32) -> Checked {
+        let tpdo = which & 1 != 0;
+        let number = u16::from((which >> 1) & 3);
+        let mapping = which & 8 != 0;
+        let index = match (tpdo, mapping) {
+            (false, false) => 0x1400,
+            (false, true) => 0x1600,
+            (true, false) => 0x1800,
+            (true, true) => 0x1A00,
+        } + number;
+        let highest = self.drive.od().object(index).map_or(0, |(o, _)| o.highest_sub());
+        let sub = sub % (highest + 1);
+        let current = self.drive.od().get::<u32>(index, sub).unwrap_or(0);
+        let value = if mapping {
+            let list = if tpdo { &self.mappable.1 } else { &self.mappable.0 };
+            match (sub, kind % 4) {
+                (0, _) => raw % 9,
+                (_, 0) => list.get(raw as usize % list.len().max(1)).copied().unwrap_or(0),
+                (_, 1) => [0x0001_0001, 0x0002_0008, 0x0005_0008, 0x0003_0010, 0x0006_0010, 0x0007_0020]
+                    [raw as usize % 6],
+                (_, 2) => raw,
+                _ => 0,
+            }
+        } else {
+            match (sub, kind % 4) {
+                (1, 0) => current | 0x8000_0000,
+                (1, 1) => current & !0x8000_0000,
+                (1, 3) => 0x8000_0000 | (current & 0x4000_0000) | (raw & 0x7FF),
+                _ => raw,
+            }
+        };
+        let size = match self.drive.od().entry(index, sub) {
+            Ok(entry) => entry.var.data_type.fixed_size().unwrap_or(4).clamp(1, 4) as u8,
+            Err(_) => 4,
+        };
+        let node = self.drive.node_id();
+        let op = Op::SdoWrite { index, sub, size, value };
+        match op.as_frame(node) {
+            Some(Op::Frame { id, data, .. }) => self.frame(id, &data, false),
+            _ => Ok(()),
+        }
+    }
+
+    /// Delivers a frame to the drive at the current instant.
+    pub fn frame(&mut self, id: u16, data: &[u8], rtr: bool) -> Checked {
+        let frame = if id & EXTENDED != 0 {
+            canopen_drive::frame::extended(u32::from(id & 0x7FF), data)
+        } else if rtr {
+            CanFrame::new_remote_standard(id, data.len() as u8)
+        } else {
+            CanFrame::new_standard(id, data)
+        };
+        let Some(frame) = frame else { return Ok(()) };
+        let node = self.drive.node_id();
+        let serves_sdo = matches!(self.drive.nmt_state(), NmtState::PreOperational | NmtState::Operational);
+        let origin = if !rtr && self.drive.is_configured() && id == 0x600 + u16::from(node) && serves_sdo {
+            self.sdo.request(data);
+            Origin::SdoRequest(node)
+        } else if !rtr && id == 0x7E5 {
+            Origin::LssRequest
+        } else {
+            Origin::Other
+        };
+        self.drive.on_frame(&frame, self.now);
+        self.drain(origin)?;
+        self.poll()
+    }
+
+    /// Polls the drive at the current instant (again while it asks for it).
+    fn poll(&mut self) -> Checked {
+        let mut polls = 0;
+        loop {
+            self.deadline = self.drive.poll(self.now);
+            self.drain(Origin::Timer)?;
+            polls += 1;
+            match self.deadline {
+                Some(d) if d <= self.now => {
+                    if polls > MAX_POLLS_PER_INSTANT {
+                        return Err(format!("poll livelock at {:?}: deadline {d:?}", self.now));
+                    }
+                }
+                _ => return Ok(()),
+            }
+        }
+    }
+
+    /// Lets `span` pass: ticks every [`TICK`] (at most `max_ticks`, then one jump to the end)
+    /// and polls at every deadline.
+    fn advance(&mut self, span: Duration, max_ticks: u32) -> Checked {
+        let end = self.now + span;
+        let mut ticks = 0u32;
+        loop {
+            let next = match self.deadline {
+                Some(d) => d.min(self.next_tick),
+                None => self.next_tick,
+            };
+            if next > end {
+                break;
+            }
+            self.now = self.now.max(next);
+            if self.now >= self.next_tick {
+                self.tick()?;
+                ticks += 1;
+                self.next_tick = if ticks >= max_ticks { end.max(self.now + TICK) } else { self.now + TICK };
+            }
+            self.poll()?;
+        }
+        self.now = end;
+        self.poll()
+    }
+
+    /// One control tick with the invariants of the demand.
+    fn tick(&mut self) -> Checked {
+        let sample = self.motor.sample();
+        self.demand = self.drive.tick(self.now, &sample);
+        self.stats.ticks += 1;
+        self.motor.step(&self.demand, TICK);
+        let state: State = self.drive.state();
+        let od = self.drive.od();
+        let demands = &mut self.demands;
+        invariants::check_energy(state, &self.demand)
+            .and_then(|()| demands.check(&self.demand, DemandLimits::of(od), &sample))
+            .and_then(|()| invariants::check_statusword(od, state))
+            .map_err(|e| format!("tick at {:?}: {e}", self.now))?;
+        self.drain(Origin::Tick)
+    }
+
+    /// Takes every frame the drive queued and checks who may have sent it.
+    fn drain(&mut self, origin: Origin) -> Checked {
+        let node = self.drive.node_id();
+        let mut sdo_answers = 0;
+        let mut lss_answers = 0;
+        while let Some(frame) = self.drive.pop_tx() {
+            self.stats.sent += 1;
+            let id = frame.standard_id().unwrap_or(0xFFFF);
+            let data = frame.data();
+            if id == 0x7E4 {
+                lss_answers += 1;
+            } else if !self.drive.is_configured() {
+                return Err(format!("an unconfigured node sent {id:03X} {data:02X?}"));
+            }
+            match origin {
+                Origin::SdoRequest(n) if id == 0x580 + u16::from(n) => sdo_answers += 1,
+                _ if self.drive.is_configured() && id == 0x580 + u16::from(node) => {
+                    if origin == Origin::Tick {
+                        return Err(format!("an SDO frame from the tick: {data:02X?}"));
+                    }
+                    self.sdo.unsolicited(data)?;
+                }
+                _ => {}
+            }
+            self.sent.push(frame);
+        }
+        if origin != Origin::LssRequest && lss_answers > 0 {
+            return Err("an LSS response without an LSS request".into());
+        }
+        if lss_answers > 1 {
+            return Err(format!("{lss_answers} LSS responses to one request"));
+        }
+        if let Origin::SdoRequest(_) = origin {
+            self.sdo.answered(sdo_answers)?;
+        }
+        Ok(())
+    }
+}
+
+/// What made the drive send the frames being drained.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Origin {
+    /// An SDO request to node `n`.
+    SdoRequest(u8),
+    /// An LSS request.
+    LssRequest,
+    /// Any other frame.
+    Other,
+    /// `poll`, or a report of the board.
+    Timer,
+    /// `tick`.
+    Tick,
+}
+
+/// Every entry the dictionary lets map into an RPDO and a TPDO, as mapping values.
+fn mappable_entries(drive: &Drive<RigHooks>) -> (Vec<u32>, Vec<u32>) {
+    let od = drive.od();
+    let mut rpdo = Vec::new();
+    let mut tpdo = Vec::new();
+    for entry in invariants::entries(od) {
+        let var = entry.var;
+        let Some(size) = var.data_type.fixed_size() else { continue };
+        if var.is_fixed() {
+            continue;
+        }
+        let value = (u32::from(entry.index()) << 16) | (u32::from(entry.sub) << 8) | (size as u32 * 8);
+        if matches!(var.pdo, PdoMapping::Rpdo | PdoMapping::Both) && var.access.writable() {
+            rpdo.push(value);
+        }
+        if matches!(var.pdo, PdoMapping::Tpdo | PdoMapping::Both) && var.access.readable() {
+            tpdo.push(value);
+        }
+    }
+    (rpdo, tpdo)
+}
+
+/// Runs a whole program: the ops of `data` decoded with `tags`, at most `max_ops` of them.
+/// Panics with the description of the first violated invariant.
+pub fn run_program(rig: &mut Rig, data: &[u8], tags: &[crate::ops::Tag], max_ops: usize) {
+    let mut reader = crate::Reader::new(data);
+    let mut count = 0;
+    while !reader.is_empty() && count < max_ops {
+        let op = Op::read(&mut reader, tags);
+        if let Err(violation) = rig.run(&op) {
+            panic!("invariant violated: {violation}");
+        }
+        count += 1;
+    }
+}

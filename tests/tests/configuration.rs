@@ -1,0 +1,483 @@
+//! Configuration knobs for documented departures from CiA 301/402 (DESIGN invariant 6): each
+//! one is off by default, and each one changes only what it says. One test per knob, observed
+//! on the bus (abort codes, NMT states in heartbeats, statusword values).
+
+mod common;
+
+use canopen_drive::cia402::fsa::State;
+use canopen_drive::cia402::StatusFlag;
+use canopen_drive::comm::error_control::ErrorBehaviour;
+use canopen_drive::comm::NmtState;
+use canopen_drive::od::{layout, Access, DataType, DefaultOverride, DefaultValue, Object, Var, WriteRule};
+use canopen_drive::{Config, Duration};
+use common::profile::*;
+use common::*;
+
+const CANNOT_IN_THIS_STATE: u32 = 0x0800_0022;
+const INVALID_VALUE: u32 = 0x0609_0030;
+
+fn nmt(bench: &mut Bench, command: u8) {
+    bench.send(frame(0x000, &[command, NODE]));
+    bench.advance(Duration::from_millis(5));
+}
+
+#[test]
+fn firmware_defaults_of_standard_entries_hold_at_power_on_and_after_a_reset() {
+    static OVERRIDES: [DefaultOverride; 2] = [
+        DefaultOverride { index: 0x6085, sub: 0, value: DefaultValue::Unsigned(51_200) },
+        DefaultOverride { index: 0x6099, sub: 1, value: DefaultValue::Unsigned(0) },
+    ];
+    let mut bench = Bench::with_config(|c| Config { default_overrides: &OVERRIDES, ..c });
+    assert_eq!(read_i32(&mut bench, 0x6085), 51_200);
+    let r = bench.sdo1(&req(0x40, 0x6099, 1, [0; 4]));
+    assert_eq!(r, req(0x43, 0x6099, 1, [0; 4]));
+    write(&mut bench, 0x6085, &1000u32.to_le_bytes());
+    nmt(&mut bench, 0x81); // reset node: the application area back to its defaults
+    assert_eq!(read_i32(&mut bench, 0x6085), 51_200);
+
+    // Without the override, the crate's default.
+    let mut standard = Bench::new();
+    assert_ne!(read_i32(&mut standard, 0x6085), 51_200);
+}
+
+#[test]
+fn nmt_stopped_faults_an_enabled_axis_only_when_configured() {
+    // CiA 402: 6007h = 0 (no action) leaves the axis enabled in Stopped.
+    let mut standard = Bench::new();
+    write(&mut standard, 0x6007, &0i16.to_le_bytes());
+    enable_pv(&mut standard);
+    nmt(&mut standard, 0x02);
+    assert!(matches!(standard.drive().state(), State::OperationEnabled { .. }));
+
+    let mut bench = Bench::with_config(|mut c| {
+        c.profile.nmt_stopped_fault = true;
+        c
+    });
+    write(&mut bench, 0x6007, &0i16.to_le_bytes());
+    enable_pv(&mut bench);
+    nmt(&mut bench, 0x02);
+    assert_eq!(bench.drive().nmt_state(), NmtState::Stopped);
+    bench.advance(Duration::from_millis(20));
+    assert_eq!(bench.drive().state(), State::Fault);
+    nmt(&mut bench, 0x80);
+    assert_eq!(od_u16(&mut bench, 0x603F), 0x8100);
+
+    // An axis that is not enabled is not faulted.
+    let mut idle = Bench::with_config(|mut c| {
+        c.profile.nmt_stopped_fault = true;
+        c
+    });
+    cw(&mut idle, 0x0006, 2);
+    nmt(&mut idle, 0x02);
+    bench.advance(Duration::from_millis(20));
+    assert_eq!(idle.drive().state(), State::ReadyToSwitchOn);
+}
+
+#[test]
+fn statusword_bits_14_and_15_show_what_the_configuration_says() {
+    fn run(bench: &mut Bench) -> (u16, u16) {
+        enable_pv(bench);
+        write(bench, 0x6083, &1_000_000u32.to_le_bytes());
+        write(bench, 0x6084, &1_000_000u32.to_le_bytes());
+        write(bench, 0x60FF, &(-20_000i32).to_le_bytes());
+        bench.advance(Duration::from_millis(300));
+        let moving = sw(bench);
+        write(bench, 0x60FF, &0i32.to_le_bytes());
+        bench.advance(Duration::from_millis(500));
+        (moving, sw(bench))
+    }
+    let (moving, resting) = run(&mut Bench::new());
+    assert_eq!(moving & 0xC000, 0, "{moving:04X}: manufacturer bits are 0 by default");
+    assert_eq!(resting & 0xC000, 0);
+
+    let mut bench = Bench::with_config(|mut c| {
+        c.profile.statusword_bit_14 = StatusFlag::Moving;
+        c.profile.statusword_bit_15 = StatusFlag::Negative;
+        c
+    });
+    let (moving, resting) = run(&mut bench);
+    assert_eq!(moving & 0xC000, 0xC000, "{moving:04X}");
+    assert_eq!(resting & 0xC000, 0, "{resting:04X}");
+
+    // A quick stop ramping down is a transition.
+    let mut bench = Bench::with_config(|mut c| {
+        c.profile.statusword_bit_14 = StatusFlag::Transition;
+        c
+    });
+    enable_pv(&mut bench);
+    write(&mut bench, 0x6083, &1_000_000u32.to_le_bytes());
+    write(&mut bench, 0x6085, &20_000u32.to_le_bytes());
+    write(&mut bench, 0x60FF, &20_000i32.to_le_bytes());
+    bench.advance(Duration::from_millis(300));
+    assert_eq!(sw(&mut bench) & 0x4000, 0);
+    write(&mut bench, 0x605A, &6i16.to_le_bytes());
+    cw(&mut bench, 0x000B, 50);
+    assert_eq!(sw(&mut bench) & 0x4000, 0x4000, "ramping");
+    bench.advance(Duration::from_millis(2000));
+    assert!(is(&mut bench, QSA));
+    assert_eq!(sw(&mut bench) & 0x4000, 0, "at rest");
+}
+
+#[test]
+fn a_parameter_may_be_writable_only_in_switch_on_disabled() {
+    static OBJECTS: [Object; 1] = layout([Object::var(
+        0x2100,
+        "Guarded",
+        Var::new("Guarded", DataType::Unsigned32).access(Access::ReadWrite).rule(WriteRule::SwitchOnDisabled),
+    )]);
+    let mut bench = Bench::with_config(|c| Config { manufacturer_objects: &OBJECTS, ..c });
+    write(&mut bench, 0x2100, &3u32.to_le_bytes());
+    cw(&mut bench, 0x0006, 2);
+    let r = bench.sdo1(&req(0x23, 0x2100, 0, [1, 0, 0, 0]));
+    assert_eq!(r, abort(0x2100, 0, CANNOT_IN_THIS_STATE), "Ready to switch on");
+    cw(&mut bench, 0x000F, 2);
+    let r = bench.sdo1(&req(0x23, 0x2100, 0, [1, 0, 0, 0]));
+    assert_eq!(r, abort(0x2100, 0, CANNOT_IN_THIS_STATE), "Operation enabled");
+    let r = bench.sdo1(&req(0x40, 0x2100, 0, [0; 4]));
+    assert_eq!(r, req(0x43, 0x2100, 0, [3, 0, 0, 0]), "always readable");
+    cw(&mut bench, 0x0000, 2);
+    write(&mut bench, 0x2100, &1u32.to_le_bytes());
+}
+
+#[test]
+fn a_mode_change_may_be_refused_in_operation_enabled() {
+    let mut standard = Bench::new();
+    enable_pv(&mut standard);
+    write(&mut standard, 0x6060, &[1]);
+
+    let mut bench = Bench::with_config(|mut c| {
+        c.profile.mode_change_in_operation = false;
+        c
+    });
+    enable_pv(&mut bench);
+    let r = bench.sdo1(&req(0x2F, 0x6060, 0, [1, 0, 0, 0]));
+    assert_eq!(r, abort(0x6060, 0, CANNOT_IN_THIS_STATE));
+    write(&mut bench, 0x6060, &[3]); // the same mode again is no change
+    cw(&mut bench, 0x0007, 5);
+    write(&mut bench, 0x6060, &[1]);
+    bench.advance(Duration::from_millis(5));
+    assert_eq!(bench.drive().od().get::<i8>(0x6061, 0), Ok(1));
+}
+
+#[test]
+fn error_behaviour_values_may_mean_what_the_device_documents() {
+    // The device's table: 0 = Stopped, 1 = no change (2 does not exist).
+    static VALUES: [(u8, ErrorBehaviour); 2] = [(0, ErrorBehaviour::Stopped), (1, ErrorBehaviour::NoChange)];
+    for (values, after) in
+        [(&ErrorBehaviour::CIA_301[..], NmtState::PreOperational), (&VALUES[..], NmtState::Stopped)]
+    {
+        let mut bench = Bench::with_config(|c| Config { error_behaviour_values: values, ..c });
+        // Supervise node 0x10's heartbeat at 100 ms; 1029h sub 1 stays 0.
+        write_sub(&mut bench, 0x1016, 1, &0x0010_0064u32.to_le_bytes());
+        nmt(&mut bench, 0x01);
+        bench.send(frame(0x710, &[0x05]));
+        bench.advance(Duration::from_millis(200));
+        assert_eq!(bench.drive().nmt_state(), after);
+    }
+    let mut bench = Bench::with_config(|c| Config { error_behaviour_values: &VALUES, ..c });
+    let r = bench.sdo1(&req(0x2F, 0x1029, 1, [2, 0, 0, 0]));
+    assert_eq!(r, abort(0x1029, 1, INVALID_VALUE));
+    write_sub(&mut bench, 0x1029, 1, &[1]);
+}
+
+#[test]
+fn a_zero_following_error_window_may_switch_the_check_off() {
+    fn run(zero_off: bool) -> u16 {
+        let mut bench = Bench::with_config(|mut c| {
+            c.profile.zero_following_error_window_off = zero_off;
+            c
+        });
+        write(&mut bench, 0x6065, &0u32.to_le_bytes());
+        write(&mut bench, 0x6066, &0u16.to_le_bytes());
+        enable(&mut bench, 1);
+        write(&mut bench, 0x607A, &20_000i32.to_le_bytes());
+        cw(&mut bench, 0x001F, 2);
+        cw(&mut bench, 0x000F, 100);
+        sw(&mut bench)
+    }
+    assert_eq!(run(false) & 0x2000, 0x2000, "CiA 402: a window of 0 is exceeded by any lag");
+    assert_eq!(run(true) & 0x2000, 0);
+}
+
+// --- Hard-stop homing with the home at the backed-off position -------------------------------
+
+mod hard_stop {
+    use super::*;
+    use canopen_drive::cia402::hm::{HardStopEntries, HomingConfig, VendorMethod};
+    use canopen_drive_sim::motor::{MotorParams, SimMotor};
+
+    /// A device's own layout: threshold, back-off positive, back-off negative in one record.
+    const SUBS: [(u8, Var); 4] = [
+        (
+            0,
+            Var::new("Highest sub-index supported", DataType::Unsigned8)
+                .access(Access::Const)
+                .default(DefaultValue::Unsigned(3)),
+        ),
+        (
+            1,
+            Var::new("Threshold", DataType::Unsigned16)
+                .access(Access::ReadWrite)
+                .default(DefaultValue::Unsigned(300)),
+        ),
+        (
+            2,
+            Var::new("Back-off positive", DataType::Unsigned32)
+                .access(Access::ReadWrite)
+                .default(DefaultValue::Unsigned(300)),
+        ),
+        (
+            3,
+            Var::new("Back-off negative", DataType::Unsigned32)
+                .access(Access::ReadWrite)
+                .default(DefaultValue::Unsigned(500)),
+        ),
+    ];
+    static OBJECTS: [Object; 1] = layout([Object::record(0x2025, "Hard stop", &SUBS)]);
+    static METHODS: [(i8, VendorMethod); 4] = [
+        (-1, VendorMethod::HardStopLimit { positive: true }),
+        (-2, VendorMethod::HardStopLimit { positive: false }),
+        (-3, VendorMethod::HardStopRange { positive_first: true }),
+        (-4, VendorMethod::HardStopRange { positive_first: false }),
+    ];
+
+    fn scene() -> Bench {
+        let mut bench = Bench::with_config(|mut c| {
+            c.manufacturer_objects = &OBJECTS;
+            c.profile.homing = HomingConfig {
+                vendor_methods: &METHODS,
+                hard_stop_entries: Some(HardStopEntries {
+                    threshold: (0x2025, 1),
+                    time: None,
+                    back_off_positive: (0x2025, 2),
+                    back_off_negative: (0x2025, 3),
+                }),
+                ..HomingConfig::new()
+            };
+            c
+        });
+        node(&mut bench).motor = SimMotor::with_params(MotorParams {
+            increments_per_revolution: 1000,
+            negative_hard_stop: Some(-12_000),
+            positive_hard_stop: Some(12_000),
+            ..MotorParams::default()
+        });
+        write_sub(&mut bench, 0x6099, 2, &4000u32.to_le_bytes());
+        write(&mut bench, 0x609A, &50_000u32.to_le_bytes());
+        enable(&mut bench, 6);
+        bench
+    }
+
+    /// Runs `method`; returns the encoder count at rest, 6064h there, and 607Dh.
+    fn run(bench: &mut Bench, method: i8) -> (i32, i32, (i32, i32)) {
+        write(bench, 0x6098, &[method as u8]);
+        cw(bench, 0x001F, 0);
+        for _ in 0..3000 {
+            bench.advance(Duration::from_millis(10));
+            if sw(bench) & 0x3400 == 0x1400 {
+                break;
+            }
+        }
+        assert_eq!(sw(bench) & 0x3400, 0x1400, "homing completed");
+        bench.advance(Duration::from_millis(300));
+        let limits = (od_i32_sub(bench, 0x607D, 1), od_i32_sub(bench, 0x607D, 2));
+        (od_i32(bench, 0x6063), od_i32(bench, 0x6064), limits)
+    }
+
+    fn od_i32_sub(bench: &mut Bench, index: u16, sub: u8) -> i32 {
+        bench.drive().od().get::<i32>(index, sub).unwrap()
+    }
+
+    #[test]
+    fn single_stop_homes_backed_off_and_sets_that_sides_limit() {
+        let mut bench = scene();
+        let (raw, position, limits) = run(&mut bench, -1);
+        assert!((raw - 11_700).abs() <= 10, "backed off 300 from the stop: {raw}");
+        assert!(position.abs() <= 10, "home there: {position}");
+        assert_eq!(limits, (i32::MIN, 0));
+
+        let mut bench = scene();
+        let (raw, position, limits) = run(&mut bench, -2);
+        assert!((raw + 11_500).abs() <= 10, "backed off 500 from the stop: {raw}");
+        assert!(position.abs() <= 10);
+        assert_eq!(limits, (0, i32::MAX));
+    }
+
+    #[test]
+    fn both_stops_set_the_range_and_home_at_the_second() {
+        let mut bench = scene();
+        let (raw, position, limits) = run(&mut bench, -3);
+        assert!((raw + 11_500).abs() <= 10, "home backed off from the negative stop: {raw}");
+        assert!(position.abs() <= 10);
+        assert_eq!(limits.0, 0);
+        assert!((limits.1 - 23_200).abs() <= 10, "{limits:?}");
+
+        let mut bench = scene();
+        let (raw, _, limits) = run(&mut bench, -4);
+        assert!((raw - 11_700).abs() <= 10, "{raw}");
+        assert_eq!(limits.1, 0);
+        assert!((limits.0 + 23_200).abs() <= 10, "{limits:?}");
+    }
+}
+
+// --- A store on command is told to the firmware -----------------------------------------------
+
+#[test]
+fn the_firmware_hears_of_a_store_on_command() {
+    use canopen_drive::od::{DeviceInfo, ObjectHooks};
+    use canopen_drive::storage::{device_signature, Storage};
+    use canopen_drive::{Drive, Instant};
+    use canopen_drive_sim::flash::SimFlash;
+
+    #[derive(Default)]
+    struct Hooks(Vec<u8>);
+    impl ObjectHooks for Hooks {
+        fn stored(&mut self, sub: u8) {
+            self.0.push(sub);
+        }
+    }
+    let storage =
+        Storage::new(SimFlash::new(8192, 512, 4), device_signature(&DeviceInfo::servo_drive(), 1)).unwrap();
+    let mut drive = Drive::with_storage(Config::new(NODE), Hooks::default(), storage).unwrap();
+    drive.poll(Instant::ZERO);
+    for (sub, signature) in [(2u8, *b"save"), (1, *b"save"), (1, *b"nope")] {
+        drive.on_frame(&frame(SDO_RX, &req(0x23, 0x1010, sub, signature)), Instant::from_millis(1));
+    }
+    assert_eq!(drive.hooks_mut().0, [2, 1], "only the stores that happened");
+}
+
+// --- Midpoint methods searched positive first, and the middle of the home switch ---------------
+
+#[test]
+fn midpoints_searched_positive_first_and_of_the_home_switch() {
+    use canopen_drive::cia402::hm::{hard_stop_object, HomingConfig, VendorMethod};
+    use canopen_drive_sim::motor::{MotorParams, SimMotor, Zone};
+
+    static OBJECTS: [Object; 1] = layout([hard_stop_object(0x2500)]);
+    static METHODS: [(i8, VendorMethod); 4] = [
+        (-5, VendorMethod::MidpointOfHardStopsPositiveFirst),
+        (-7, VendorMethod::MidpointOfLimitSwitchesPositiveFirst),
+        (-9, VendorMethod::MidpointOfHomeSwitch { positive: true }),
+        (-10, VendorMethod::MidpointOfHomeSwitch { positive: false }),
+    ];
+    // (method, start, expected home, the first move is positive)
+    for (method, start, expected) in
+        [(-5, 0, 0), (-7, 3000, 0), (-9, 0, 5000), (-9, 5500, 5000), (-10, 0, 5000)]
+    {
+        let mut bench = Bench::with_config(|mut c| {
+            c.manufacturer_objects = &OBJECTS;
+            c.profile.homing = HomingConfig {
+                vendor_methods: &METHODS,
+                hard_stop_object: Some(0x2500),
+                ..HomingConfig::new()
+            };
+            c
+        });
+        node(&mut bench).motor = SimMotor::with_params(MotorParams {
+            increments_per_revolution: 1000,
+            negative_limit_switch: (method != -5).then_some(-10_000),
+            positive_limit_switch: (method != -5).then_some(10_000),
+            home_switch: Some(Zone::between(4000, 6000)),
+            negative_hard_stop: Some(-12_000),
+            positive_hard_stop: Some(12_000),
+            ..MotorParams::default()
+        });
+        node(&mut bench).motor.set_position(start);
+        write_sub(&mut bench, 0x2500, 1, &300u16.to_le_bytes());
+        write_sub(&mut bench, 0x6099, 1, &8000u32.to_le_bytes());
+        write_sub(&mut bench, 0x6099, 2, &2000u32.to_le_bytes());
+        write(&mut bench, 0x609A, &50_000u32.to_le_bytes());
+        enable(&mut bench, 6);
+        write(&mut bench, 0x6098, &[method as u8]);
+        cw(&mut bench, 0x001F, 20);
+        let first_move = od_i32(&mut bench, 0x6063) - start;
+        for _ in 0..6000 {
+            bench.advance(Duration::from_millis(10));
+            if sw(&mut bench) & 0x3400 == 0x1400 {
+                break;
+            }
+        }
+        assert_eq!(sw(&mut bench) & 0x3400, 0x1400, "method {method} from {start}");
+        bench.advance(Duration::from_millis(300));
+        let home = od_i32(&mut bench, 0x6063) - od_i32(&mut bench, 0x6064);
+        assert!((home - expected).abs() <= 10, "method {method} from {start}: home {home}");
+        if method != -9 || start == 0 {
+            assert_eq!(first_move > 0, method != -10, "method {method}: first move {first_move}");
+        }
+    }
+}
+
+// --- Cyclic set-points written by SDO ----------------------------------------------------------
+
+#[test]
+fn cyclic_set_points_by_sdo_feed_the_stream_only_when_configured() {
+    fn run(sdo_set_points: bool) -> (u16, Vec<canopen_drive::CanFrame>) {
+        let mut bench = Bench::with_config(|mut c| {
+            c.profile.cyclic.sdo_set_points = sdo_set_points;
+            c
+        });
+        write_sub(&mut bench, 0x60C2, 1, &[10]); // 10 ms
+        nmt(&mut bench, 0x01);
+        let start = od_i32(&mut bench, 0x6064);
+        enable(&mut bench, 8);
+        let mut frames = Vec::new();
+        for k in 1..=50 {
+            write(&mut bench, 0x607A, &(start + 100 * k).to_le_bytes());
+            frames.extend(bench.send(frame(0x080, &[])));
+            frames.extend(bench.advance(Duration::from_millis(10)));
+        }
+        (sw(&mut bench), frames)
+    }
+    let emcy = |frames: &[canopen_drive::CanFrame]| {
+        frames
+            .iter()
+            .any(|f| f.standard_id() == Some(0x85) && embedded_can::Frame::data(f)[..2] == [0x00, 0x87])
+    };
+    let (status, frames) = run(false);
+    assert!(emcy(&frames), "CiA 402: SDO writes are no stream");
+    assert_eq!(status & 0x1000, 0);
+    let (status, frames) = run(true);
+    assert!(!emcy(&frames));
+    assert_eq!(status & 0x106F, 0x1027, "Operation enabled, the target used: {status:04X}");
+}
+
+#[test]
+fn a_hard_stop_search_may_pass_the_limit_switch() {
+    use canopen_drive::cia402::hm::{hard_stop_object, HomingConfig, VendorMethod};
+    use canopen_drive_sim::motor::{MotorParams, SimMotor};
+
+    static OBJECTS: [Object; 1] = layout([hard_stop_object(0x2500)]);
+    static METHODS: [(i8, VendorMethod); 1] = [(-1, VendorMethod::HardStop { positive: true, index: false })];
+    for passes in [false, true] {
+        let mut bench = Bench::with_config(|mut c| {
+            c.manufacturer_objects = &OBJECTS;
+            c.profile.homing = HomingConfig {
+                vendor_methods: &METHODS,
+                hard_stop_object: Some(0x2500),
+                hard_stop_passes_limit_switches: passes,
+                ..HomingConfig::new()
+            };
+            c
+        });
+        node(&mut bench).motor = SimMotor::with_params(MotorParams {
+            increments_per_revolution: 1000,
+            positive_limit_switch: Some(10_000),
+            positive_hard_stop: Some(12_000),
+            ..MotorParams::default()
+        });
+        write_sub(&mut bench, 0x2500, 1, &300u16.to_le_bytes());
+        write_sub(&mut bench, 0x6099, 2, &4000u32.to_le_bytes());
+        write(&mut bench, 0x609A, &50_000u32.to_le_bytes());
+        enable(&mut bench, 6);
+        write(&mut bench, 0x6098, &[0xFF]);
+        cw(&mut bench, 0x001F, 0);
+        for _ in 0..1000 {
+            bench.advance(Duration::from_millis(10));
+            if sw(&mut bench) & 0x0400 != 0 {
+                break;
+            }
+        }
+        let expected = if passes { 0x1400 } else { 0x2400 };
+        assert_eq!(sw(&mut bench) & 0x3400, expected, "passes the limit switch: {passes}");
+    }
+}
