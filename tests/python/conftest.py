@@ -171,11 +171,19 @@ class RawSdo:
         return response
 
 
-@pytest.fixture(scope="session")
-def eds_file(tmp_path_factory) -> pathlib.Path:
+def profile_args(request) -> tuple:
+    """`--profile NAME` for a test module that sets `PROFILE = "NAME"` (default: generic)."""
+    profile = getattr(request.module, "PROFILE", None)
+    return ("--profile", profile) if profile else ()
+
+
+@pytest.fixture(scope="module")
+def eds_file(request, tmp_path_factory) -> pathlib.Path:
     path = tmp_path_factory.mktemp("eds") / "canopen-drive-linux.eds"
     result = subprocess.run(
-        [str(binary_path()), "--node-id", str(NODE_ID), "--write-eds", str(path)], capture_output=True, timeout=10
+        [str(binary_path()), *profile_args(request), "--node-id", str(NODE_ID), "--write-eds", str(path)],
+        capture_output=True,
+        timeout=10,
     )
     assert result.returncode == 0, result.stderr.decode(errors="replace")
     assert result.stdout == b""
@@ -183,8 +191,8 @@ def eds_file(tmp_path_factory) -> pathlib.Path:
 
 
 @pytest.fixture(scope="module")
-def drive(tmp_path_factory):
-    process = DriveProcess(tmp_path_factory.mktemp("drive"))
+def drive(request, tmp_path_factory):
+    process = DriveProcess(tmp_path_factory.mktemp("drive"), extra_args=profile_args(request))
     yield process
     status = process.stop()
     assert status == 0, f"exit status {status}; log:\n{process.log()}"

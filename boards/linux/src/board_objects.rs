@@ -1,88 +1,173 @@
-//! Manufacturer objects of this board (2100h–2102h) that let a master drive the simulated
-//! motor's environment, so a remote test can exercise fault reactions and switches:
+//! Manufacturer objects of this board that let a master drive the simulated motor's
+//! environment, so a remote test can exercise fault reactions and switches, and the hooks that
+//! pass every write of a manufacturer object on to the real-time loop.
+//!
+//! The three simulation objects sit at 2100h–2102h in the generic drive, and at 5E00h–5E02h in
+//! the vendor profiles (whose manuals use 2100h–2102h themselves):
 //!
 //! | index | name | type | meaning |
 //! |---|---|---|---|
-//! | 2100h | Simulated hardware faults | UNSIGNED32 rw | bits of `HardwareFaults` (0 over-current, 1 over-voltage, 2 under-voltage, 3 over-temperature, 4 encoder); writing 0 clears them |
-//! | 2101h | Simulated digital inputs | UNSIGNED32 rw | inputs forced active: bit 0 negative limit, 1 positive limit, 2 home, 3 interlock, 5 quick stop |
-//! | 2102h | Simulated load torque | INTEGER16 rw | external load on the shaft, ‰ of rated torque |
+//! | +0 | Simulated hardware faults | UNSIGNED32 rw | bits of `HardwareFaults` (0 over-current, 1 over-voltage, 2 under-voltage, 3 over-temperature, 4 encoder); writing 0 clears them |
+//! | +1 | Simulated digital inputs | UNSIGNED32 rw | inputs forced active: bit 0 negative limit, 1 positive limit, 2 home, 3 interlock, 5 quick stop |
+//! | +2 | Simulated load torque | INTEGER16 rw | external load on the shaft, ‰ of rated torque |
 //!
 //! A write is stored in the dictionary and picked up by the real-time loop at its next
-//! iteration ([`BoardHooks::take_changes`]).
+//! iteration ([`BoardHooks::take_changes`]), before the next SDO request is served.
+
+use std::ops::RangeInclusive;
 
 use canopen_drive::hal::{DigitalInputs, HardwareFaults};
-use canopen_drive::od::{layout, Access, DataType, Object, ObjectHooks, Var};
+use canopen_drive::od::{AbortCode, Access, DataType, Object, ObjectHooks, Var};
 use canopen_drive_sim::motor::SimMotor;
 
-/// 2100h.
-pub const SIMULATED_FAULTS: u16 = 0x2100;
-/// 2101h.
-pub const SIMULATED_INPUTS: u16 = 0x2101;
-/// 2102h.
-pub const SIMULATED_LOAD: u16 = 0x2102;
+/// Index of the first simulation object in the generic drive.
+pub const GENERIC_SIMULATION: u16 = 0x2100;
+/// Index of the first simulation object in the vendor profiles.
+pub const PROFILE_SIMULATION: u16 = 0x5E00;
 
-/// The board's objects.
-pub static BOARD_OBJECTS: [Object; 3] = layout([
+/// The simulated-faults object at `index` (the first of the three).
+pub const fn simulated_faults(index: u16) -> Object {
     Object::var(
-        SIMULATED_FAULTS,
+        index,
         "Simulated hardware faults",
         Var::new("Simulated hardware faults", DataType::Unsigned32)
             .access(Access::ReadWrite)
             .limits_unsigned(0, 0x1F),
-    ),
+    )
+}
+
+/// The simulated-inputs object at `index` (the second).
+pub const fn simulated_inputs(index: u16) -> Object {
     Object::var(
-        SIMULATED_INPUTS,
+        index,
         "Simulated digital inputs",
         Var::new("Simulated digital inputs", DataType::Unsigned32)
             .access(Access::ReadWrite)
             .limits_unsigned(0, 0x3F),
-    ),
+    )
+}
+
+/// The simulated-load object at `index` (the third).
+pub const fn simulated_load(index: u16) -> Object {
     Object::var(
-        SIMULATED_LOAD,
+        index,
         "Simulated load torque",
         Var::new("Simulated load torque", DataType::Integer16)
             .access(Access::ReadWrite)
             .limits_signed(-3000, 3000),
-    ),
-]);
-
-/// A change a master wrote, for the loop to apply to the motor.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Change {
-    /// 2100h.
-    Faults(u32),
-    /// 2101h.
-    Inputs(u32),
-    /// 2102h.
-    Load(i16),
+    )
 }
 
-/// Records writes to the board objects.
-#[derive(Debug, Default)]
+/// The generic drive's manufacturer objects: the simulation objects at 2100h.
+pub static BOARD_OBJECTS: [Object; 3] = canopen_drive::od::layout([
+    simulated_faults(GENERIC_SIMULATION),
+    simulated_inputs(GENERIC_SIMULATION + 1),
+    simulated_load(GENERIC_SIMULATION + 2),
+]);
+
+/// A value rule of a manufacturer object beyond its type and limits: the only values it takes
+/// (a signature, a list of bit rates), and whether it needs parameter storage.
+#[derive(Clone, Copy, Debug)]
+pub struct ValueRule {
+    /// Index.
+    pub index: u16,
+    /// Sub-index.
+    pub sub: u8,
+    /// The values accepted; empty: any value within the limits.
+    pub values: &'static [RangeInclusive<u64>],
+    /// The abort code of a value not in `values`.
+    pub refusal: AbortCode,
+    /// The write is a store command, refused with 0x0800_0020 without a storage file.
+    pub stores: bool,
+}
+
+/// A change a master wrote, for the loop to apply.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Change {
+    /// Simulated faults (+0).
+    Faults(u32),
+    /// Simulated inputs (+1).
+    Inputs(u32),
+    /// Simulated load (+2).
+    Load(i16),
+    /// Another manufacturer object (2000h–5FFFh), for the profile's firmware.
+    Written {
+        /// Index.
+        index: u16,
+        /// Sub-index.
+        sub: u8,
+        /// The value written (little-endian, up to 8 bytes).
+        value: u64,
+    },
+    /// A store on command (1010h) succeeded for this sub-index (group).
+    Stored(u8),
+}
+
+/// Records writes to manufacturer objects and checks the profile's value rules.
+#[derive(Debug)]
 pub struct BoardHooks {
+    simulation: u16,
+    rules: &'static [ValueRule],
+    storage: bool,
     changes: Vec<Change>,
 }
 
+impl Default for BoardHooks {
+    fn default() -> Self {
+        BoardHooks::new(GENERIC_SIMULATION, &[], false)
+    }
+}
+
 impl BoardHooks {
+    /// Hooks for simulation objects at `simulation`, with `rules`; `storage`: the board keeps
+    /// parameters (a store command can succeed).
+    pub fn new(simulation: u16, rules: &'static [ValueRule], storage: bool) -> Self {
+        BoardHooks { simulation, rules, storage, changes: Vec::new() }
+    }
+
     /// The changes since the last call.
     pub fn take_changes(&mut self) -> Vec<Change> {
         std::mem::take(&mut self.changes)
     }
 }
 
+fn little_endian(data: &[u8]) -> u64 {
+    data.iter().take(8).rev().fold(0u64, |acc, b| (acc << 8) | u64::from(*b))
+}
+
 impl ObjectHooks for BoardHooks {
-    fn written(&mut self, index: u16, _sub: u8, data: &[u8]) {
-        let raw = data.iter().rev().fold(0u32, |acc, b| (acc << 8) | u32::from(*b));
-        match index {
-            SIMULATED_FAULTS => self.changes.push(Change::Faults(raw)),
-            SIMULATED_INPUTS => self.changes.push(Change::Inputs(raw)),
-            SIMULATED_LOAD => self.changes.push(Change::Load(raw as u16 as i16)),
-            _ => {}
+    fn validate(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        let value = little_endian(data);
+        for rule in self.rules.iter().filter(|r| r.index == index && r.sub == sub) {
+            if !rule.values.is_empty() && !rule.values.iter().any(|r| r.contains(&value)) {
+                return Err(rule.refusal);
+            }
+            if rule.stores && !self.storage {
+                return Err(AbortCode::CannotStore);
+            }
         }
+        Ok(())
+    }
+
+    fn written(&mut self, index: u16, sub: u8, data: &[u8]) {
+        let raw = little_endian(data);
+        let base = self.simulation;
+        let change = match index {
+            i if i == base => Change::Faults(raw as u32),
+            i if i == base + 1 => Change::Inputs(raw as u32),
+            i if i == base + 2 => Change::Load(raw as u16 as i16),
+            0x2000..=0x5FFF => Change::Written { index, sub, value: raw },
+            _ => return,
+        };
+        self.changes.push(change);
+    }
+
+    fn stored(&mut self, sub: u8) {
+        self.changes.push(Change::Stored(sub));
     }
 }
 
-/// Applies a change to the motor.
+/// Applies a simulation change to the motor (other changes are the firmware's).
 pub fn apply(change: Change, motor: &mut SimMotor) {
     match change {
         Change::Faults(bits) => {
@@ -95,6 +180,7 @@ pub fn apply(change: Change, motor: &mut SimMotor) {
             motor.set_input(forced, true);
         }
         Change::Load(permille) => motor.set_load_torque(f64::from(permille)),
+        Change::Written { .. } | Change::Stored(_) => {}
     }
 }
 
@@ -106,9 +192,9 @@ mod tests {
     #[test]
     fn writes_reach_the_motor() {
         let mut hooks = BoardHooks::default();
-        hooks.written(SIMULATED_FAULTS, 0, &1u32.to_le_bytes());
-        hooks.written(SIMULATED_INPUTS, 0, &4u32.to_le_bytes());
-        hooks.written(SIMULATED_LOAD, 0, &(-200i16).to_le_bytes());
+        hooks.written(0x2100, 0, &1u32.to_le_bytes());
+        hooks.written(0x2101, 0, &4u32.to_le_bytes());
+        hooks.written(0x2102, 0, &(-200i16).to_le_bytes());
         let mut motor = SimMotor::new();
         for change in hooks.take_changes() {
             apply(change, &mut motor);
@@ -118,5 +204,41 @@ mod tests {
         assert_eq!(sample.inputs & DigitalInputs::HOME, DigitalInputs::HOME);
         assert_eq!(motor.load_torque(), -200.0);
         assert!(hooks.take_changes().is_empty());
+    }
+
+    #[test]
+    fn rules_and_other_manufacturer_writes() {
+        static RULES: [ValueRule; 2] = [
+            ValueRule {
+                index: 0x2704,
+                sub: 0,
+                values: &[125..=125, 500..=1000],
+                refusal: AbortCode::InvalidValue,
+                stores: false,
+            },
+            ValueRule {
+                index: 0x2706,
+                sub: 0,
+                values: &[0x6576_6173..=0x6576_6173],
+                refusal: AbortCode::CannotStore,
+                stores: true,
+            },
+        ];
+        let mut hooks = BoardHooks::new(PROFILE_SIMULATION, &RULES, false);
+        assert_eq!(hooks.validate(0x2704, 0, &125u16.to_le_bytes()), Ok(()));
+        assert_eq!(hooks.validate(0x2704, 0, &126u16.to_le_bytes()), Err(AbortCode::InvalidValue));
+        assert_eq!(hooks.validate(0x2704, 0, &800u16.to_le_bytes()), Ok(()));
+        assert_eq!(hooks.validate(0x2706, 0, &0x6576_6173u32.to_le_bytes()), Err(AbortCode::CannotStore));
+        let mut stored = BoardHooks::new(PROFILE_SIMULATION, &RULES, true);
+        assert_eq!(stored.validate(0x2706, 0, &0x6576_6173u32.to_le_bytes()), Ok(()));
+        assert_eq!(stored.validate(0x2706, 0, &1u32.to_le_bytes()), Err(AbortCode::CannotStore));
+        hooks.written(0x5E01, 0, &4u32.to_le_bytes());
+        hooks.written(0x2704, 0, &125u16.to_le_bytes());
+        hooks.written(0x6040, 0, &15u16.to_le_bytes());
+        hooks.stored(2);
+        assert_eq!(
+            hooks.take_changes(),
+            [Change::Inputs(4), Change::Written { index: 0x2704, sub: 0, value: 125 }, Change::Stored(2)]
+        );
     }
 }

@@ -4,15 +4,20 @@ use std::ffi::OsString;
 use std::fmt;
 use std::path::PathBuf;
 
+use crate::profiles::ProfileName;
+
 /// The text of `--help`.
 pub const USAGE: &str = "\
 canopen-drive-linux: a CANopen CiA 301/402 drive node with a simulated motor
 
 USAGE:
     canopen-drive-linux [OPTIONS] (--slcan-listen HOST:PORT | --socketcan IFACE)...
-    canopen-drive-linux [--node-id N] --write-eds PATH
+    canopen-drive-linux [--profile NAME] [--node-id N] --write-eds PATH
 
 OPTIONS:
+    --profile NAME            The drive to be: generic (the default: the library's CiA
+                              301/402 defaults), chieftek, trinamic-pd57, harmonic-drive
+                              (rebuilt from their manuals, on a simulated axis of their own)
     --node-id N               Node-ID, 1..127, or 255: not configured, waiting for an LSS
                               master (decimal or 0x hex; default 1). A node-ID stored by
                               LSS (see --storage) takes precedence
@@ -23,7 +28,7 @@ OPTIONS:
     --storage PATH            File of the stored parameters (1010h \"save\" / 1011h \"load\"),
                               created if missing (a 16 KiB two-bank journal); the LSS
                               configuration (node-ID, bit timing) goes to PATH.lss
-    --write-eds PATH          Write the device's EDS to PATH and exit
+    --write-eds PATH          Write the profile's EDS to PATH and exit
     -h, --help                Print this help and exit
 
 --slcan-listen and --socketcan may be combined; all of them form one bus.
@@ -40,6 +45,8 @@ pub enum Action {
     Help,
     /// Write the EDS of a node with this ID to the path, then exit.
     WriteEds {
+        /// The drive.
+        profile: ProfileName,
         /// Node-ID.
         node_id: u8,
         /// Where to write.
@@ -52,6 +59,8 @@ pub enum Action {
 /// Options of a running drive.
 #[derive(Debug, PartialEq, Eq)]
 pub struct RunArgs {
+    /// The drive.
+    pub profile: ProfileName,
     /// Node-ID, 1..=127.
     pub node_id: u8,
     /// `HOST:PORT` to serve SLCAN on.
@@ -77,6 +86,8 @@ pub enum CliError {
     NotUnicode(&'static str),
     /// A node-ID that is not a number in 1..=127.
     InvalidNodeId(String),
+    /// A profile this program does not have.
+    UnknownProfile(String),
     /// A listen address that is not `HOST:PORT`.
     InvalidAddress(String),
     /// An empty interface name.
@@ -96,6 +107,10 @@ impl fmt::Display for CliError {
             CliError::InvalidNodeId(v) => {
                 write!(f, "invalid node-ID '{v}': expected a number from 1 to 127, or 255")
             }
+            CliError::UnknownProfile(v) => {
+                let names: Vec<&str> = ProfileName::ALL.iter().map(|p| p.name()).collect();
+                write!(f, "unknown profile '{v}': expected one of {}", names.join(", "))
+            }
             CliError::InvalidAddress(v) => {
                 write!(f, "invalid address '{v}': expected HOST:PORT, e.g. 127.0.0.1:5000")
             }
@@ -111,6 +126,7 @@ impl std::error::Error for CliError {}
 
 /// Parses the arguments (without the program name).
 pub fn parse(args: impl IntoIterator<Item = OsString>) -> Result<Action, CliError> {
+    let mut profile: Option<ProfileName> = None;
     let mut node_id: Option<u8> = None;
     let mut slcan_listen: Option<String> = None;
     let mut socketcan: Option<String> = None;
@@ -136,6 +152,11 @@ pub fn parse(args: impl IntoIterator<Item = OsString>) -> Result<Action, CliErro
                 let v = utf8(value("--node-id")?, "--node-id")?;
                 set_once(&mut node_id, parse_node_id(&v)?, "--node-id")?;
             }
+            "--profile" => {
+                let v = utf8(value("--profile")?, "--profile")?;
+                let name = ProfileName::parse(&v).ok_or(CliError::UnknownProfile(v))?;
+                set_once(&mut profile, name, "--profile")?;
+            }
             "--slcan-listen" => {
                 let v = utf8(value("--slcan-listen")?, "--slcan-listen")?;
                 check_address(&v)?;
@@ -156,13 +177,14 @@ pub fn parse(args: impl IntoIterator<Item = OsString>) -> Result<Action, CliErro
     }
 
     let node_id = node_id.unwrap_or(1);
+    let profile = profile.unwrap_or(ProfileName::Generic);
     if let Some(path) = write_eds {
-        return Ok(Action::WriteEds { node_id, path });
+        return Ok(Action::WriteEds { profile, node_id, path });
     }
     if slcan_listen.is_none() && socketcan.is_none() {
         return Err(CliError::NoBus);
     }
-    Ok(Action::Run(RunArgs { node_id, slcan_listen, socketcan, storage }))
+    Ok(Action::Run(RunArgs { profile, node_id, slcan_listen, socketcan, storage }))
 }
 
 fn utf8(value: OsString, option: &'static str) -> Result<String, CliError> {
@@ -211,6 +233,7 @@ mod tests {
         assert_eq!(
             parse_str(&["--slcan-listen", "127.0.0.1:5000"]),
             Ok(Action::Run(RunArgs {
+                profile: ProfileName::Generic,
                 node_id: 1,
                 slcan_listen: Some("127.0.0.1:5000".into()),
                 socketcan: None,
@@ -232,6 +255,7 @@ mod tests {
                 "/tmp/p.bin"
             ]),
             Ok(Action::Run(RunArgs {
+                profile: ProfileName::Generic,
                 node_id: 127,
                 slcan_listen: Some("localhost:0".into()),
                 socketcan: Some("can0".into()),
@@ -240,15 +264,32 @@ mod tests {
         );
         assert_eq!(
             parse_str(&["--write-eds", "out.eds", "--node-id=5"]),
-            Ok(Action::WriteEds { node_id: 5, path: "out.eds".into() })
+            Ok(Action::WriteEds { profile: ProfileName::Generic, node_id: 5, path: "out.eds".into() })
         );
+        assert_eq!(
+            parse_str(&["--write-eds", "t.eds", "--profile", "trinamic-pd57"]),
+            Ok(Action::WriteEds { profile: ProfileName::TrinamicPd57, node_id: 1, path: "t.eds".into() })
+        );
+        for name in ProfileName::ALL {
+            let Ok(Action::Run(args)) = parse_str(&["--profile", name.name(), "--socketcan", "can0"]) else {
+                panic!("--profile {}", name.name());
+            };
+            assert_eq!(args.profile, name);
+        }
+        assert!(matches!(
+            parse_str(&["--profile=harmonic-drive", "--socketcan", "can0"]),
+            Ok(Action::Run(RunArgs { profile: ProfileName::HarmonicDrive, .. }))
+        ));
         assert_eq!(parse_str(&["--slcan-listen", "x:1", "--help"]), Ok(Action::Help));
         assert_eq!(parse_str(&["-h"]), Ok(Action::Help));
     }
 
     #[test]
     fn bad_arguments_are_refused() {
-        let cases: [(&[&str], CliError); 14] = [
+        let cases: [(&[&str], CliError); 17] = [
+            (&["--profile", "ds402", "--socketcan", "can0"], CliError::UnknownProfile("ds402".into())),
+            (&["--profile"], CliError::MissingValue("--profile")),
+            (&["--profile", "chieftek", "--profile", "chieftek"], CliError::Repeated("--profile")),
             (&[], CliError::NoBus),
             (&["--node-id", "5"], CliError::NoBus),
             (&["--node-id", "0", "--socketcan", "can0"], CliError::InvalidNodeId("0".into())),
@@ -269,5 +310,6 @@ mod tests {
         }
         assert!(CliError::NoBus.to_string().contains("--slcan-listen"));
         assert!(CliError::InvalidNodeId("0".into()).to_string().contains("1 to 127"));
+        assert!(CliError::UnknownProfile("x".into()).to_string().contains("trinamic-pd57, harmonic-drive"));
     }
 }

@@ -28,6 +28,17 @@ pub fn load(path: &Path) -> Option<u8> {
         .filter(|id| (1..=127).contains(id))
 }
 
+/// The stored bit rate in kbit/s (CiA 305 table 0), if the file holds one.
+pub fn load_bit_rate(path: &Path) -> Option<u16> {
+    let text = std::fs::read_to_string(path).ok()?;
+    let timing = text.lines().find_map(|line| line.strip_prefix("bit-timing="))?;
+    let (table, index) = timing.trim().split_once(',')?;
+    if table.trim() != "0" {
+        return None;
+    }
+    crate::profiles::bit_rate_of(index.trim().parse().ok()?)
+}
+
 /// Replaces the file with `node_id` and `bit_timing`.
 pub fn save(path: &Path, node_id: u8, bit_timing: Option<BitTiming>) -> std::io::Result<()> {
     let mut text = format!("node-id={node_id}\n");
@@ -58,8 +69,10 @@ mod tests {
         save(&path, 42, Some(BitTiming { table_selector: 0, table_index: 2 })).unwrap();
         assert_eq!(load(&path), Some(42));
         assert!(std::fs::read_to_string(&path).unwrap().contains("bit-timing=0,2"));
+        assert_eq!(load_bit_rate(&path), Some(500));
         save(&path, 255, None).unwrap();
         assert_eq!(load(&path), None, "255 = not configured");
+        assert_eq!(load_bit_rate(&path), None);
         std::fs::write(&path, "garbage").unwrap();
         assert_eq!(load(&path), None);
         std::fs::remove_dir_all(&dir).unwrap();

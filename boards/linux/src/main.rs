@@ -9,7 +9,7 @@
 //!
 //! Modules: [`cli`] (arguments), [`slcan`] (the Lawicel ASCII codec), [`bus`] (the broadcast
 //! medium), [`slcan_server`] and [`socketcan_port`] (endpoints), [`node`] (the drive's
-//! configuration, EDS and real-time loop).
+//! configuration, EDS and real-time loop), [`profiles`] (the drives it can be: `--profile`).
 //!
 //! `--storage PATH` keeps the stored parameters (1010h/1011h) in PATH, a file that behaves
 //! as NOR flash under the core's two-bank journal, and the LSS configuration in `PATH.lss`.
@@ -27,6 +27,7 @@ mod bus;
 mod cli;
 mod lss_store;
 mod node;
+mod profiles;
 mod slcan;
 mod slcan_server;
 mod socketcan_port;
@@ -39,13 +40,12 @@ use std::sync::Arc;
 use std::path::Path;
 
 use canopen_drive::storage::{device_signature, Persistence, Storage};
-use canopen_drive::Drive;
 use canopen_drive_sim::flash::FileFlash;
 use signal_hook::consts::{SIGINT, SIGTERM};
 
-use crate::board_objects::BoardHooks;
 use crate::bus::Bus;
 use crate::cli::{Action, RunArgs};
+use crate::profiles::{BoardProfile, ProfileName};
 use crate::slcan_server::SlcanServer;
 
 const NAME: &str = "canopen-drive-linux";
@@ -63,7 +63,7 @@ fn main() -> ExitCode {
             print!("{}", cli::USAGE);
             Ok(())
         }
-        Action::WriteEds { node_id, path } => write_eds(node_id, &path),
+        Action::WriteEds { profile, node_id, path } => write_eds(profile, node_id, &path),
         Action::Run(args) => run(&args),
     };
     match result {
@@ -75,12 +75,13 @@ fn main() -> ExitCode {
     }
 }
 
-fn write_eds(node_id: u8, path: &std::path::Path) -> Result<(), String> {
-    let (_, eds) = node::config_with_eds(node_id)?;
+fn write_eds(profile: ProfileName, node_id: u8, path: &std::path::Path) -> Result<(), String> {
+    let (_, eds) = node::config_with_eds(&BoardProfile::of(profile), node_id)?;
     std::fs::write(path, eds).map_err(|e| format!("cannot write {}: {e}", path.display()))
 }
 
 fn run(args: &RunArgs) -> Result<(), String> {
+    let profile = BoardProfile::of(args.profile);
     let lss_file = args.storage.as_deref().map(lss_store::path_for);
     let mut node_id = args.node_id;
     if let Some(stored) = lss_file.as_deref().and_then(lss_store::load) {
@@ -90,8 +91,13 @@ fn run(args: &RunArgs) -> Result<(), String> {
         );
         node_id = stored;
     }
-    let (mut config, _) = node::config_with_eds(node_id)?;
+    // SLCAN over TCP has no bit rate: the one stored by LSS (or a drive's own store command)
+    // is what a CAN controller would run at; 1000 kbit/s otherwise.
+    let bit_rate_kbit = lss_file.as_deref().and_then(lss_store::load_bit_rate).unwrap_or(1000);
+    let board = node::Board { profile: &profile, lss_file: lss_file.as_deref(), bit_rate_kbit };
+    let (mut config, _) = node::config_with_eds(&profile, node_id)?;
     config.lss_store = args.storage.is_some();
+    let hooks = profile.hooks(args.storage.is_some());
     match &args.storage {
         Some(path) => {
             let flash =
@@ -99,14 +105,14 @@ fn run(args: &RunArgs) -> Result<(), String> {
             let signature = device_signature(&config.device, node::STORAGE_LAYOUT);
             let storage =
                 Storage::new(flash, signature).map_err(|e| format!("storage {}: {e:?}", path.display()))?;
-            let drive = Drive::with_storage(config, BoardHooks::default(), storage)
+            let drive = node::BoardDrive::build(config, hooks, storage)
                 .map_err(|e| format!("invalid drive configuration: {e:?}"))?;
-            serve(args, node_id, drive, lss_file.as_deref())
+            serve(args, node_id, drive, &board)
         }
         None => {
-            let drive = Drive::with_hooks(config, BoardHooks::default())
+            let drive = node::BoardDrive::<()>::create(config, hooks)
                 .map_err(|e| format!("invalid drive configuration: {e:?}"))?;
-            serve(args, node_id, drive, None)
+            serve(args, node_id, drive, &board)
         }
     }
 }
@@ -115,7 +121,7 @@ fn serve<S: Persistence>(
     args: &RunArgs,
     node_id: u8,
     drive: node::BoardDrive<S>,
-    lss_file: Option<&Path>,
+    board: &node::Board<'_>,
 ) -> Result<(), String> {
     let stop = Arc::new(AtomicBool::new(false));
     for signal in [SIGINT, SIGTERM] {
@@ -141,6 +147,7 @@ fn serve<S: Persistence>(
         .map_err(|e| format!("cannot write to stdout: {e}"))?;
     drop(stdout);
 
-    node::run(drive, &bus, &frames, &stop, lss_file);
+    log!("profile {}", board.profile.name.name());
+    node::run(drive, board, &bus, &frames, &stop);
     Ok(())
 }

@@ -17,21 +17,19 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{Receiver, RecvTimeoutError};
 use std::time::Duration as StdDuration;
 
-use canopen_drive::od::eds::EdsInfo;
-use canopen_drive::od::DeviceInfo;
 use std::io::Write;
 use std::path::Path;
 
-use canopen_drive::drive::DEFAULT_OD_BYTES;
 use canopen_drive::storage::Persistence;
 use canopen_drive::{CanFrame, Config, Drive, Duration, Instant};
-use canopen_drive_sim::motor::{MotorParams, SimMotor, Zone};
+use canopen_drive_sim::motor::SimMotor;
 
-use crate::board_objects::{BoardHooks, BOARD_OBJECTS};
+use crate::board_objects::{BoardHooks, Change};
 use crate::bus::Bus;
+use crate::profiles::{BoardProfile, Environment, Update, OD_BYTES};
 
 /// The drive of this board, with parameter storage `S` (a file, or none).
-pub type BoardDrive<S> = Drive<BoardHooks, DEFAULT_OD_BYTES, 4, 4, S>;
+pub type BoardDrive<S> = Drive<BoardHooks, OD_BYTES, 4, 4, S>;
 
 /// Layout number of the stored parameters (part of the storage signature): change it when a
 /// firmware change gives stored parameters another meaning.
@@ -40,38 +38,18 @@ pub const STORAGE_LAYOUT: u16 = 1;
 /// Period of the control loop (`tick`).
 pub const TICK_PERIOD: Duration = Duration::from_micros(1000);
 
-/// Identity of this board (1008h–100Ah, EDS `VendorName`).
-pub fn device_info() -> DeviceInfo {
-    DeviceInfo {
-        device_name: "canopen-drive-linux",
-        hardware_version: "Linux host, simulated motor",
-        software_version: env!("CARGO_PKG_VERSION"),
-        vendor_name: "canopen-drive project",
-        ..DeviceInfo::servo_drive()
-    }
-}
-
-/// The `[FileInfo]` facts of this board's EDS.
-pub fn eds_info() -> EdsInfo {
-    EdsInfo {
-        file_name: "canopen-drive-linux.eds",
-        description: "canopen-drive CiA 402 drive on a Linux host with a simulated motor",
-        ..EdsInfo::default()
-    }
-}
-
-/// The configuration of a drive at `node_id` whose 1021h serves its own EDS, and that EDS.
+/// The configuration of `profile`'s drive at `node_id` whose 1021h serves its own EDS, and
+/// that EDS.
 ///
 /// The EDS text does not depend on what 1021h holds, so the EDS of a first drive without it is
 /// the EDS of the final one. The text lives as long as the process (`Box::leak`), as 1021h
 /// needs a `'static` slice.
-pub fn config_with_eds(node_id: u8) -> Result<(Config, &'static [u8]), String> {
-    let mut config = Config::new(node_id);
-    config.device = device_info();
-    config.manufacturer_objects = &BOARD_OBJECTS;
-    let probe = Drive::new(config).map_err(|e| format!("invalid drive configuration: {e:?}"))?;
+pub fn config_with_eds(profile: &BoardProfile, node_id: u8) -> Result<(Config, &'static [u8]), String> {
+    let mut config = profile.config(node_id);
+    let probe = BoardDrive::<()>::create(config, profile.hooks(false))
+        .map_err(|e| format!("invalid drive configuration: {e:?}"))?;
     let mut text = String::new();
-    probe.write_eds(&eds_info(), &mut text).map_err(|_| "cannot generate the EDS".to_string())?;
+    probe.write_eds(&profile.eds, &mut text).map_err(|_| "cannot generate the EDS".to_string())?;
     let eds: &'static [u8] = Box::leak(text.into_boxed_str()).as_bytes();
     config.device.eds = eds;
     Ok((config, eds))
@@ -86,33 +64,33 @@ impl Clock {
     }
 }
 
-/// The simulated axis of this program (README): 10 000 increments per revolution, an index
-/// pulse every revolution at 0, limit switches active beyond ±100 000, a home switch active from
-/// 20 000 to 30 000, elastic hard stops at ±120 000 — every homing method has a scene.
-pub fn axis() -> MotorParams {
-    MotorParams {
-        negative_limit_switch: Some(-100_000),
-        positive_limit_switch: Some(100_000),
-        home_switch: Some(Zone::between(20_000, 30_000)),
-        negative_hard_stop: Some(-120_000),
-        positive_hard_stop: Some(120_000),
-        hard_stop_stiffness: 1000.0,
-        hard_stop_damping: 2.0,
-        ..MotorParams::default()
-    }
+/// What the loop needs besides the drive: the axis, the firmware of the manufacturer objects,
+/// and where the LSS configuration lives.
+pub struct Board<'a> {
+    /// The profile (its axis).
+    pub profile: &'a BoardProfile,
+    /// The file of the LSS configuration (`--storage`).
+    pub lss_file: Option<&'a Path>,
+    /// The bit rate the program runs at, kbit/s.
+    pub bit_rate_kbit: u16,
 }
 
 /// Runs `drive` on `bus` until `stop` is set. `frames` are the frames the bus addresses to
 /// the drive.
 pub fn run<S: Persistence>(
     mut drive: BoardDrive<S>,
+    board: &Board<'_>,
     bus: &Bus,
     frames: &Receiver<CanFrame>,
     stop: &AtomicBool,
-    lss_file: Option<&Path>,
 ) {
     let clock = Clock(std::time::Instant::now());
-    let mut motor = SimMotor::with_params(axis());
+    let mut motor = SimMotor::with_params(board.profile.axis);
+    let mut firmware = (board.profile.firmware)();
+    let env = Environment { lss_file: board.lss_file, bit_rate_kbit: board.bit_rate_kbit };
+    let mut updates = Vec::new();
+    firmware.start(drive.od(), &env, &mut updates);
+    apply_updates(&mut drive, &mut updates);
     let mut last_tick = clock.now();
     let mut next_tick = last_tick + TICK_PERIOD;
     let mut tx_dropped = 0;
@@ -137,16 +115,28 @@ pub fn run<S: Persistence>(
             // The bus keeps a sender as long as it exists; without it nothing can arrive.
             Err(RecvTimeoutError::Disconnected) => break,
         }
-        lss_services(&mut drive, lss_file);
+        lss_services(&mut drive, board.lss_file);
         for change in drive.hooks_mut().take_changes() {
-            crate::board_objects::apply(change, &mut motor);
+            match change {
+                Change::Written { index, sub, value } => {
+                    firmware.written(index, sub, value, drive.od(), &env, &mut updates);
+                }
+                Change::Stored(sub) => firmware.stored(sub, drive.od(), &env),
+                simulation => crate::board_objects::apply(simulation, &mut motor),
+            }
         }
+        apply_updates(&mut drive, &mut updates);
 
         let now = clock.now();
         if now >= next_tick {
-            let sample = motor.sample();
+            // The firmware sees the motor's inputs as they are, the drive as configured.
+            let raw = motor.sample();
+            let mut sample = raw;
+            firmware.inputs(drive.od(), &mut sample);
             let demand = drive.tick(now, &sample);
             motor.step(&demand, now - last_tick);
+            firmware.after_tick(drive.od(), &raw, drive.state(), &mut updates);
+            apply_updates(&mut drive, &mut updates);
             last_tick = now;
             // Keep the 1 ms grid, but after a stall restart it instead of catching up in a burst.
             next_tick = next_tick + TICK_PERIOD;
@@ -161,6 +151,22 @@ pub fn run<S: Persistence>(
         if drive.tx_dropped() != tx_dropped {
             tx_dropped = drive.tx_dropped();
             log!("the drive's transmit queue overflowed ({tx_dropped} frames lost)");
+        }
+    }
+}
+
+/// Writes the firmware's values into the dictionary (only those that changed, so the drive
+/// re-reads its parameters only when one did).
+fn apply_updates<S: Persistence>(drive: &mut BoardDrive<S>, updates: &mut Vec<Update>) {
+    for update in updates.drain(..) {
+        let Ok(entry) = drive.od().entry(update.index, update.sub) else { continue };
+        let Some(size) = entry.var.data_type.fixed_size() else { continue };
+        let bytes = update.value.to_le_bytes();
+        let Some(new) = bytes.get(..size.min(8)) else { continue };
+        let mut current = [0u8; 8];
+        let n = drive.od().read(&entry, 0, &mut current);
+        if current.get(..n) != Some(new) {
+            drive.od_mut().commit(&entry, new);
         }
     }
 }
@@ -194,27 +200,32 @@ fn transmit<S: Persistence>(drive: &mut BoardDrive<S>, bus: &Bus) {
 mod tests {
     use super::*;
     use crate::bus::{Delivery, Sink};
+    use crate::profiles::ProfileName;
     use std::sync::mpsc::{sync_channel, TrySendError};
     use std::sync::Arc;
     use std::thread;
 
     #[test]
     fn eds_is_served_and_independent_of_its_own_contents() {
-        let (config, eds) = config_with_eds(5).unwrap();
-        assert_eq!(config.device.eds, eds);
-        let text = std::str::from_utf8(eds).unwrap();
-        assert!(text.starts_with("[FileInfo]"));
-        assert!(text.contains("\n[1021]\n"));
-        let drive = Drive::new(config).unwrap();
-        let mut again = String::new();
-        drive.write_eds(&eds_info(), &mut again).unwrap();
-        assert_eq!(again.as_bytes(), eds);
+        for name in ProfileName::ALL {
+            let profile = BoardProfile::of(name);
+            let (config, eds) = config_with_eds(&profile, 5).unwrap();
+            assert_eq!(config.device.eds, eds);
+            let text = std::str::from_utf8(eds).unwrap();
+            assert!(text.starts_with("[FileInfo]"));
+            assert!(text.contains("\n[1021]\n"));
+            let drive = BoardDrive::<()>::create(config, profile.hooks(false)).unwrap();
+            let mut again = String::new();
+            drive.write_eds(&profile.eds, &mut again).unwrap();
+            assert_eq!(again.as_bytes(), eds, "{}", name.name());
+        }
     }
 
     #[test]
     fn loop_boots_answers_and_stops() {
-        let (config, _) = config_with_eds(3).unwrap();
-        let drive = Drive::with_hooks(config, BoardHooks::default()).unwrap();
+        let profile = BoardProfile::of(ProfileName::Generic);
+        let (config, _) = config_with_eds(&profile, 3).unwrap();
+        let drive = BoardDrive::<()>::create(config, profile.hooks(false)).unwrap();
         let (bus, frames) = Bus::new();
         let (tx, rx) = sync_channel(64);
         let sink: Sink = Box::new(move |f: &CanFrame| match tx.try_send(*f) {
@@ -226,7 +237,10 @@ mod tests {
         let stop = Arc::new(AtomicBool::new(false));
         let runner = {
             let (bus, stop) = (bus.clone(), Arc::clone(&stop));
-            thread::spawn(move || run(drive, &bus, &frames, &stop, None))
+            thread::spawn(move || {
+                let board = Board { profile: &profile, lss_file: None, bit_rate_kbit: 1000 };
+                run(drive, &board, &bus, &frames, &stop)
+            })
         };
         let timeout = StdDuration::from_secs(5);
         assert_eq!(rx.recv_timeout(timeout).unwrap(), CanFrame::new_standard(0x703, &[0]).unwrap());

@@ -1,0 +1,218 @@
+//! A Chieftek (cpc) servo drive as its DS402 manual (revision 1.0, December 2017) describes
+//! it, rebuilt on the core. The manual covers the drive profile only: no communication objects,
+//! identity or PDO defaults, so those are the library's. Section numbers are the manual's.
+//!
+//! # Drive profile
+//!
+//! Modes pp, pv, tq, hm, csp, csv, cst (6502h = 3ADh, §3.2). Option codes (§4.3.3–4.3.7):
+//! 605Ah 0–4, 605Bh 0–1, 605Ch 0–1, 605Dh 1–4, 605Eh 0–4, 6007h 0–3, with the manual's defaults
+//! (605Ch 0, 605Eh 0, 6007h 0). Documented deviations, as configuration of the core: modes
+//! change only outside Operation enabled (§5.1: a write of another mode in Operation enabled is
+//! refused with 0800 0022h); statusword bit 14 is 1 while the drive is getting ready to move or
+//! a quick stop runs (§4.3.2.1); a following error is a fault (§7.2, 6066h); one buffered
+//! set-point (§6.3.3). The manual's defaults of the motion objects (607Fh/6080h 1 500 000,
+//! 6081h 2 000 000, 6083h/6084h 1 000 000, 6085h 100 000 000, 6087h 100 000, 6098h 35,
+//! 6099h 20 000, 609Ah 20 000, 60B8h 1). Units: counts, counts/s, 0.1 % (the core's).
+//!
+//! Homing (§8): the standard methods 1–14, 17–30, 33–35 and 37 (= 35), and the cpc methods
+//! −1…−12: −1/−2 the positive/negative hard stop, −3/−4 the index pulse after it, −5/−6 the
+//! middle between the hard stops (positive / negative first), −7/−8 the middle between the
+//! limit switches, −9…−12 the middle of the home switch (positive / negative first). A hard
+//! stop is a current above 3293h × the peak current 6073h for longer than 3294h ms.
+//!
+//! The simulated axis is the generic one (10 000 counts per revolution, limit switches beyond
+//! ±100 000, home switch 20 000..30 000, elastic hard stops at ±120 000).
+//!
+//! # Manufacturer objects
+//!
+//! 3293h hard stop current (REAL32, a fraction of the peak current, 0.01–0.9) and 3294h hard
+//! stop period (ms) work: the firmware turns them into the core's hard-stop parameters, kept in
+//! the board's record at 5E10h (next to the simulation objects 5E00h–5E02h).
+//!
+//! # Not reproduced
+//!
+//! Option code −1 (dynamic brake) and 605Dh 0, the manufacturer modes −1…−6 of 6060h, methods
+//! −11/−12 reverse on a limit switch where the drive reverses on a hard stop, the objects 60D5h–
+//! 60D8h (touch probe edge counters), 60E3h (supported homing methods) and 67FEh (version)
+//! which the core does not have, 6080h in counts/s (the core's is rpm: 608Fh/6092h are set to
+//! the axis's 10 000 counts per revolution, so the manual's 1 500 000 is no tighter limit), 60FEh's second sub-index (the core's bit mask), 607Fh written
+//! into 6080h, the manual's zero defaults of 6065h/6066h/6067h/6068h/6073h (the drive would
+//! fault at the first move, or not move: the core's defaults stay), 6071h typed UNSIGNED16 (the
+//! core keeps CiA 402's INTEGER16), and bit 7 (warning) is the core's.
+
+use canopen_drive::cia402::fsa::State;
+use canopen_drive::cia402::hm::{hard_stop_object, HomingConfig, VendorMethod};
+use canopen_drive::cia402::objects::mode_bit;
+use canopen_drive::cia402::{OptionCodes, ProfileConfig, StatusFlag};
+use canopen_drive::comm::error_control::ErrorBehaviour;
+use canopen_drive::comm::pdo;
+use canopen_drive::hal::Sample;
+use canopen_drive::od::eds::EdsInfo;
+use canopen_drive::od::{layout, Bound, DataType, DefaultOverride, DefaultValue, DeviceInfo, Object, Var};
+
+use super::trinamic::method_mask;
+use super::{
+    default_of, rw, s, u, value_of, var, BoardDictionary, BoardProfile, Firmware, ProfileName, Update,
+};
+use crate::board_objects::{simulated_faults, simulated_inputs, simulated_load, PROFILE_SIMULATION};
+
+/// 3293h hard stop current (fraction of the peak current).
+pub const HARD_STOP_CURRENT: u16 = 0x3293;
+/// 3294h hard stop period (ms).
+pub const HARD_STOP_PERIOD: u16 = 0x3294;
+/// The board's record of the core's hard-stop parameters.
+pub const HARD_STOP_RECORD: u16 = 0x5E10;
+
+/// 3293h, 3294h, then the simulation objects and the hard-stop record of this board.
+pub static OBJECTS: [Object; 6] = layout([
+    var(
+        HARD_STOP_CURRENT,
+        Var {
+            low: Bound::Real(0.01),
+            high: Bound::Real(0.9),
+            ..rw("Hard stop current", DataType::Real32).default(DefaultValue::Real(0.5))
+        },
+    ),
+    var(HARD_STOP_PERIOD, rw("Hard stop period", DataType::Unsigned16).default(DefaultValue::Unsigned(250))),
+    simulated_faults(PROFILE_SIMULATION),
+    simulated_inputs(PROFILE_SIMULATION + 1),
+    simulated_load(PROFILE_SIMULATION + 2),
+    hard_stop_object(HARD_STOP_RECORD),
+]);
+
+/// The cpc homing methods (§8.6).
+pub static CPC_METHODS: [(i8, VendorMethod); 12] = [
+    (-1, VendorMethod::HardStop { positive: true, index: false }),
+    (-2, VendorMethod::HardStop { positive: false, index: false }),
+    (-3, VendorMethod::HardStop { positive: true, index: true }),
+    (-4, VendorMethod::HardStop { positive: false, index: true }),
+    (-5, VendorMethod::MidpointOfHardStopsPositiveFirst),
+    (-6, VendorMethod::MidpointOfHardStops),
+    (-7, VendorMethod::MidpointOfLimitSwitchesPositiveFirst),
+    (-8, VendorMethod::MidpointOfLimitSwitches),
+    (-9, VendorMethod::MidpointOfHomeSwitch { positive: true }),
+    (-10, VendorMethod::MidpointOfHomeSwitch { positive: false }),
+    (-11, VendorMethod::MidpointOfHomeSwitch { positive: true }),
+    (-12, VendorMethod::MidpointOfHomeSwitch { positive: false }),
+];
+
+/// The standard methods of 60E3h (§8.3): 1–14, 17–30, 33–35, 37.
+pub const STANDARD_METHODS: [i8; 32] = [
+    1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 17, 18, 19, 20, 21, 22, 23, 24, 25, 26, 27, 28, 29, 30,
+    33, 34, 35, 37,
+];
+
+/// The manual's defaults (§2.3) where they differ from the core's.
+pub static DEFAULTS: [DefaultOverride; 19] = [
+    default_of(0x6007, 0, s(0)),
+    default_of(0x605C, 0, s(0)),
+    default_of(0x605E, 0, s(0)),
+    default_of(0x607F, 0, u(1_500_000)),
+    default_of(0x6080, 0, u(1_500_000)),
+    default_of(0x6081, 0, u(2_000_000)),
+    default_of(0x6083, 0, u(1_000_000)),
+    default_of(0x6084, 0, u(1_000_000)),
+    default_of(0x6085, 0, u(100_000_000)),
+    default_of(0x6087, 0, u(100_000)),
+    default_of(0x6098, 0, s(35)),
+    default_of(0x6099, 1, u(20_000)),
+    default_of(0x6099, 2, u(20_000)),
+    default_of(0x609A, 0, u(20_000)),
+    default_of(0x60B8, 0, u(1)),
+    // The axis's resolution and a feed of as many counts per revolution: positions stay counts,
+    // and 6080h (the core converts it as rpm) is no tighter limit than the manual's counts/s.
+    default_of(0x608F, 1, u(10_000)),
+    default_of(0x6092, 1, u(10_000)),
+    // The drive has no max acceleration/deceleration objects: the core's are set high.
+    default_of(0x60C5, 0, u(100_000_000)),
+    default_of(0x60C6, 0, u(100_000_000)),
+];
+
+/// The core's drive-profile configuration of this drive.
+pub fn profile_config() -> ProfileConfig {
+    let mut config = ProfileConfig::new();
+    config.option_codes = OptionCodes {
+        abort_connection: 0b1111,
+        quick_stop: 0b1_1111,
+        shutdown: 0b11,
+        disable_operation: 0b11,
+        halt: 0b1_1110,
+        fault_reaction: 0b1_1111,
+    };
+    config.homing = HomingConfig {
+        method_37: true,
+        standard_methods: method_mask(&STANDARD_METHODS),
+        vendor_methods: &CPC_METHODS,
+        hard_stop_object: Some(HARD_STOP_RECORD),
+        // "Unconditionally until the hard stop is found" (§8.6.1).
+        hard_stop_passes_limit_switches: true,
+        ..HomingConfig::new()
+    };
+    config.mode_change_in_operation = false;
+    config.following_error_fault = true;
+    config.statusword_bit_14 = StatusFlag::Transition;
+    config
+}
+
+/// Identity: the manual gives none; 6502h as §3.2.
+pub fn device_info() -> DeviceInfo {
+    DeviceInfo {
+        device_name: "cpc servo drive",
+        hardware_version: "simulated",
+        software_version: "DS402 1.0",
+        vendor_name: "Chieftek Precision (simulated)",
+        drive_modes: mode_bit::PROFILE_POSITION
+            | mode_bit::PROFILE_VELOCITY
+            | mode_bit::PROFILE_TORQUE
+            | mode_bit::HOMING
+            | mode_bit::CYCLIC_POSITION
+            | mode_bit::CYCLIC_VELOCITY
+            | mode_bit::CYCLIC_TORQUE,
+        ..DeviceInfo::servo_drive()
+    }
+}
+
+/// The profile.
+pub fn profile() -> BoardProfile {
+    BoardProfile {
+        name: ProfileName::Chieftek,
+        device: device_info(),
+        eds: EdsInfo {
+            file_name: "chieftek.eds",
+            description: "cpc DS402 servo drive interface rebuilt on canopen-drive (simulated)",
+            rpdo_count: 4,
+            tpdo_count: 4,
+            ..EdsInfo::default()
+        },
+        manufacturer_objects: &OBJECTS,
+        pdo_objects: &pdo::DEFAULT_OBJECTS,
+        profile: profile_config(),
+        default_overrides: &DEFAULTS,
+        error_behaviour_values: &ErrorBehaviour::CIA_301,
+        simulation: PROFILE_SIMULATION,
+        rules: &[],
+        axis: super::generic::axis(),
+        firmware: || Box::new(Cpc),
+    }
+}
+
+/// The behaviour of 3293h/3294h.
+#[derive(Debug, Default)]
+pub struct Cpc;
+
+impl Firmware for Cpc {
+    fn after_tick(
+        &mut self,
+        od: &BoardDictionary,
+        _sample: &Sample,
+        _state: State,
+        updates: &mut Vec<Update>,
+    ) {
+        // The threshold in ‰ of rated torque: the fraction of the peak current 6073h (‰).
+        let fraction = f64::from(f32::from_bits(value_of(od, HARD_STOP_CURRENT, 0) as u32));
+        let peak = value_of(od, 0x6073, 0) as f64;
+        let threshold = (fraction * peak).round().clamp(0.0, f64::from(u16::MAX)) as u64;
+        updates.push(Update { index: HARD_STOP_RECORD, sub: 1, value: threshold });
+        updates.push(Update { index: HARD_STOP_RECORD, sub: 2, value: value_of(od, HARD_STOP_PERIOD, 0) });
+    }
+}

@@ -1,0 +1,290 @@
+//! The drives this program can be (`--profile`): the generic canopen-drive node, and three
+//! real drives rebuilt from their manuals on the unchanged core — a configuration of the core
+//! plus the behaviour of the drive's manufacturer objects on the simulated axis.
+//!
+//! | profile | manual | module |
+//! |---|---|---|
+//! | `generic` | — (the library's defaults) | [`generic`] |
+//! | `trinamic-pd57` | PD57/60-1378 CANopen firmware manual (stepper module) | [`trinamic`] |
+//! | `harmonic-drive` | Harmonic Drive LLC CANopen firmware manual (servo actuators) | [`harmonic`] |
+//! | `chieftek` | Chieftek DS402 manual (servo drive, profile objects only) | [`chieftek`] |
+//!
+//! A profile is data ([`BoardProfile`]): the identity, the manufacturer and PDO tables, the
+//! core's [`ProfileConfig`] (modes, option codes, homing methods, the documented deviations),
+//! the drive's own defaults of standard objects, the meaning of 1029h, the simulated axis, and
+//! a [`Firmware`] that gives manufacturer objects their meaning (live values, switch
+//! configuration, store commands). Nothing in the core knows which drive it is.
+
+pub mod chieftek;
+pub mod generic;
+pub mod harmonic;
+pub mod trinamic;
+
+use std::path::Path;
+
+use canopen_drive::cia402::fsa::State;
+use canopen_drive::cia402::ProfileConfig;
+use canopen_drive::comm::error_control::ErrorBehaviour;
+use canopen_drive::hal::Sample;
+use canopen_drive::od::eds::EdsInfo;
+use canopen_drive::od::{
+    Access, DataType, DefaultOverride, DefaultValue, DeviceInfo, Dictionary, Object, Var,
+};
+use canopen_drive::Config;
+use canopen_drive_sim::motor::MotorParams;
+
+use crate::board_objects::{BoardHooks, ValueRule};
+
+/// Bytes of the dictionary's value store (the largest profile needs about 4 KiB).
+pub const OD_BYTES: usize = 8192;
+
+/// The dictionary of this board's drive.
+pub type BoardDictionary = Dictionary<OD_BYTES>;
+
+/// The profiles, by their `--profile` names.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ProfileName {
+    /// The library's defaults (the program before profiles existed).
+    Generic,
+    /// A Chieftek servo drive.
+    Chieftek,
+    /// A Trinamic PD57/60-1378 stepper module.
+    TrinamicPd57,
+    /// A Harmonic Drive integrated servo actuator.
+    HarmonicDrive,
+}
+
+impl ProfileName {
+    /// Every profile.
+    pub const ALL: [ProfileName; 4] =
+        [ProfileName::Generic, ProfileName::Chieftek, ProfileName::TrinamicPd57, ProfileName::HarmonicDrive];
+
+    /// The `--profile` name.
+    pub const fn name(self) -> &'static str {
+        match self {
+            ProfileName::Generic => "generic",
+            ProfileName::Chieftek => "chieftek",
+            ProfileName::TrinamicPd57 => "trinamic-pd57",
+            ProfileName::HarmonicDrive => "harmonic-drive",
+        }
+    }
+
+    /// The profile called `name`.
+    pub fn parse(name: &str) -> Option<Self> {
+        ProfileName::ALL.into_iter().find(|p| p.name() == name)
+    }
+}
+
+/// A value the firmware puts into the dictionary (a live value of a read-only object, the
+/// answer to a command): the numeric value of a fixed-size entry.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Update {
+    /// Index.
+    pub index: u16,
+    /// Sub-index.
+    pub sub: u8,
+    /// The value, truncated to the entry's size.
+    pub value: u64,
+}
+
+/// What the firmware may know about the program around it.
+#[derive(Clone, Copy, Debug)]
+pub struct Environment<'a> {
+    /// The file of the LSS configuration (node-ID, bit timing), when the program keeps
+    /// parameters (`--storage`).
+    pub lss_file: Option<&'a Path>,
+    /// The bit rate the program was configured with, kbit/s (what a CAN controller would run).
+    pub bit_rate_kbit: u16,
+}
+
+/// The behaviour of a drive's manufacturer objects: the part of a vendor firmware the
+/// simulated axis can reproduce. Every method has a default that does nothing.
+pub trait Firmware: Send {
+    /// At start-up, after stored parameters were loaded.
+    fn start(&mut self, od: &BoardDictionary, env: &Environment<'_>, updates: &mut Vec<Update>) {
+        let _ = (od, env, updates);
+    }
+
+    /// The inputs as the drive sees them (e.g. a limit-switch configuration): adjusts the
+    /// motor's sample before the tick.
+    fn inputs(&mut self, od: &BoardDictionary, sample: &mut Sample) {
+        let _ = (od, sample);
+    }
+
+    /// A master wrote `value` to a manufacturer object (after the dictionary stored it).
+    fn written(
+        &mut self,
+        index: u16,
+        sub: u8,
+        value: u64,
+        od: &BoardDictionary,
+        env: &Environment<'_>,
+        updates: &mut Vec<Update>,
+    ) {
+        let _ = (index, sub, value, od, env, updates);
+    }
+
+    /// A store on command (1010h sub `sub`) succeeded: data of the firmware's own that belongs
+    /// to the group may be kept too.
+    fn stored(&mut self, sub: u8, od: &BoardDictionary, env: &Environment<'_>) {
+        let _ = (sub, od, env);
+    }
+
+    /// After each tick: the live values of the manufacturer objects.
+    fn after_tick(&mut self, od: &BoardDictionary, sample: &Sample, state: State, updates: &mut Vec<Update>) {
+        let _ = (od, sample, state, updates);
+    }
+}
+
+/// A drive without manufacturer behaviour.
+#[derive(Debug, Default)]
+pub struct NoFirmware;
+
+impl Firmware for NoFirmware {}
+
+/// Everything that makes this program one drive or another.
+#[derive(Clone, Copy)]
+pub struct BoardProfile {
+    /// Which profile.
+    pub name: ProfileName,
+    /// Identity (1000h, 1008h–100Ah, 1018h) and the supported modes (6502h).
+    pub device: DeviceInfo,
+    /// The facts of the EDS's `[FileInfo]` and `[DeviceInfo]`.
+    pub eds: EdsInfo,
+    /// The manufacturer objects (2000h–5FFFh), including the simulation objects.
+    pub manufacturer_objects: &'static [Object],
+    /// The PDO records (4 RPDOs + 4 TPDOs).
+    pub pdo_objects: &'static [Object],
+    /// The core's drive-profile configuration.
+    pub profile: ProfileConfig,
+    /// The drive's own defaults of the core's standard objects.
+    pub default_overrides: &'static [DefaultOverride],
+    /// The meaning of 1029h's values.
+    pub error_behaviour_values: &'static [(u8, ErrorBehaviour)],
+    /// Index of the first simulation object ([`crate::board_objects`]).
+    pub simulation: u16,
+    /// Value rules of the manufacturer objects (signatures, value lists).
+    pub rules: &'static [ValueRule],
+    /// The simulated axis.
+    pub axis: MotorParams,
+    /// The firmware behaviour.
+    pub firmware: fn() -> Box<dyn Firmware>,
+}
+
+impl BoardProfile {
+    /// The profile `name`.
+    pub fn of(name: ProfileName) -> Self {
+        match name {
+            ProfileName::Generic => generic::profile(),
+            ProfileName::Chieftek => chieftek::profile(),
+            ProfileName::TrinamicPd57 => trinamic::profile(),
+            ProfileName::HarmonicDrive => harmonic::profile(),
+        }
+    }
+
+    /// The core's configuration of this drive at `node_id`.
+    pub fn config(&self, node_id: u8) -> Config {
+        Config {
+            device: self.device,
+            manufacturer_objects: self.manufacturer_objects,
+            pdo_objects: self.pdo_objects,
+            profile: self.profile,
+            default_overrides: self.default_overrides,
+            error_behaviour_values: self.error_behaviour_values,
+            ..Config::new(node_id)
+        }
+    }
+
+    /// The object hooks of this drive; `storage`: parameters are kept.
+    pub fn hooks(&self, storage: bool) -> BoardHooks {
+        BoardHooks::new(self.simulation, self.rules, storage)
+    }
+}
+
+// --- Building blocks of the tables -------------------------------------------------------
+
+/// A read-write entry of `data_type`.
+pub(crate) const fn rw(name: &'static str, data_type: DataType) -> Var {
+    Var::new(name, data_type).access(Access::ReadWrite)
+}
+
+/// A read-only entry of `data_type` (the device may change it).
+pub(crate) const fn ro(name: &'static str, data_type: DataType) -> Var {
+    Var::new(name, data_type).access(Access::ReadOnly)
+}
+
+/// A VAR object named like its entry.
+pub(crate) const fn var(index: u16, var: Var) -> Object {
+    Object::var(index, var.name, var)
+}
+
+/// An unsigned default.
+pub(crate) const fn u(value: u64) -> DefaultValue {
+    DefaultValue::Unsigned(value)
+}
+
+/// A signed default.
+pub(crate) const fn s(value: i64) -> DefaultValue {
+    DefaultValue::Signed(value)
+}
+
+/// Sub-index 0 of a RECORD or ARRAY: the highest sub-index, read-only.
+pub(crate) const fn highest(name: &'static str, n: u64) -> (u8, Var) {
+    (0, Var::new(name, DataType::Unsigned8).access(Access::Const).default(DefaultValue::Unsigned(n)))
+}
+
+/// An override of a standard entry's default.
+pub(crate) const fn default_of(index: u16, sub: u8, value: DefaultValue) -> DefaultOverride {
+    DefaultOverride { index, sub, value }
+}
+
+/// The value of a fixed-size entry as a number (0 when it cannot be read).
+pub(crate) fn value_of(od: &BoardDictionary, index: u16, sub: u8) -> u64 {
+    let Ok(entry) = od.entry(index, sub) else { return 0 };
+    let mut raw = [0u8; 8];
+    let n = od.read(&entry, 0, &mut raw);
+    raw.iter().take(n).rev().fold(0u64, |acc, b| (acc << 8) | u64::from(*b))
+}
+
+/// CiA 305 bit-timing table 0 index of a bit rate in kbit/s.
+pub(crate) fn bit_timing_index(kbit: u64) -> Option<u8> {
+    [1000, 800, 500, 250, 125, 100, 50, 20, 10]
+        .iter()
+        .position(|&r| r == kbit)
+        .and_then(|i| u8::try_from(i).ok())
+}
+
+/// The bit rate in kbit/s of a CiA 305 table 0 index.
+pub(crate) fn bit_rate_of(index: u8) -> Option<u16> {
+    [1000, 800, 500, 250, 125, 100, 50, 20, 10].get(usize::from(index)).copied()
+}
+
+#[cfg(test)]
+#[cfg_attr(test, allow(clippy::unwrap_used, clippy::expect_used, clippy::indexing_slicing, clippy::panic))]
+mod tests {
+    use super::*;
+    use canopen_drive::Drive;
+
+    #[test]
+    fn names_round_trip_and_every_profile_builds_a_drive() {
+        for name in ProfileName::ALL {
+            assert_eq!(ProfileName::parse(name.name()), Some(name));
+            let profile = BoardProfile::of(name);
+            assert_eq!(profile.name, name);
+            let drive = Drive::<BoardHooks, OD_BYTES, 4, 4>::create(profile.config(5), profile.hooks(false));
+            let drive = drive.unwrap_or_else(|e| panic!("{}: {e:?}", name.name()));
+            assert!(drive.od().used_bytes() <= OD_BYTES);
+        }
+        assert_eq!(ProfileName::parse("other"), None);
+    }
+
+    #[test]
+    fn bit_rates_of_cia_305_table_0() {
+        assert_eq!(bit_timing_index(1000), Some(0));
+        assert_eq!(bit_timing_index(125), Some(4));
+        assert_eq!(bit_timing_index(20), Some(7));
+        assert_eq!(bit_timing_index(42), None);
+        assert_eq!(bit_rate_of(2), Some(500));
+        assert_eq!(bit_rate_of(9), None);
+    }
+}

@@ -1,0 +1,369 @@
+"""`canopen-drive-linux --profile chieftek` against the Chieftek (cpc) DS402 manual (revision 1.0):
+its object list (§2.3), its procedures (the set-point handshake §6.3.1, single set-points and
+sets of set-points with one buffered §6.3.2/§6.3.3, homing with the standard methods §8.5 and the
+cpc methods −1…−12 §8.6 with the hard-stop current 3293h and period 3294h) and the behaviour it
+documents (modes change only outside Operation enabled §5.1, statusword bit 14 §4.3.2.1, option
+code ranges §4.3, supported modes §3.2, pv zero speed §10.3, a following error is a fault §7.2).
+
+The manual covers the drive profile only; the communication objects are the library's. The
+simulated axis is the generic one: 10 000 counts per revolution, limit switches beyond ±100 000,
+home switch 20 000..30 000, elastic hard stops at ±120 000.
+"""
+
+import time
+
+import canopen
+import pytest
+from canopen.objectdictionary import datatypes as dt
+
+from conftest import NODE_ID
+
+PROFILE = "chieftek"
+
+SIM_FAULTS, SIM_INPUTS, SIM_LOAD, HARD_STOP_RECORD = 0x5E00, 0x5E01, 0x5E02, 0x5E10
+BOARD_OBJECTS = {SIM_FAULTS, SIM_INPUTS, SIM_LOAD, HARD_STOP_RECORD}
+
+U8, U16, U32 = dt.UNSIGNED8, dt.UNSIGNED16, dt.UNSIGNED32
+I8, I16, I32, R32 = dt.INTEGER8, dt.INTEGER16, dt.INTEGER32, dt.REAL32
+RO, RW, C = "ro", "rw", "ro"  # constants compare as read-only
+
+# (index, sub, data type, access, PDO mapping, default) of the table in §2.3 (PDO: "O" yes, "X"
+# no) and the manufacturer objects of §8.3. Default None: "–" in the table.
+MANUAL = [
+    (0x6007, 0, I16, RW, False, 0),
+    (0x603F, 0, U16, RO, True, 0),
+    (0x6040, 0, U16, RW, True, 0),
+    (0x6041, 0, U16, RO, True, None),
+    (0x605A, 0, I16, RW, False, 2),
+    (0x605B, 0, I16, RW, False, 0),
+    (0x605C, 0, I16, RW, False, 0),
+    (0x605D, 0, I16, RW, False, 1),
+    (0x605E, 0, I16, RW, False, 0),
+    (0x6060, 0, I8, RW, True, 0),
+    (0x6061, 0, I8, RO, True, 0),
+    (0x6062, 0, I32, RO, True, None),
+    (0x6063, 0, I32, RO, True, 0),
+    (0x6064, 0, I32, RO, True, 0),
+    (0x6065, 0, U32, RW, True, 0),
+    (0x6066, 0, U16, RW, True, 0),
+    (0x6067, 0, U32, RW, True, 0),
+    (0x6068, 0, U16, RW, True, 0),
+    (0x606B, 0, I32, RO, True, None),
+    (0x606C, 0, I32, RO, True, 0),
+    (0x606D, 0, U16, RW, True, 0),
+    (0x606E, 0, U16, RW, True, 0),
+    (0x606F, 0, U16, RW, True, 0),
+    (0x6070, 0, U16, RW, True, 0),
+    (0x6071, 0, U16, RW, True, 0),
+    (0x6073, 0, U16, RW, True, 0),
+    (0x6074, 0, I16, RO, True, None),
+    (0x6075, 0, U32, RW, False, 0),
+    (0x6076, 0, U32, RW, False, 0),
+    (0x6077, 0, I16, RO, True, 0),
+    (0x6078, 0, I16, RO, True, 0),
+    (0x6079, 0, U32, RO, False, 0),
+    (0x6080, 0, U32, RW, True, 1_500_000),
+    (0x607A, 0, I32, RW, True, 0),
+    (0x607B, 0, U8, C, False, 2),
+    (0x607B, 1, I32, RW, False, -2**31),
+    (0x607B, 2, I32, RW, False, 2**31 - 1),
+    (0x607C, 0, I32, RW, True, 0),
+    (0x607D, 0, I32, C, False, 2),
+    (0x607D, 1, I32, RW, False, -2**31),
+    (0x607D, 2, I32, RW, False, 2**31 - 1),
+    (0x607F, 0, U32, RW, True, 1_500_000),
+    (0x6081, 0, U32, RW, True, 2_000_000),
+    (0x6083, 0, U32, RW, False, 1_000_000),
+    (0x6084, 0, U32, RW, True, 1_000_000),
+    (0x6085, 0, U32, RW, True, 100_000_000),
+    (0x6087, 0, U32, RW, True, 100_000),
+    (0x6098, 0, I8, RW, True, 35),
+    (0x6099, 0, U32, C, False, 2),
+    (0x6099, 1, U32, RW, False, 20_000),
+    (0x6099, 2, U32, RW, False, 20_000),
+    (0x609A, 0, U32, RW, True, 20_000),
+    (0x60B0, 0, I32, RW, True, 0),
+    (0x60B1, 0, I32, RW, True, 0),
+    (0x60B2, 0, I16, RW, True, 0),
+    (0x60B8, 0, U16, RW, True, 1),
+    (0x60B9, 0, U16, RO, True, None),
+    (0x60BA, 0, I32, RO, True, None),
+    (0x60BB, 0, I32, RO, True, None),
+    (0x60BC, 0, I32, RO, True, None),
+    (0x60BD, 0, I32, RO, True, None),
+    (0x60C2, 0, U8, C, False, 2),
+    (0x60C2, 1, U8, RW, False, 1),
+    (0x60C2, 2, I8, RW, False, -3),
+    (0x60D5, 0, U16, RO, True, None),
+    (0x60D6, 0, U16, RO, True, None),
+    (0x60D7, 0, U16, RO, True, None),
+    (0x60D8, 0, U16, RO, True, None),
+    (0x60E3, 0, I8, C, False, 44),
+    (0x60F4, 0, I32, RO, True, None),
+    (0x60FC, 0, I32, RO, True, None),
+    (0x60FD, 0, U32, RO, True, None),
+    (0x60FE, 0, U32, C, False, 1),
+    (0x60FE, 1, U32, RW, False, 0),
+    (0x60FF, 0, I32, RW, True, 0),
+    (0x6502, 0, U32, RO, True, 0x3AD),
+    (0x67FE, 0, U32, C, False, 3),
+    (0x3293, 0, R32, RW, False, 0.5),
+    (0x3294, 0, U16, RW, False, 250),
+]
+
+NOT_IN_THE_CORE = "not an object of the core (the library has no touch probe edge counters, 60E3h or 67FEh)"
+DEVIATIONS = {
+    **{((index, 0), "exists"): NOT_IN_THE_CORE for index in (0x60D5, 0x60D6, 0x60D7, 0x60D8, 0x60E3, 0x67FE)},
+    # sub-index 0 is UNSIGNED8 by CiA 301; the table prints the entries' type.
+    ((0x607D, 0), "type"): "CiA 301: UNSIGNED8",
+    ((0x6099, 0), "type"): "CiA 301: UNSIGNED8",
+    ((0x60FE, 0), "type"): "CiA 301: UNSIGNED8",
+    ((0x60FE, 0), "default"): "the core's 60FEh has the bit mask (sub 2) too",
+    ((0x6071, 0), "type"): "CiA 402: INTEGER16 (a negative torque)",
+    # Zero defaults that would stop the simulated drive at once: the core's stay.
+    ((0x6065, 0), "default"): "a window of 0 would be a following error (a fault) at the first move",
+    ((0x6066, 0), "default"): "see 6065h",
+    ((0x6067, 0), "default"): "a window of 0 needs the exact position",
+    ((0x6068, 0), "default"): "see 6067h",
+    ((0x6073, 0), "default"): "a peak current of 0 would forbid any torque",
+    # The core decides what can be mapped.
+    **{((index, 0), "pdo"): "not mappable in the core" for index in
+       (0x6065, 0x6066, 0x6067, 0x6068, 0x606D, 0x606E, 0x606F, 0x6070, 0x607C, 0x6080, 0x60B8, 0x6502)},
+    **{((index, 0), "pdo"): "mappable in the core" for index in (0x6079, 0x6083)},
+    **{((0x6099, sub), "pdo"): "mappable in the core" for sub in (1, 2)},
+    ((0x60FE, 1), "pdo"): "mappable in the core",
+}
+
+
+def _entry(od, index, sub):
+    if index not in od:
+        return None
+    obj = od[index]
+    if isinstance(obj, canopen.objectdictionary.ODVariable):
+        return obj if sub == 0 else None
+    return obj.subindices.get(sub)
+
+
+def test_eds_imports_and_matches_the_manuals_object_list(eds_file):
+    od = canopen.import_od(str(eds_file), NODE_ID)
+    problems = []
+    for index, sub, data_type, access, pdo, default in MANUAL:
+        key = (index, sub)
+        entry = _entry(od, index, sub)
+        if entry is None:
+            if (key, "exists") not in DEVIATIONS:
+                problems.append(f"{index:04X}sub{sub}: missing")
+            continue
+        if entry.data_type != data_type and (key, "type") not in DEVIATIONS:
+            problems.append(f"{index:04X}sub{sub}: type {entry.data_type:#x}, manual {data_type:#x}")
+        eds_access = "ro" if entry.access_type in ("ro", "const") else "rw" if "w" in entry.access_type else "?"
+        if eds_access != access and (key, "access") not in DEVIATIONS:
+            problems.append(f"{index:04X}sub{sub}: access {entry.access_type}, manual {access}")
+        if pdo is not None and bool(entry.pdo_mappable) != pdo and (key, "pdo") not in DEVIATIONS:
+            problems.append(f"{index:04X}sub{sub}: PDO mapping {entry.pdo_mappable}, manual {pdo}")
+        if default is not None and (key, "default") not in DEVIATIONS and entry.default != default:
+            problems.append(f"{index:04X}sub{sub}: default {entry.default!r}, manual {default!r}")
+    manual_area = {index for index, *_ in MANUAL if 0x2000 <= index <= 0x5FFF}
+    eds_area = {index for index in od.indices if 0x2000 <= index <= 0x5FFF} - BOARD_OBJECTS
+    assert eds_area == manual_area
+    assert not problems, "\n".join(problems)
+    for key, field in DEVIATIONS:
+        assert any((i, s) == key for i, s, *_ in MANUAL), key
+
+
+# --- Helpers ----------------------------------------------------------------------------------
+
+@pytest.fixture
+def cpc(node, heartbeats):
+    """The drive after NMT reset node (every parameter at its default), simulation cleared."""
+    node.nmt.send_command(0x81)
+    heartbeats.wait_for(lambda d: d == b"\x00", timeout=2.0)
+    for index in (SIM_FAULTS, SIM_INPUTS, SIM_LOAD):
+        node.sdo[index].raw = 0
+    return node
+
+
+def abort_code(action):
+    with pytest.raises(canopen.SdoAbortedError) as error:
+        action()
+    return error.value.code
+
+
+def statusword(node):
+    return node.sdo[0x6041].raw
+
+
+def wait_until(predicate, timeout=5.0, period=0.005):
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        value = predicate()
+        if value:
+            return value
+        time.sleep(period)
+    raise AssertionError("condition not met in time")
+
+
+def enable(node, mode):
+    node.sdo[0x6060].raw = mode
+    for value, state in ((6, 0x21), (7, 0x23), (15, 0x27)):
+        node.sdo[0x6040].raw = value
+        wait_until(lambda: statusword(node) & 0x6F == state, timeout=1.0)
+
+
+def slow_motion(node):
+    """Moves that take a while (the defaults move 2 000 000 counts/s)."""
+    node.sdo[0x6081].raw = 100_000
+    node.sdo[0x6083].raw = 400_000
+    node.sdo[0x6084].raw = 400_000
+
+
+# --- §3.2, §4.3, §5 -------------------------------------------------------------------------------
+
+def test_modes_and_option_code_ranges(cpc):
+    assert cpc.sdo[0x6502].raw == 0x3AD
+    for mode in (0, 1, 3, 4, 6, 8, 9, 10):
+        cpc.sdo[0x6060].raw = mode
+    for mode in (2, 5, 7, -1, -4):  # reserved, ip, and the cpc direct modes
+        assert abort_code(lambda: setattr(cpc.sdo[0x6060], "raw", mode)) == 0x06090030, mode
+    for index, accepted, refused in ((0x6007, range(0, 4), (4,)), (0x605A, range(0, 5), (5, 6, 7, 8)),
+                                     (0x605B, (0, 1), (2,)), (0x605C, (0, 1), (2,)), (0x605D, range(1, 5), (5,)),
+                                     (0x605E, range(0, 5), (5,))):
+        for value in accepted:
+            cpc.sdo[index].raw = value
+        for value in refused:
+            assert abort_code(lambda: setattr(cpc.sdo[index], "raw", value)) == 0x06090030, (hex(index), value)
+
+
+def test_modes_change_only_outside_operation_enabled(cpc):
+    enable(cpc, 3)
+    assert abort_code(lambda: setattr(cpc.sdo[0x6060], "raw", 1)) == 0x08000022
+    cpc.sdo[0x6060].raw = 3  # the same mode is no change
+    cpc.sdo[0x6040].raw = 7  # Switched on: any FSA state but Operation enabled
+    wait_until(lambda: statusword(cpc) & 0x6F == 0x23)
+    cpc.sdo[0x6060].raw = 1
+    wait_until(lambda: cpc.sdo[0x6061].raw == 1, timeout=1)
+    cpc.sdo[0x6040].raw = 0
+
+
+# --- §6.3 set-points -------------------------------------------------------------------------------
+
+def test_set_point_handshake(cpc):
+    slow_motion(cpc)
+    enable(cpc, 1)
+    start = cpc.sdo[0x6064].raw
+    cpc.sdo[0x607A].raw = start + 20_000  # 1. the set-point
+    cpc.sdo[0x6040].raw = 0x1F  # 2. rising edge of bit 4
+    wait_until(lambda: statusword(cpc) & 0x1000)  # 3. acknowledged
+    cpc.sdo[0x6040].raw = 0x0F  # 4. bit 4 back to 0
+    wait_until(lambda: statusword(cpc) & 0x1000 == 0)  # 5. ready for the next set-point
+    wait_until(lambda: statusword(cpc) & 0x0400, timeout=5)
+    wait_until(lambda: abs(cpc.sdo[0x6064].raw - (start + 20_000)) < 100, timeout=2)
+    cpc.sdo[0x6040].raw = 0
+
+
+def test_single_set_point_and_a_set_of_set_points_with_one_buffered(cpc):
+    slow_motion(cpc)
+    enable(cpc, 1)
+    start = cpc.sdo[0x6064].raw
+
+    def new_set_point(target, immediately):
+        cpc.sdo[0x607A].raw = target
+        bits = 0x2F if immediately else 0x0F
+        cpc.sdo[0x6040].raw = bits | 0x10
+        time.sleep(0.01)
+        cpc.sdo[0x6040].raw = bits
+
+    # A set of set-points (bit 5 = 0): B waits in the buffer until A is reached.
+    new_set_point(start + 30_000, False)  # A
+    time.sleep(0.05)
+    new_set_point(start + 50_000, False)  # B, buffered
+    assert statusword(cpc) & 0x1000, "the buffer is busy"
+    new_set_point(start + 90_000, False)  # D: ignored, the buffer is full
+    wait_until(lambda: statusword(cpc) & 0x0400, timeout=6)
+    wait_until(lambda: abs(cpc.sdo[0x6064].raw - (start + 50_000)) < 100, timeout=2)
+    assert cpc.sdo[0x6064].raw < start + 60_000, "D was not taken"
+    # A single set-point (bit 5 = 1) interrupts the one in progress.
+    new_set_point(start + 150_000, False)
+    time.sleep(0.2)
+    new_set_point(start + 10_000, True)
+    wait_until(lambda: statusword(cpc) & 0x0400, timeout=6)
+    wait_until(lambda: abs(cpc.sdo[0x6064].raw - (start + 10_000)) < 100, timeout=3)
+    cpc.sdo[0x6040].raw = 0
+
+
+# --- §4.3.2, §10, §11 ------------------------------------------------------------------------------
+
+def test_statusword_bit_14_while_a_quick_stop_runs_and_pv_zero_speed(cpc):
+    cpc.sdo[0x6083].raw = 500_000
+    cpc.sdo[0x6085].raw = 50_000  # a slow quick stop
+    cpc.sdo[0x606F].raw = 100  # velocity threshold
+    enable(cpc, 3)
+    assert statusword(cpc) & 0x1000  # zero speed
+    cpc.sdo[0x60FF].raw = 40_000
+    wait_until(lambda: abs(cpc.sdo[0x606C].raw - 40_000) < 1000, timeout=3)
+    assert statusword(cpc) & 0x5000 == 0  # moving, no transition
+    cpc.sdo[0x605A].raw = 2
+    cpc.sdo[0x6040].raw = 0x0B  # quick stop
+    assert wait_until(lambda: statusword(cpc) & 0x4000, timeout=0.5)  # quick stop in process
+    wait_until(lambda: statusword(cpc) & 0x4F == 0x40, timeout=3)  # then switch on disabled
+    assert statusword(cpc) & 0x4000 == 0
+
+
+def test_profile_torque_ramps_with_the_torque_slope(cpc):
+    cpc.sdo[0x6087].raw = 1000  # 0.1 %/s: 100 % per second
+    enable(cpc, 4)
+    cpc.sdo[0x6071].raw = 100  # 10 %
+    time.sleep(0.05)
+    assert 0 < cpc.sdo[0x6074].raw < 100, "ramping"
+    wait_until(lambda: cpc.sdo[0x6074].raw == 100, timeout=1)
+    wait_until(lambda: statusword(cpc) & 0x0400, timeout=1)  # target torque reached
+    cpc.sdo[0x6071].raw = 0
+    wait_until(lambda: cpc.sdo[0x6074].raw == 0, timeout=1)
+    cpc.sdo[0x6040].raw = 0
+
+
+# --- §8 homing -------------------------------------------------------------------------------------
+
+def home(cpc, method, timeout=30):
+    cpc.sdo[0x6098].raw = method
+    cpc.sdo[0x6040].raw = 0x0F
+    time.sleep(0.01)  # a tick sees bit 4 at 0: the next write is a rising edge
+    cpc.sdo[0x6040].raw = 0x1F
+    time.sleep(0.05)  # the run has started (or, for 35/37, completed)
+    status = wait_until(lambda: (sw := statusword(cpc)) & 0x3400 in (0x1400, 0x2400) and sw, timeout=timeout)
+    assert status & 0x3400 == 0x1400, hex(status)
+    time.sleep(0.3)
+    return cpc.sdo[0x6063].raw - cpc.sdo[0x6064].raw  # the count at home (607Ch = 0)
+
+
+def test_homing_methods(cpc):
+    cpc.sdo[0x6099][1].raw = 50_000
+    cpc.sdo[0x6099][2].raw = 10_000
+    cpc.sdo[0x609A].raw = 500_000
+    assert cpc.sdo[0x6098].raw == 35  # the default: the current position
+    for method in (-12, -1, 1, 14, 17, 30, 33, 34, 35, 37):
+        cpc.sdo[0x6098].raw = method
+    for method in (-13, 15, 16, 31, 32, 36):
+        assert abort_code(lambda: setattr(cpc.sdo[0x6098], "raw", method)) == 0x06090030, method
+    enable(cpc, 6)
+    # −1: the positive hard stop (120 000) at 3293h × 6073h, detected after 3294h (from anywhere).
+    cpc.sdo[0x3293].raw = 0.4
+    cpc.sdo[0x3294].raw = 100
+    time.sleep(0.02)
+    assert cpc.sdo[HARD_STOP_RECORD][1].raw == 1200  # 0.4 × 3000 ‰
+    assert cpc.sdo[HARD_STOP_RECORD][2].raw == 100
+    assert abs(home(cpc, -1) - 120_000) < 100
+    assert abort_code(lambda: setattr(cpc.sdo[0x3293], "raw", 0.95)) == 0x06090031
+    # −5: the middle between the hard stops, positive first.
+    cpc.sdo[0x6099][2].raw = 40_000
+    assert abs(home(cpc, -5, timeout=40)) < 100
+    # 19: the falling edge of the home switch (20 000), from the middle.
+    cpc.sdo[0x6099][2].raw = 10_000
+    assert abs(home(cpc, 19) - 20_000) < 20
+    # −9: the middle of the home switch (25 000).
+    cpc.sdo[0x6099][2].raw = 10_000
+    assert abs(home(cpc, -9) - 25_000) < 50
+    # 37 = 35.
+    here = cpc.sdo[0x6063].raw
+    assert abs(home(cpc, 37) - here) < 50
+    cpc.sdo[0x6040].raw = 0

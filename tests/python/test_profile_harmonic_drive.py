@@ -1,0 +1,611 @@
+"""`canopen-drive-linux --profile harmonic-drive` against the Harmonic Drive LLC CANopen firmware
+manual: its object list, its step-by-step examples (pp §6.2, pv §7.2, hard-stop homing §8.3,
+csp §9.2, csv §10.2, cst §11.2, PDO remapping §3.1.16/§3.1.18, node-ID and bit rate §4.1.22/23,
+store/restore §3.1.7/8) and the behaviour it documents (NMT Stopped faults an enabled axis §2.2,
+1029h values §3.1.14, statusword bits 14/15, hard-stop homing −1…−6 §8.1, limit switches on the
+digital inputs §12.2, at most three mapped objects per PDO §1.1).
+
+The simulated actuator is an RSF-5B-30: 16 384 encoder steps per motor revolution, limit switches
+beyond ±150 000, elastic hard stops at ±200 000, rated current 1000 mA (so the core's torques in
+‰ read as mA). Velocities and accelerations are encoder steps per second (the manual's are rpm):
+where an example gives a speed in rpm, the test uses steps per second of a similar motion.
+"""
+
+import subprocess
+import time
+
+import canopen
+import pytest
+from canopen.objectdictionary import datatypes as dt
+
+from conftest import NODE_ID, DriveProcess, Recorder, binary_path
+
+PROFILE = "harmonic-drive"
+
+SIM_FAULTS, SIM_INPUTS, SIM_LOAD = 0x5E00, 0x5E01, 0x5E02
+SIMULATION_OBJECTS = {SIM_FAULTS, SIM_INPUTS, SIM_LOAD}
+
+# --- The manual's object list ------------------------------------------------------------------
+# (index, sub, data type, access, PDO mapping, default). Data type None: the manual gives none
+# (records list only ranges). PDO mapping None: not stated. ("node", x): x + node-ID.
+U8, U16, U32 = dt.UNSIGNED8, dt.UNSIGNED16, dt.UNSIGNED32
+I8, I16, I32, VS = dt.INTEGER8, dt.INTEGER16, dt.INTEGER32, dt.VISIBLE_STRING
+RO, RW = "ro", "rw"
+
+
+def _pdo_tables():
+    rows = []
+    rpdo = [(0x200, 0x60400010, 0), (0x300, 0x60400010, 0x60600008),
+            (0x400, 0x60400010, 0x607A0020), (0x500, 0x60400010, 0x60FF0020)]
+    tpdo = [(0x180, 0xFF, 0x60410010, 0), (0x280, 0xFF, 0x60410010, 0x60610008),
+            (0x380, 0x01, 0x60410010, 0x60640020), (0x480, 0x01, 0x60410010, 0x606C0020)]
+    for n, (cob, first, second) in enumerate(rpdo):
+        rows += [(0x1400 + n, 0, U8, RO, None, 2), (0x1400 + n, 1, U32, RW, None, ("node", 0x40000000 + cob)),
+                 (0x1400 + n, 2, U8, RW, None, 0xFF)]
+        rows += [(0x1600 + n, 0, U8, RW, None, 2 if second else 1), (0x1600 + n, 1, U32, RW, None, first),
+                 (0x1600 + n, 2, U32, RW, None, second), (0x1600 + n, 3, U32, RW, None, 0)]
+    for n, (cob, kind, first, second) in enumerate(tpdo):
+        rows += [(0x1800 + n, 0, U8, RO, None, 5), (0x1800 + n, 1, U32, RW, None, ("node", 0x40000000 + cob)),
+                 (0x1800 + n, 2, U8, RW, None, kind), (0x1800 + n, 3, U16, RW, None, 0),
+                 (0x1800 + n, 4, U8, RO, None, 0), (0x1800 + n, 5, U16, RW, None, 0)]
+        rows += [(0x1A00 + n, 0, U8, RW, None, 2 if second else 1), (0x1A00 + n, 1, U32, RW, None, first),
+                 (0x1A00 + n, 2, U32, RW, None, second), (0x1A00 + n, 3, U32, RW, None, 0)]
+    return rows
+
+
+COMMUNICATION = [
+    (0x1000, 0, U32, RO, False, 0x00420192),
+    (0x1001, 0, U8, RO, False, 0),
+    (0x1005, 0, U32, RW, False, 0x80),
+    (0x1008, 0, VS, RO, False, None),
+    (0x1009, 0, VS, RO, False, None),
+    (0x100A, 0, VS, RO, False, None),
+    (0x1010, 0, U8, RO, False, 4),
+    *[(0x1010, sub, U32, RW, False, value) for sub, value in ((1, 1), (2, 1), (3, 0), (4, 1))],
+    (0x1011, 0, U8, RO, False, 4),
+    *[(0x1011, sub, U32, RW, False, value) for sub, value in ((1, 1), (2, 1), (3, 0), (4, 1))],
+    (0x1014, 0, U32, RW, False, ("node", 0x80)),
+    (0x1015, 0, U16, RW, False, 0),
+    (0x1016, 0, U8, RW, False, 1),
+    (0x1016, 1, U32, RW, False, 0),
+    (0x1017, 0, U16, RW, False, 0),
+    (0x1018, 0, U8, RO, False, 3),
+    (0x1018, 1, U32, RO, False, 0x443),
+    (0x1018, 2, U32, RO, False, None),
+    (0x1018, 3, U32, RO, False, None),
+    (0x1029, 0, U8, RO, False, 2),
+    (0x1029, 1, U8, RW, False, 0),
+    (0x1029, 2, U8, RW, False, 1),
+    *_pdo_tables(),
+]
+
+MANUFACTURER = [
+    (0x2005, 0, U32, RW, False, 0),
+    (0x200D, 0, U32, RO, False, 0),
+    (0x200E, 0, U32, RO, False, 240),
+    (0x200F, 0, I32, RO, False, 0),
+    (0x2010, 1, None, RW, False, None),
+    (0x2010, 2, None, RW, False, None),
+    (0x2015, 1, None, RW, False, 0),
+    *[(0x2020, sub, None, RW, False, None) for sub in (1, 2, 3)],
+    (0x2020, 4, None, RW, False, 10000),
+    (0x2025, 1, None, RO, False, 0),
+    (0x2025, 2, None, RW, False, 40000),
+    (0x2025, 3, None, RW, False, 40000),
+    (0x2025, 4, None, RW, False, None),
+    (0x2025, 5, None, RW, False, 0),
+    *[(0x2030, sub, None, access, False, default) for sub, access, default in
+      ((1, RO, 0), (2, RO, 0), (3, RO, 0), (4, RW, 500), (5, RW, 5000), (6, RO, 0), (7, RO, 0), (8, RO, 0), (9, RO, 0))],
+    *[(0x2040, sub, None, access, False, default) for sub, access, default in
+      ((1, RO, 0), (2, RO, 0), (3, RO, 0), (4, RW, 5), (5, RW, None), (6, RW, None), (7, RO, 0), (8, RO, 0))],
+    *[(0x2050, sub, None, access, False, default) for sub, access, default in
+      ((1, RW, 0), (2, RO, 0), (3, RO, 0), (4, RW, 100), (5, RO, 0), (6, RW, 500), (7, RW, 5), (8, RW, 32767),
+       (9, RW, 0), (10, RO, 0), (11, RO, 0), (12, RO, 0), (13, RO, 0))],
+    (0x2055, 0, None, RW, False, 2),
+    (0x2056, 0, U8, RW, False, 1),
+    (0x2060, 1, None, RO, False, 0),
+    *[(0x2080, sub, None, access, False, default) for sub, access, default in
+      ((1, RO, 0), (2, RW, None), (3, RW, 0), (4, RW, 1), (5, RW, 1), (6, RW, 1000), (7, RW, 200))],
+    *[(0x2090, sub, None, access, False, default) for sub, access, default in
+      ((1, RW, 3000), (2, RW, None), (3, RO, None), (4, RW, 6000), (5, RW, None), (6, RO, None), (7, RW, 0))],
+    (0x2095, 1, None, RW, False, None),
+    (0x2095, 2, None, RW, False, 0),
+    (0x2096, 1, None, RW, False, None),
+    (0x2096, 2, None, RW, False, 0),
+    (0x2100, 0, I32, RO, False, 0),
+    (0x2702, 0, U32, RO, True, 0),
+    (0x2703, 1, None, RW, True, 0),
+    (0x2703, 2, None, RW, False, 0),
+    (0x2704, 0, U16, RW, False, 1000),
+    (0x2705, 0, U8, RW, False, 1),
+    (0x2706, 1, None, RW, False, 0),
+    (0x2706, 2, None, RW, False, 0),
+    (0x2706, 3, None, RW, False, 305419896),
+    *[(0x270E, sub, None, RO, sub >= 5, 0) for sub in range(1, 7)],
+    (0x5FFF, 0, U32, RW, False, 0),
+]
+
+PROFILE_AREA = [
+    (0x605A, 0, I16, RW, False, 2),
+    (0x605B, 0, U16, RW, False, 0),
+    (0x605C, 0, U16, RW, False, 1),
+    (0x605D, 0, U16, RW, False, 1),
+    (0x605E, 0, U16, RW, False, 2),
+    (0x6060, 0, I8, RW, True, 0),
+    (0x6061, 0, I8, RW, True, 0),
+    (0x608F, 1, None, RW, False, None),
+    (0x608F, 2, None, RO, False, 1),
+    (0x60FD, 0, U32, RO, True, 0),
+    (0x6502, 0, U32, RO, False, 0x3A5),
+    (0x6040, 0, U16, RW, True, None),
+    (0x6041, 0, U16, RW, True, None),
+    (0x6062, 0, I32, RO, True, 0),
+    (0x6063, 0, I32, RO, True, 0),
+    (0x6064, 0, I32, RO, True, 0),
+    (0x6067, 0, U32, RW, False, 0xFFFFFFFF),
+    (0x606B, 0, I32, RO, False, 0),
+    (0x606C, 0, I32, RO, True, 0),
+    (0x607A, 0, I32, RW, True, 0),
+    (0x607D, 1, I32, RW, False, -2147483648),
+    (0x607D, 2, I32, RW, False, 2147483647),
+    (0x6081, 0, U32, RW, False, 6000),
+    (0x6082, 0, I32, RW, False, 500),
+    (0x6083, 0, U32, RW, False, None),
+    (0x6084, 0, U32, RO, False, None),
+    (0x6085, 0, U32, RW, False, None),
+    (0x60FF, 0, I32, RW, True, 0),
+    (0x607C, 0, I32, RW, False, 0),
+    (0x6098, 0, I8, RW, False, 0),
+    (0x6099, 1, U32, RW, False, 1000),
+    (0x6099, 2, U32, RW, False, 500),
+    (0x609A, 0, U32, RW, False, 2000),
+    (0x60B0, 0, I32, RW, True, 0),
+    (0x60C2, 0, U8, RO, False, 2),
+    (0x60C2, 1, U8, RW, False, 1),
+    (0x60C2, 2, I8, RW, False, -3),
+    (0x60B1, 0, I32, RW, True, 0),
+    (0x6071, 0, I32, RW, True, 0),
+    (0x6077, 0, I32, RO, True, 0),
+    (0x60B2, 0, I32, RW, False, 0),
+]
+
+MANUAL = COMMUNICATION + MANUFACTURER + PROFILE_AREA
+
+DEVIATIONS = {
+    ((0x1010, 3), "default"): "the core offers every storage group (reads 1)",
+    ((0x1011, 3), "default"): "the core offers every storage group (reads 1)",
+    ((0x1016, 0), "default"): "the core supervises up to 4 heartbeats",
+    ((0x1016, 0), "access"): "the core's number of consumer entries is constant",
+    ((0x1018, 0), "default"): "the core's identity object has sub 4 (serial number)",
+    ((0x1029, 0), "default"): "the core's 1029h has only sub 1",
+    ((0x1029, 2), "exists"): "the core's 1029h has only sub 1",
+    ((0x605B, 0), "type"): "CiA 402: INTEGER16",
+    ((0x605C, 0), "type"): "CiA 402: INTEGER16",
+    ((0x605D, 0), "type"): "CiA 402: INTEGER16",
+    ((0x605E, 0), "type"): "CiA 402: INTEGER16",
+    ((0x6082, 0), "type"): "CiA 402: UNSIGNED32",
+    ((0x6071, 0), "type"): "CiA 402: INTEGER16",
+    ((0x6077, 0), "type"): "CiA 402: INTEGER16",
+    ((0x60B2, 0), "type"): "CiA 402: INTEGER16",
+    ((0x6061, 0), "access"): "read-only (CiA 402); the manual's table says rw",
+    ((0x6041, 0), "access"): "read-only (CiA 402); the manual's table says rw",
+    ((0x6084, 0), "access"): "writable (CiA 402); the manual keeps it equal to 6083h",
+    ((0x608F, 2), "access"): "the core's factor group lets 608Fh sub 2 be written",
+    **{((index, sub), "pdo"): "mappable in the core" for index, sub in
+       [(0x606B, 0), (0x6081, 0), (0x6082, 0), (0x6083, 0), (0x6084, 0), (0x6085, 0), (0x6098, 0), (0x6099, 1),
+        (0x6099, 2), (0x609A, 0), (0x60B2, 0), (0x1001, 0)]},
+    ((0x2705, 0), "default"): "reads the active node-ID ($NODEID), the manual's example module has 1",
+}
+
+
+def _entry(od, index, sub):
+    if index not in od:
+        return None
+    obj = od[index]
+    if isinstance(obj, canopen.objectdictionary.ODVariable):
+        return obj if sub == 0 else None
+    return obj.subindices.get(sub)
+
+
+def test_eds_imports_and_matches_the_manuals_object_list(eds_file):
+    od = canopen.import_od(str(eds_file), NODE_ID)
+    problems = []
+    for index, sub, data_type, access, pdo, default in MANUAL:
+        key = (index, sub)
+        entry = _entry(od, index, sub)
+        if entry is None:
+            if (key, "exists") not in DEVIATIONS:
+                problems.append(f"{index:04X}sub{sub}: missing")
+            continue
+        if data_type is not None and entry.data_type != data_type and (key, "type") not in DEVIATIONS:
+            problems.append(f"{index:04X}sub{sub}: type {entry.data_type:#x}, manual {data_type:#x}")
+        eds_access = "ro" if entry.access_type in ("ro", "const") else "rw" if "w" in entry.access_type else "?"
+        if eds_access != access and (key, "access") not in DEVIATIONS:
+            problems.append(f"{index:04X}sub{sub}: access {entry.access_type}, manual {access}")
+        if pdo is not None and bool(entry.pdo_mappable) != pdo and (key, "pdo") not in DEVIATIONS:
+            problems.append(f"{index:04X}sub{sub}: PDO mapping {entry.pdo_mappable}, manual {pdo}")
+        if default is not None and (key, "default") not in DEVIATIONS:
+            expected = default[1] + NODE_ID if isinstance(default, tuple) else default
+            if entry.default != expected:
+                problems.append(f"{index:04X}sub{sub}: default {entry.default!r}, manual {expected!r}")
+    manual_area = {index for index, *_ in MANUFACTURER}
+    eds_area = {index for index in od.indices if 0x2000 <= index <= 0x5FFF} - SIMULATION_OBJECTS
+    assert eds_area == manual_area, (sorted(map(hex, eds_area - manual_area)), sorted(map(hex, manual_area - eds_area)))
+    assert not problems, "\n".join(problems)
+    for key, field in DEVIATIONS:
+        assert any((i, s) == key for i, s, *_ in MANUAL), key
+
+
+# --- Helpers ----------------------------------------------------------------------------------
+
+@pytest.fixture
+def actuator(node, heartbeats):
+    """The actuator after NMT reset node (every parameter at its default), simulation cleared."""
+    node.nmt.send_command(0x81)
+    heartbeats.wait_for(lambda d: d == b"\x00", timeout=2.0)
+    for index in (SIM_FAULTS, SIM_INPUTS, SIM_LOAD):
+        node.sdo[index].raw = 0
+    return node
+
+
+def abort_code(action):
+    with pytest.raises(canopen.SdoAbortedError) as error:
+        action()
+    return error.value.code
+
+
+def statusword(node):
+    return node.sdo[0x6041].raw
+
+
+def wait_until(predicate, timeout=5.0, period=0.01):
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        value = predicate()
+        if value:
+            return value
+        time.sleep(period)
+    raise AssertionError("condition not met in time")
+
+
+def to_state(node, *steps):
+    for value, state in steps:
+        node.sdo[0x6040].raw = value
+        wait_until(lambda: statusword(node) & 0x6F == state, timeout=1.0)
+
+
+READY, SWITCHED_ON, ENABLED = (6, 0x21), (7, 0x23), (15, 0x27)
+
+
+class Sync:
+    """SYNC every `period` s, with a callback before each (an RPDO carrying the next target)."""
+
+    def __init__(self, network, period):
+        self.network, self.period = network, period
+
+    def run(self, seconds, before_sync):
+        start = time.monotonic()
+        k = 0
+        while time.monotonic() - start < seconds:
+            before_sync(k)
+            self.network.send_message(0x80, b"")
+            k += 1
+            time.sleep(max(0.0, start + k * self.period - time.monotonic()))
+
+
+# --- Identity and configuration -----------------------------------------------------------------
+
+def test_identity_modes_option_codes_and_homing_methods(actuator):
+    assert actuator.sdo[0x1000].raw == 0x00420192
+    assert actuator.sdo[0x1018][1].raw == 0x443
+    assert actuator.sdo[0x6502].raw == 0x3A5
+    for index, refused in ((0x605A, (0, 3, 4, 7)), (0x605B, (1,)), (0x605C, (0,)), (0x605D, (2,)), (0x605E, (1,))):
+        for value in refused:
+            assert abort_code(lambda: setattr(actuator.sdo[index], "raw", value)) == 0x06090030, (hex(index), value)
+    for method in (0, 17, 18, 35, -1, -2, -3, -4, -5, -6):
+        actuator.sdo[0x6098].raw = method
+    for method in (1, 2, 19, 33, 34, 37, -7):
+        assert abort_code(lambda: setattr(actuator.sdo[0x6098], "raw", method)) == 0x06090030, method
+    for mode in (2, 4, 5, 7):
+        assert abort_code(lambda: setattr(actuator.sdo[0x6060], "raw", mode)) == 0x06090030, mode
+
+
+def test_live_objects_of_the_actuator(actuator):
+    assert actuator.sdo[0x200E].raw == 480  # 48 V in 100 mV
+    assert actuator.sdo[0x200F].raw == 25
+    flags = actuator.sdo[0x200D].raw
+    assert flags & (1 << 15) and not flags & (1 << 5)  # initialised, driver off
+    assert actuator.sdo[0x2050][10].raw == actuator.sdo[0x6063].raw
+    actuator.sdo[SIM_FAULTS].raw = 0x08  # over-temperature
+    time.sleep(0.05)
+    assert actuator.sdo[0x200F].raw == 120
+    assert actuator.sdo[0x200D].raw & (1 << 3)
+    actuator.sdo[SIM_FAULTS].raw = 0
+    actuator.sdo[0x6040].raw = 0x80
+    # 2706h: user variables by address.
+    actuator.sdo[0x2706][1].raw = 7
+    actuator.sdo[0x2706][2].raw = -1234
+    actuator.sdo[0x2706][1].raw = 8
+    assert actuator.sdo[0x2706][2].raw == 0
+    actuator.sdo[0x2706][1].raw = 7
+    assert actuator.sdo[0x2706][2].raw == -1234
+    actuator.sdo[0x5FFF].raw = 0x12345678
+    assert actuator.sdo[0x5FFF].raw == 0
+    assert abort_code(lambda: setattr(actuator.sdo[0x5FFF], "raw", 5)) == 0x06090030
+
+
+# --- §6.2 pp, §7.2 pv --------------------------------------------------------------------------
+
+def test_pp_example(actuator):
+    actuator.sdo[0x2005].raw = 3  # no limit switches connected
+    actuator.sdo[0x6081].raw = 100_000  # steps/s (the default 6000 is rpm in the manual)
+    start = actuator.sdo[0x6064].raw
+    actuator.sdo[0x6060].raw = 1
+    to_state(actuator, READY, SWITCHED_ON, ENABLED)
+    actuator.sdo[0x607A].raw = start + 100_000
+    actuator.sdo[0x6040].raw = 31
+    wait_until(lambda: statusword(actuator) & 0x4000)  # motion commencing
+    assert actuator.sdo[0x200D].raw & ((1 << 5) | (1 << 10)) == (1 << 5) | (1 << 10)  # enabled, position mode
+    actuator.sdo[0x6040].raw = 15
+    wait_until(lambda: statusword(actuator) & 0x0400, timeout=8)
+    wait_until(lambda: abs(actuator.sdo[0x6064].raw - (start + 100_000)) < 200, timeout=3)
+    assert actuator.sdo[0x200D].raw & (1 << 14)  # position end
+    actuator.sdo[0x6040].raw = 0
+
+
+def test_pv_example(actuator):
+    actuator.sdo[0x6060].raw = 3
+    to_state(actuator, READY, SWITCHED_ON)
+    actuator.sdo[0x60FF].raw = 20_000
+    actuator.sdo[0x6040].raw = 15  # the motor accelerates to the target velocity
+    wait_until(lambda: abs(actuator.sdo[0x606C].raw - 20_000) < 500, timeout=3)
+    assert statusword(actuator) & 0xC000 == 0x4000
+    assert abs(actuator.sdo[0x2040][1].raw - 20_000 * 60 // 16384) <= 2  # rpm
+    actuator.sdo[0x60FF].raw = -20_000
+    wait_until(lambda: statusword(actuator) & 0xC000 == 0xC000, timeout=3)
+    actuator.sdo[0x60FF].raw = 0  # stop
+    wait_until(lambda: statusword(actuator) & 0x4000 == 0, timeout=3)
+    # 2020h sub 2 caps the speed (rpm, through 6080h).
+    actuator.sdo[0x2020][2].raw = 30
+    actuator.sdo[0x60FF].raw = 100_000
+    time.sleep(1.5)
+    assert abs(actuator.sdo[0x606C].raw - 30 * 16384 // 60) < 300
+    actuator.sdo[0x60FF].raw = 0
+    wait_until(lambda: statusword(actuator) & 0x4000 == 0, timeout=3)
+    actuator.sdo[0x6040].raw = 0
+
+
+# --- §8 hard-stop homing ------------------------------------------------------------------------
+
+def home(actuator, method, timeout=30):
+    actuator.sdo[0x6098].raw = method
+    actuator.sdo[0x6040].raw = 31
+    wait_until(lambda: statusword(actuator) & 0x3400 == 0, timeout=1)  # started
+    wait_until(lambda: statusword(actuator) & 0x3400 == 0x1400, timeout=timeout)
+    actuator.sdo[0x6040].raw = 15  # when homing has finished
+    time.sleep(0.3)
+
+
+def test_hard_stop_homing_example_and_the_double_ended_methods(actuator):
+    # (The limit switches at ±150 000 stay connected: the hard-stop methods pass them.)
+    actuator.sdo[0x6060].raw = 6
+    to_state(actuator, READY, SWITCHED_ON, ENABLED)
+    actuator.sdo[0x6099][1].raw = 50_000
+    actuator.sdo[0x6099][2].raw = 40_000
+    actuator.sdo[0x609A].raw = 400_000
+    # −1: into the positive stop (200 000), back by 2025h sub 2, that is 0 and the max limit.
+    actuator.sdo[0x6098].raw = -1
+    actuator.sdo[0x6040].raw = 31
+    wait_until(lambda: actuator.sdo[0x2025][1].raw == 5, timeout=1)  # checking the positive stop
+    wait_until(lambda: statusword(actuator) & 0x3400 == 0x1400, timeout=20)
+    actuator.sdo[0x6040].raw = 15
+    time.sleep(0.3)
+    assert abs(actuator.sdo[0x6064].raw) < 50
+    assert abs(actuator.sdo[0x6063].raw - 160_000) < 1000  # (the stop is elastic)
+    assert actuator.sdo[0x607D][2].raw == 0
+    assert actuator.sdo[0x2025][1].raw == 1  # HOMED
+    assert actuator.sdo[0x200D].raw & (1 << 20)
+    # −2 with its own back-off (2025h sub 3).
+    actuator.sdo[0x2025][3].raw = 20_000
+    actuator.sdo[0x607D][2].raw = 2**31 - 1
+    home(actuator, -2)
+    assert abs(actuator.sdo[0x6063].raw + 180_000) < 1000
+    assert actuator.sdo[0x607D][1].raw == 0
+    # −3: positive stop first, then the negative one: 0 there, the range up to the first.
+    actuator.sdo[0x607D][1].raw = -(2**31)
+    home(actuator, -3, timeout=40)
+    assert abs(actuator.sdo[0x6063].raw + 180_000) < 1000
+    assert actuator.sdo[0x607D][1].raw == 0
+    assert abs(actuator.sdo[0x607D][2].raw - 340_000) < 1000
+    actuator.sdo[0x6040].raw = 0
+
+
+# --- §9.2, §10.2, §11.2 cyclic modes: set-points by SDO each interval, with SYNC -------------------
+
+def test_csp_example(actuator, network):
+    actuator.sdo[0x2005].raw = 3
+    actuator.sdo[0x60C2][1].raw = 10  # the interpolation time period: 10 ms
+    actuator.sdo[0x60C2][2].raw = -3
+    start = actuator.sdo[0x6064].raw
+    actuator.sdo[0x6060].raw = 8
+    to_state(actuator, READY, SWITCHED_ON)
+    actuator.sdo[0x607A].raw = start
+    sync = Sync(network, 0.01)
+    sync.run(0.1, lambda k: None)
+    actuator.sdo[0x6040].raw = 15
+    # A new target position each interval: 200 steps per 10 ms, 100 times.
+    sync.run(1.5, lambda k: setattr(actuator.sdo[0x607A], "raw", start + min(k, 100) * 200))
+    assert abs(actuator.sdo[0x6064].raw - (start + 20_000)) < 300
+    assert statusword(actuator) & 0x106F == 0x1027  # the target position is used
+    actuator.sdo[0x6040].raw = 0
+
+
+def test_csv_example(actuator, network):
+    actuator.sdo[0x60C2][1].raw = 10
+    actuator.sdo[0x6060].raw = 9
+    to_state(actuator, READY, SWITCHED_ON)
+    actuator.sdo[0x60FF].raw = 10_000
+    sync = Sync(network, 0.01)
+    actuator.sdo[0x6040].raw = 15  # accelerates to the target velocity
+    sync.run(1.0, lambda k: setattr(actuator.sdo[0x60FF], "raw", 10_000))
+    assert abs(actuator.sdo[0x606C].raw - 10_000) < 500
+    sync.run(0.5, lambda k: setattr(actuator.sdo[0x60FF], "raw", 0))  # stop
+    assert abs(actuator.sdo[0x606C].raw) < 500
+    actuator.sdo[0x6040].raw = 0
+
+
+def test_cst_example(actuator, network):
+    actuator.sdo[0x2005].raw = 3
+    actuator.sdo[0x60C2][1].raw = 10
+    actuator.sdo[0x6060].raw = 10
+    to_state(actuator, READY, SWITCHED_ON, ENABLED)
+    sync = Sync(network, 0.01)
+    sync.run(0.5, lambda k: setattr(actuator.sdo[0x6071], "raw", 20))  # mA: starts the motor
+    assert actuator.sdo[0x606C].raw > 1000
+    assert actuator.sdo[0x2030][1].raw > 0  # actual current
+    sync.run(0.1, lambda k: setattr(actuator.sdo[0x6071], "raw", 0))  # stops it
+    actuator.sdo[0x6040].raw = 0
+
+
+# --- §2.2, §3.1.14: NMT ---------------------------------------------------------------------------
+
+def test_nmt_stopped_faults_an_enabled_axis_and_1029h_enters_stopped(actuator, network, heartbeats):
+    actuator.sdo[0x6060].raw = 3
+    to_state(actuator, READY, SWITCHED_ON, ENABLED)
+    actuator.nmt.send_command(0x02)
+    time.sleep(0.1)
+    actuator.nmt.send_command(0x80)
+    time.sleep(0.05)
+    assert statusword(actuator) & 0x4F == 0x08
+    assert actuator.sdo[0x200D].raw & (1 << 4)  # motor halted due to an error
+    actuator.sdo[0x6040].raw = 0x80
+    assert abort_code(lambda: setattr(actuator.sdo[0x1029][1], "raw", 2)) == 0x06090030
+    actuator.sdo[0x1017].raw = 20
+    actuator.sdo[0x1016][1].raw = (0x11 << 16) | 100
+    actuator.nmt.send_command(0x01)
+    network.send_message(0x711, b"\x05")
+    heartbeats.clear()
+    heartbeats.wait_for(lambda d: d == b"\x04", timeout=1.0)
+
+
+# --- §4.1 limit switches, windows -----------------------------------------------------------------
+
+def test_limit_switches_on_the_digital_inputs(actuator):
+    time.sleep(0.02)
+    physical = actuator.sdo[0x2702].raw  # where the axis stands now
+    actuator.sdo[SIM_INPUTS].raw = 0x02  # the right limit switch
+    time.sleep(0.02)
+    assert actuator.sdo[0x2702].raw == physical | 0x02
+    assert actuator.sdo[0x60FD].raw & 0x02
+    actuator.sdo[0x2005].raw = 2  # not used
+    time.sleep(0.02)
+    assert actuator.sdo[0x2702].raw & 0x02 == 0 and actuator.sdo[0x60FD].raw & 0x02 == 0
+    actuator.sdo[SIM_INPUTS].raw = 0
+    actuator.sdo[0x2005].raw = 0x04  # left inverted
+    time.sleep(0.02)
+    assert actuator.sdo[0x60FD].raw & 0x01 == (physical & 0x01) ^ 0x01  # 2702h shows the pin
+    actuator.sdo[0x6040].raw = 6
+    wait_until(lambda: statusword(actuator) & 0x6F == 0x21)
+    assert abort_code(lambda: setattr(actuator.sdo[0x2005], "raw", 0)) == 0x08000022
+    actuator.sdo[0x6040].raw = 0
+    wait_until(lambda: statusword(actuator) & 0x4F == 0x40)
+    actuator.sdo[0x2005].raw = 0
+    assert abort_code(lambda: setattr(actuator.sdo[0x2005], "raw", 16)) == 0x06090031
+
+
+def test_position_window_stops_the_motor_with_an_emcy(actuator, network):
+    emcy = Recorder(network, 0x80 + NODE_ID)
+    actuator.sdo[0x2005].raw = 3
+    actuator.sdo[0x2096][1].raw = 5  # steps
+    actuator.sdo[0x6081].raw = 100_000
+    actuator.sdo[0x6060].raw = 1
+    to_state(actuator, READY, SWITCHED_ON, ENABLED)
+    actuator.sdo[0x607A].raw = actuator.sdo[0x6064].raw + 50_000
+    actuator.sdo[0x6040].raw = 31
+    emcy.wait_for(lambda d: d[:2] == b"\x11\x86", timeout=2.0)  # 8611h
+    wait_until(lambda: statusword(actuator) & 0x4F == 0x08, timeout=3)
+    actuator.sdo[0x6040].raw = 0x80
+
+
+# --- §3.1.16/§3.1.18 PDO remapping ----------------------------------------------------------------
+
+def test_pdo_remapping_procedure(actuator, network):
+    tpdo4 = Recorder(network, 0x480 + NODE_ID)
+    cob = actuator.sdo[0x1803][1].raw
+    assert cob == 0x40000480 + NODE_ID
+    actuator.sdo[0x1803][1].raw = cob | 0x80000000
+    actuator.sdo[0x1A03][0].raw = 0
+    actuator.sdo[0x1A03][1].raw = 0x60640020
+    actuator.sdo[0x1A03][2].raw = 0x27020020
+    assert abort_code(lambda: setattr(actuator.sdo[0x1A03][0], "raw", 4)) == 0x06090031
+    actuator.sdo[0x1A03][0].raw = 2
+    actuator.sdo[0x1803][1].raw = cob
+    assert abort_code(lambda: setattr(actuator.sdo[0x1803][2], "raw", 0)) == 0x06090030  # 1..240, FEh, FFh
+    assert abort_code(lambda: setattr(actuator.sdo[0x1400][2], "raw", 0)) == 0x06090030
+    actuator.sdo[0x1803][2].raw = 2  # every second SYNC
+    actuator.nmt.send_command(0x01)
+    for _ in range(4):
+        network.send_message(0x80, b"")
+        time.sleep(0.02)
+    frames = tpdo4.wait_count(2, timeout=1.0)
+    data = frames[-1][1]
+    assert len(data) == 8
+    assert abs(int.from_bytes(data[:4], "little", signed=True) - actuator.sdo[0x6064].raw) < 50
+    assert int.from_bytes(data[4:], "little") == actuator.sdo[0x2702].raw
+    actuator.nmt.send_command(0x80)
+
+
+# --- §3.1.7/8 store/restore, §4.1.22/23 bit rate and node-ID ---------------------------------------
+
+@pytest.fixture
+def stored_drive(tmp_path):
+    storage = tmp_path / "params.bin"
+    processes = []
+
+    def start():
+        process = DriveProcess(tmp_path, extra_args=("--profile", PROFILE, "--storage", str(storage)))
+        processes.append(process)
+        return process
+
+    yield start
+    for process in processes:
+        assert process.stop() == 0, process.log()
+
+
+def connect(process, node_id=NODE_ID):
+    eds = process.log_path.parent / "harmonic.eds"
+    if not eds.exists():
+        subprocess.run([str(binary_path()), "--profile", PROFILE, "--write-eds", str(eds)], check=True, timeout=10)
+    network = canopen.Network()
+    network.NOTIFIER_CYCLE = 0.05
+    network.connect(interface="slcan", channel=process.channel, bitrate=500000, sleep_after_open=0)
+    node = canopen.RemoteNode(node_id, canopen.import_od(str(eds), node_id))
+    network.add_node(node)
+    return network, node
+
+
+def test_node_id_and_bit_rate_through_2704h_2705h_and_1010h_sub_2(stored_drive):
+    process = stored_drive()
+    network, node = connect(process)
+    try:
+        assert abort_code(lambda: setattr(node.sdo[0x2704], "raw", 800)) == 0x06090030
+        node.sdo[0x2704].raw = 250
+        node.sdo[0x2705].raw = 9
+        node.sdo[0x2025][2].raw = 30_000  # an application parameter, kept by sub 1 only
+        node.sdo[0x1010][2].raw = 0x65766173  # "save" the communication parameters
+    finally:
+        network.disconnect()
+    process.stop()
+    process = stored_drive()  # reset the module
+    network, node = connect(process, node_id=9)
+    try:
+        assert node.sdo[0x2705].raw == 9
+        assert node.sdo[0x2025][2].raw == 40_000
+        node.sdo[0x2025][2].raw = 30_000
+        node.sdo[0x1010][1].raw = 0x65766173  # everything
+        node.sdo[0x1011][1].raw = 0x64616F6C  # and back to the defaults after the next reset
+        node.nmt.send_command(0x81)
+        time.sleep(0.2)
+        assert node.sdo[0x2025][2].raw == 40_000
+    finally:
+        network.disconnect()
