@@ -1,0 +1,34 @@
+//! Stored parameters (1010h/1011h) in the last two pages of the internal flash (2 × 2 KiB on
+//! the STM32G431CB, 4 × 2 KiB on the STM32G474CE in dual-bank mode), through `embedded-storage`: the core's
+//! power-loss-safe two-bank journal over a `NorFlashArea`. build.rs keeps them out of the
+//! linker's flash region.
+
+use canopen_drive::od::DeviceInfo;
+use canopen_drive::storage::{device_signature, NorFlashArea, Storage};
+use embassy_stm32::flash::{Blocking, Flash};
+use embassy_stm32::peripherals::FLASH;
+use embassy_stm32::Peri;
+
+/// Its size: two pages, one bank each.
+#[cfg(not(feature = "stm32g474ce"))]
+pub const AREA_LEN: u32 = 4 * 1024;
+/// Its size: four pages, two per bank.
+#[cfg(feature = "stm32g474ce")]
+pub const AREA_LEN: u32 = 8 * 1024;
+/// Where the parameters live: the end of flash (offsets from the start of flash).
+#[cfg(not(feature = "stm32g474ce"))]
+pub const AREA_START: u32 = 128 * 1024 - AREA_LEN;
+/// Where the parameters live: the end of flash (offsets from the start of flash).
+#[cfg(feature = "stm32g474ce")]
+pub const AREA_START: u32 = 512 * 1024 - AREA_LEN;
+
+/// The parameter storage of this board.
+pub type ParameterStore = Storage<NorFlashArea<Flash<'static, Blocking>>>;
+
+/// Opens the parameter area (reads nothing yet: the drive loads the stored set when it is
+/// built).
+pub fn open(flash: Peri<'static, FLASH>, device: &DeviceInfo, layout: u16) -> Option<ParameterStore> {
+    let flash = Flash::new_blocking(flash);
+    let area = NorFlashArea::new(flash, AREA_START, AREA_LEN).ok()?;
+    Storage::new(area, device_signature(device, layout)).ok()
+}

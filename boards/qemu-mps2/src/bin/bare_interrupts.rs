@@ -1,0 +1,193 @@
+//! The drive without async: two interrupt handlers and a main loop, for vendor firmware that
+//! does not use embassy. The same discipline as `canopen-drive-embassy` (see its crate docs),
+//! spelled out by hand:
+//!
+//! | context | priority | does | holds the lock for |
+//! |---|---|---|---|
+//! | TIMER0 interrupt ("PWM/timer") | highest | `Drive::tick` at 1 kHz, the motor | one `tick` |
+//! | UART0 receive interrupt ("CAN RX") | middle | assembles SLCAN lines; `Drive::on_frame` per received frame | one `on_frame` |
+//! | main loop | thread | `Drive::poll` at its deadline or when an interrupt asked; `Drive::pop_tx` to the "CAN controller" (UART0 transmit) | one `poll`, one `pop_tx` |
+//!
+//! - **Shared:** the `Drive`, in a `critical_section::Mutex<RefCell<Option<..>>>` (the value
+//!   in a `StaticCell`, so the static is a pointer in `.bss`), and two flags.
+//! - **Protection:** a critical section (interrupts masked) around each single call; no call
+//!   does more than one bounded step of work, so the tick is held off by at most the longest
+//!   one (boards/qemu-mps2 measures it: object 2F06h).
+//! - **One writer per peripheral:** only the main loop writes UART0; the receive interrupt
+//!   queues its replies to SLCAN commands for the main loop instead of writing them.
+//!
+//! On a real board the receive handler is the CAN controller's RX FIFO interrupt and the
+//! transmit side feeds its mailboxes; nothing else changes.
+#![cfg_attr(target_os = "none", no_std)]
+#![cfg_attr(target_os = "none", no_main)]
+
+#[cfg(not(target_os = "none"))]
+fn main() {}
+
+#[cfg(target_os = "none")]
+mod firmware {
+    use core::cell::RefCell;
+    use core::sync::atomic::{AtomicBool, Ordering};
+
+    use canopen_drive::Instant;
+    use canopen_drive_qemu_mps2::board;
+    use canopen_drive_qemu_mps2::mps2::{self, uart0, Irq};
+    use canopen_drive_qemu_mps2::node::{self, BoardDrive};
+    use canopen_drive_qemu_mps2::objects::{exit_requested, BoardHooks};
+    use canopen_drive_qemu_mps2::slcan::{self, Command, LineBuffer};
+    use cortex_m::peripheral::NVIC;
+    use cortex_m_rt::{entry, exception, ExceptionFrame};
+    use critical_section::Mutex;
+    use defmt_semihosting as _;
+    use heapless::Deque;
+    use static_cell::StaticCell;
+
+    /// The drive; each access is one critical section around one call.
+    static DRIVE: Mutex<RefCell<Option<&'static mut BoardDrive>>> = Mutex::new(RefCell::new(None));
+    static DRIVE_CELL: StaticCell<BoardDrive> = StaticCell::new();
+
+    /// The receive handler's line buffer and its queued replies to SLCAN control lines.
+    static LINE: Mutex<RefCell<LineBuffer>> = Mutex::new(RefCell::new(LineBuffer::new()));
+    static REPLIES: Mutex<RefCell<Deque<&'static [u8], 16>>> = Mutex::new(RefCell::new(Deque::new()));
+
+    /// Set by the handlers: the main loop has work (frames to send, a poll to run).
+    static WORK: AtomicBool = AtomicBool::new(false);
+
+    fn now() -> Instant {
+        Instant::from_micros(board::now_micros())
+    }
+
+    /// One call into the drive, inside one critical section.
+    fn with_drive<R>(f: impl FnOnce(&mut BoardDrive) -> R) -> Option<R> {
+        critical_section::with(|cs| DRIVE.borrow_ref_mut(cs).as_deref_mut().map(f))
+    }
+
+    #[inline(never)]
+    fn make_drive() -> &'static mut BoardDrive {
+        let hooks = BoardHooks { measurements: &board::BoardMeasurements };
+        DRIVE_CELL.init_with(|| match BoardDrive::with_hooks(node::config(), hooks) {
+            Ok(drive) => drive,
+            Err(e) => {
+                defmt::error!("dictionary: {}", e);
+                mps2::exit(102);
+            }
+        })
+    }
+
+    #[entry]
+    fn main() -> ! {
+        uart0::init();
+        let drive = make_drive();
+        critical_section::with(|cs| *DRIVE.borrow_ref_mut(cs) = Some(drive));
+        defmt::info!("canopen-drive on mps2 (bare interrupts): node {}", node::NODE_ID);
+
+        let Some(mut core) = cortex_m::Peripherals::take() else { mps2::exit(103) };
+        // SAFETY: set before the interrupts are unmasked; the tick preempts the receive handler.
+        unsafe {
+            core.NVIC.set_priority(Irq::Timer0, 0x00);
+            core.NVIC.set_priority(Irq::Uart0Rx, 0x40);
+            core.SCB.set_priority(cortex_m::peripheral::scb::SystemHandler::SysTick, 0x80);
+        }
+        board::start_timers();
+        critical_section::with(|_| uart0::set_rx_interrupt(true));
+        // SAFETY: the handlers below are ready.
+        unsafe {
+            NVIC::unmask(Irq::Timer0);
+            NVIC::unmask(Irq::Uart0Rx);
+        }
+        // A byte that came before the receive interrupt was enabled raised no interrupt, and
+        // QEMU holds back the rest until it is read: let the handler look once.
+        NVIC::pend(Irq::Uart0Rx);
+
+        let mut deadline: Option<Instant> = Some(now());
+        let mut exit_at: Option<Instant> = None;
+        loop {
+            let work = WORK.load(Ordering::Acquire);
+            WORK.store(false, Ordering::Release);
+            let now = now();
+            if work || deadline.is_some_and(|d| d <= now) {
+                deadline = with_drive(|d| d.poll(now)).flatten();
+            }
+            // Replies first: a master waits for them before its next line.
+            while let Some(reply) = critical_section::with(|cs| REPLIES.borrow_ref_mut(cs).pop_front()) {
+                uart0::write_all(reply);
+            }
+            while let Some(frame) = with_drive(|d| d.pop_tx()).flatten() {
+                let mut line = [0; slcan::MAX_ENCODED];
+                let n = slcan::encode(&frame, &mut line);
+                uart0::write_all(line.get(..n).unwrap_or(&[]));
+            }
+            if let Some(code) = exit_requested() {
+                // The SDO response is out; give the master 300 ms to read it and disconnect.
+                let at = *exit_at.get_or_insert(now + canopen_drive::Duration::from_millis(300));
+                if now >= at {
+                    mps2::exit(code);
+                }
+            }
+            // The SysTick (1 ms) wakes the loop for deadlines; the handlers set WORK.
+            board::idle(|| WORK.load(Ordering::Acquire));
+        }
+    }
+
+    /// UART0 receive, standing in for the CAN controller's receive interrupt.
+    #[no_mangle]
+    extern "C" fn UART0RX() {
+        uart0::clear_rx_interrupt();
+        while let Some(byte) = uart0::read_byte() {
+            let line = critical_section::with(|cs| LINE.borrow_ref_mut(cs).push(byte));
+            match line {
+                None => continue,
+                Some(Some(Command::Frame(frame))) => {
+                    with_drive(|d| d.on_frame(&frame, now()));
+                    queue_reply(Command::Frame(frame).reply());
+                }
+                Some(Some(command)) => queue_reply(command.reply()),
+                Some(None) => queue_reply(&[slcan::BEL]),
+            }
+            WORK.store(true, Ordering::Release);
+        }
+    }
+
+    fn queue_reply(reply: &'static [u8]) {
+        critical_section::with(|cs| {
+            // A full queue drops the reply: python-can and adapters ignore acknowledgements.
+            let _ = REPLIES.borrow_ref_mut(cs).push_back(reply);
+        });
+    }
+
+    /// TIMER0: the control tick.
+    #[no_mangle]
+    extern "C" fn TIMER0() {
+        board::control_tick(|now, sample| {
+            with_drive(|d| d.tick(now, sample)).unwrap_or(canopen_drive::hal::Demand::OFF)
+        });
+        // The tick may have queued a TPDO or raised an EMCY that `poll` sends.
+        WORK.store(true, Ordering::Release);
+    }
+
+    #[exception]
+    fn SysTick() {
+        board::on_systick();
+    }
+
+    #[exception]
+    unsafe fn HardFault(_frame: &ExceptionFrame) -> ! {
+        defmt::error!("hard fault");
+        mps2::exit(105)
+    }
+
+    #[exception]
+    unsafe fn DefaultHandler(irqn: i16) {
+        defmt::error!("unexpected interrupt {}", irqn);
+        mps2::exit(106)
+    }
+
+    #[panic_handler]
+    fn panic(info: &core::panic::PanicInfo) -> ! {
+        match info.location() {
+            Some(at) => defmt::error!("panic at {}:{}", at.file(), at.line()),
+            None => defmt::error!("panic"),
+        }
+        mps2::exit(101)
+    }
+}

@@ -1,0 +1,229 @@
+//! The embassy firmware proper (bare-metal targets only).
+
+use core::sync::atomic::{AtomicBool, Ordering};
+
+use canopen_drive::CanFrame;
+use canopen_drive_embassy::{CanRx, CanTx, SharedDrive};
+use canopen_drive_qemu_mps2::board;
+use canopen_drive_qemu_mps2::mps2::{self, uart0, Irq};
+use canopen_drive_qemu_mps2::node::{self, BoardDrive};
+use canopen_drive_qemu_mps2::objects::{exit_requested, BoardHooks, TICK_MONITOR};
+use canopen_drive_qemu_mps2::slcan::{self, Command, LineBuffer};
+use cortex_m::peripheral::NVIC;
+use cortex_m_rt::{entry, exception, ExceptionFrame};
+use defmt_semihosting as _;
+use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
+use embassy_sync::pipe::Pipe;
+use embassy_time::Timer;
+use embedded_can::ErrorKind;
+use static_cell::StaticCell;
+
+#[path = "embassy_rt.rs"]
+mod embassy_rt;
+
+/// The drive, shared by the tick interrupt and the runner; it lives in `DRIVE_CELL`.
+static DRIVE: SharedDrive<&'static mut BoardDrive> = SharedDrive::new();
+static DRIVE_CELL: StaticCell<BoardDrive> = StaticCell::new();
+
+/// Bytes from UART0, filled by its receive interrupt.
+static RX_BYTES: Pipe<CriticalSectionRawMutex, 256> = Pipe::new();
+/// The receive interrupt stopped taking bytes because the pipe was full.
+static RX_PAUSED: AtomicBool = AtomicBool::new(false);
+
+#[entry]
+fn main() -> ! {
+    uart0::init();
+    DRIVE.put(make_drive());
+    defmt::info!("canopen-drive on mps2: node {}, tick {} us", node::NODE_ID, node::TICK_PERIOD.as_micros());
+
+    let Some(mut core) = cortex_m::Peripherals::take() else { mps2::exit(103) };
+    // SAFETY: priorities are set before the interrupts are unmasked; lower value = higher
+    // priority. The tick preempts everything else.
+    unsafe {
+        core.NVIC.set_priority(Irq::Timer0, 0x00);
+        core.NVIC.set_priority(Irq::Uart0Rx, 0x40);
+        core.SCB.set_priority(cortex_m::peripheral::scb::SystemHandler::SysTick, 0x80);
+    }
+    board::start_timers();
+    critical_section::with(|_| uart0::set_rx_interrupt(true));
+    // SAFETY: the handlers below are ready; nothing else masks these lines.
+    unsafe {
+        NVIC::unmask(Irq::Timer0);
+        NVIC::unmask(Irq::Uart0Rx);
+    }
+    // A byte that came before the receive interrupt was enabled raised no interrupt, and
+    // QEMU holds back the rest until it is read: let the handler look once.
+    NVIC::pend(Irq::Uart0Rx);
+
+    embassy_rt::run_executor(|spawner| {
+        match can_task() {
+            Ok(token) => spawner.spawn(token),
+            Err(_) => mps2::exit(104),
+        }
+        match exit_task() {
+            Ok(token) => spawner.spawn(token),
+            Err(_) => mps2::exit(104),
+        }
+    })
+}
+
+/// Builds the drive straight into its static cell (a separate function, so that main's own
+/// stack frame stays small).
+#[inline(never)]
+fn make_drive() -> &'static mut BoardDrive {
+    let hooks = BoardHooks { measurements: &board::BoardMeasurements };
+    DRIVE_CELL.init_with(|| match BoardDrive::with_hooks(node::config(), hooks) {
+        Ok(drive) => drive,
+        Err(e) => {
+            defmt::error!("dictionary: {}", e);
+            mps2::exit(102);
+        }
+    })
+}
+
+#[embassy_executor::task]
+async fn can_task() {
+    canopen_drive_embassy::run(&DRIVE, SlcanRx::default(), SlcanTx).await
+}
+
+/// Time from the write of 2F00h to the exit: the SDO response goes out and the master closes
+/// its end of the link first (bytes in flight when QEMU closes the socket can be lost).
+const EXIT_DELAY_MS: u64 = 300;
+
+/// Ends the firmware when a master writes 2F00h, with the written value as exit status.
+#[embassy_executor::task]
+async fn exit_task() {
+    loop {
+        Timer::after_millis(5).await;
+        if let Some(code) = exit_requested() {
+            // Let the SDO response go out, and the master disconnect, first.
+            Timer::after_millis(EXIT_DELAY_MS).await;
+            defmt::info!(
+                "exit {}: {} ticks, lateness max {} ns, mean {} ns; longest critical section {} ns; stack {} bytes",
+                code,
+                TICK_MONITOR.ticks(),
+                TICK_MONITOR.max_lateness(),
+                TICK_MONITOR.mean_lateness(),
+                board::longest_section_ns(),
+                board::stack_used()
+            );
+            mps2::exit(code);
+        }
+    }
+}
+
+/// The receiving half of the SLCAN link: lines from the pipe; control lines are answered
+/// here, frames are handed to the runner.
+#[derive(Default)]
+struct SlcanRx {
+    line: LineBuffer,
+    bytes: [u8; 32],
+    start: usize,
+    end: usize,
+}
+
+impl CanRx for SlcanRx {
+    type Frame = CanFrame;
+    type Error = ErrorKind;
+
+    async fn receive(&mut self) -> Result<CanFrame, ErrorKind> {
+        loop {
+            while self.start < self.end {
+                let byte = self.bytes.get(self.start).copied().unwrap_or(b'\r');
+                self.start += 1;
+                match self.line.push(byte) {
+                    None => {}
+                    Some(None) => uart0::write_byte(slcan::BEL),
+                    Some(Some(command)) => {
+                        uart0::write_all(command.reply());
+                        if let Command::Frame(frame) = command {
+                            return Ok(frame);
+                        }
+                    }
+                }
+            }
+            self.end = RX_BYTES.read(&mut self.bytes).await;
+            self.start = 0;
+            let resume = critical_section::with(|_| {
+                let paused = RX_PAUSED.load(Ordering::Relaxed);
+                if paused {
+                    // There is room again: let the interrupt take the bytes QEMU held back.
+                    RX_PAUSED.store(false, Ordering::Relaxed);
+                    uart0::set_rx_interrupt(true);
+                }
+                paused
+            });
+            if resume {
+                NVIC::pend(Irq::Uart0Rx);
+            }
+        }
+    }
+}
+
+/// The transmitting half: one SLCAN line per frame.
+struct SlcanTx;
+
+impl CanTx for SlcanTx {
+    type Frame = CanFrame;
+    type Error = ErrorKind;
+
+    async fn transmit(&mut self, frame: &CanFrame) -> Result<(), ErrorKind> {
+        let mut line = [0; slcan::MAX_ENCODED];
+        let n = slcan::encode(frame, &mut line);
+        uart0::write_all(line.get(..n).unwrap_or(&[]));
+        Ok(())
+    }
+}
+
+/// UART0 receive: bytes into the pipe while it has room.
+#[no_mangle]
+extern "C" fn UART0RX() {
+    uart0::clear_rx_interrupt();
+    loop {
+        if RX_BYTES.free_capacity() == 0 {
+            // QEMU keeps further bytes until the receive loop made room and re-enables this.
+            uart0::set_rx_interrupt(false);
+            RX_PAUSED.store(true, Ordering::Release);
+            return;
+        }
+        match uart0::read_byte() {
+            Some(byte) => {
+                let _ = RX_BYTES.try_write(&[byte]);
+            }
+            None => return,
+        }
+    }
+}
+
+/// TIMER0: the control tick.
+#[no_mangle]
+extern "C" fn TIMER0() {
+    board::control_tick(|now, sample| DRIVE.tick(now, sample));
+}
+
+#[exception]
+fn SysTick() {
+    board::on_systick();
+    embassy_rt::on_millisecond();
+}
+
+#[exception]
+unsafe fn HardFault(_frame: &ExceptionFrame) -> ! {
+    defmt::error!("hard fault");
+    mps2::exit(105)
+}
+
+#[exception]
+unsafe fn DefaultHandler(irqn: i16) {
+    defmt::error!("unexpected interrupt {}", irqn);
+    mps2::exit(106)
+}
+
+#[panic_handler]
+fn panic(info: &core::panic::PanicInfo) -> ! {
+    match info.location() {
+        Some(at) => defmt::error!("panic at {}:{}", at.file(), at.line()),
+        None => defmt::error!("panic"),
+    }
+    mps2::exit(101)
+}

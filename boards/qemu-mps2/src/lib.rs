@@ -1,0 +1,37 @@
+//! # canopen-drive on QEMU's mps2-an386 (Cortex-M4F) and mps2-an385
+//!
+//! The drive with a simulated motor on an emulated Cortex-M, talking CANopen to a real master
+//! over SLCAN on UART0 (QEMU exposes the UART as a TCP socket, see `run.sh`). No QEMU
+//! Cortex-M board has a CAN controller, so the UART carries the frames in the text form
+//! USB-CAN adapters use.
+//!
+//! Two firmwares share this library:
+//!
+//! - `qemu-mps2` (`src/main.rs`): embassy. The communication runner of
+//!   `canopen-drive-embassy` in a thread-mode executor that sleeps with WFI, embassy-time on
+//!   SysTick, the control tick in the TIMER0 interrupt, defmt logging over semihosting.
+//! - `bare-interrupts` (`src/bin/bare_interrupts.rs`): no async at all. The drive behind a
+//!   `critical_section::Mutex`, fed by two interrupt handlers (UART receive standing in for
+//!   CAN receive, and the TIMER0 tick) and a main loop that runs `poll` and transmits.
+//!
+//! | module | what |
+//! |---|---|
+//! | [`node`] | the drive's configuration (node-ID 5, identity, tick rate) |
+//! | [`objects`] | manufacturer objects 2F00h–2F11h: test exit, tick lateness, stack use, test data |
+//! | [`motor`] | a no_std motor model: inertia + friction, velocity/position loops |
+//! | [`slcan`] | the SLCAN line codec |
+//! | `mps2` | UART0, TIMER0, SysTick registers; semihosting exit (bare-metal targets only) |
+//! | `board` | the µs clock, the tick body shared by both firmwares, stack measurement |
+#![no_std]
+#![deny(missing_docs)]
+#![cfg_attr(test, allow(clippy::unwrap_used, clippy::expect_used, clippy::indexing_slicing, clippy::panic))]
+
+pub mod motor;
+pub mod node;
+pub mod objects;
+pub mod slcan;
+
+#[cfg(target_os = "none")]
+pub mod board;
+#[cfg(target_os = "none")]
+pub mod mps2;
