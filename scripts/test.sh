@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # Installs everything the test suite needs on a fresh machine, then runs all of it:
-# formatting, lints, unit + integration tests, no_std builds of the core for the MCU targets,
-# and the python-canopen interoperability tests against the Linux drive program.
+# formatting, lints, unit + integration tests, the robustness scenarios (24 h simulated soak),
+# no_std builds of the core for the MCU targets, the python-canopen interoperability tests
+# against the Linux drive program (generic and vendor profiles), fuzzing (scripts/fuzz.sh) and
+# the MCU part (scripts/mcu.sh: firmware in QEMU, tick bound, footprint budgets).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 root=$(pwd)
@@ -27,6 +29,10 @@ cargo clippy --workspace --all-targets -- -D warnings
 step "cargo test"
 cargo test --workspace
 
+step "robustness: fault injection, 24 h simulated soak, hostile configuration (docs/robustness.md)"
+SOAK_HOURS=24 CARGO_PROFILE_DEV_OPT_LEVEL=2 \
+    cargo test -p canopen-drive-tests --test robustness -- --nocapture
+
 step "cargo doc (library docs build without warnings)"
 RUSTDOCFLAGS="-D warnings" cargo doc --no-deps -p canopen-drive -p canopen-drive-sim
 
@@ -41,3 +47,9 @@ step "python-canopen against canopen-drive-linux"
 cargo build -p canopen-drive-linux
 CANOPEN_DRIVE_LINUX="$root/target/debug/canopen-drive-linux" \
     .venv/bin/python -m pytest tests/python -q -p no:cacheprovider
+
+step "fuzzing: every cargo-fuzz target for 45 s (scripts/fuzz.sh)"
+./scripts/fuzz.sh 45
+
+step "MCU: firmware in QEMU with python-canopen, tick bound, footprint budgets (scripts/mcu.sh)"
+./scripts/mcu.sh
