@@ -35,7 +35,8 @@ use crate::od::standard::{
     SYNCHRONOUS_WINDOW_LENGTH,
 };
 use crate::od::{
-    AbortCode, ConfigError, DefaultOverride, DeviceInfo, Dictionary, Entry, Object, ObjectHooks, WriteRule,
+    AbortCode, ConfigError, DefaultOverride, DeviceInfo, Dictionary, Entry, Object, ObjectHooks, Slot,
+    WriteRule,
 };
 use crate::storage::{
     Group, Persistence, LOAD_SIGNATURE, RESTORE_DEFAULT_PARAMETERS, SAVE_SIGNATURE, STORE_PARAMETERS,
@@ -150,6 +151,28 @@ impl Config {
     }
 }
 
+/// The communication entries read on every frame or poll (a lookup each would cost more than
+/// the rest of a frame's handling).
+struct CommSlots {
+    cob_id_sync: Slot<u32>,
+    communication_cycle_period: Slot<u32>,
+    synchronous_counter_overflow: Slot<u8>,
+    synchronous_window_length: Slot<u32>,
+    producer_heartbeat_time: Slot<u16>,
+}
+
+impl CommSlots {
+    fn resolve<const B: usize>(od: &Dictionary<B>) -> Self {
+        CommSlots {
+            cob_id_sync: od.slot(COB_ID_SYNC, 0),
+            communication_cycle_period: od.slot(COMMUNICATION_CYCLE_PERIOD, 0),
+            synchronous_counter_overflow: od.slot(SYNCHRONOUS_COUNTER_OVERFLOW, 0),
+            synchronous_window_length: od.slot(SYNCHRONOUS_WINDOW_LENGTH, 0),
+            producer_heartbeat_time: od.slot(PRODUCER_HEARTBEAT_TIME, 0),
+        }
+    }
+}
+
 /// A CANopen CiA 402 drive: dictionary, NMT slave, SDO server, PDOs, SYNC, EMCY, error control.
 ///
 /// `H` are the firmware's object hooks; `OD_BYTES` the size of the value store; `RPDOS` and
@@ -162,6 +185,8 @@ pub struct Drive<
     S: Persistence = (),
 > {
     od: Dictionary<OD_BYTES>,
+    /// The communication entries every frame or poll reads, resolved once.
+    slots: CommSlots,
     sdo: SdoServer<SDO_BUFFER>,
     nmt: NmtState,
     heartbeat: HeartbeatProducer,
@@ -337,6 +362,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
         let mut od = Dictionary::new(&tables, config.device, config.node_id)?;
         od.set_default_overrides(config.default_overrides)?;
         let mut drive = Drive {
+            slots: CommSlots::resolve(&od),
             od,
             sdo: SdoServer::new(config.sdo_timeout),
             nmt: NmtState::Initialising,
@@ -450,7 +476,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
         }
         let data = embedded_can::Frame::data(frame);
         // One dictionary look-up for the SYNC identifier; the rest only for a SYNC.
-        let sync_id = (self.od.get::<u32>(COB_ID_SYNC, 0).unwrap_or(0x80) & 0x7FF) as u16;
+        let sync_id = (self.od.load_or(self.slots.cob_id_sync, 0x80) & 0x7FF) as u16;
         if id == sync_id && self.nmt.serves_emcy() {
             self.sync_received(data, now, self.sync_config().0);
         } else if self.nmt.serves_pdo() && self.rpdo_received(id, data, now) {
@@ -756,11 +782,11 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
 
     /// SYNC configuration (1005h/1006h/1019h) and the SYNC CAN-ID.
     fn sync_config(&self) -> (SyncConfig, u16) {
-        let cob = self.od.get::<u32>(COB_ID_SYNC, 0).unwrap_or(0x80);
+        let cob = self.od.load_or(self.slots.cob_id_sync, 0x80);
         let config = SyncConfig {
             producer: cob & cob_id::BIT30 != 0,
-            period_us: self.od.get::<u32>(COMMUNICATION_CYCLE_PERIOD, 0).unwrap_or(0),
-            overflow: self.od.get::<u8>(SYNCHRONOUS_COUNTER_OVERFLOW, 0).unwrap_or(0),
+            period_us: self.od.load(self.slots.communication_cycle_period),
+            overflow: self.od.load(self.slots.synchronous_counter_overflow),
         };
         (config, (cob & 0x7FF) as u16)
     }
@@ -794,7 +820,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
     /// Offers a frame to the RPDOs; true when one of them took it.
     fn rpdo_received(&mut self, id: u16, data: &[u8], now: Instant) -> bool {
         // Synchronous RPDOs arriving after the synchronous window are discarded (digest §7).
-        let window = u64::from(self.od.get::<u32>(SYNCHRONOUS_WINDOW_LENGTH, 0).unwrap_or(0));
+        let window = u64::from(self.od.load(self.slots.synchronous_window_length));
         let late = window != 0 && self.sync.last().is_some_and(|at| now - at > Duration::from_micros(window));
         let mut events = heapless::Vec::<PdoEvent, 4>::new();
         let mut tap = Tap::new(&mut self.hooks);
@@ -872,7 +898,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
     }
 
     fn heartbeat_period(&self) -> u16 {
-        self.od.get::<u16>(PRODUCER_HEARTBEAT_TIME, 0).unwrap_or(0)
+        self.od.load(self.slots.producer_heartbeat_time)
     }
 
     fn boot_if_pending(&mut self, now: Instant) {

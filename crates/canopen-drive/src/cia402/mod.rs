@@ -23,6 +23,7 @@ pub mod objects;
 pub mod pp;
 pub mod probe;
 pub mod profile;
+mod slots;
 pub mod vl;
 
 pub use config::{OptionCodes, ProfileConfig, StatusFlag};

@@ -36,7 +36,7 @@
 
 use super::config::ProfileConfig;
 use super::factor::Factors;
-use super::objects::*;
+use super::slots::Slots;
 use crate::motion::{Jerks, Limits, MotionState, PositionPlanner, ProfileType};
 use crate::od::Dictionary;
 use crate::time::{Duration, Instant};
@@ -63,6 +63,8 @@ pub struct Inputs<'a, const B: usize> {
     pub od: &'a Dictionary<B>,
     /// The factor group.
     pub factors: &'a Factors,
+    /// The per-tick entries.
+    pub(crate) slots: &'a Slots,
     /// The controlword.
     pub controlword: u16,
     /// Bit 4 rose since the previous tick (and the drive did not just enter Operation enabled).
@@ -103,26 +105,23 @@ pub struct ProfilePosition {
     last: Option<SetPoint>,
 }
 
-fn get<const B: usize, T: crate::od::Scalar + Default>(od: &Dictionary<B>, index: u16, sub: u8) -> T {
-    od.get::<T>(index, sub).unwrap_or_default()
-}
-
 /// The motion limits of pp and of the stops in pp, in increments (digest §9.5).
-pub fn limits<const B: usize>(od: &Dictionary<B>, factors: &Factors) -> Limits {
-    let user_velocity = get::<B, u32>(od, PROFILE_VELOCITY, 0).min(get(od, MAX_PROFILE_VELOCITY, 0));
+pub(crate) fn limits<const B: usize>(od: &Dictionary<B>, s: &Slots, factors: &Factors) -> Limits {
+    let user_velocity = od.load(s.profile_velocity).min(od.load(s.max_profile_velocity));
     let velocity =
-        factors.limit_to_internal(user_velocity).min(factors.rpm_to_internal(get(od, MAX_MOTOR_SPEED, 0)));
-    let acceleration = get::<B, u32>(od, PROFILE_ACCELERATION, 0).min(get(od, MAX_ACCELERATION, 0));
-    let deceleration = get::<B, u32>(od, PROFILE_DECELERATION, 0).min(get(od, MAX_DECELERATION, 0));
+        factors.limit_to_internal(user_velocity).min(factors.rpm_to_internal(od.load(s.max_motor_speed)));
+    let acceleration = od.load(s.profile_acceleration).min(od.load(s.max_acceleration));
+    let deceleration = od.load(s.profile_deceleration).min(od.load(s.max_deceleration));
     let limits = Limits::new(
         velocity,
         factors.limit_to_internal(acceleration),
         factors.limit_to_internal(deceleration),
     );
-    match ProfileType::from_raw(get(od, MOTION_PROFILE_TYPE, 0)) {
+    match ProfileType::from_raw(od.load(s.motion_profile_type)) {
         Some(ProfileType::JerkLimited) => {
-            let subs = [1, 2, 3, 4].map(|sub| factors.limit_to_internal(get(od, PROFILE_JERK, sub)));
-            let jerks = Jerks::from_profile_jerk(get(od, PROFILE_JERK_USE, 0), &subs)
+            let subs = [s.profile_jerk_1, s.profile_jerk_2, s.profile_jerk_3, s.profile_jerk_4]
+                .map(|slot| factors.limit_to_internal(od.load(slot)));
+            let jerks = Jerks::from_profile_jerk(od.load(s.profile_jerk_use), &subs)
                 .unwrap_or(Jerks::uniform(subs[0]));
             limits.with_jerks(ProfileType::JerkLimited, jerks)
         }
@@ -206,9 +205,9 @@ impl ProfilePosition {
     fn setpoint<const B: usize>(&self, input: &Inputs<'_, B>) -> SetPoint {
         let od = input.od;
         let sign = input.factors.position_sign();
-        let raw = i64::from(get::<B, i32>(od, TARGET_POSITION, 0));
+        let raw = i64::from(od.load(input.slots.target_position));
         let mut user = if input.controlword & 0x0040 != 0 {
-            let base = match get::<B, u16>(od, POSITIONING_OPTION_CODE, 0) & 0x3 {
+            let base = match od.load(input.slots.positioning_option_code) & 0x3 {
                 0b01 => input.factors.to_user(self.planner.state().position - input.origin) * sign,
                 0b10 => input.factors.to_user(input.actual - input.origin) * sign,
                 _ => self.preceding,
@@ -218,14 +217,14 @@ impl ProfilePosition {
             raw
         };
         let (min, max) =
-            (get::<B, i32>(od, POSITION_RANGE_LIMIT, 1), get::<B, i32>(od, POSITION_RANGE_LIMIT, 2));
+            (od.load(input.slots.position_range_limit_min), od.load(input.slots.position_range_limit_max));
         if min < max {
             let period = i64::from(max) - i64::from(min) + 1;
             user = i64::from(min) + (user - i64::from(min)).rem_euclid(period);
         }
-        let offset = i64::from(get::<B, i32>(od, HOME_OFFSET, 0));
-        let low = i64::from(get::<B, i32>(od, SOFTWARE_POSITION_LIMIT, 1)) - offset;
-        let high = i64::from(get::<B, i32>(od, SOFTWARE_POSITION_LIMIT, 2)) - offset;
+        let offset = i64::from(od.load(input.slots.home_offset));
+        let low = i64::from(od.load(input.slots.software_position_limit_min)) - offset;
+        let high = i64::from(od.load(input.slots.software_position_limit_max)) - offset;
         let mut limited = false;
         if low <= high && !(low..=high).contains(&user) {
             user = user.clamp(low, high);
@@ -262,8 +261,8 @@ impl ProfilePosition {
     /// One tick of pp in Operation enabled (no FSA stop running).
     pub fn tick<const B: usize>(&mut self, input: &Inputs<'_, B>, halt_deceleration: u32) -> MotionState {
         let od = input.od;
-        let limits = limits(od, input.factors);
-        let end_velocity = input.factors.limit_to_internal(get(od, END_VELOCITY, 0));
+        let limits = limits(od, input.slots, input.factors);
+        let end_velocity = input.factors.limit_to_internal(od.load(input.slots.end_velocity));
         if input.new_setpoint {
             let setpoint = self.setpoint(input);
             let immediate = input.controlword & 0x0020 != 0;
@@ -328,10 +327,10 @@ impl ProfilePosition {
         } else {
             let target = self.last.map_or(self.preceding, |last| last.user);
             let actual = input.factors.to_user(input.actual - input.origin) * input.factors.position_sign();
-            let window = get::<B, u32>(od, POSITION_WINDOW, 0);
+            let window = od.load(input.slots.position_window);
             if window == u32::MAX || (target - actual).unsigned_abs() <= u64::from(window) {
                 let since = *self.in_window_since.get_or_insert(input.now);
-                let time = Duration::from_millis(u64::from(get::<B, u16>(od, POSITION_WINDOW_TIME, 0)));
+                let time = Duration::from_millis(u64::from(od.load(input.slots.position_window_time)));
                 window == u32::MAX || input.now - since >= time
             } else {
                 self.in_window_since = None;

@@ -43,6 +43,7 @@ use super::ip::{IpBuffer, Written};
 use super::objects::*;
 use super::pp::{self, ProfilePosition};
 use super::probe::{Changed, TouchProbe};
+use super::slots::Slots;
 use super::vl;
 use crate::comm::emcy::ErrorRegister;
 use crate::control::{Actual, Cascade, Parameters, Reference};
@@ -110,6 +111,8 @@ pub struct Profile {
     fsa: Fsa,
     /// The factor group, re-read after [`Profile::invalidate`].
     factors: Option<Factors>,
+    /// The per-tick entries, resolved with the factors.
+    slots: Slots,
     /// The core's own position/velocity loops ([`ProfileConfig::cascade`]).
     cascade: Option<Cascade>,
     active_mode: i8,
@@ -180,25 +183,22 @@ const FOLLOWING_ERROR: u16 = 0x8611;
 /// Parameter error (6320h): a controlword function this configuration does not have.
 const PARAMETER_ERROR: u16 = 0x6320;
 
-fn get<const B: usize, T: crate::od::Scalar + Default>(od: &Dictionary<B>, index: u16) -> T {
-    od.get::<T>(index, 0).unwrap_or_default()
-}
-
 fn saturate(value: i64) -> i32 {
     value.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32
 }
 
 /// The velocity limit min(607Fh, 6080h) in increments/s.
-fn velocity_limit<const B: usize>(od: &Dictionary<B>, factors: &Factors) -> u32 {
+fn velocity_limit<const B: usize>(od: &Dictionary<B>, slots: &Slots, factors: &Factors) -> u32 {
     factors
-        .limit_to_internal(get(od, MAX_PROFILE_VELOCITY))
-        .min(factors.rpm_to_internal(get(od, MAX_MOTOR_SPEED)))
+        .limit_to_internal(od.load(slots.max_profile_velocity))
+        .min(factors.rpm_to_internal(od.load(slots.max_motor_speed)))
 }
 
 impl Profile {
     /// A profile at power-on.
     pub fn new(config: ProfileConfig) -> Self {
         Profile {
+            slots: Slots::UNRESOLVED,
             config,
             fsa: Fsa::default(),
             factors: None,
@@ -273,7 +273,7 @@ impl Profile {
             self.fault = self.fault.or(Some(0x8100));
             return;
         }
-        match get::<B, i16>(od, ABORT_CONNECTION_OPTION_CODE) {
+        match od.load(self.slots.abort_connection) {
             1 => self.fault = self.fault.or(Some(0x8100)),
             2 => self.forced = Some(0x0000),
             3 => self.forced = Some(0x0002),
@@ -377,20 +377,24 @@ impl Profile {
             self.homing.forget();
         }
         let actual_user = factors.to_user(actual - self.origin) * position_sign;
-        let _ = od.set::<i32>(POSITION_ACTUAL_INTERNAL_VALUE, 0, sample.position);
-        let _ = od.set::<i32>(POSITION_ACTUAL_VALUE, 0, saturate(actual_user));
+        od.store(self.slots.position_actual_internal, sample.position);
+        od.store(self.slots.position_actual, saturate(actual_user));
         let velocity_user = factors.to_user(i64::from(sample.velocity)) * velocity_sign;
-        let _ = od.set::<i32>(VELOCITY_ACTUAL_VALUE, 0, saturate(velocity_user));
-        let _ = od.set::<i16>(TORQUE_ACTUAL_VALUE, 0, sample.torque);
-        let _ = od.set::<i16>(CURRENT_ACTUAL_VALUE, 0, sample.torque);
-        let _ = od.set::<u32>(DC_LINK_VOLTAGE, 0, sample.dc_link_millivolts);
+        od.store(self.slots.velocity_actual, saturate(velocity_user));
+        od.store(self.slots.torque_actual, sample.torque);
+        od.store(self.slots.current_actual, sample.torque);
+        od.store(self.slots.dc_link_voltage, sample.dc_link_millivolts);
         // 60FDh bits 0..3: negative/positive limit, home, interlock (the hal uses the same bits).
-        let _ = od.set::<u32>(DIGITAL_INPUTS, 0, sample.inputs.bits() & 0x0F);
+        od.store(self.slots.digital_inputs, sample.inputs.bits() & 0x0F);
 
         // Touch probe (digest §10.6): latched in increments, reported in user units.
-        let probe =
-            self.probe.tick(get(od, TOUCH_PROBE_FUNCTION), sample.inputs, sample.position, &sample.captures);
-        let _ = od.set::<u16>(TOUCH_PROBE_STATUS, 0, probe.status);
+        let probe = self.probe.tick(
+            od.load(self.slots.touch_probe_function),
+            sample.inputs,
+            sample.position,
+            &sample.captures,
+        );
+        od.store(self.slots.touch_probe_status, probe.status);
         let to_user = |p: i32| saturate(factors.to_user(i64::from(p) - self.origin) * position_sign);
         let latched = [
             (Changed::PROBE_1_POSITIVE, TOUCH_PROBE_1_POSITIVE_EDGE, probe.positive[0]),
@@ -422,15 +426,15 @@ impl Profile {
         }
 
         let options = Options {
-            quick_stop: get(od, QUICK_STOP_OPTION_CODE),
-            shutdown: get(od, SHUTDOWN_OPTION_CODE),
-            disable_operation: get(od, DISABLE_OPERATION_OPTION_CODE),
-            fault_reaction: get(od, FAULT_REACTION_OPTION_CODE),
+            quick_stop: od.load(self.slots.quick_stop_option),
+            shutdown: od.load(self.slots.shutdown_option),
+            disable_operation: od.load(self.slots.disable_operation_option),
+            fault_reaction: od.load(self.slots.fault_reaction_option),
             transition_16: self.config.transition_16,
         };
         // In local control the controlword is not processed: no command, no mode bits.
         let local = sample.local_control;
-        let mut controlword: u16 = if local { 0 } else { get(od, CONTROLWORD) };
+        let mut controlword: u16 = if local { 0 } else { od.load(self.slots.controlword) };
         let unavailable = self.active_mode == mode::PROFILE_POSITION
             && !self.config.change_on_setpoint
             && controlword & 0x0200 != 0;
@@ -472,12 +476,12 @@ impl Profile {
             }
         }
         if let Some(code) = self.fault {
-            let _ = od.set::<u16>(ERROR_CODE, 0, code);
+            od.store(self.slots.error_code, code);
         }
         let enabled = step.state.drive_function_enabled();
 
         // Mode switching: at once while the drive function is disabled, after a stop otherwise.
-        let requested: i8 = get(od, MODES_OF_OPERATION);
+        let requested: i8 = od.load(self.slots.modes_of_operation);
         let switching = requested != self.active_mode;
         // A device without mode changes in Operation enabled keeps the mode until it is left.
         let may_switch =
@@ -491,7 +495,7 @@ impl Profile {
             self.reset_cyclic(actual, i64::from(sample.velocity));
             self.vl.reset(i64::from(sample.velocity));
         }
-        let _ = od.set::<i8>(MODES_OF_OPERATION_DISPLAY, 0, self.active_mode);
+        od.store(self.slots.modes_of_operation_display, self.active_mode);
 
         let halt = controlword & 0x0100 != 0;
         if step.entered_operation {
@@ -515,35 +519,34 @@ impl Profile {
             (halting || for_switch)
                 .then(|| {
                     if halting {
-                        StopKind::halt_or_fault(get(od, HALT_OPTION_CODE))
+                        StopKind::halt_or_fault(od.load(self.slots.halt_option))
                     } else {
                         Some(StopKind::SlowDown)
                     }
                 })
                 .flatten()
         });
-        let pp_limits = pp::limits(od, &factors);
-        let max_deceleration = factors.limit_to_internal(get(od, MAX_DECELERATION));
+        let max_deceleration = factors.limit_to_internal(od.load(self.slots.max_deceleration));
         let stop_deceleration = |kind: StopKind| -> u32 {
             let user = match kind {
-                StopKind::SlowDown => get::<B, u32>(od, PROFILE_DECELERATION),
-                StopKind::QuickStopRamp => get(od, QUICK_STOP_DECELERATION),
+                StopKind::SlowDown => od.load(self.slots.profile_deceleration),
+                StopKind::QuickStopRamp => od.load(self.slots.quick_stop_deceleration),
                 StopKind::CurrentLimit | StopKind::VoltageLimit | StopKind::Coast => u32::MAX,
             };
             factors.limit_to_internal(user).min(max_deceleration)
         };
         let hz = self.config.tick_rate.hz();
-        let vmax = velocity_limit(od, &factors);
-        let max_acceleration = factors.limit_to_internal(get(od, MAX_ACCELERATION));
+        let vmax = velocity_limit(od, &self.slots, &factors);
+        let max_acceleration = factors.limit_to_internal(od.load(self.slots.max_acceleration));
         if let Some(kind) = stop.filter(|_| !self.stopping) {
             if self.active_mode == vl::MODE {
                 self.vl.stop(kind);
             } else if matches!(self.active_mode, mode::CYCLIC_POSITION | mode::INTERPOLATED_POSITION) {
                 self.limiter.stop(&TickLimits::new(vmax, max_acceleration, stop_deceleration(kind), hz));
             } else if self.active_mode == mode::HOMING {
-                self.homing.stop(stop_deceleration(kind), &pp_limits);
+                self.homing.stop(stop_deceleration(kind), &pp::limits(od, &self.slots, &factors));
             } else if self.position_mode() {
-                self.pp.stop(stop_deceleration(kind), &pp_limits);
+                self.pp.stop(stop_deceleration(kind), &pp::limits(od, &self.slots, &factors));
             } else {
                 self.velocity = Ramp { value: i64::from(sample.velocity), remainder: 0 };
             }
@@ -604,9 +607,9 @@ impl Profile {
             }
             None if self.active_mode == mode::HOMING => {
                 let speeds = (
-                    factors.limit_to_internal(od.get::<u32>(HOMING_SPEEDS, 1).unwrap_or(0)),
-                    factors.limit_to_internal(od.get::<u32>(HOMING_SPEEDS, 2).unwrap_or(0)),
-                    factors.limit_to_internal(get::<B, u32>(od, HOMING_ACCELERATION)).min(max_deceleration),
+                    factors.limit_to_internal(od.load(self.slots.homing_speed_switch)),
+                    factors.limit_to_internal(od.load(self.slots.homing_speed_zero)),
+                    factors.limit_to_internal(od.load(self.slots.homing_acceleration)).min(max_deceleration),
                 );
                 let inputs = hm::Inputs {
                     od,
@@ -621,17 +624,17 @@ impl Profile {
                     speeds,
                     probe: probe_1,
                     following_error: self.following_error_since.is_some_and(|since| {
-                        let time = u64::from(get::<B, u16>(od, FOLLOWING_ERROR_TIME_OUT));
+                        let time = u64::from(od.load(self.slots.following_error_time_out));
                         now - since > Duration::from_millis(time)
                     }),
                     now,
                 };
                 let halt_kind =
-                    StopKind::halt_or_fault(get(od, HALT_OPTION_CODE)).unwrap_or(StopKind::SlowDown);
+                    StopKind::halt_or_fault(od.load(self.slots.halt_option)).unwrap_or(StopKind::SlowDown);
                 let (position, outcome) = self.homing.tick(&inputs, stop_deceleration(halt_kind));
                 if let Some(home) = outcome.home {
                     // 6064h reads −607Ch at home.
-                    let offset = i64::from(get::<B, i32>(od, HOME_OFFSET)) * position_sign;
+                    let offset = i64::from(od.load(self.slots.home_offset)) * position_sign;
                     self.origin = home.saturating_add(factors.to_internal(offset));
                 }
                 if outcome.error != self.homing_error || (inputs.start && self.homing_error) {
@@ -640,7 +643,7 @@ impl Profile {
                 }
                 if outcome.home.is_some() {
                     // Limits a method found become 607Dh (compared after the 607Ch correction).
-                    let home_offset = i64::from(get::<B, i32>(od, HOME_OFFSET));
+                    let home_offset = i64::from(od.load(self.slots.home_offset));
                     for (count, sub) in [(outcome.limits.0, 1u8), (outcome.limits.1, 2u8)] {
                         if let Some(count) = count {
                             let user = factors.to_user(count - self.origin) * position_sign + home_offset;
@@ -660,7 +663,7 @@ impl Profile {
             }
             None if drive_enabled && self.active_mode == mode::INTERPOLATED_POSITION => {
                 let halt_kind =
-                    StopKind::halt_or_fault(get(od, HALT_OPTION_CODE)).unwrap_or(StopKind::SlowDown);
+                    StopKind::halt_or_fault(od.load(self.slots.halt_option)).unwrap_or(StopKind::SlowDown);
                 let limits = TickLimits::new(vmax, max_acceleration, max_deceleration, hz);
                 let halt_limits = TickLimits::new(vmax, max_acceleration, stop_deceleration(halt_kind), hz);
                 let input = CyclicInput { cycle, halt, factors: &factors, dt, limits, halt_limits };
@@ -677,7 +680,7 @@ impl Profile {
             }
             None if drive_enabled && self.cyclic_mode() => {
                 let halt_kind =
-                    StopKind::halt_or_fault(get(od, HALT_OPTION_CODE)).unwrap_or(StopKind::SlowDown);
+                    StopKind::halt_or_fault(od.load(self.slots.halt_option)).unwrap_or(StopKind::SlowDown);
                 let limits = TickLimits::new(vmax, max_acceleration, max_deceleration, hz);
                 let halt_limits = TickLimits::new(vmax, max_acceleration, stop_deceleration(halt_kind), hz);
                 let input = CyclicInput { cycle, halt, factors: &factors, dt, limits, halt_limits };
@@ -687,6 +690,7 @@ impl Profile {
                 let inputs = pp::Inputs {
                     od,
                     factors: &factors,
+                    slots: &self.slots,
                     controlword,
                     new_setpoint: bit4_rose && operation && !step.entered_operation && !self.mode_changed,
                     actual,
@@ -694,7 +698,7 @@ impl Profile {
                     now,
                 };
                 let halt_kind =
-                    StopKind::halt_or_fault(get(od, HALT_OPTION_CODE)).unwrap_or(StopKind::SlowDown);
+                    StopKind::halt_or_fault(od.load(self.slots.halt_option)).unwrap_or(StopKind::SlowDown);
                 let state = self.pp.tick(&inputs, stop_deceleration(halt_kind));
                 status = self.pp.status(&inputs);
                 Setpoint::Position(state.position_demand())
@@ -719,13 +723,13 @@ impl Profile {
             actual - self.origin
         };
         let demand_user = factors.to_user(demand_internal) * position_sign;
-        let _ = od.set::<i32>(POSITION_DEMAND_INTERNAL_VALUE, 0, demand_internal as i32);
-        let _ = od.set::<i32>(POSITION_DEMAND_VALUE, 0, saturate(demand_user));
+        od.store(self.slots.position_demand_internal, demand_internal as i32);
+        od.store(self.slots.position_demand, saturate(demand_user));
         let following_error = demand_user - actual_user;
-        let _ = od.set::<i32>(FOLLOWING_ERROR_ACTUAL_VALUE, 0, saturate(following_error));
+        od.store(self.slots.following_error_actual, saturate(following_error));
         let velocity_demand = factors.to_user(self.velocity_demand()) * velocity_sign;
-        let _ = od.set::<i32>(VELOCITY_DEMAND_VALUE, 0, saturate(velocity_demand));
-        let _ = od.set::<i16>(TORQUE_DEMAND, 0, self.torque.value as i16);
+        od.store(self.slots.velocity_demand, saturate(velocity_demand));
+        od.store(self.slots.torque_demand, self.torque.value as i16);
         let following =
             self.position_mode() && drive_enabled && self.following_error(od, following_error, now);
         if following && self.config.following_error_fault && self.fault.is_none() {
@@ -765,7 +769,7 @@ impl Profile {
         // the velocity actual beyond the threshold 606Fh.
         let motion =
             if drive_enabled && matches!(self.active_mode, mode::PROFILE_TORQUE | mode::CYCLIC_TORQUE) {
-                let threshold = i64::from(get::<B, u16>(od, VELOCITY_THRESHOLD));
+                let threshold = i64::from(od.load(self.slots.velocity_threshold));
                 Some(i64::from(sample.velocity)).filter(|v| v.abs() > threshold).unwrap_or(0)
             } else {
                 self.velocity_demand()
@@ -781,10 +785,9 @@ impl Profile {
                 statusword |= 1 << bit;
             }
         }
-        let _ = od.set::<u16>(STATUSWORD, 0, statusword);
+        od.store(self.slots.statusword, statusword);
         // 60FEh: a master may engage the brake (sub 1 bit 0) where the mask (sub 2) enables it.
-        let outputs =
-            od.get::<u32>(DIGITAL_OUTPUTS, 1).unwrap_or(0) & od.get::<u32>(DIGITAL_OUTPUTS, 2).unwrap_or(0);
+        let outputs = od.load(self.slots.digital_outputs_physical) & od.load(self.slots.digital_outputs_mask);
         let setpoint =
             if drive_enabled { self.close_loops(setpoint, sample, od, &factors) } else { Setpoint::None };
         if !drive_enabled {
@@ -807,6 +810,7 @@ impl Profile {
     fn refresh<const B: usize>(&mut self, od: &Dictionary<B>) -> Factors {
         let factors = Factors::from_od(od);
         self.factors = Some(factors);
+        self.slots = Slots::resolve(od);
         if let Some(index) = self.config.cascade {
             let parameters = Parameters::from_dictionary(od, index).unwrap_or(Parameters::DEFAULT);
             let hz = self.config.tick_rate.hz();
@@ -832,11 +836,11 @@ impl Profile {
         factors: &Factors,
     ) -> Setpoint {
         let Some(cascade) = self.cascade.as_mut() else {
-            let _ = od.set::<i32>(CONTROL_EFFORT, 0, 0);
+            od.store(self.slots.control_effort, 0);
             return setpoint;
         };
-        let torque_limit = get::<B, u16>(od, MAX_TORQUE).min(get(od, MAX_CURRENT));
-        cascade.set_limits(velocity_limit(od, factors), torque_limit);
+        let torque_limit = od.load(self.slots.max_torque).min(od.load(self.slots.max_current));
+        cascade.set_limits(velocity_limit(od, &self.slots, factors), torque_limit);
         let actual = Actual::from(sample);
         let output = match setpoint {
             Setpoint::Position(position) => {
@@ -848,12 +852,12 @@ impl Profile {
             Setpoint::Velocity(velocity) => cascade.step_velocity(velocity, 0, actual.velocity),
             Setpoint::Torque(_) | Setpoint::None => {
                 cascade.reset(0);
-                let _ = od.set::<i32>(CONTROL_EFFORT, 0, 0);
+                od.store(self.slots.control_effort, 0);
                 return setpoint;
             }
         };
         let effort = factors.to_user(i64::from(output.velocity)) * factors.velocity_sign();
-        let _ = od.set::<i32>(CONTROL_EFFORT, 0, saturate(effort));
+        od.store(self.slots.control_effort, saturate(effort));
         Setpoint::Torque(output.torque)
     }
 
@@ -870,8 +874,8 @@ impl Profile {
             parameters: vl::Parameters::from_od(od),
             resolution: vl::Resolution::from_od(od),
             controlword,
-            halt: StopKind::halt_or_fault(get(od, HALT_OPTION_CODE)).unwrap_or(StopKind::SlowDown),
-            velocity_limit: velocity_limit(od, factors),
+            halt: StopKind::halt_or_fault(od.load(self.slots.halt_option)).unwrap_or(StopKind::SlowDown),
+            velocity_limit: velocity_limit(od, &self.slots, factors),
             actual_velocity: i64::from(sample.velocity),
             dt,
         };
@@ -885,11 +889,11 @@ impl Profile {
     /// Ticks per interpolation period (60C2h) and the SYNC jitter tolerated.
     fn cycle_timing<const B: usize>(&self, od: &Dictionary<B>) -> (u32, u32) {
         let hz = u64::from(self.config.tick_rate.hz());
-        let value = od.get::<u8>(INTERPOLATION_TIME_PERIOD, 1).unwrap_or(1);
-        let index = od.get::<i8>(INTERPOLATION_TIME_PERIOD, 2).unwrap_or(-3);
+        let value = od.load_or(self.slots.interpolation_period_value, 1);
+        let index = od.load_or(self.slots.interpolation_period_index, -3);
         let period_us = period_micros(value, index);
         let period_ticks = ((period_us * hz + 500_000) / 1_000_000).clamp(1, u64::from(u32::MAX)) as u32;
-        let window_us = u64::from(od.get::<u32>(0x1007, 0).unwrap_or(0));
+        let window_us = u64::from(od.load(self.slots.sync_window));
         let window_ticks = (window_us * hz / 1_000_000).min(u64::from(u32::MAX)) as u32;
         (period_ticks, window_ticks.max(period_ticks / 2))
     }
@@ -947,23 +951,23 @@ impl Profile {
         let hz = self.config.tick_rate.hz();
         let (period_ticks, tolerance_ticks) = self.cycle_timing(od);
         let cycle = Cycle { sync: input.cycle.sync, fresh: input.cycle.fresh, period_ticks, tolerance_ticks };
-        let velocity_offset = factors.to_internal(i64::from(get::<B, i32>(od, VELOCITY_OFFSET)));
-        let torque_offset = get::<B, i16>(od, TORQUE_OFFSET);
+        let velocity_offset = factors.to_internal(i64::from(od.load(self.slots.velocity_offset)));
+        let torque_offset = od.load(self.slots.torque_offset);
         // The offsets reach the power stage as feed-forward: within the limits of the demand
         // (DESIGN invariant 2), as the set-point is.
-        let max_torque = i64::from(get::<B, u16>(od, MAX_TORQUE).min(get(od, MAX_CURRENT)));
+        let max_torque = i64::from(od.load(self.slots.max_torque).min(od.load(self.slots.max_current)));
         let torque_feed_forward = i64::from(torque_offset).clamp(-max_torque, max_torque) as i16;
         let bridge: Bridge = self.config.cyclic.bridge;
         let target = match self.active_mode {
             mode::CYCLIC_POSITION => {
-                let user = i64::from(get::<B, i32>(od, TARGET_POSITION))
-                    + i64::from(get::<B, i32>(od, POSITION_OFFSET));
+                let user = i64::from(od.load(self.slots.target_position))
+                    + i64::from(od.load(self.slots.position_offset));
                 factors.to_internal(user * factors.position_sign()).saturating_add(self.origin)
             }
             mode::CYCLIC_VELOCITY => {
-                factors.to_internal(i64::from(get::<B, i32>(od, TARGET_VELOCITY)) * factors.velocity_sign())
+                factors.to_internal(i64::from(od.load(self.slots.target_velocity)) * factors.velocity_sign())
             }
-            _ => i64::from(get::<B, i16>(od, TARGET_TORQUE)),
+            _ => i64::from(od.load(self.slots.target_torque)),
         };
         let stream = self.interpolator.tick(&cycle, target, bridge);
         let lost = stream.missed > u32::from(self.config.cyclic.max_missed_cycles);
@@ -972,7 +976,7 @@ impl Profile {
             report.notices[1] = Some((STREAM_LOST, lost));
             if lost {
                 // As a lost connection (6007h).
-                match get::<B, i16>(od, ABORT_CONNECTION_OPTION_CODE) {
+                match od.load(self.slots.abort_connection) {
                     1 => self.fault = self.fault.or(Some(STREAM_LOST)),
                     2 => self.forced = Some(0x0000),
                     3 => self.forced = Some(0x0002),
@@ -991,20 +995,20 @@ impl Profile {
                 self.cyclic_limited = self.limiter.tick_fixed(self.interpolator.value_fixed(), &input.limits);
                 let trajectory = self.limiter.velocity(hz);
                 // (A limit lowered below the running velocity: the limiter ramps down to it.)
-                let bound = i64::from(velocity_limit(od, factors)).max(trajectory.abs());
+                let bound = i64::from(velocity_limit(od, &self.slots, factors)).max(trajectory.abs());
                 let velocity = trajectory.saturating_add(velocity_offset).clamp(-bound, bound);
                 self.feed_forward = FeedForward { velocity: saturate(velocity), torque: torque_feed_forward };
                 Setpoint::Position(self.limiter.position() as i32)
             }
             mode::CYCLIC_VELOCITY => {
-                let limit = i64::from(velocity_limit(od, factors));
+                let limit = i64::from(velocity_limit(od, &self.slots, factors));
                 let wanted = value.saturating_add(velocity_offset);
                 let clamped = wanted.clamp(-limit, limit);
                 let speeding_up = clamped.abs() > self.velocity.value.abs();
                 let rate = if speeding_up {
-                    factors.limit_to_internal(get(od, MAX_ACCELERATION))
+                    factors.limit_to_internal(od.load(self.slots.max_acceleration))
                 } else {
-                    factors.limit_to_internal(get(od, MAX_DECELERATION))
+                    factors.limit_to_internal(od.load(self.slots.max_deceleration))
                 };
                 self.velocity.toward(clamped, rate, input.dt);
                 self.cyclic_limited = clamped != wanted || self.velocity.value != clamped;
@@ -1012,11 +1016,11 @@ impl Profile {
                 Setpoint::Velocity(saturate(self.velocity.value))
             }
             _ => {
-                let max = i64::from(get::<B, u16>(od, MAX_TORQUE).min(get(od, MAX_CURRENT)));
+                let max = i64::from(od.load(self.slots.max_torque).min(od.load(self.slots.max_current)));
                 let wanted = value.saturating_add(i64::from(torque_offset));
                 let clamped = wanted.clamp(-max, max);
                 if input.halt {
-                    self.torque.toward(0, get(od, TORQUE_SLOPE), input.dt);
+                    self.torque.toward(0, od.load(self.slots.torque_slope), input.dt);
                     // A limit lowered while halting holds at once.
                     self.torque.value = self.torque.value.clamp(-max, max);
                 } else {
@@ -1030,20 +1034,20 @@ impl Profile {
 
     /// Following error (digest §11.2): |6062h − 6064h| > 6065h for longer than 6066h ms.
     fn following_error<const B: usize>(&mut self, od: &Dictionary<B>, error: i64, now: Instant) -> bool {
-        let window: u32 = get(od, FOLLOWING_ERROR_WINDOW);
+        let window: u32 = od.load(self.slots.following_error_window);
         let off = window == u32::MAX || (window == 0 && self.config.zero_following_error_window_off);
         if off || error.unsigned_abs() <= u64::from(window) {
             self.following_error_since = None;
             return false;
         }
         let since = *self.following_error_since.get_or_insert(now);
-        now - since > Duration::from_millis(u64::from(get::<B, u16>(od, FOLLOWING_ERROR_TIME_OUT)))
+        now - since > Duration::from_millis(u64::from(od.load(self.slots.following_error_time_out)))
     }
 
     /// pv bit 13 (max slippage, 60F8h): here the difference between the velocity demand and the
     /// actual velocity, when 60F8h is positive.
     fn slipping<const B: usize>(&self, od: &Dictionary<B>, demand: i64, actual: i64) -> bool {
-        let max: i32 = get(od, MAX_SLIPPAGE);
+        let max: i32 = od.load(self.slots.max_slippage);
         self.active_mode == mode::PROFILE_VELOCITY && max > 0 && (demand - actual).abs() >= i64::from(max)
     }
 
@@ -1056,25 +1060,25 @@ impl Profile {
     ) -> Setpoint {
         match self.active_mode {
             mode::PROFILE_VELOCITY => {
-                let limit = i64::from(velocity_limit(od, factors));
-                let target_user = i64::from(get::<B, i32>(od, TARGET_VELOCITY)) * factors.velocity_sign();
+                let limit = i64::from(velocity_limit(od, &self.slots, factors));
+                let target_user = i64::from(od.load(self.slots.target_velocity)) * factors.velocity_sign();
                 let target = factors.to_internal(target_user).clamp(-limit, limit);
                 let current = self.velocity.value;
                 // Accelerating away from zero uses 6083h, approaching zero 6084h.
                 let accelerating = (target - current).signum() == current.signum() || current == 0;
                 let rate = if accelerating {
-                    get::<B, u32>(od, PROFILE_ACCELERATION).min(get(od, MAX_ACCELERATION))
+                    od.load(self.slots.profile_acceleration).min(od.load(self.slots.max_acceleration))
                 } else {
-                    get::<B, u32>(od, PROFILE_DECELERATION).min(get(od, MAX_DECELERATION))
+                    od.load(self.slots.profile_deceleration).min(od.load(self.slots.max_deceleration))
                 };
                 self.velocity.toward(target, factors.limit_to_internal(rate), dt);
                 Setpoint::Velocity(self.velocity.value as i32)
             }
             mode::PROFILE_TORQUE => {
-                let max = i64::from(get::<B, u16>(od, MAX_TORQUE).min(get(od, MAX_CURRENT)));
+                let max = i64::from(od.load(self.slots.max_torque).min(od.load(self.slots.max_current)));
                 let target =
-                    if halt { 0 } else { i64::from(get::<B, i16>(od, TARGET_TORQUE)).clamp(-max, max) };
-                self.torque.toward(target, get(od, TORQUE_SLOPE), dt);
+                    if halt { 0 } else { i64::from(od.load(self.slots.target_torque)).clamp(-max, max) };
+                self.torque.toward(target, od.load(self.slots.torque_slope), dt);
                 // The slope (6087h) shapes changes of the target; a limit lowered below the
                 // running torque holds at once (DESIGN invariant 2).
                 self.torque.value = self.torque.value.clamp(-max, max);
@@ -1082,7 +1086,8 @@ impl Profile {
             }
             // No mode (or one this build does not run): hold still.
             _ => {
-                let deceleration = get::<B, u32>(od, QUICK_STOP_DECELERATION).min(get(od, MAX_DECELERATION));
+                let deceleration =
+                    od.load(self.slots.quick_stop_deceleration).min(od.load(self.slots.max_deceleration));
                 self.velocity.toward(0, factors.limit_to_internal(deceleration), dt);
                 Setpoint::Velocity(self.velocity.value as i32)
             }
@@ -1146,16 +1151,16 @@ impl Profile {
     fn mode_target_reached<const B: usize>(&mut self, od: &Dictionary<B>, now: Instant) -> bool {
         match self.active_mode {
             mode::PROFILE_VELOCITY => {
-                let target: i32 = get(od, TARGET_VELOCITY);
+                let target: i32 = od.load(self.slots.target_velocity);
                 if target != self.last_target_velocity {
                     self.last_target_velocity = target;
                     self.in_window_since = None;
                 }
-                let actual: i32 = get(od, VELOCITY_ACTUAL_VALUE);
-                let window = i64::from(get::<B, u16>(od, VELOCITY_WINDOW));
+                let actual: i32 = od.load(self.slots.velocity_actual);
+                let window = i64::from(od.load(self.slots.velocity_window));
                 if (i64::from(target) - i64::from(actual)).abs() <= window {
                     let since = *self.in_window_since.get_or_insert(now);
-                    let time = Duration::from_millis(u64::from(get::<B, u16>(od, VELOCITY_WINDOW_TIME)));
+                    let time = Duration::from_millis(u64::from(od.load(self.slots.velocity_window_time)));
                     now - since >= time
                 } else {
                     self.in_window_since = None;
@@ -1163,8 +1168,8 @@ impl Profile {
                 }
             }
             mode::PROFILE_TORQUE => {
-                let max = i64::from(get::<B, u16>(od, MAX_TORQUE).min(get(od, MAX_CURRENT)));
-                self.torque.value == i64::from(get::<B, i16>(od, TARGET_TORQUE)).clamp(-max, max)
+                let max = i64::from(od.load(self.slots.max_torque).min(od.load(self.slots.max_current)));
+                self.torque.value == i64::from(od.load(self.slots.target_torque)).clamp(-max, max)
             }
             _ => false,
         }
@@ -1172,13 +1177,13 @@ impl Profile {
 
     /// pv bit 12: |606Ch| ≤ 606Fh, or above it for no longer than 6070h ms.
     fn speed_is_zero<const B: usize>(&mut self, od: &Dictionary<B>, now: Instant) -> bool {
-        let threshold = i64::from(get::<B, u16>(od, VELOCITY_THRESHOLD));
-        if i64::from(get::<B, i32>(od, VELOCITY_ACTUAL_VALUE)).abs() <= threshold {
+        let threshold = i64::from(od.load(self.slots.velocity_threshold));
+        if i64::from(od.load(self.slots.velocity_actual)).abs() <= threshold {
             self.above_threshold_since = None;
             return true;
         }
         let since = *self.above_threshold_since.get_or_insert(now);
-        now - since <= Duration::from_millis(u64::from(get::<B, u16>(od, VELOCITY_THRESHOLD_TIME)))
+        now - since <= Duration::from_millis(u64::from(od.load(self.slots.velocity_threshold_time)))
     }
 }
 

@@ -221,6 +221,42 @@ macro_rules! scalar {
 }
 scalar!(u8, u16, u32, u64, i8, i16, i32, i64, f32, f64);
 
+/// A numeric entry resolved once, for the device's own per-tick reads and writes: the store
+/// offset of a stored value, so [`Dictionary::load`] and [`Dictionary::store`] are a bounds
+/// check and a byte copy instead of a lookup. A constant, missing or differently sized entry
+/// resolves to a slot that goes through [`Dictionary::get`] / [`Dictionary::set`] (same answer,
+/// full cost).
+///
+/// A slot belongs to the dictionary layout it was resolved in: the tables and their order are
+/// fixed when a dictionary is built, so a slot stays valid for every dictionary built from the
+/// same configuration.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Slot<T> {
+    index: u16,
+    sub: u8,
+    /// Store offset of a stored value of `T::SIZE` bytes; `None`: resolved by lookup.
+    offset: Option<u16>,
+    _value: core::marker::PhantomData<T>,
+}
+
+impl<T: Scalar> Slot<T> {
+    /// A slot that resolves `index`/`sub` on every access (the cost of [`Dictionary::get`]);
+    /// the placeholder before [`Dictionary::slot`] resolved it.
+    pub const fn lookup(index: u16, sub: u8) -> Self {
+        Slot { index, sub, offset: None, _value: core::marker::PhantomData }
+    }
+
+    /// Index of the entry.
+    pub fn index(&self) -> u16 {
+        self.index
+    }
+
+    /// Whether the slot reaches a stored value directly (no lookup per access).
+    pub fn is_stored(&self) -> bool {
+        self.offset.is_some()
+    }
+}
+
 /// The object dictionary: description tables plus a value store of `BYTES` bytes.
 pub struct Dictionary<const BYTES: usize> {
     tables: [&'static [Object]; MAX_TABLES],
@@ -520,6 +556,52 @@ impl<const BYTES: usize> Dictionary<BYTES> {
             self.commit(&entry, bytes);
         }
         Ok(())
+    }
+
+    /// Resolves a numeric entry for [`load`](Self::load) / [`store`](Self::store).
+    pub fn slot<T: Scalar>(&self, index: u16, sub: u8) -> Slot<T> {
+        let offset = self
+            .entry(index, sub)
+            .ok()
+            .filter(|e| !e.var.is_fixed() && e.var.data_type.fixed_size() == Some(T::SIZE))
+            .map(|e| e.offset);
+        Slot { offset, ..Slot::lookup(index, sub) }
+    }
+
+    /// The value behind `slot`: what [`get`](Self::get) answers, or `T`'s default when the
+    /// entry is missing or differently sized.
+    #[inline]
+    pub fn load<T: Scalar + Default>(&self, slot: Slot<T>) -> T {
+        self.load_or(slot, T::default())
+    }
+
+    /// The value behind `slot`, or `missing` when the entry is missing or differently sized.
+    #[inline]
+    pub fn load_or<T: Scalar>(&self, slot: Slot<T>, missing: T) -> T {
+        match slot.offset {
+            Some(offset) => {
+                let start = usize::from(offset);
+                self.store.get(start..start + T::SIZE).map_or(missing, T::from_le)
+            }
+            None => self.get::<T>(slot.index, slot.sub).unwrap_or(missing),
+        }
+    }
+
+    /// Writes the value behind `slot` as [`set`](Self::set) does (a missing, constant or
+    /// differently sized entry is left alone).
+    #[inline]
+    pub fn store<T: Scalar>(&mut self, slot: Slot<T>, value: T) {
+        match slot.offset {
+            Some(offset) => {
+                let start = usize::from(offset);
+                if let Some(bytes) = self.store.get_mut(start..start + T::SIZE) {
+                    value.to_le(bytes);
+                }
+            }
+            None => {
+                let _ = self.set::<T>(slot.index, slot.sub, value);
+            }
+        }
     }
 
     /// Sets every stored value of the objects in `range` back to its default.
