@@ -102,14 +102,12 @@ pub fn run<S: Persistence>(
         let wake = deadline.map_or(next_tick, |d| d.min(next_tick));
         let timeout = StdDuration::from_micros(wake.saturating_since(now).as_micros());
         match frames.recv_timeout(timeout) {
+            // One frame per turn: the firmware's reaction to a write (below) lands before the
+            // next request is served, however fast the master asks again (recv_timeout returns
+            // at once while frames are queued, so a burst is still taken without sleeping).
             Ok(frame) => {
                 drive.on_frame(&frame, clock.now());
                 transmit(&mut drive, bus);
-                // Whatever else has arrived meanwhile, without sleeping in between.
-                while let Ok(frame) = frames.try_recv() {
-                    drive.on_frame(&frame, clock.now());
-                    transmit(&mut drive, bus);
-                }
             }
             Err(RecvTimeoutError::Timeout) => {}
             // The bus keeps a sender as long as it exists; without it nothing can arrive.
