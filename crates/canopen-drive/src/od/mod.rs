@@ -204,10 +204,14 @@ macro_rules! scalar {
         impl Scalar for $t {
             const SIZE: usize = core::mem::size_of::<$t>();
             fn from_le(bytes: &[u8]) -> Self {
-                let mut raw = [0u8; core::mem::size_of::<$t>()];
-                let n = raw.len().min(bytes.len());
-                if let (Some(d), Some(s)) = (raw.get_mut(..n), bytes.get(..n)) {
-                    d.copy_from_slice(s);
+                const N: usize = core::mem::size_of::<$t>();
+                // The common case, a value of exactly its size: a fixed-size copy.
+                if let Some(exact) = bytes.get(..N).and_then(|b| <[u8; N]>::try_from(b).ok()) {
+                    return <$t>::from_le_bytes(exact);
+                }
+                let mut raw = [0u8; N];
+                for (d, s) in raw.iter_mut().zip(bytes) {
+                    *d = *s;
                 }
                 <$t>::from_le_bytes(raw)
             }
@@ -537,6 +541,9 @@ impl<const BYTES: usize> Dictionary<BYTES> {
         let entry = self.entry(index, sub)?;
         if entry.var.data_type.fixed_size() != Some(T::SIZE) {
             return Err(AbortCode::LengthMismatch);
+        }
+        if let Some(bytes) = self.stored(&entry) {
+            return Ok(T::from_le(bytes));
         }
         let mut raw = [0u8; 8];
         let n = self.read(&entry, 0, &mut raw);
