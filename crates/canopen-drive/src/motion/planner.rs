@@ -60,7 +60,7 @@ impl PositionPlanner {
     /// Drops any plan and holds still at `position` (e.g. the actual position when the drive
     /// enters Operation enabled).
     pub fn reset(&mut self, position: i64) {
-        self.trajectory = Trajectory::at_rest(i128::from(position) << FRAC);
+        self.trajectory.hold(i128::from(position) << FRAC);
         self.target = position;
         self.closing_error = 0;
         self.method = Method::Shape;

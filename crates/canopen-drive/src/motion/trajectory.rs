@@ -127,6 +127,24 @@ impl Trajectory {
         }
     }
 
+    /// Holds still at `p`, as [`Self::at_rest`] builds it, without rewriting the segment
+    /// table (only the first `len` segments are ever read, and `len` becomes 0): the cheap
+    /// reset a drive makes on every tick while its power stage is off.
+    pub(crate) fn hold(&mut self, p: i128) {
+        let now = Exact { p, v: 0, a: 0 };
+        self.len = 0;
+        self.next = 0;
+        self.now = now;
+        self.jerk = 0;
+        self.jerk_half = 0;
+        self.jerk_sixth = 0;
+        self.late_jerk6 = 0;
+        self.switch_at = 0;
+        self.left = 0;
+        self.remaining = 0;
+        self.end = now;
+    }
+
     /// Starts executing the first `len` of `segments`, then holds `end` (the fitted end with
     /// the position and velocity set exactly to the plan's target).
     pub(crate) fn start(&mut self, segments: &[Segment; MAX_SEGMENTS], len: usize, end: Exact) {

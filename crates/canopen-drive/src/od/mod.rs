@@ -216,8 +216,14 @@ macro_rules! scalar {
                 <$t>::from_le_bytes(raw)
             }
             fn to_le(self, out: &mut [u8]) {
-                for (d, s) in out.iter_mut().zip(self.to_le_bytes()) {
-                    *d = s;
+                let bytes = self.to_le_bytes();
+                match <&mut [u8; core::mem::size_of::<$t>()]>::try_from(&mut *out) {
+                    Ok(exact) => *exact = bytes,
+                    Err(_) => {
+                        for (d, s) in out.iter_mut().zip(bytes) {
+                            *d = s;
+                        }
+                    }
                 }
             }
         }
