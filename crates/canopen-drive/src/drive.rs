@@ -819,6 +819,9 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
 
     /// Offers a frame to the RPDOs; true when one of them took it.
     fn rpdo_received(&mut self, id: u16, data: &[u8], now: Instant) -> bool {
+        if !self.pdos.is_rpdo(id) {
+            return false;
+        }
         // Synchronous RPDOs arriving after the synchronous window are discarded (digest §7).
         let window = u64::from(self.od.load(self.slots.synchronous_window_length));
         let late = window != 0 && self.sync.last().is_some_and(|at| now - at > Duration::from_micros(window));
