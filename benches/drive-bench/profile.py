@@ -1,0 +1,123 @@
+#!/usr/bin/env python3
+"""Where the instructions of one measurement go, per function (self cost, inlined code counted
+in the function it was inlined into), per call.
+
+    benches/drive-bench/profile.py <measurement> [--top K] [--m4]
+
+x86-64 (default): reads the callgrind dumps scripts/bench.sh leaves in
+$CARGO_TARGET_DIR/results/callgrind (default target/drive-bench). --m4: runs the firmware that
+scripts/bench.sh built in QEMU with tools/qemu-blockcount.c (built here) and maps the blocks to
+the firmware's symbols with llvm-nm (`rustup component add llvm-tools`). Either way it prints
+(measured(2n) − base(2n)) / 2n per function: the copies of the drive cancel out.
+"""
+
+import argparse
+import bisect
+import collections
+import glob
+import os
+import re
+import subprocess
+import sys
+
+REPETITIONS = 10
+
+
+def self_costs(path):
+    """Self cost per function name of one callgrind dump (uncompressed names)."""
+    costs = collections.Counter()
+    function, skip_next = None, False
+    with open(path) as f:
+        for line in f:
+            if line.startswith("fn="):
+                function = line[3:].strip()
+            elif line.startswith("calls="):
+                skip_next = True  # the next cost line is the inclusive cost of the call
+            elif line[:1].isdigit() or line[:1] in "+-*":
+                if skip_next:
+                    skip_next = False
+                    continue
+                fields = line.split()
+                if function is not None and len(fields) >= 2:
+                    costs[function] += int(fields[1])
+    return costs
+
+
+def readable(symbol):
+    """A Rust legacy symbol as llvm-nm -C leaves it, without hash and escapes."""
+    symbol = re.sub(r"::h[0-9a-f]{16}$", "", symbol)
+    if symbol.startswith("_$"):
+        symbol = symbol[1:]
+    for escape, text in (("$LT$", "<"), ("$GT$", ">"), ("$C$", ","), ("$u20$", " "), ("$RF$", "&"), ("..", "::")):
+        symbol = symbol.replace(escape, text)
+    return symbol
+
+
+def block_costs(firmware, plugin, name, mode, reps, out):
+    """Instructions per function of one QEMU run (self cost: a block counts for the function it
+    starts in)."""
+    subprocess.run(
+        ["qemu-system-arm", "-machine", "mps2-an386", "-cpu", "cortex-m4", "-nographic",
+         "-semihosting-config", f"enable=on,target=native,arg=drive-bench,arg={name},arg={reps},arg={mode}",
+         "-kernel", firmware, "-plugin", f"{plugin},out={out}", "-d", "plugin"],
+        check=True, capture_output=True, timeout=300,
+    )
+    nm = sorted(glob.glob(os.path.expanduser("~/.rustup/toolchains/*/lib/rustlib/*/bin/llvm-nm")))
+    if not nm:
+        sys.exit("llvm-nm not found: rustup component add llvm-tools")
+    symbols = []
+    listing = subprocess.run([nm[-1], "-n", "-C", "--defined-only", firmware],
+                             check=True, capture_output=True, text=True).stdout
+    for line in listing.splitlines():
+        fields = line.split(" ", 2)
+        if len(fields) == 3 and fields[1] in "tT":
+            symbols.append((int(fields[0], 16) & ~1, readable(fields[2])))
+    starts = [address for address, _ in symbols]
+    costs = collections.Counter()
+    with open(out) as f:
+        for line in f:
+            pc, insns, executions = line.split()
+            index = bisect.bisect_right(starts, int(pc, 16)) - 1
+            function = symbols[index][1] if index >= 0 else "?"
+            costs[function] += int(insns) * int(executions)
+    return costs
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("measurement")
+    parser.add_argument("--top", type=int, default=10)
+    parser.add_argument("--m4", action="store_true")
+    args = parser.parse_args()
+    name, n = args.measurement, REPETITIONS
+    here = os.path.dirname(os.path.abspath(__file__))
+    root = os.path.dirname(os.path.dirname(here))
+    target = os.environ.get("CARGO_TARGET_DIR", os.path.join(root, "target", "drive-bench"))
+    if args.m4:
+        plugin = os.path.join(target, "libblockcount.so")
+        source = os.path.join(here, "tools", "qemu-blockcount.c")
+        if not os.path.exists(plugin) or os.path.getmtime(source) > os.path.getmtime(plugin):
+            subprocess.run(["gcc", "-O2", "-shared", "-fPIC", "-fvisibility=hidden", "-o", plugin, source],
+                           check=True)
+        firmware = os.path.join(target, "thumbv7em-none-eabihf", "release", "drive-bench")
+        out = os.path.join(target, "results", f"{name}.blocks")
+        measured = block_costs(firmware, plugin, name, "measured", 2 * n, out)
+        base = block_costs(firmware, plugin, name, "base", 2 * n, out)
+        unit = "Cortex-M4"
+    else:
+        dumps = os.path.join(target, "results", "callgrind")
+        measured = self_costs(os.path.join(dumps, f"{name}.measured.{2 * n}.out"))
+        base = self_costs(os.path.join(dumps, f"{name}.base.{2 * n}.out"))
+        unit = "x86-64"
+    difference = {f: measured[f] - base.get(f, 0) for f in measured}
+    total = sum(difference.values())
+    print(f"{name}: {total / (2 * n):.0f} {unit} instructions per call")
+    for function, cost in sorted(difference.items(), key=lambda item: -item[1])[: args.top]:
+        if cost <= 0:
+            break
+        print(f"{cost / (2 * n):9.1f}  {100 * cost / total:5.1f} %  {function}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,184 @@
+#!/usr/bin/env python3
+"""The table of scripts/bench.sh: instructions per call from the raw counts, budgets, goals.
+
+    report.py --labels L --m4 M --x86 X --repetitions N --budgets B --out FILE [--update [--force]]
+
+L: `name<TAB>label` per measurement (the host binary's `list`). M, X: `name base(n) base(2n)
+measured(n) measured(2n)` per measurement (total instructions of the four runs). Writes the Markdown
+page to FILE and prints the table. With --update, rewrites the budgets of B to measured + 5 %
+(rounded up), lowering them only, unless --force. Exit status 1 when a Cortex-M4 count exceeds
+its budget, a measurement has no budget, or repetitions were not identical.
+"""
+
+import argparse
+import math
+import re
+import sys
+
+MARGIN_PERCENT = 5
+
+
+def per_call(raw, n):
+    """One call from the four counts; None when the repetitions were not identical."""
+    base_n, base_2n, measured_n, measured_2n = raw
+    difference = (measured_2n - measured_n) - (base_2n - base_n)
+    if difference % n:
+        return None
+    return difference // n
+
+
+def read_counts(path, n):
+    counts = {}
+    with open(path) as f:
+        for line in f:
+            fields = line.split()
+            if fields:
+                counts[fields[0]] = per_call([int(v) for v in fields[1:5]], n)
+    return counts
+
+
+def read_budgets(path):
+    """{name: (budget or None, goal text)} and the comment lines at the top."""
+    budgets, header = {}, []
+    with open(path) as f:
+        for line in f:
+            if line.startswith("#") or not line.strip():
+                if not budgets:
+                    header.append(line.rstrip("\n"))
+                continue
+            name, budget, goal = line.split()[:3]
+            budgets[name] = (None if budget == "-" else int(budget), goal)
+    return budgets, header
+
+
+def with_margin(count):
+    return math.ceil(count * (100 + MARGIN_PERCENT) / 100)
+
+
+def dictionary_objects(label):
+    match = re.search(r"\((\d+) objects", label)
+    return int(match.group(1)) if match else None
+
+
+def goal_of(name, goal, m4, labels):
+    """The goal as a number (or None). "log": at most the small dictionary's count of the same
+    look-up times log2(objects) / log2(objects of the small dictionary)."""
+    if goal == "-":
+        return None
+    if goal != "log":
+        return int(goal)
+    reference = re.sub(r"^od-(small|medium|large)-", "od-small-", name)
+    if reference == name or m4.get(reference) is None:
+        return None
+    objects, small = dictionary_objects(labels[name]), dictionary_objects(labels[reference])
+    if not objects or not small:
+        return None
+    return math.ceil(m4[reference] * math.log2(objects) / math.log2(small))
+
+
+def main():
+    parser = argparse.ArgumentParser()
+    for option in ("--labels", "--m4", "--x86", "--budgets", "--out"):
+        parser.add_argument(option, required=True)
+    parser.add_argument("--repetitions", type=int, required=True)
+    parser.add_argument("--update", action="store_true")
+    parser.add_argument("--force", action="store_true")
+    args = parser.parse_args()
+
+    labels = {}
+    with open(args.labels) as f:
+        for line in f:
+            name, label = line.rstrip("\n").split("\t", 1)
+            labels[name] = label
+    m4 = read_counts(args.m4, args.repetitions)
+    x86 = read_counts(args.x86, args.repetitions)
+    budgets, header = read_budgets(args.budgets)
+    failed = False
+
+    for name in labels:
+        for target, counts in (("Cortex-M4", m4), ("x86-64", x86)):
+            if counts.get(name) is None:
+                print(f"{name}: {target} repetitions were not identical (or not measured)", file=sys.stderr)
+                failed = True
+
+    if args.update:
+        updated = {}
+        for name in labels:
+            old, goal = budgets.get(name, (None, "-"))
+            fresh = with_margin(m4[name]) if m4.get(name) is not None else old
+            if old is not None and fresh is not None and not args.force:
+                fresh = min(old, fresh)
+            updated[name] = (fresh, goal)
+        budgets = updated
+        with open(args.budgets, "w") as f:
+            for line in header:
+                f.write(line + "\n")
+            width = max(len(name) for name in budgets)
+            for name, (budget, goal) in budgets.items():
+                f.write(f"{name:<{width}}  {'-' if budget is None else budget:>8}  {goal}\n")
+
+    rows, goals, goals_met = [], 0, 0
+    for name, label in labels.items():
+        count = m4.get(name)
+        budget, goal_text = budgets.get(name, (None, "-"))
+        goal = goal_of(name, goal_text, m4, labels)
+        status = []
+        if budget is None:
+            status.append("**no budget**")
+            failed = True
+        elif count is None or count > budget:
+            status.append("**over budget**")
+            failed = True
+        if goal is not None and count is not None:
+            goals += 1
+            if count <= goal:
+                goals_met += 1
+                status.append("goal met")
+            else:
+                status.append(f"goal missed (×{count / goal:.1f})")
+        if not status:
+            status.append("within budget")
+        goal_cell = "-" if goal is None else (f"{goal} (log)" if goal_text == "log" else str(goal))
+        cells = [
+            label,
+            "?" if count is None else str(count),
+            "?" if x86.get(name) is None else str(x86[name]),
+            "-" if budget is None else str(budget),
+            goal_cell,
+            ", ".join(status),
+        ]
+        rows.append("| " + " | ".join(cells) + " |")
+
+    table = [
+        "| measurement | Cortex-M4 instructions | x86-64 instructions | budget (M4) | goal (M4) | status |",
+        "|---|---:|---:|---:|---:|---|",
+        *rows,
+    ]
+    page = [
+        "# Benchmarks",
+        "",
+        "Instructions per call of canopen-drive's entry points, written by `scripts/bench.sh` (do not",
+        "edit by hand; `scripts/bench.sh --check` fails when this page differs from a fresh run).",
+        "Method and scenarios: [benches/drive-bench/README.md](benches/drive-bench/README.md).",
+        "",
+        *table,
+        "",
+        f"Goals met: {goals_met} of {goals}.",
+        "",
+        "- Cortex-M4: thumbv7em-none-eabihf, opt-level \"s\", LTO, counted by the QEMU plugin",
+        "  (`qemu-system-arm -machine mps2-an386`). x86-64: the same profile, callgrind's `Ir`.",
+        "- Budgets ([benches/drive-bench/budgets.txt](benches/drive-bench/budgets.txt)): the Cortex-M4",
+        f"  count + {MARGIN_PERCENT} % when last set; a count above its budget fails the script.",
+        "- Goals: issue 8. \"(log)\": a look-up may grow at most logarithmically with the dictionary:",
+        "  at 2000 objects it costs at most the small dictionary's count × log₂(2000) / log₂(objects of",
+        "  the small one).",
+    ]
+    with open(args.out, "w") as f:
+        f.write("\n".join(page) + "\n")
+    print("\n".join(table))
+    print(f"\nGoals met: {goals_met} of {goals}.")
+    return 1 if failed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,191 @@
+//! # drive-bench: instruction counts of canopen-drive's entry points
+//!
+//! The scenarios of the benchmark (issue 8), shared by its two back-ends:
+//!
+//! - the host binary (x86-64), run under `valgrind --tool=callgrind`;
+//! - the firmware (Cortex-M4F, thumbv7em-none-eabihf), run in `qemu-system-arm -machine
+//!   mps2-an386` with the instruction-counting plugin.
+//!
+//! Each [`Measurement`] prepares a drive in a given state through the public API (SDO writes,
+//! NMT commands, RPDOs, SYNCs and ticks against a simulated [`axis::Axis`]), checks that the state
+//! is the one it claims (Operation enabled, moving, the expected reply, …), and then
+//! [`run_repetitions`] repeats the measured operation `n` times.
+//!
+//! ## Method: copy, then operate; minus copy only
+//!
+//! Every repetition first copies the prepared drive into a scratch slot ([`Scratch`]) and then
+//! makes the measured call on the copy, so every repetition starts from exactly the same state.
+//! The *base* mode of the same measurement makes the same copies without the call. Each mode is
+//! counted with `n` and with `2n` repetitions, and one call costs
+//!
+//! ```text
+//! ((measured(2n) − measured(n)) − (base(2n) − base(n))) / n
+//! ```
+//!
+//! instructions, callees included: start-up, set-up, the harness and the loop's entry and exit
+//! cancel out, and the difference must divide exactly by `n` (identical repetitions), which the
+//! script checks. Object dictionary look-ups do not change the drive and need no copy.
+#![no_std]
+#![deny(missing_docs)]
+
+use core::hint::black_box;
+use core::mem::MaybeUninit;
+
+use canopen_drive::hal::Sample;
+use canopen_drive::{CanFrame, Drive, Instant};
+
+pub mod axis;
+pub mod objects;
+pub mod rig;
+mod scenarios;
+
+pub use rig::{BenchDrive, SetupError};
+
+/// Size of the value store of the look-up drives (the large dictionary needs more than the
+/// default).
+pub const LOOKUP_BYTES: usize = 6144;
+
+/// A drive with a large value store, for the look-up measurements.
+pub type LookupDrive = Drive<(), LOOKUP_BYTES, 4, 4>;
+
+/// One measurement: its name (command line, budgets), what it measures, how it is prepared.
+pub struct Measurement {
+    /// Short name, `[a-z0-9-]`.
+    pub name: &'static str,
+    /// What is measured, for the table.
+    pub label: &'static str,
+    /// Builds the prepared state.
+    pub prepare: fn() -> Result<Prepared, SetupError>,
+}
+
+/// The state a measurement starts every repetition from, and the operation.
+// One value per run, never moved while measured: the size difference does not matter.
+#[allow(clippy::large_enum_variant)]
+pub enum Prepared {
+    /// `drive.tick(now, &sample)`.
+    Tick {
+        /// The drive before the tick.
+        drive: BenchDrive,
+        /// The time of the tick.
+        now: Instant,
+        /// The feedback of the tick.
+        sample: Sample,
+    },
+    /// `drive.on_frame(&frame, now)`, then `pop_tx` until the queue is empty.
+    Frame {
+        /// The drive before the frame.
+        drive: BenchDrive,
+        /// The received frame.
+        frame: CanFrame,
+        /// The time of reception.
+        now: Instant,
+    },
+    /// `drive.od().entry(index, sub)`.
+    Lookup {
+        /// The drive whose dictionary is searched.
+        drive: LookupDrive,
+        /// Index looked up.
+        index: u16,
+        /// Sub-index looked up.
+        sub: u8,
+    },
+}
+
+/// Room for one copy of a [`BenchDrive`].
+pub struct Scratch {
+    slot: MaybeUninit<BenchDrive>,
+}
+
+impl Scratch {
+    /// An empty slot.
+    pub const fn new() -> Self {
+        Scratch { slot: MaybeUninit::uninit() }
+    }
+
+    /// Overwrites the slot with a byte copy of `drive` and returns the copy.
+    ///
+    /// `Drive` is not `Clone`. A `Drive<(), _, _, _, ()>` of this `no_std`, allocation-free crate
+    /// holds values inline (arrays, integers, heapless queues of `Copy` frames) and shared
+    /// `&'static` tables: no heap, no `&mut`, no pointer into itself. Its bytes are therefore a
+    /// second, independent drive. Copies are never dropped (the slot is `MaybeUninit`): their
+    /// destructors (heapless containers have one, for their elements; frames need none) are
+    /// simply not run, which leaks nothing here.
+    #[inline(always)]
+    #[allow(unsafe_code)]
+    pub fn copy_of(&mut self, drive: &BenchDrive) -> &mut BenchDrive {
+        let slot = self.slot.as_mut_ptr();
+        // SAFETY: `slot` is valid for one `BenchDrive` and does not overlap `drive` (it is
+        // owned by `self`, borrowed mutably here); the bytes of a plain-data value are a valid
+        // value of its type; the returned borrow keeps `self` borrowed for as long as it lives.
+        unsafe {
+            core::ptr::copy_nonoverlapping(drive, slot, 1);
+            &mut *slot
+        }
+    }
+}
+
+impl Default for Scratch {
+    fn default() -> Self {
+        Scratch::new()
+    }
+}
+
+/// Repeats the operation of `prepared` `n` times on fresh copies of its drive (`measured`), or
+/// only makes the copies (the base run). The benchmark counts the instructions of this function,
+/// callees included.
+#[inline(never)]
+pub fn run_repetitions(prepared: &Prepared, scratch: &mut Scratch, n: u32, measured: bool) {
+    match prepared {
+        Prepared::Tick { drive, now, sample } => {
+            for _ in 0..n {
+                let copy = scratch.copy_of(black_box(drive));
+                if measured {
+                    black_box(copy.tick(*now, sample));
+                }
+                black_box(copy);
+            }
+        }
+        Prepared::Frame { drive, frame, now } => {
+            for _ in 0..n {
+                let copy = scratch.copy_of(black_box(drive));
+                if measured {
+                    copy.on_frame(frame, *now);
+                    while let Some(reply) = copy.pop_tx() {
+                        black_box(reply);
+                    }
+                }
+                black_box(copy);
+            }
+        }
+        Prepared::Lookup { drive, index, sub } => {
+            for _ in 0..n {
+                if measured {
+                    let _ = black_box(drive.od().entry(black_box(*index), black_box(*sub)));
+                }
+                black_box(drive);
+            }
+        }
+    }
+}
+
+/// Every measurement, in table order.
+pub static MEASUREMENTS: &[Measurement] = scenarios::ALL;
+
+/// The measurement called `name`.
+pub fn measurement(name: &str) -> Option<&'static Measurement> {
+    MEASUREMENTS.iter().find(|m| m.name == name)
+}
+
+/// Objects and entries (sub-indices) of the dictionary of a look-up measurement's drive.
+pub fn dictionary_size(prepared: &Prepared) -> Option<(usize, usize)> {
+    match prepared {
+        Prepared::Lookup { drive, .. } => {
+            let objects = drive.od().objects();
+            Some(objects.fold((0, 0), |(o, e), object| {
+                let entries = (0..=object.highest_sub()).filter(|&s| object.sub(s).is_some()).count();
+                (o + 1, e + entries)
+            }))
+        }
+        _ => None,
+    }
+}

@@ -1,0 +1,454 @@
+//! The measurements: how each prepared state is reached, and the checks that it is the state
+//! the label claims.
+
+use canopen_drive::cia402::fsa::State;
+use canopen_drive::hal::Setpoint;
+use canopen_drive::od::AbortCode;
+use canopen_drive::wire::nmt::NmtState;
+use canopen_drive::{CanFrame, Config};
+use embedded_can::Frame as _;
+
+use crate::objects::{self, FILLER_BASE, PDO_BYTES, TEXT};
+use crate::rig::{Rig, SetupError, NODE_ID, SDO_TX, SYNC};
+use crate::{LookupDrive, Measurement, Prepared, Scratch};
+
+const fn m(
+    name: &'static str,
+    label: &'static str,
+    prepare: fn() -> Result<Prepared, SetupError>,
+) -> Measurement {
+    Measurement { name, label, prepare }
+}
+
+pub(crate) static ALL: &[Measurement] = &[
+    m("tick-idle", "tick: idle (Switch on disabled, NMT Operational, default PDOs)", tick_idle),
+    m("tick-pp-trapezoid", "tick: pp moving, trapezoid (accelerating)", tick_pp_trapezoid),
+    m("tick-pp-s-curve", "tick: pp moving, S-curve (jerk phase)", tick_pp_s_curve),
+    m("tick-pv", "tick: pv ramping", tick_pv),
+    m("tick-tq", "tick: tq ramping (torque slope)", tick_tq),
+    m("tick-hm", "tick: hm searching (method 17)", tick_hm),
+    m("tick-csp-sync", "tick: csp + cascade, SYNC tick (RPDO applied)", tick_csp_sync),
+    m("tick-csp", "tick: csp + cascade, interpolating", tick_csp),
+    m("tick-csv-sync", "tick: csv + cascade, SYNC tick (RPDO applied)", tick_csv_sync),
+    m("tick-csv", "tick: csv + cascade, interpolating", tick_csv),
+    m("tick-cst-sync", "tick: cst, SYNC tick (RPDO applied)", tick_cst_sync),
+    m("tick-cst", "tick: cst, interpolating", tick_cst),
+    m("sdo-upload", "on_frame + pop_tx: SDO expedited upload (6041h)", sdo_upload),
+    m("sdo-download", "on_frame + pop_tx: SDO expedited download (6081h)", sdo_download),
+    m("sdo-segment", "on_frame + pop_tx: SDO segmented upload, one segment (1008h)", sdo_segment),
+    m("sdo-block-segment", "on_frame: SDO block download, one sub-block segment", sdo_block_segment),
+    m("rpdo-1", "on_frame: RPDO, 1 mapped entry (6040h)", rpdo_1),
+    m("rpdo-4", "on_frame: RPDO, 4 mapped entries", rpdo_4),
+    m("rpdo-8", "on_frame: RPDO, 8 mapped entries", rpdo_8),
+    m("nmt-start", "on_frame: NMT start remote node (from Pre-operational)", nmt_start),
+    m("heartbeat", "on_frame: consumed heartbeat", heartbeat),
+    m("other-node", "on_frame: SDO request to another node", other_node),
+    m("sync-4-tpdos", "on_frame + pop_tx: SYNC, 4 TPDOs x 4 entries", sync_4_tpdos),
+    m("od-small-hit-6041", "OD lookup: hit 6041h, small dictionary", od_small_hit_6041),
+    m("od-small-hit", "OD lookup: hit manufacturer object, small dictionary", od_small_hit),
+    m("od-small-miss", "OD lookup: miss, small dictionary", od_small_miss),
+    m("od-medium-hit-6041", "OD lookup: hit 6041h, medium dictionary", od_medium_hit_6041),
+    m("od-medium-hit", "OD lookup: hit manufacturer object, medium dictionary", od_medium_hit),
+    m("od-medium-miss", "OD lookup: miss, medium dictionary", od_medium_miss),
+    m("od-large-hit-6041", "OD lookup: hit 6041h, large dictionary", od_large_hit_6041),
+    m("od-large-hit", "OD lookup: hit manufacturer object, large dictionary", od_large_hit),
+    m("od-large-miss", "OD lookup: miss, large dictionary", od_large_miss),
+];
+
+fn check(condition: bool, what: &'static str) -> Result<(), SetupError> {
+    if condition {
+        Ok(())
+    } else {
+        Err(SetupError::Unexpected(what))
+    }
+}
+
+fn frame(id: u16, data: &[u8]) -> Result<CanFrame, SetupError> {
+    CanFrame::new_standard(id, data).ok_or(SetupError::Unexpected("bad frame"))
+}
+
+fn tick_state(rig: Rig) -> Prepared {
+    let sample = rig.sample();
+    Prepared::Tick { drive: rig.drive, now: rig.now, sample }
+}
+
+/// The frames the measured operation sends (tried once on a copy).
+struct Trial {
+    frames: usize,
+    first: Option<CanFrame>,
+}
+
+// --- Ticks --------------------------------------------------------------------------------
+
+/// A booted drive at 1 kHz, NMT Operational, Switch on disabled.
+fn operational(cascade: bool) -> Result<Rig, SetupError> {
+    let mut rig = Rig::new(1000, cascade)?;
+    rig.nmt(0x01)?;
+    rig.run(10);
+    check(rig.drive.nmt_state() == NmtState::Operational, "NMT Operational")?;
+    Ok(rig)
+}
+
+fn tick_idle() -> Result<Prepared, SetupError> {
+    let rig = operational(false)?;
+    check(rig.drive.state() == State::SwitchOnDisabled, "Switch on disabled")?;
+    Ok(tick_state(rig))
+}
+
+/// pp from 0 towards 1 000 000 increments at 100 000 increments/s, 500 000 increments/s²;
+/// 25 ms after the start (the S-curve, with a jerk of 10⁷ increments/s³, in its first jerk
+/// phase of 50 ms).
+fn pp_moving(s_curve: bool) -> Result<Prepared, SetupError> {
+    let mut rig = operational(false)?;
+    rig.write(0x6081, 0, &100_000u32.to_le_bytes())?;
+    rig.write(0x6083, 0, &500_000u32.to_le_bytes())?;
+    rig.write(0x6084, 0, &500_000u32.to_le_bytes())?;
+    rig.write(0x60C5, 0, &u32::MAX.to_le_bytes())?;
+    rig.write(0x60C6, 0, &u32::MAX.to_le_bytes())?;
+    if s_curve {
+        rig.write(0x6086, 0, &3i16.to_le_bytes())?;
+        rig.write(0x60A4, 1, &10_000_000u32.to_le_bytes())?;
+    }
+    rig.enable(1)?;
+    rig.write(0x607A, 0, &1_000_000i32.to_le_bytes())?;
+    rig.write(0x6040, 0, &0x001Fu16.to_le_bytes())?;
+    rig.run(1);
+    rig.write(0x6040, 0, &0x000Fu16.to_le_bytes())?;
+    rig.run(24);
+    let velocity = rig.read(0x606B, 0)? as i32;
+    check(velocity > 0 && velocity < 100_000, "pp accelerating")?;
+    check(rig.statusword()? & 0x0400 == 0, "pp target not reached")?;
+    Ok(tick_state(rig))
+}
+
+fn tick_pp_trapezoid() -> Result<Prepared, SetupError> {
+    pp_moving(false)
+}
+
+fn tick_pp_s_curve() -> Result<Prepared, SetupError> {
+    pp_moving(true)
+}
+
+fn tick_pv() -> Result<Prepared, SetupError> {
+    let mut rig = operational(false)?;
+    rig.write(0x6083, 0, &500_000u32.to_le_bytes())?;
+    rig.write(0x6084, 0, &500_000u32.to_le_bytes())?;
+    rig.enable(3)?;
+    rig.write(0x60FF, 0, &100_000i32.to_le_bytes())?;
+    rig.run(25);
+    let velocity = rig.read(0x606B, 0)? as i32;
+    check(velocity > 0 && velocity < 100_000, "pv ramping")?;
+    Ok(tick_state(rig))
+}
+
+fn tick_tq() -> Result<Prepared, SetupError> {
+    let mut rig = operational(false)?;
+    rig.enable(4)?;
+    rig.write(0x6087, 0, &1000u32.to_le_bytes())?;
+    rig.write(0x6071, 0, &500i16.to_le_bytes())?;
+    rig.run(25);
+    let torque = match rig.demand.setpoint {
+        Setpoint::Torque(t) => t,
+        _ => 0,
+    };
+    check(torque > 0 && torque < 500, "tq ramping")?;
+    Ok(tick_state(rig))
+}
+
+/// Homing on the negative limit switch (method 17), which the axis never reaches.
+fn tick_hm() -> Result<Prepared, SetupError> {
+    let mut rig = operational(false)?;
+    rig.write(0x6099, 1, &5000u32.to_le_bytes())?;
+    rig.write(0x6099, 2, &400u32.to_le_bytes())?;
+    rig.write(0x609A, 0, &50_000u32.to_le_bytes())?;
+    rig.write(0x6098, 0, &17i8.to_le_bytes())?;
+    rig.enable(6)?;
+    rig.write(0x6040, 0, &0x001Fu16.to_le_bytes())?;
+    rig.run(25);
+    check(rig.statusword()? & 0x3400 == 0, "homing in progress")?;
+    check(rig.read(0x606B, 0)? as i32 != 0, "homing moving")?;
+    Ok(tick_state(rig))
+}
+
+/// Which cyclic mode, and the snapshot taken.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Cyclic {
+    Csp,
+    Csv,
+    Cst,
+}
+
+/// A cyclic synchronous stream as a master sends it: RPDO1 = controlword + target, synchronous
+/// (type 1); every 1 ms the RPDO, then the SYNC; the drive ticks at 4 kHz, so it interpolates
+/// over four ticks per SYNC. csp and csv run through the cascade controller (torque demands).
+/// After 20 SYNC periods the snapshot is taken right after the SYNC (`at_sync`: the tick that
+/// applies the RPDO) or one tick later (interpolating).
+fn cyclic(mode: Cyclic, at_sync: bool) -> Result<Prepared, SetupError> {
+    let cascade = mode != Cyclic::Cst;
+    let mut rig = Rig::new(4000, cascade)?;
+    // Velocity loop 0.1 ‰ per increment/s (Q8.24), position loop 20/s (Q16.16).
+    rig.write(objects::CASCADE, 2, &1_677_722u32.to_le_bytes())?;
+    rig.write(objects::CASCADE, 1, &(20u32 << 16).to_le_bytes())?;
+    let (number, target) = match mode {
+        Cyclic::Csp => (8i8, 0x607A_0020),
+        Cyclic::Csv => (9, 0x60FF_0020),
+        Cyclic::Cst => (10, 0x6071_0010),
+    };
+    rig.map_pdo(0x1400, 1, &[0x6040_0010, target])?;
+    rig.write(0x60C5, 0, &u32::MAX.to_le_bytes())?;
+    rig.write(0x60C6, 0, &u32::MAX.to_le_bytes())?;
+    rig.write(0x6060, 0, &number.to_le_bytes())?;
+    rig.nmt(0x01)?;
+    rig.controlword(0x0006)?;
+    rig.controlword(0x000F)?;
+    check(matches!(rig.drive.state(), State::OperationEnabled { .. }), "cyclic: Operation enabled")?;
+    let rpdo = 0x200 + u16::from(NODE_ID);
+    for period in 1..=20i32 {
+        let value = match mode {
+            Cyclic::Csp => period * 50,
+            Cyclic::Csv => 20_000,
+            Cyclic::Cst => 100,
+        };
+        let mut data = [0x0F, 0x00, 0, 0, 0, 0];
+        for (slot, byte) in data.iter_mut().skip(2).zip(value.to_le_bytes()) {
+            *slot = byte;
+        }
+        let length = if mode == Cyclic::Cst { 4 } else { 6 };
+        rig.send(rpdo, data.get(..length).unwrap_or(&data))?;
+        rig.send(SYNC, &[])?;
+        if period < 20 || !at_sync {
+            rig.run(if period < 20 { 4 } else { 1 });
+        }
+    }
+    check(matches!(rig.drive.state(), State::OperationEnabled { .. }), "cyclic: still enabled")?;
+    let torque_demand = matches!(rig.demand.setpoint, Setpoint::Torque(_));
+    check(torque_demand, "cyclic: torque demands (cascade, or cst)")?;
+    Ok(tick_state(rig))
+}
+
+fn tick_csp_sync() -> Result<Prepared, SetupError> {
+    cyclic(Cyclic::Csp, true)
+}
+
+fn tick_csp() -> Result<Prepared, SetupError> {
+    cyclic(Cyclic::Csp, false)
+}
+
+fn tick_csv_sync() -> Result<Prepared, SetupError> {
+    cyclic(Cyclic::Csv, true)
+}
+
+fn tick_csv() -> Result<Prepared, SetupError> {
+    cyclic(Cyclic::Csv, false)
+}
+
+fn tick_cst_sync() -> Result<Prepared, SetupError> {
+    cyclic(Cyclic::Cst, true)
+}
+
+fn tick_cst() -> Result<Prepared, SetupError> {
+    cyclic(Cyclic::Cst, false)
+}
+
+// --- Frames -------------------------------------------------------------------------------
+
+/// Node 10h whose heartbeat the drive consumes.
+const PRODUCER: u8 = 0x10;
+
+/// The drive of the communication measurements: NMT Operational, Switch on disabled; RPDO2
+/// mapped with 4 entries and RPDO3 with 8 (both asynchronous), node 10h's heartbeat consumed
+/// (1016h sub 1, 1 s) and seen once.
+fn communication() -> Result<Rig, SetupError> {
+    let mut rig = Rig::new(1000, false)?;
+    // RPDO2: controlword, target position, mode, one byte: 8 bytes.
+    let byte = |sub: u32| (u32::from(PDO_BYTES) << 16) | (sub << 8) | 8;
+    rig.map_pdo(0x1401, 255, &[0x6040_0010, 0x607A_0020, 0x6060_0008, byte(1)])?;
+    rig.map_pdo(0x1402, 255, &[byte(1), byte(2), byte(3), byte(4), byte(5), byte(6), byte(7), byte(8)])?;
+    rig.write(0x1016, 1, &((u32::from(PRODUCER) << 16) | 1000).to_le_bytes())?;
+    rig.nmt(0x01)?;
+    rig.send(0x700 + u16::from(PRODUCER), &[0x05])?;
+    rig.run(10);
+    check(rig.drive.nmt_state() == NmtState::Operational, "NMT Operational")?;
+    Ok(rig)
+}
+
+/// The drive of `rig` receiving `data` on `id`; `expect` checks the frames it sends and the
+/// drive afterwards (on a copy).
+fn on_frame(
+    rig: Rig,
+    id: u16,
+    data: &[u8],
+    expect: impl FnOnce(&Trial, &crate::BenchDrive) -> bool,
+) -> Result<Prepared, SetupError> {
+    let frame = frame(id, data)?;
+    let mut scratch = Scratch::new();
+    let copy = scratch.copy_of(&rig.drive);
+    copy.on_frame(&frame, rig.now);
+    let mut trial = Trial { frames: 0, first: None };
+    while let Some(reply) = copy.pop_tx() {
+        trial.frames += 1;
+        trial.first = trial.first.or(Some(reply));
+    }
+    check(expect(&trial, copy), "the measured frame has the expected effect")?;
+    Ok(Prepared::Frame { frame, now: rig.now, drive: rig.drive })
+}
+
+fn sdo_reply(trial: &Trial, first_byte: u8) -> bool {
+    let Some(reply) = trial.first else { return false };
+    trial.frames == 1 && reply.standard_id() == Some(SDO_TX) && reply.data().first() == Some(&first_byte)
+}
+
+fn sdo_upload() -> Result<Prepared, SetupError> {
+    let rig = communication()?;
+    on_frame(rig, crate::rig::SDO_RX, &[0x40, 0x41, 0x60, 0, 0, 0, 0, 0], |t, _| sdo_reply(t, 0x4B))
+}
+
+fn sdo_download() -> Result<Prepared, SetupError> {
+    let rig = communication()?;
+    let request = [0x23, 0x81, 0x60, 0, 0x20, 0x4E, 0, 0];
+    on_frame(rig, crate::rig::SDO_RX, &request, |t, d| {
+        sdo_reply(t, 0x60) && d.od().get::<u32>(0x6081, 0) == Ok(20_000)
+    })
+}
+
+/// After the initiation of an upload of 1008h (the device name, 13 bytes): the first segment.
+fn sdo_segment() -> Result<Prepared, SetupError> {
+    let mut rig = communication()?;
+    let response = rig.sdo([0x40, 0x08, 0x10, 0, 0, 0, 0, 0])?;
+    check(response[0] == 0x41, "segmented upload initiated")?;
+    on_frame(rig, crate::rig::SDO_RX, &[0x60, 0, 0, 0, 0, 0, 0, 0], |t, _| sdo_reply(t, 0x00))
+}
+
+/// After the initiation of a block download of 21 bytes to 2101h: the first segment (of three;
+/// not the last, so no reply).
+fn sdo_block_segment() -> Result<Prepared, SetupError> {
+    let mut rig = communication()?;
+    let [lo, hi] = TEXT.to_le_bytes();
+    let response = rig.sdo([0xC6, lo, hi, 0, 21, 0, 0, 0])?;
+    check(response[0] & 0xE3 == 0xA0 && response[4] >= 3, "block download initiated")?;
+    on_frame(rig, crate::rig::SDO_RX, &[0x01, b'a', b'b', b'c', b'd', b'e', b'f', b'g'], |t, _| t.frames == 0)
+}
+
+fn rpdo_1() -> Result<Prepared, SetupError> {
+    let rig = communication()?;
+    on_frame(rig, 0x200 + u16::from(NODE_ID), &[0x06, 0x00], |t, d| {
+        t.frames == 0 && d.od().get::<u16>(0x6040, 0) == Ok(0x0006)
+    })
+}
+
+fn rpdo_4() -> Result<Prepared, SetupError> {
+    let rig = communication()?;
+    let data = [0x06, 0x00, 0x10, 0x27, 0x00, 0x00, 0x01, 0x2A];
+    on_frame(rig, 0x300 + u16::from(NODE_ID), &data, |t, d| {
+        t.frames == 0
+            && d.od().get::<i32>(0x607A, 0) == Ok(10_000)
+            && d.od().get::<u8>(PDO_BYTES, 1) == Ok(0x2A)
+    })
+}
+
+fn rpdo_8() -> Result<Prepared, SetupError> {
+    let rig = communication()?;
+    on_frame(rig, 0x400 + u16::from(NODE_ID), &[1, 2, 3, 4, 5, 6, 7, 8], |t, d| {
+        t.frames == 0 && d.od().get::<u8>(PDO_BYTES, 8) == Ok(8)
+    })
+}
+
+fn nmt_start() -> Result<Prepared, SetupError> {
+    let mut rig = Rig::new(1000, false)?;
+    rig.run(10);
+    check(rig.drive.nmt_state() == NmtState::PreOperational, "NMT Pre-operational")?;
+    on_frame(rig, 0x000, &[0x01, NODE_ID], |_, d| d.nmt_state() == NmtState::Operational)
+}
+
+fn heartbeat() -> Result<Prepared, SetupError> {
+    let rig = communication()?;
+    on_frame(rig, 0x700 + u16::from(PRODUCER), &[0x05], |t, _| t.frames == 0)
+}
+
+fn other_node() -> Result<Prepared, SetupError> {
+    let rig = communication()?;
+    let other = 0x600 + u16::from(NODE_ID) + 1;
+    on_frame(rig, other, &[0x40, 0x41, 0x60, 0, 0, 0, 0, 0], |t, _| t.frames == 0)
+}
+
+/// TPDO1–4 synchronous (type 1), each statusword, a 32-bit value, the mode display and one
+/// byte; a SYNC without counter sends all four.
+fn sync_4_tpdos() -> Result<Prepared, SetupError> {
+    let mut rig = Rig::new(1000, false)?;
+    let byte = |sub: u32| (u32::from(PDO_BYTES) << 16) | (sub << 8) | 8;
+    let values = [0x6064_0020, 0x606C_0020, 0x6062_0020, 0x606B_0020];
+    for (n, value) in (0u16..).zip(values) {
+        rig.map_pdo(0x1800 + n, 1, &[0x6041_0010, value, 0x6061_0008, byte(u32::from(n) + 1)])?;
+    }
+    rig.nmt(0x01)?;
+    for _ in 0..3 {
+        rig.send(SYNC, &[])?;
+        rig.run(1);
+    }
+    let tpdo1 = 0x180 + u16::from(NODE_ID);
+    on_frame(rig, SYNC, &[], |t, _| {
+        t.frames == 4 && t.first.is_some_and(|f| f.standard_id() == Some(tpdo1) && f.data().len() == 8)
+    })
+}
+
+// --- Look-ups -----------------------------------------------------------------------------
+
+fn lookup_drive(filler: &'static [canopen_drive::od::Object]) -> Result<LookupDrive, SetupError> {
+    let config = Config { manufacturer_objects: filler, ..Config::new(NODE_ID) };
+    Ok(LookupDrive::create(config, ())?)
+}
+
+/// A look-up of `index`/`sub`; `hit`: it must resolve, otherwise be refused as missing.
+fn lookup(
+    filler: &'static [canopen_drive::od::Object],
+    index: u16,
+    sub: u8,
+    hit: bool,
+) -> Result<Prepared, SetupError> {
+    let drive = lookup_drive(filler)?;
+    let found = drive.od().entry(index, sub);
+    let ok = if hit { found.is_ok() } else { matches!(found, Err(AbortCode::ObjectDoesNotExist)) };
+    check(ok, "look-up result")?;
+    Ok(Prepared::Lookup { drive, index, sub })
+}
+
+/// The filler object in the middle of a table of `n`.
+fn middle(n: usize) -> u16 {
+    FILLER_BASE + 2 * (n / 2) as u16
+}
+
+fn od_small_hit_6041() -> Result<Prepared, SetupError> {
+    lookup(&objects::FILLER_SMALL, 0x6041, 0, true)
+}
+
+fn od_small_hit() -> Result<Prepared, SetupError> {
+    lookup(&objects::FILLER_SMALL, middle(objects::SMALL), 0, true)
+}
+
+fn od_small_miss() -> Result<Prepared, SetupError> {
+    lookup(&objects::FILLER_SMALL, middle(objects::SMALL) + 1, 0, false)
+}
+
+fn od_medium_hit_6041() -> Result<Prepared, SetupError> {
+    lookup(&objects::FILLER_MEDIUM, 0x6041, 0, true)
+}
+
+fn od_medium_hit() -> Result<Prepared, SetupError> {
+    lookup(&objects::FILLER_MEDIUM, middle(objects::MEDIUM), 0, true)
+}
+
+fn od_medium_miss() -> Result<Prepared, SetupError> {
+    lookup(&objects::FILLER_MEDIUM, middle(objects::MEDIUM) + 1, 0, false)
+}
+
+fn od_large_hit_6041() -> Result<Prepared, SetupError> {
+    lookup(&objects::FILLER_LARGE, 0x6041, 0, true)
+}
+
+fn od_large_hit() -> Result<Prepared, SetupError> {
+    lookup(&objects::FILLER_LARGE, middle(objects::LARGE), 0, true)
+}
+
+fn od_large_miss() -> Result<Prepared, SetupError> {
+    lookup(&objects::FILLER_LARGE, middle(objects::LARGE) + 1, 0, false)
+}

@@ -1,0 +1,171 @@
+#!/usr/bin/env bash
+# Instruction counts of canopen-drive's entry points (issue 8): the control tick in every mode,
+# on_frame (+ pop_tx) for the SDO, PDO, NMT, heartbeat and SYNC paths, and object dictionary
+# look-ups, on a Cortex-M4 (thumbv7em-none-eabihf in QEMU mps2-an386, counted by the plugin
+# shared/tools/qemu-insncount.c) and on x86-64 (callgrind). The scenarios are in
+# benches/drive-bench (see its README.md); both back-ends run the same scenario code.
+#
+#   scripts/bench.sh                   measure, print the table, write BENCHMARKS.md
+#   scripts/bench.sh --check           also fail when the committed BENCHMARKS.md differs from the
+#                                      fresh table (the counts are deterministic); leaves it as is
+#   scripts/bench.sh --update [--force]
+#                                      set the budgets in benches/drive-bench/budgets.txt to the
+#                                      Cortex-M4 count + 5 % (lowering only, unless --force)
+#
+# Exits non-zero when a Cortex-M4 count exceeds its budget (benches/drive-bench/budgets.txt).
+#
+# Method: every repetition starts from the same state. Each measurement prepares a drive
+# through the public API, then repeats "copy the prepared drive into a scratch slot, make the
+# measured call on the copy" n times; the base mode makes only the copies. Both modes run with n
+# and with 2n repetitions, and one call is
+#     ((measured(2n) − measured(n)) − (base(2n) − base(n))) / n
+# instructions, callees included; start-up, set-up, the harness and the loop's entry and exit
+# cancel out, and a difference that does not divide by n (repetitions not identical) is an error. Look-ups change nothing and
+# are repeated without copies. On the host only the function that repeats is counted
+# (callgrind --toggle-collect, one dump per call); in QEMU the whole run (four runs each).
+#
+# Needs qemu-system-arm and valgrind (installed here when missing, as root), gcc, python3 and
+# the thumbv7em target. Environment: CARGO_TARGET_DIR (default target/drive-bench; the callgrind
+# dumps stay in $CARGO_TARGET_DIR/results/callgrind for callgrind_annotate), REPETITIONS
+# (default 10), INSNCOUNT_SRC (the plugin source).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+root=$(pwd)
+bench=$root/benches/drive-bench
+started=$SECONDS
+
+check=false
+update=()
+for arg in "$@"; do
+    case $arg in
+        --check) check=true ;;
+        --update) update+=(--update) ;;
+        --force) update+=(--force) ;;
+        *) echo "usage: scripts/bench.sh [--check | --update [--force]]" >&2; exit 2 ;;
+    esac
+done
+if $check && [ ${#update[@]} -gt 0 ]; then
+    echo "--check and --update exclude each other" >&2
+    exit 2
+fi
+if [[ " ${update[*]} " == *" --force "* && " ${update[*]} " != *" --update "* ]]; then
+    echo "--force goes with --update" >&2
+    exit 2
+fi
+
+export CARGO_TARGET_DIR=${CARGO_TARGET_DIR:-$root/target/drive-bench}
+out=$CARGO_TARGET_DIR/results
+n=${REPETITIONS:-10}
+insncount_src=${INSNCOUNT_SRC:-}
+for candidate in "$root/../shared/tools/qemu-insncount.c" /work/shared/tools/qemu-insncount.c; do
+    if [ -z "$insncount_src" ] && [ -f "$candidate" ]; then
+        insncount_src=$candidate
+    fi
+done
+[ -f "$insncount_src" ] || { echo "qemu-insncount.c not found: set INSNCOUNT_SRC" >&2; exit 1; }
+
+install() {
+    if [ "$(id -u)" = 0 ]; then
+        apt-get update -qq && apt-get install -y -qq "$@" >/dev/null
+    else
+        sudo apt-get update -qq && sudo apt-get install -y -qq "$@" >/dev/null
+    fi
+}
+missing=()
+command -v qemu-system-arm >/dev/null || missing+=(qemu-system-arm)
+command -v valgrind >/dev/null || missing+=(valgrind)
+if [ ${#missing[@]} -gt 0 ]; then
+    install "${missing[@]}"
+fi
+rustup target add thumbv7em-none-eabihf >/dev/null 2>&1 || true
+
+mkdir -p "$out"
+plugin=$CARGO_TARGET_DIR/libinsncount.so
+if [[ ! -f $plugin || $insncount_src -nt $plugin ]]; then
+    gcc -O2 -shared -fPIC -fvisibility=hidden -o "$plugin" "$insncount_src"
+fi
+
+echo "building benches/drive-bench (host, then thumbv7em-none-eabihf)" >&2
+(cd "$bench" && cargo build --quiet --release)
+(cd "$bench" && cargo build --quiet --release --target thumbv7em-none-eabihf)
+host=$CARGO_TARGET_DIR/release/drive-bench
+firmware=$CARGO_TARGET_DIR/thumbv7em-none-eabihf/release/drive-bench
+
+"$host" list >"$out/labels.tsv"
+mapfile -t names < <(cut -f1 "$out/labels.tsv")
+
+# --- x86-64: one callgrind run, four dumps per measurement, in the background -----------------
+rm -rf "$out/callgrind" "$out/m4"
+mkdir -p "$out/callgrind" "$out/m4"
+valgrind --tool=callgrind --collect-atstart=no --compress-strings=no --compress-pos=no \
+    --toggle-collect=drive_bench::run_repetitions --dump-after=drive_bench::run_repetitions \
+    --callgrind-out-file="$out/callgrind/run.out" \
+    "$host" run "$n" >"$out/callgrind/order.txt" 2>"$out/callgrind/valgrind.log" &
+callgrind_pid=$!
+
+# --- Cortex-M4: four QEMU runs per measurement, two at a time ---------------------------------
+qemu_run() {
+    local name=$1 mode=$2 reps=$3 log
+    log=$(timeout 300 qemu-system-arm -machine mps2-an386 -cpu cortex-m4 -nographic \
+        -semihosting-config "enable=on,target=native,arg=drive-bench,arg=$name,arg=$reps,arg=$mode" \
+        -kernel "$FIRMWARE" -plugin "$PLUGIN" -d plugin 2>&1) || {
+        echo "QEMU $name $mode $reps failed: $log" >&2
+        return 1
+    }
+    sed -n 's/^insncount: total \([0-9]*\) .*/\1/p' <<<"$log" >"$OUT/m4/$name.$mode.$reps"
+}
+export -f qemu_run
+export FIRMWARE=$firmware PLUGIN=$plugin OUT=$out
+for name in "${names[@]}"; do
+    for mode in base measured; do
+        printf '%s %s %s\n%s %s %s\n' "$name" "$mode" "$n" "$name" "$mode" "$((2 * n))"
+    done
+done | xargs -P 2 -L 1 bash -c 'qemu_run "$@"' _ || { kill "$callgrind_pid" 2>/dev/null; exit 1; }
+
+wait "$callgrind_pid" || { cat "$out/callgrind/valgrind.log" >&2; exit 1; }
+
+# --- Raw counts -> report ---------------------------------------------------------------------
+runs=("base.$n" "base.$((2 * n))" "measured.$n" "measured.$((2 * n))")
+: >"$out/m4.txt"
+for name in "${names[@]}"; do
+    row=$name
+    for run in "${runs[@]}"; do
+        value=$(cat "$out/m4/$name.$run" 2>/dev/null || true)
+        row+=" ${value:-0}"
+    done
+    echo "$row" >>"$out/m4.txt"
+done
+
+# Dump k (from 1) is call (k-1) mod 4 of measurement (k-1) / 4; kept as <name>.<run>.out.
+mapfile -t order <"$out/callgrind/order.txt"
+: >"$out/x86.txt"
+k=1
+for name in "${order[@]}"; do
+    row=$name
+    for run in "${runs[@]}"; do
+        dump=$out/callgrind/run.out.$k
+        value=$(sed -n 's/^summary: \([0-9]*\)$/\1/p' "$dump" 2>/dev/null || true)
+        row+=" ${value:-0}"
+        [ -f "$dump" ] && mv "$dump" "$out/callgrind/$name.$run.out"
+        k=$((k + 1))
+    done
+    echo "$row" >>"$out/x86.txt"
+done
+
+status=0
+python3 "$bench/report.py" --labels "$out/labels.tsv" --m4 "$out/m4.txt" --x86 "$out/x86.txt" \
+    --repetitions "$n" --budgets "$bench/budgets.txt" --out "$out/BENCHMARKS.md" "${update[@]}" || status=1
+
+if $check; then
+    if ! diff -u "$root/BENCHMARKS.md" "$out/BENCHMARKS.md" >&2; then
+        echo "BENCHMARKS.md differs from this run: run scripts/bench.sh and commit it" >&2
+        status=1
+    fi
+else
+    cp "$out/BENCHMARKS.md" "$root/BENCHMARKS.md"
+fi
+if [ $status -ne 0 ]; then
+    echo "bench: FAILED (see above)" >&2
+fi
+echo "bench: $((SECONDS - started)) s" >&2
+exit $status
