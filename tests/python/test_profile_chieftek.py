@@ -27,6 +27,8 @@ U8, U16, U32 = dt.UNSIGNED8, dt.UNSIGNED16, dt.UNSIGNED32
 I8, I16, I32, R32 = dt.INTEGER8, dt.INTEGER16, dt.INTEGER32, dt.REAL32
 RO, RW, C = "ro", "rw", "ro"  # constants compare as read-only
 
+SUPPORTED_HOMING_METHODS = [-12, -11, -10, -9, -8, -7, -6, -5, -4, -3, -2, -1, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 17, 18, 19, 20, 21, 22, 23, 24, 25, 26, 27, 28, 29, 30, 33, 34, 35, 37]
+
 # (index, sub, data type, access, PDO mapping, default) of the table in §2.3 (PDO: "O" yes, "X"
 # no) and the manufacturer objects of §8.3. Default None: "–" in the table.
 MANUAL = [
@@ -99,6 +101,8 @@ MANUAL = [
     (0x60D7, 0, U16, RO, True, None),
     (0x60D8, 0, U16, RO, True, None),
     (0x60E3, 0, I8, C, False, 44),
+    # The chart of §8.3: sub-index 1..44 and the method it lists.
+    *[(0x60E3, sub, I8, C, False, method) for sub, method in enumerate(SUPPORTED_HOMING_METHODS, start=1)],
     (0x60F4, 0, I32, RO, True, None),
     (0x60FC, 0, I32, RO, True, None),
     (0x60FD, 0, U32, RO, True, None),
@@ -111,9 +115,9 @@ MANUAL = [
     (0x3294, 0, U16, RW, False, 250),
 ]
 
-NOT_IN_THE_CORE = "not an object of the core (the library has no touch probe edge counters, 60E3h or 67FEh)"
 DEVIATIONS = {
-    **{((index, 0), "exists"): NOT_IN_THE_CORE for index in (0x60D5, 0x60D6, 0x60D7, 0x60D8, 0x60E3, 0x67FE)},
+    ((0x67FE, 0), "exists"): "not an object of the core (the CiA 402 digest it follows has no 67FEh)",
+    ((0x60E3, 0), "type"): "CiA 301: UNSIGNED8",
     # sub-index 0 is UNSIGNED8 by CiA 301; the table prints the entries' type.
     ((0x607D, 0), "type"): "CiA 301: UNSIGNED8",
     ((0x6099, 0), "type"): "CiA 301: UNSIGNED8",
@@ -367,3 +371,54 @@ def test_homing_methods(cpc):
     here = cpc.sdo[0x6063].raw
     assert abs(home(cpc, 37) - here) < 50
     cpc.sdo[0x6040].raw = 0
+
+
+def test_supported_homing_methods_60e3h(cpc):
+    # §8.3: 44 methods, the cpc methods −12…−1 first, then the standard ones; each is accepted by 6098h.
+    assert cpc.sdo[0x60E3][0].raw == 44
+    listed = [cpc.sdo.upload(0x60E3, sub)[0] for sub in range(1, 45)]
+    assert [b - 256 if b > 127 else b for b in listed] == SUPPORTED_HOMING_METHODS
+    assert abort_code(lambda: cpc.sdo.upload(0x60E3, 45)) == 0x06090011
+    assert abort_code(lambda: cpc.sdo.download(0x60E3, 1, b"\x05")) == 0x06010002
+    for method in SUPPORTED_HOMING_METHODS:
+        cpc.sdo[0x6098].raw = method
+
+
+def test_touch_probe_edge_counters_timing_example(cpc):
+    """§9.2.2: probe 1 enabled on both edges, continuous; each edge is stored and counted (60D5h,
+    60D6h); sampling of the positive edge off and on again; the probe switched off."""
+    probe_input = 1 << 6
+    cpc.sdo[0x60B8].raw = 0x0033  # (1) enable, continuous, both edges
+    time.sleep(0.02)
+    assert cpc.sdo[0x60B9].raw & 0x07 == 0x01  # (2)
+    assert (cpc.sdo[0x60D5].raw, cpc.sdo[0x60D6].raw) == (0, 0)
+    for n in (1, 2, 3):
+        cpc.sdo[SIM_INPUTS].raw = probe_input  # (3) positive edge
+        time.sleep(0.02)
+        assert cpc.sdo[0x60B9].raw & 0x02  # (4)
+        assert cpc.sdo[0x60D5].raw == n
+        cpc.sdo[SIM_INPUTS].raw = 0  # (5) negative edge
+        time.sleep(0.02)
+        assert cpc.sdo[0x60B9].raw & 0x04  # (6)
+        assert cpc.sdo[0x60D6].raw == n
+    stored = cpc.sdo[0x60BA].raw
+    cpc.sdo[0x60B8].raw = 0x0023  # (7) positive edge sampling off
+    cpc.sdo[SIM_INPUTS].raw = probe_input
+    time.sleep(0.02)
+    assert cpc.sdo[0x60D5].raw == 3 and cpc.sdo[0x60BA].raw == stored  # (8a) not sampled
+    cpc.sdo[SIM_INPUTS].raw = 0
+    cpc.sdo[0x60B8].raw = 0x0033  # (9) on again: continuous counting goes on
+    time.sleep(0.02)
+    cpc.sdo[SIM_INPUTS].raw = probe_input  # (11)
+    time.sleep(0.02)
+    assert cpc.sdo[0x60D5].raw == 4  # (12)
+    cpc.sdo[SIM_INPUTS].raw = 0
+    time.sleep(0.02)
+    cpc.sdo[0x60B8].raw = 0x0032  # (13) probe 1 off
+    time.sleep(0.02)
+    assert cpc.sdo[0x60B9].raw & 0x07 == 0  # (14)
+    assert cpc.sdo[0x60D5].raw == 4  # kept while off, restarted when switched on
+    cpc.sdo[0x60B8].raw = 0x0033
+    time.sleep(0.02)
+    assert (cpc.sdo[0x60D5].raw, cpc.sdo[0x60D6].raw) == (0, 0)
+    cpc.sdo[0x60B8].raw = 0

@@ -6,9 +6,9 @@ store/restore §3.1.7/8) and the behaviour it documents (NMT Stopped faults an e
 digital inputs §12.2, at most three mapped objects per PDO §1.1).
 
 The simulated actuator is an RSF-5B-30: 16 384 encoder steps per motor revolution, limit switches
-beyond ±150 000, elastic hard stops at ±200 000, rated current 1000 mA (so the core's torques in
-‰ read as mA). Velocities and accelerations are encoder steps per second (the manual's are rpm):
-where an example gives a speed in rpm, the test uses steps per second of a similar motion.
+beyond ±150 000, elastic hard stops at ±200 000, rated current 1000 mA. Torques are mA,
+velocities rpm and accelerations rpm/s, as in the manual; where an example's speed would run the
+simulated axis into its limit switches within a second, the test uses a lower one.
 """
 
 import subprocess
@@ -338,7 +338,7 @@ def test_live_objects_of_the_actuator(actuator):
 
 def test_pp_example(actuator):
     actuator.sdo[0x2005].raw = 3  # no limit switches connected
-    actuator.sdo[0x6081].raw = 100_000  # steps/s (the default 6000 is rpm in the manual)
+    actuator.sdo[0x6081].raw = 360  # rpm (≈ 98 000 steps/s)
     start = actuator.sdo[0x6064].raw
     actuator.sdo[0x6060].raw = 1
     to_state(actuator, READY, SWITCHED_ON, ENABLED)
@@ -356,20 +356,22 @@ def test_pp_example(actuator):
 def test_pv_example(actuator):
     actuator.sdo[0x6060].raw = 3
     to_state(actuator, READY, SWITCHED_ON)
-    actuator.sdo[0x60FF].raw = 20_000
+    actuator.sdo[0x60FF].raw = 75  # rpm (the example's 2000 would reach a limit switch at once)
     actuator.sdo[0x6040].raw = 15  # the motor accelerates to the target velocity
-    wait_until(lambda: abs(actuator.sdo[0x606C].raw - 20_000) < 500, timeout=3)
+    wait_until(lambda: abs(actuator.sdo[0x606C].raw - 75) <= 2, timeout=3)
     assert statusword(actuator) & 0xC000 == 0x4000
-    assert abs(actuator.sdo[0x2040][1].raw - 20_000 * 60 // 16384) <= 2  # rpm
-    actuator.sdo[0x60FF].raw = -20_000
+    assert abs(actuator.sdo[0x2040][1].raw - 75) <= 2  # rpm
+    assert actuator.sdo[0x606B].raw == 75 and actuator.sdo[0x2040][2].raw == 75
+    actuator.sdo[0x60FF].raw = -75
     wait_until(lambda: statusword(actuator) & 0xC000 == 0xC000, timeout=3)
     actuator.sdo[0x60FF].raw = 0  # stop
     wait_until(lambda: statusword(actuator) & 0x4000 == 0, timeout=3)
     # 2020h sub 2 caps the speed (rpm, through 6080h).
     actuator.sdo[0x2020][2].raw = 30
-    actuator.sdo[0x60FF].raw = 100_000
+    actuator.sdo[0x60FF].raw = 300
     time.sleep(1.5)
-    assert abs(actuator.sdo[0x606C].raw - 30 * 16384 // 60) < 300
+    assert abs(actuator.sdo[0x606C].raw - 30) <= 2
+    assert abs(actuator.sdo[0x2040][1].raw - 30) <= 2
     actuator.sdo[0x60FF].raw = 0
     wait_until(lambda: statusword(actuator) & 0x4000 == 0, timeout=3)
     actuator.sdo[0x6040].raw = 0
@@ -390,9 +392,9 @@ def test_hard_stop_homing_example_and_the_double_ended_methods(actuator):
     # (The limit switches at ±150 000 stay connected: the hard-stop methods pass them.)
     actuator.sdo[0x6060].raw = 6
     to_state(actuator, READY, SWITCHED_ON, ENABLED)
-    actuator.sdo[0x6099][1].raw = 50_000
-    actuator.sdo[0x6099][2].raw = 40_000
-    actuator.sdo[0x609A].raw = 400_000
+    actuator.sdo[0x6099][1].raw = 180  # rpm
+    actuator.sdo[0x6099][2].raw = 150
+    actuator.sdo[0x609A].raw = 1500  # rpm/s
     # −1: into the positive stop (200 000), back by 2025h sub 2, that is 0 and the max limit.
     actuator.sdo[0x6098].raw = -1
     actuator.sdo[0x6040].raw = 31
@@ -444,13 +446,13 @@ def test_csv_example(actuator, network):
     actuator.sdo[0x60C2][1].raw = 10
     actuator.sdo[0x6060].raw = 9
     to_state(actuator, READY, SWITCHED_ON)
-    actuator.sdo[0x60FF].raw = 10_000
+    actuator.sdo[0x60FF].raw = 37  # rpm (≈ 10 000 steps/s)
     sync = Sync(network, 0.01)
     actuator.sdo[0x6040].raw = 15  # accelerates to the target velocity
-    sync.run(1.0, lambda k: setattr(actuator.sdo[0x60FF], "raw", 10_000))
-    assert abs(actuator.sdo[0x606C].raw - 10_000) < 500
+    sync.run(1.0, lambda k: setattr(actuator.sdo[0x60FF], "raw", 37))
+    assert abs(actuator.sdo[0x606C].raw - 37) <= 2
     sync.run(0.5, lambda k: setattr(actuator.sdo[0x60FF], "raw", 0))  # stop
-    assert abs(actuator.sdo[0x606C].raw) < 500
+    assert abs(actuator.sdo[0x606C].raw) <= 2
     actuator.sdo[0x6040].raw = 0
 
 
@@ -461,8 +463,9 @@ def test_cst_example(actuator, network):
     to_state(actuator, READY, SWITCHED_ON, ENABLED)
     sync = Sync(network, 0.01)
     sync.run(0.5, lambda k: setattr(actuator.sdo[0x6071], "raw", 20))  # mA: starts the motor
-    assert actuator.sdo[0x606C].raw > 1000
+    assert actuator.sdo[0x606C].raw > 3  # rpm
     assert actuator.sdo[0x2030][1].raw > 0  # actual current
+    assert actuator.sdo[0x6077].raw > 0  # mA
     sync.run(0.1, lambda k: setattr(actuator.sdo[0x6071], "raw", 0))  # stops it
     actuator.sdo[0x6040].raw = 0
 
@@ -517,7 +520,7 @@ def test_position_window_stops_the_motor_with_an_emcy(actuator, network):
     emcy = Recorder(network, 0x80 + NODE_ID)
     actuator.sdo[0x2005].raw = 3
     actuator.sdo[0x2096][1].raw = 5  # steps
-    actuator.sdo[0x6081].raw = 100_000
+    actuator.sdo[0x6081].raw = 360  # rpm
     actuator.sdo[0x6060].raw = 1
     to_state(actuator, READY, SWITCHED_ON, ENABLED)
     actuator.sdo[0x607A].raw = actuator.sdo[0x6064].raw + 50_000
@@ -609,3 +612,21 @@ def test_node_id_and_bit_rate_through_2704h_2705h_and_1010h_sub_2(stored_drive):
         assert node.sdo[0x2025][2].raw == 40_000
     finally:
         network.disconnect()
+
+
+# --- Units: rpm, rpm/s and mA (§4.1.7, §7.1, §11.1) -----------------------------------------------
+
+def test_velocities_are_motor_rpm_and_accelerations_rpm_per_second(actuator):
+    actuator.sdo[0x6083].raw = 600  # rpm/s: 60 rpm in 0.1 s
+    actuator.sdo[0x6060].raw = 3
+    to_state(actuator, READY, SWITCHED_ON, ENABLED)
+    actuator.sdo[0x60FF].raw = 60  # one motor revolution per second
+    wait_until(lambda: abs(actuator.sdo[0x606C].raw - 60) <= 1, timeout=2)
+    before, start = actuator.sdo[0x6063].raw, time.monotonic()
+    time.sleep(0.5)
+    travelled, elapsed = actuator.sdo[0x6063].raw - before, time.monotonic() - start
+    assert abs(travelled / elapsed - 16384) < 16384 * 0.15, (travelled, elapsed)  # encoder steps/s
+    assert actuator.sdo[0x606B].raw == 60
+    actuator.sdo[0x60FF].raw = 0
+    wait_until(lambda: statusword(actuator) & 0x4000 == 0, timeout=3)
+    actuator.sdo[0x6040].raw = 0

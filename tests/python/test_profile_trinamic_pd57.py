@@ -700,3 +700,42 @@ def test_node_id_and_bit_rate_are_changed_through_2704h_2705h_2706h(stored_drive
 
 def test_the_store_object_needs_parameter_storage(pd57):
     assert abort_code(lambda: setattr(pd57.sdo[0x2706], "raw", 0x65766173)) == 0x08000020
+
+
+# --- §11 cst: torques in mA --------------------------------------------------------------------
+
+def test_cst_target_torque_in_milliamps(pd57, network):
+    """§11.1.6/11.1.7: 6071h and 6077h are mA. With the run current 2003h at 85 (1 A, §1.5's
+    example) a target of 300 mA is 30 % of it: the torque demand reads 300 mA, the actual torque
+    follows in mA, and the drive's rated current 6075h follows 2003h."""
+    assert pd57.sdo[0x6075].raw == 1506  # the default run current 128 of 255 × 3 A
+    pd57.sdo[0x2003].raw = 85
+    wait_until(lambda: pd57.sdo[0x6075].raw == 1000, timeout=1)
+    pd57.sdo[0x2005].raw = 0x3F  # no switches: the shaft may turn
+    # RPDO 1: controlword and target torque, every SYNC cycle (the stream of cst).
+    pd57.sdo[0x1400][1].raw = pd57.sdo[0x1400][1].raw | 0x8000_0000
+    pd57.sdo[0x1600][0].raw = 0
+    pd57.sdo[0x1600][2].raw = 0x60710010
+    pd57.sdo[0x1600][0].raw = 2
+    pd57.sdo[0x1400][1].raw = 0x200 + NODE_ID
+    pd57.sdo[0x60C2][1].raw = 10  # 10 ms cycle
+    enable(pd57, 10)
+    pd57.nmt.send_command(0x01)
+
+    def cycle(torque, seconds):
+        end = time.monotonic() + seconds
+        while time.monotonic() < end:
+            network.send_message(0x200 + NODE_ID, (15).to_bytes(2, "little") + torque.to_bytes(2, "little", signed=True))
+            network.send_message(0x80, b"")
+            time.sleep(0.01)
+
+    cycle(300, 0.3)
+    assert pd57.sdo[0x6071].raw == 300
+    assert abs(pd57.sdo[0x6074].raw - 300) <= 2  # mA
+    assert statusword(pd57) & 0x1000  # the target torque is used
+    actual = pd57.sdo[0x6077].raw
+    assert 0 < actual <= 320, actual  # the motor's torque, in mA
+    cycle(0, 0.2)
+    assert abs(pd57.sdo[0x6074].raw) <= 2
+    pd57.nmt.send_command(0x80)
+    pd57.sdo[0x6040].raw = 0

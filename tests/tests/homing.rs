@@ -492,3 +492,55 @@ fn hard_stop_homing_against_elastic_stops_stays_at_the_stop() {
         assert!(penetration < 10.0, "pressed {penetration} increments into the stop");
     }
 }
+
+// --- 60E3h supported homing methods -------------------------------------------------------------
+
+fn upload(bench: &mut Bench, index: u16, sub: u8) -> [u8; 8] {
+    bench.sdo1(&req(0x40, index, sub, [0; 4]))
+}
+
+/// 60E3h as an SDO master reads it: sub 0, then each listed method; the sub-index after the
+/// last does not exist.
+fn supported_methods(bench: &mut Bench) -> Vec<i8> {
+    let r = upload(bench, 0x60E3, 0);
+    assert_eq!(r[0], 0x4F, "{r:02X?}");
+    let count = r[4];
+    let methods = (1..=count)
+        .map(|sub| {
+            let r = upload(bench, 0x60E3, sub);
+            assert_eq!(r[0], 0x4F, "sub {sub}: {r:02X?}");
+            r[4] as i8
+        })
+        .collect();
+    let r = upload(bench, 0x60E3, count + 1);
+    assert_eq!((r[0], u32::from_le_bytes([r[4], r[5], r[6], r[7]])), (0x80, 0x0609_0011));
+    methods
+}
+
+#[test]
+fn supported_homing_methods_60e3_follow_the_configuration() {
+    // CiA 402 default: every standard method this crate runs (37 only with method_37).
+    let mut bench = Bench::new();
+    let standard: Vec<i8> = (1..=14).chain(17..=30).chain(33..=36).collect();
+    assert_eq!(supported_methods(&mut bench), standard);
+    let r = bench.sdo1(&req(0x2F, 0x60E3, 1, [5, 0, 0, 0]));
+    assert_eq!(u32::from_le_bytes([r[4], r[5], r[6], r[7]]), 0x0601_0002, "constant");
+
+    // A vendor's choice: fewer standard methods, 37, and its own negative methods first.
+    let mut bench = Bench::with_config(|mut config| {
+        config.manufacturer_objects = &HARD_STOP;
+        config.profile.homing = HomingConfig {
+            method_37: true,
+            standard_methods: (1 << 1) | (1 << 17) | (1 << 35) | (1 << 37),
+            vendor_methods: &VENDOR_METHODS,
+            hard_stop_object: Some(0x2500),
+            ..HomingConfig::new()
+        };
+        config
+    });
+    assert_eq!(supported_methods(&mut bench), [-4, -3, -2, -1, 1, 17, 35, 37]);
+    // Every listed method is accepted by 6098h.
+    for method in supported_methods(&mut bench) {
+        write(&mut bench, 0x6098, &[method as u8]);
+    }
+}

@@ -73,6 +73,43 @@ fn m_140_m_141_negative_edge_and_switching_off() {
     assert_eq!(status(&mut bench), 0x0000, "m_141: cleared in the same tick");
 }
 
+fn counter(bench: &mut Bench, index: u16) -> u16 {
+    let r = bench.sdo1(&req(0x40, index, 0, [0; 4]));
+    assert_eq!(r[0], 0x4B, "upload {index:04X}: {r:02X?}");
+    u16::from_le_bytes([r[4], r[5]])
+}
+
+#[test]
+fn edge_counters_60d5_to_60d8_count_latched_edges() {
+    let mut bench = Bench::new();
+    // Probe 1 continuous on both edges, probe 2 first event on its positive edge.
+    function(&mut bench, 0x1133);
+    for n in 1..=3u16 {
+        edge(&mut bench, DigitalInputs::TOUCH_PROBE_1, 100 * i32::from(n), true);
+        assert_eq!(counter(&mut bench, 0x60D5), n);
+        edge(&mut bench, DigitalInputs::TOUCH_PROBE_1, 100 * i32::from(n) + 50, false);
+        assert_eq!(counter(&mut bench, 0x60D6), n);
+    }
+    for _ in 0..2 {
+        edge(&mut bench, DigitalInputs::TOUCH_PROBE_2, 7, true);
+        edge(&mut bench, DigitalInputs::TOUCH_PROBE_2, 8, false);
+    }
+    // First event: the second rising edge is not latched, so not counted; no negative sampling.
+    assert_eq!((counter(&mut bench, 0x60D7), counter(&mut bench, 0x60D8)), (1, 0));
+    // Re-arming probe 2's positive edge restarts its counter; probe 1 counts on.
+    function(&mut bench, 0x0133);
+    function(&mut bench, 0x1133);
+    assert_eq!((counter(&mut bench, 0x60D5), counter(&mut bench, 0x60D7)), (3, 0));
+    // Switching probe 1 off keeps its counters; switching it on again restarts them.
+    function(&mut bench, 0x1132);
+    assert_eq!(counter(&mut bench, 0x60D5), 3);
+    function(&mut bench, 0x1133);
+    assert_eq!((counter(&mut bench, 0x60D5), counter(&mut bench, 0x60D6)), (0, 0));
+    // Read-only, and TPDO-mappable (the master may read them each cycle).
+    let r = bench.sdo1(&req(0x2B, 0x60D5, 0, [1, 0, 0, 0]));
+    assert_eq!(u32::from_le_bytes([r[4], r[5], r[6], r[7]]), 0x0601_0002);
+}
+
 #[test]
 fn m_142_probe_2_uses_its_own_bits_and_objects() {
     let mut bench = Bench::new();

@@ -8,7 +8,7 @@
 //! | index | name | type | meaning |
 //! |---|---|---|---|
 //! | +0 | Simulated hardware faults | UNSIGNED32 rw | bits of `HardwareFaults` (0 over-current, 1 over-voltage, 2 under-voltage, 3 over-temperature, 4 encoder); writing 0 clears them |
-//! | +1 | Simulated digital inputs | UNSIGNED32 rw | inputs forced active: bit 0 negative limit, 1 positive limit, 2 home, 3 interlock, 5 quick stop |
+//! | +1 | Simulated digital inputs | UNSIGNED32 rw | inputs forced active: bit 0 negative limit, 1 positive limit, 2 home, 3 interlock, 5 quick stop, 6 touch probe 1, 7 touch probe 2 |
 //! | +2 | Simulated load torque | INTEGER16 rw | external load on the shaft, ‰ of rated torque |
 //!
 //! A write is stored in the dictionary and picked up by the real-time loop at its next
@@ -43,7 +43,7 @@ pub const fn simulated_inputs(index: u16) -> Object {
         "Simulated digital inputs",
         Var::new("Simulated digital inputs", DataType::Unsigned32)
             .access(Access::ReadWrite)
-            .limits_unsigned(0, 0x3F),
+            .limits_unsigned(0, 0xFF),
     )
 }
 

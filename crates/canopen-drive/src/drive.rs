@@ -360,6 +360,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
             &crate::cia402::objects::PROFILE,
         ];
         let mut od = Dictionary::new(&tables, config.device, config.node_id)?;
+        od.set_homing_methods(config.profile.homing);
         od.set_default_overrides(config.default_overrides)?;
         let mut drive = Drive {
             slots: CommSlots::resolve(&od),

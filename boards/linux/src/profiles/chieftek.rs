@@ -14,6 +14,9 @@
 //! 6081h 2 000 000, 6083h/6084h 1 000 000, 6085h 100 000 000, 6087h 100 000, 6098h 35,
 //! 6099h 20 000, 609Ah 20 000, 60B8h 1). Units: counts, counts/s, 0.1 % (the core's).
 //!
+//! The touch probe edge counters 60D5h–60D8h (§9.2) and the supported homing methods 60E3h
+//! (§8.3: the 44 methods below, cpc methods first) are the core's.
+//!
 //! Homing (§8): the standard methods 1–14, 17–30, 33–35 and 37 (= 35), and the cpc methods
 //! −1…−12: −1/−2 the positive/negative hard stop, −3/−4 the index pulse after it, −5/−6 the
 //! middle between the hard stops (positive / negative first), −7/−8 the middle between the
@@ -32,9 +35,9 @@
 //! # Not reproduced
 //!
 //! Option code −1 (dynamic brake) and 605Dh 0, the manufacturer modes −1…−6 of 6060h, methods
-//! −11/−12 reverse on a limit switch where the drive reverses on a hard stop, the objects 60D5h–
-//! 60D8h (touch probe edge counters), 60E3h (supported homing methods) and 67FEh (version)
-//! which the core does not have, 6080h in counts/s (the core's is rpm: 608Fh/6092h are set to
+//! −11/−12 reverse on a limit switch where the drive reverses on a hard stop, 67FEh (version
+//! number; the CiA 402 digest the core follows has no such object), 60E3h sub 0 typed
+//! UNSIGNED8 (CiA 301; the manual prints INTEGER8), 6080h in counts/s (the core's is rpm: 608Fh/6092h are set to
 //! the axis's 10 000 counts per revolution, so the manual's 1 500 000 is no tighter limit), 60FEh's second sub-index (the core's bit mask), 607Fh written
 //! into 6080h, the manual's zero defaults of 6065h/6066h/6067h/6068h/6073h (the drive would
 //! fault at the first move, or not move: the core's defaults stay), 6071h typed UNSIGNED16 (the

@@ -19,8 +19,12 @@
 //! range. Deviations as configuration: NMT Stopped faults an enabled axis (§2.2), statusword
 //! bit 14 motor moving, bit 15 direction (§6.1.2), mode changes, no change on set-point.
 //!
-//! The simulated actuator's rated current is 1000 mA (6075h), so torques in ‰ of rated torque
-//! (the core's unit) read as the manual's mA: 6071h, 6077h, 60B2h, 2025h sub 4, 2030h.
+//! Units as configuration of the core: torques in mA ([`TorqueUnit::MilliAmps`] through the
+//! rated current 6075h, 1000 mA for the simulated actuator: 6071h, 6074h, 6077h, 60B2h), velocities
+//! in motor rpm and accelerations in rpm/s ([`VelocityUnit::MotorRpm`] through 608Fh: 60FFh,
+//! 606Bh, 606Ch, 6081h, 6082h, 6083h–6085h, 6099h, 609Ah; 2020h sub 2/3 go to 6080h/60C5h/60C6h
+//! unchanged). The hard-stop threshold 2025h sub 4 and the limits 6072h/6073h are the core's ‰,
+//! which at 1000 mA rated read as mA.
 //!
 //! # Manufacturer objects (§4)
 //!
@@ -40,7 +44,6 @@
 //!
 //! # Not reproduced
 //!
-//! Velocities and accelerations in rpm and rpm/s (the core's are encoder steps per second);
 //! 2050h sub 8 position scaler (−5/−6 do not compute it), teach mode (2025h sub 5), the
 //! automatic parameter saving after homing, 1010h/1011h sub 3 reading 0, 1016h with one entry,
 //! 1018h without sub 4, 1029h sub 2, the manual's types UNSIGNED16 of 605Bh–605Eh and
@@ -53,7 +56,7 @@ use std::ops::RangeInclusive;
 use canopen_drive::cia402::fsa::State;
 use canopen_drive::cia402::hm::{HardStopEntries, HomingConfig, VendorMethod};
 use canopen_drive::cia402::objects::mode_bit;
-use canopen_drive::cia402::{OptionCodes, ProfileConfig, StatusFlag};
+use canopen_drive::cia402::{OptionCodes, ProfileConfig, StatusFlag, TorqueUnit, Units, VelocityUnit};
 use canopen_drive::comm::error_control::ErrorBehaviour;
 use canopen_drive::hal::{DigitalInputs, HardwareFaults, Sample};
 use canopen_drive::od::eds::EdsInfo;
@@ -358,9 +361,10 @@ pub static DEFAULTS: [DefaultOverride; 12] = [
     default_of(0x6067, 0, u(0xFFFF_FFFF)),
     default_of(0x6081, 0, u(6000)),
     default_of(0x6082, 0, u(500)),
-    default_of(0x6083, 0, u(100_000)),
-    default_of(0x6084, 0, u(100_000)),
-    default_of(0x6085, 0, u(100_000)),
+    // rpm/s ("depends on actuator"): 100 revolutions/s², what the simulated actuator follows.
+    default_of(0x6083, 0, u(6000)),
+    default_of(0x6084, 0, u(6000)),
+    default_of(0x6085, 0, u(6000)),
     default_of(0x6099, 1, u(1000)),
     default_of(0x6099, 2, u(500)),
     default_of(0x609A, 0, u(2000)),
@@ -415,6 +419,8 @@ pub fn profile_config() -> ProfileConfig {
     config.nmt_stopped_fault = true;
     config.statusword_bit_14 = StatusFlag::Moving;
     config.statusword_bit_15 = StatusFlag::Negative;
+    // Torques in mA (through 6075h), velocities in rpm and accelerations in rpm/s (§4.1.7, §6–§11).
+    config.units = Units { torque: TorqueUnit::MilliAmps, velocity: VelocityUnit::MotorRpm };
     config
 }
 
@@ -497,8 +503,8 @@ impl Default for Actuator {
 }
 
 /// Encoder steps per second as rpm.
-fn rpm(steps_per_second: i64) -> u64 {
-    (steps_per_second * 60 / i64::from(STEPS_PER_REVOLUTION)) as u64
+fn rpm(steps_per_second: i64) -> i64 {
+    steps_per_second * 60 / i64::from(STEPS_PER_REVOLUTION)
 }
 
 fn signed_value(od: &BoardDictionary, index: u16, sub: u8, bits: u32) -> i64 {
@@ -643,14 +649,14 @@ impl Firmware for Actuator {
         put(0x2030, 2, demand as u64);
         put(0x2030, 3, demand as u64);
         put(0x2030, 6, (demand - actual) as u64);
-        // 2040h: velocities in rpm.
-        let velocity = i64::from(sample.velocity);
+        // 2040h: velocities in rpm (60FFh and 606Bh already are).
+        let velocity = rpm(i64::from(sample.velocity));
         let target = signed_value(od, 0x60FF, 0, 32);
         let ramp = signed_value(od, 0x606B, 0, 32);
-        put(0x2040, 1, rpm(velocity));
-        put(0x2040, 2, rpm(target.clamp(-200_000 * 273, 200_000 * 273)));
-        put(0x2040, 3, rpm(ramp));
-        put(0x2040, 7, rpm(ramp - velocity));
+        put(0x2040, 1, velocity as u64);
+        put(0x2040, 2, target.clamp(-200_000, 200_000) as u64);
+        put(0x2040, 3, ramp as u64);
+        put(0x2040, 7, (ramp - velocity) as u64);
         // 2050h: positions in encoder steps.
         let position = i64::from(sample.position);
         let gear = value_of(od, 0x2010, 2).max(1) as i64;
@@ -683,9 +689,8 @@ impl Firmware for Actuator {
         put(0x6073, 0, value_of(od, 0x2020, 1).min(u64::from(u16::MAX)));
         put(0x6072, 0, value_of(od, 0x2020, 1).min(u64::from(u16::MAX)));
         put(0x6080, 0, value_of(od, 0x2020, 2));
-        let acceleration = value_of(od, 0x2020, 3) * u64::from(STEPS_PER_REVOLUTION) / 60;
-        put(0x60C5, 0, acceleration.min(u64::from(u32::MAX)));
-        put(0x60C6, 0, acceleration.min(u64::from(u32::MAX)));
+        put(0x60C5, 0, value_of(od, 0x2020, 3));
+        put(0x60C6, 0, value_of(od, 0x2020, 3));
         // 2096h sub 1: the position window is the following error window.
         put(0x6065, 0, value_of(od, 0x2096, 1));
     }

@@ -20,6 +20,10 @@
 //! no change on set-point (controlword bit 9, §6.1.1). Defaults the manual gives for standard
 //! objects (6065h 0, 6067h FFFF FFFFh, 6081h/6083h/6084h 0, 6085h 51 200, 6099h/609Ah 0, …).
 //!
+//! Torques in mA (§11.1.6–11.1.7): the core's [`TorqueUnit::MilliAmps`] with the rated current
+//! 6075h kept at the run current of 2003h (255 = 3 A, so the default 128 is 1506 mA), so 6071h,
+//! 60B2h, 6074h, 6077h and 6078h are mA of motor current; the limits 6072h/6073h stay ‰.
+//!
 //! Positions are microsteps: the simulated axis has 51 200 per revolution (256 microsteps of
 //! a 200-step motor), index pulse once per revolution, limit switches beyond ±1 000 000,
 //! home switch 100 000..150 000, elastic hard stops at ±1 100 000.
@@ -45,8 +49,7 @@
 //!
 //! 606Ah (sensor selection, not an object of the core), 1029h sub 2 (application error) and
 //! 1018h without sub 4 (the core's communication objects), 1016h with one entry (the core has
-//! four), TPDO inhibit time in ms (the core uses 100 µs), torque 6071h/6077h in mA (the core
-//! uses ‰ of rated torque), the manual's types UNSIGNED16 for 605Bh–605Eh and SIGNED32 for
+//! four), TPDO inhibit time in ms (the core uses 100 µs), the manual's types UNSIGNED16 for 605Bh–605Eh and SIGNED32 for
 //! 6081h–6084h (the core keeps CiA 402's), SDO block transfer (still offered), the EMCY codes
 //! FF00h/FF01h, and the rule that the same mode may not be written twice to 6060h.
 
@@ -55,7 +58,7 @@ use std::ops::RangeInclusive;
 use canopen_drive::cia402::fsa::State;
 use canopen_drive::cia402::hm::HomingConfig;
 use canopen_drive::cia402::objects::mode_bit;
-use canopen_drive::cia402::{OptionCodes, ProfileConfig, StatusFlag};
+use canopen_drive::cia402::{OptionCodes, ProfileConfig, StatusFlag, TorqueUnit};
 use canopen_drive::comm::error_control::ErrorBehaviour;
 use canopen_drive::hal::{DigitalInputs, HardwareFaults, Sample};
 use canopen_drive::od::eds::EdsInfo;
@@ -354,7 +357,7 @@ pub static RULES: [ValueRule; 15] = [
 ];
 
 /// The manual's defaults of standard objects where they differ from the core's.
-pub static DEFAULTS: [DefaultOverride; 16] = [
+pub static DEFAULTS: [DefaultOverride; 17] = [
     default_of(0x6065, 0, u(0)),
     default_of(0x6067, 0, u(0xFFFF_FFFF)),
     default_of(0x6068, 0, u(0)),
@@ -372,7 +375,18 @@ pub static DEFAULTS: [DefaultOverride; 16] = [
     // The module has no max acceleration/deceleration objects: the core's are set high.
     default_of(0x60C5, 0, u(100_000_000)),
     default_of(0x60C6, 0, u(100_000_000)),
+    // The run current 2003h (128 of 255) as the rated current of the torques in mA.
+    default_of(0x6075, 0, u(run_current_milliamps(128))),
 ];
+
+/// The module's current at 2003h = 255 (§1.5: 85 is 1 A), mA.
+pub const MODULE_MAX_MILLIAMPS: u64 = 3000;
+
+/// The run current of a 2003h setting, mA (rounded): the core's rated current 6075h, through
+/// which the torques 6071h, 6077h (and 6074h, 6078h, 60B2h) are in mA.
+pub const fn run_current_milliamps(setting: u64) -> u64 {
+    (setting * MODULE_MAX_MILLIAMPS + 127) / 255
+}
 
 /// 1029h sub 1: 0 = Stopped, 1 = stay (§3.1.16).
 pub static ERROR_BEHAVIOUR: [(u8, ErrorBehaviour); 2] =
@@ -410,6 +424,8 @@ pub fn profile_config() -> ProfileConfig {
     config.nmt_stopped_fault = true;
     config.statusword_bit_14 = StatusFlag::Moving;
     config.statusword_bit_15 = StatusFlag::Negative;
+    // §11.1.6/11.1.7: target and actual torque in mA.
+    config.units.torque = TorqueUnit::MilliAmps;
     config
 }
 
@@ -516,6 +532,7 @@ impl Firmware for Pd57 {
     fn start(&mut self, od: &BoardDictionary, env: &Environment<'_>, updates: &mut Vec<Update>) {
         updates.push(Update { index: 0x2707, sub: 0, value: u64::from(env.bit_rate_kbit) });
         updates.push(Update { index: 0x2107, sub: 0, value: value_of(od, 0x2000, 0) });
+        updates.push(Update { index: 0x6075, sub: 0, value: run_current_milliamps(value_of(od, 0x2003, 0)) });
         let velocity_units = value_of(od, 0x208C, 0);
         updates.push(Update { index: 0x208E, sub: 0, value: if velocity_units == 181 { 179 } else { 0 } });
     }
@@ -535,6 +552,9 @@ impl Firmware for Pd57 {
     ) {
         match (index, sub) {
             (0x2000, 0) => updates.push(Update { index: 0x2107, sub: 0, value }),
+            (0x2003, 0) => {
+                updates.push(Update { index: 0x6075, sub: 0, value: run_current_milliamps(value) })
+            }
             (0x200F, 1) => self.latch_armed = value == 1,
             (0x208C, 0) => {
                 updates.push(Update { index: 0x208E, sub: 0, value: if value == 181 { 179 } else { 0 } })

@@ -69,6 +69,52 @@ pub enum StatusFlag {
     Transition,
 }
 
+/// The unit of the torque and current objects 6071h (target torque), 6074h (torque demand),
+/// 6077h (torque actual value), 6078h (current actual value) and 60B2h (torque offset). The
+/// limits 6072h/6073h and the slope 6087h stay in ‰ whatever the unit.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum TorqueUnit {
+    /// ‰ of the rated torque (6078h: of the rated current): CiA 402, the default.
+    #[default]
+    PerMilleOfRated,
+    /// mA of motor current. The core takes the torque as proportional to the current, rated
+    /// torque at the motor rated current 6075h (mA), so `mA = ‰ × 6075h / 1000`. While 6075h is
+    /// 0 (not known) a commanded torque is 0 and the actual values read 0.
+    MilliAmps,
+}
+
+/// The unit of the velocity objects (60FFh, 606Bh, 606Ch, 6081h, 6082h, 607Fh, 6099h, 60B1h,
+/// 60FAh, 60F8h) and with it of the accelerations (6083h–6085h, 609Ah, 60C5h, 60C6h: per
+/// second) and jerks (60A4h: per second²). 6080h is rpm in either case; velocity mode
+/// (6042h–604Ch) has its own units.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum VelocityUnit {
+    /// Position units (the factor group's user units) per second: CiA 402, the default.
+    #[default]
+    PositionUnitsPerSecond,
+    /// Revolutions of the motor per minute, through the position encoder resolution 608Fh
+    /// (`increments/s = rpm × 608Fh.1 / (60 × 608Fh.2)`), whatever the gear and feed.
+    MotorRpm,
+}
+
+/// The units of the profile's physical objects ([`ProfileConfig::units`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Units {
+    /// Torques and currents.
+    pub torque: TorqueUnit,
+    /// Velocities, accelerations and jerks.
+    pub velocity: VelocityUnit,
+}
+
+impl Units {
+    /// The units of CiA 402: ‰ of rated torque, position units per second.
+    pub const CIA_402: Units =
+        Units { torque: TorqueUnit::PerMilleOfRated, velocity: VelocityUnit::PositionUnitsPerSecond };
+}
+
 // Evaluated by the compiler: it can only fail the build, never run.
 #[allow(clippy::panic)]
 const ONE_KHZ: TickRate = match TickRate::new(1000) {
@@ -130,6 +176,8 @@ pub struct ProfileConfig {
     /// A following error window 6065h of 0 switches the following error check off (as
     /// FFFF FFFFh does). Default false: 0 is a window of 0 (CiA 402).
     pub zero_following_error_window_off: bool,
+    /// The units of the torque, current and velocity objects (default [`Units::CIA_402`]).
+    pub units: Units,
 }
 
 impl ProfileConfig {
@@ -156,6 +204,7 @@ impl ProfileConfig {
             statusword_bit_15: StatusFlag::Off,
             mode_change_in_operation: true,
             zero_following_error_window_off: false,
+            units: Units::CIA_402,
         }
     }
 

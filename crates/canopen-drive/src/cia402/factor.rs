@@ -12,10 +12,16 @@
 //! range saturate (a 32-bit object cannot show them).
 //!
 //! Velocities are user position units per second and accelerations per second² (digest §8.1),
-//! so they use the same ratio. 6090h (velocity encoder resolution) describes a separate velocity
+//! so they use the same ratio — unless the configuration puts them in motor rpm
+//! ([`VelocityUnit::MotorRpm`]): then their ratio is `60 × 608F.2 / 608F.1` (rpm per increment/s;
+//! rpm/s, rpm/s² for accelerations and jerks), kept and applied the same way. 6090h (velocity encoder resolution) describes a separate velocity
 //! sensor; the feedback of this crate ([`crate::hal::Sample::velocity`]) is in position-encoder
 //! increments per second, so 6090h is kept and validated but does not enter a conversion.
 //! 6080h max motor speed is in rpm and becomes increments/s through 608Fh alone.
+//!
+//! Torques (6071h, 6074h, 6077h, 60B2h) and the current 6078h are ‰ of rated, the core's own
+//! unit, or mA ([`TorqueUnit::MilliAmps`]): `mA = ‰ × 6075h / 1000`, rounded the same way,
+//! saturated to INTEGER16.
 //!
 //! Polarity (607Eh, digest §8.2, its recommended reading): position polarity (bit 7) negates
 //! the commanded target 607Ah in profile position mode, and the reported positions 6062h,
@@ -24,6 +30,7 @@
 //! mode and the reported velocities 606Bh/606Ch. Homing will ignore 607Eh for its search
 //! directions (digest §8.2); torque modes ignore it.
 
+use super::config::{TorqueUnit, Units, VelocityUnit};
 use super::objects::{
     FEED_CONSTANT, GEAR_RATIO, POLARITY, POSITION_ENCODER_RESOLUTION, VELOCITY_ENCODER_RESOLUTION,
 };
@@ -40,16 +47,32 @@ pub struct Factors {
     /// user = internal × numerator / denominator.
     numerator: u128,
     denominator: u128,
+    /// Velocities: user = internal × velocity_numerator / velocity_denominator.
+    velocity_numerator: u128,
+    velocity_denominator: u128,
     /// 608Fh sub 1 / sub 2: increments per motor revolution.
     increments: u32,
     revolutions: u32,
     polarity: u8,
+    torque_unit: TorqueUnit,
+    /// 6075h motor rated current (mA).
+    rated_current: u32,
 }
 
 impl Default for Factors {
     /// 1:1 in every object: user units are increments.
     fn default() -> Self {
-        Factors { numerator: 1, denominator: 1, increments: 1, revolutions: 1, polarity: 0 }
+        Factors {
+            numerator: 1,
+            denominator: 1,
+            velocity_numerator: 1,
+            velocity_denominator: 1,
+            increments: 1,
+            revolutions: 1,
+            polarity: 0,
+            torque_unit: TorqueUnit::PerMilleOfRated,
+            rated_current: 0,
+        }
     }
 }
 
@@ -65,8 +88,23 @@ const fn gcd(mut a: u128, mut b: u128) -> u128 {
 /// `value × numerator / denominator`, rounded to nearest (halves away from zero), saturated to
 /// i64. `numerator` and `denominator` are below 2⁹⁶ and not 0; |value| < 2⁶³, so the product
 /// may exceed 128 bits only when it would saturate anyway, which is checked first.
+///
+/// The common cases take narrower arithmetic with the same result (a 128-bit division is a
+/// library call of several hundred instructions on a 32-bit MCU, and this runs every tick): a
+/// 1:1 ratio returns `value`, and operands below 2³² multiply and divide in 64 bits.
 fn scale(value: i64, numerator: u128, denominator: u128) -> i64 {
+    if numerator == denominator && value != i64::MIN {
+        return value;
+    }
     let magnitude = u128::from(value.unsigned_abs());
+    if let (Ok(m), Ok(n), Ok(d)) =
+        (u32::try_from(magnitude), u32::try_from(numerator), u32::try_from(denominator))
+    {
+        // (2³² − 1)² + 2³¹ < 2⁶⁴: no overflow; the result is below 2⁶⁴ / 1 but may exceed i64.
+        let result = (u64::from(m) * u64::from(n) + u64::from(d) / 2) / u64::from(d.max(1));
+        let result = i64::try_from(result).unwrap_or(i64::MAX);
+        return if value < 0 { -result } else { result };
+    }
     let result = match magnitude.checked_mul(numerator) {
         Some(product) => (product + denominator / 2) / denominator.max(1),
         None => u128::MAX,
@@ -79,6 +117,12 @@ fn scale(value: i64, numerator: u128, denominator: u128) -> i64 {
     }
 }
 
+/// `numerator / denominator` reduced (neither is 0 after).
+fn reduced(numerator: u128, denominator: u128) -> (u128, u128) {
+    let common = gcd(numerator, denominator).max(1);
+    ((numerator / common).max(1), (denominator / common).max(1))
+}
+
 fn saturate(value: i64) -> i32 {
     value.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32
 }
@@ -89,20 +133,35 @@ fn pair<const B: usize>(od: &Dictionary<B>, index: u16) -> (u32, u32) {
 }
 
 impl Factors {
-    /// The factors the dictionary holds now (a 0 that slipped in counts as 1).
+    /// The factors the dictionary holds now, in CiA 402's units (a 0 that slipped in counts
+    /// as 1).
     pub fn from_od<const B: usize>(od: &Dictionary<B>) -> Self {
+        Factors::from_od_in(od, Units::CIA_402)
+    }
+
+    /// The factors the dictionary holds now, for objects in `units`.
+    pub fn from_od_in<const B: usize>(od: &Dictionary<B>, units: Units) -> Self {
         let (increments, revolutions) = pair(od, POSITION_ENCODER_RESOLUTION);
         let (motor, shaft) = pair(od, GEAR_RATIO);
         let (feed, feed_shaft) = pair(od, FEED_CONSTANT);
-        let numerator = u128::from(feed) * u128::from(revolutions) * u128::from(shaft);
-        let denominator = u128::from(feed_shaft) * u128::from(increments) * u128::from(motor);
-        let common = gcd(numerator, denominator).max(1);
+        let (numerator, denominator) = reduced(
+            u128::from(feed) * u128::from(revolutions) * u128::from(shaft),
+            u128::from(feed_shaft) * u128::from(increments) * u128::from(motor),
+        );
+        let (velocity_numerator, velocity_denominator) = match units.velocity {
+            VelocityUnit::PositionUnitsPerSecond => (numerator, denominator),
+            VelocityUnit::MotorRpm => reduced(60 * u128::from(revolutions), u128::from(increments)),
+        };
         Factors {
-            numerator: numerator / common,
-            denominator: denominator / common,
+            numerator,
+            denominator,
+            velocity_numerator,
+            velocity_denominator,
             increments,
             revolutions,
             polarity: od.get::<u8>(POLARITY, 0).unwrap_or(0),
+            torque_unit: units.torque,
+            rated_current: od.get::<u32>(MOTOR_RATED_CURRENT, 0).unwrap_or(0),
         }
     }
 
@@ -121,16 +180,47 @@ impl Factors {
         saturate(self.to_user(internal))
     }
 
-    /// An UNSIGNED32 user-unit limit (velocity, acceleration, jerk) in internal units,
-    /// saturated to u32.
+    /// A velocity (acceleration, jerk) in increments/s (/s², /s³) to the velocity unit, without
+    /// polarity.
+    pub fn velocity_to_user(&self, internal: i64) -> i64 {
+        scale(internal, self.velocity_numerator, self.velocity_denominator)
+    }
+
+    /// A velocity (acceleration, jerk) in the velocity unit to increments/s (/s², /s³), without
+    /// polarity.
+    pub fn velocity_to_internal(&self, user: i64) -> i64 {
+        scale(user, self.velocity_denominator, self.velocity_numerator)
+    }
+
+    /// An UNSIGNED32 limit in the velocity unit (velocity, acceleration, jerk) in internal
+    /// units, saturated to u32.
     pub fn limit_to_internal(&self, user: u32) -> u32 {
-        u32::try_from(self.to_internal(i64::from(user))).unwrap_or(u32::MAX)
+        u32::try_from(self.velocity_to_internal(i64::from(user))).unwrap_or(u32::MAX)
+    }
+
+    /// A torque (or current) in ‰ of rated to the torque unit, saturated to INTEGER16.
+    pub fn torque_to_user(&self, permille: i64) -> i16 {
+        let user = match self.torque_unit {
+            TorqueUnit::PerMilleOfRated => permille,
+            TorqueUnit::MilliAmps => scale(permille, u128::from(self.rated_current), 1000),
+        };
+        user.clamp(i64::from(i16::MIN), i64::from(i16::MAX)) as i16
+    }
+
+    /// A torque (or current) in the torque unit to ‰ of rated (0 in mA while 6075h is 0).
+    pub fn torque_to_internal(&self, user: i64) -> i64 {
+        match self.torque_unit {
+            TorqueUnit::PerMilleOfRated => user,
+            TorqueUnit::MilliAmps if self.rated_current == 0 => 0,
+            TorqueUnit::MilliAmps => scale(user, 1000, u128::from(self.rated_current)),
+        }
     }
 
     /// 6080h (rpm) in increments/s, saturated to u32.
     pub fn rpm_to_internal(&self, rpm: u32) -> u32 {
-        let per_minute = u128::from(rpm) * u128::from(self.increments);
-        let divisor = 60 * u128::from(self.revolutions);
+        // Below 2⁶⁴ both: 64-bit arithmetic, not 128 (see `scale`).
+        let per_minute = u64::from(rpm) * u64::from(self.increments);
+        let divisor = 60 * u64::from(self.revolutions);
         u32::try_from(per_minute / divisor.max(1)).unwrap_or(u32::MAX)
     }
 
@@ -152,6 +242,9 @@ impl Factors {
         }
     }
 }
+
+/// 6075h motor rated current (mA).
+const MOTOR_RATED_CURRENT: u16 = 0x6075;
 
 /// Value rules of the factor group: no 0 in a ratio (digest §8.1), no reserved polarity bit.
 pub fn check_write(index: u16, sub: u8, raw: u32) -> Result<(), AbortCode> {
@@ -177,9 +270,13 @@ mod tests {
         Factors {
             numerator: numerator / common,
             denominator: denominator / common,
+            velocity_numerator: numerator / common,
+            velocity_denominator: denominator / common,
             increments,
             revolutions,
             polarity: 0,
+            torque_unit: TorqueUnit::PerMilleOfRated,
+            rated_current: 0,
         }
     }
 
@@ -209,6 +306,54 @@ mod tests {
         assert_eq!(big.to_internal(i64::MAX), 0);
     }
 
+    /// The 1:1 and 64-bit paths of `scale` give what the 128-bit arithmetic gives.
+    #[test]
+    fn narrow_paths_of_scale_agree_with_128_bit_arithmetic() {
+        let reference = |value: i64, n: u128, d: u128| -> i64 {
+            let magnitude = u128::from(value.unsigned_abs());
+            let result = magnitude.checked_mul(n).map_or(u128::MAX, |p| (p + d / 2) / d);
+            let result = i64::try_from(result).unwrap_or(i64::MAX);
+            if value < 0 {
+                -result
+            } else {
+                result
+            }
+        };
+        let values = [
+            0,
+            1,
+            -1,
+            2,
+            -3,
+            7,
+            499,
+            -500,
+            65_535,
+            1 << 31,
+            -(1 << 31),
+            i64::from(i32::MAX),
+            i64::from(u32::MAX),
+        ];
+        let values = values.iter().copied().chain([i64::from(u32::MAX) + 1, i64::MAX, -i64::MAX, i64::MIN]);
+        let ratios = [
+            (1, 1),
+            (1, 2),
+            (2, 1),
+            (3, 7),
+            (1000, 2000),
+            (u128::from(u32::MAX), 1),
+            (1, u128::from(u32::MAX)),
+            (u128::from(u32::MAX), u128::from(u32::MAX) - 1),
+            (1 << 40, 3),
+            (5, 1 << 40),
+        ];
+        for value in values {
+            for (n, d) in ratios {
+                assert_eq!(scale(value, n, d), reference(value, n, d), "{value} × {n} / {d}");
+            }
+        }
+    }
+
     #[test]
     fn conversions_do_not_accumulate() {
         // 10000 increments per 3 motor turns, gear 7:2, 1000 user units per output turn: about
@@ -228,6 +373,38 @@ mod tests {
         assert_eq!(check_write(FEED_CONSTANT, 2, 0), Err(AbortCode::ValueTooLow));
         assert_eq!(check_write(POLARITY, 0, 0x01), Err(AbortCode::InvalidValue));
         assert_eq!(check_write(POLARITY, 0, 0xC0), Ok(()));
+    }
+
+    #[test]
+    fn motor_rpm_converts_exactly_through_the_encoder_resolution() {
+        // 4000 increments per revolution, a gear and feed that do not enter rpm.
+        let position = factors(4000, 1, (7, 2), (1000, 1));
+        let (n, d) = reduced(60, 4000);
+        let rpm = Factors { velocity_numerator: n, velocity_denominator: d, ..position };
+        assert_eq!(rpm.velocity_to_internal(60), 4000);
+        assert_eq!(rpm.velocity_to_user(4000), 60);
+        assert_eq!(rpm.limit_to_internal(3000), 200_000);
+        // 1 rpm = 66.67 increments/s → 67; −1 → −67; 100 increments/s = 1.5 rpm → 2.
+        assert_eq!(rpm.velocity_to_internal(1), 67);
+        assert_eq!(rpm.velocity_to_internal(-1), -67);
+        assert_eq!(rpm.velocity_to_user(100), 2);
+        assert_eq!(rpm.velocity_to_user(-100), -2);
+        assert_eq!(rpm.limit_to_internal(u32::MAX), u32::MAX);
+        // Positions keep the factor group.
+        assert_eq!(rpm.to_internal(1000), position.to_internal(1000));
+    }
+
+    #[test]
+    fn torque_in_milliamps_through_the_rated_current() {
+        let ma = Factors { torque_unit: TorqueUnit::MilliAmps, rated_current: 2000, ..Factors::default() };
+        assert_eq!(ma.torque_to_internal(1000), 500);
+        assert_eq!(ma.torque_to_user(500), 1000);
+        assert_eq!(ma.torque_to_internal(-3), -2); // −1.5 ‰ rounds away from zero
+        assert_eq!(ma.torque_to_user(i64::from(i16::MAX)), i16::MAX);
+        let unknown = Factors { rated_current: 0, ..ma };
+        assert_eq!((unknown.torque_to_internal(1000), unknown.torque_to_user(700)), (0, 0));
+        let permille = Factors::default();
+        assert_eq!((permille.torque_to_internal(-700), permille.torque_to_user(-700)), (-700, -700));
     }
 
     #[test]

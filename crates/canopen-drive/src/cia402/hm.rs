@@ -188,7 +188,29 @@ impl HomingConfig {
             || (method == 37 && self.method_37 && offered)
             || (method < 0 && self.vendor(method).is_some())
     }
+
+    /// The methods 60E3h lists: every method 6098h accepts except 0, ascending (vendor methods
+    /// first), at most [`MAX_LISTED_METHODS`].
+    pub fn listed_methods(&self) -> impl Iterator<Item = i8> + '_ {
+        (i8::MIN..=i8::MAX)
+            .filter(move |m| *m != 0 && self.supports(*m))
+            .take(usize::from(MAX_LISTED_METHODS))
+    }
+
+    /// 60E3h sub 0: how many methods [`HomingConfig::listed_methods`] gives.
+    pub fn listed_method_count(&self) -> u8 {
+        u8::try_from(self.listed_methods().count()).unwrap_or(MAX_LISTED_METHODS)
+    }
+
+    /// 60E3h sub `sub` (1-based): the `sub`-th listed method, `None` beyond the list.
+    pub fn listed_method(&self, sub: u8) -> Option<i8> {
+        self.listed_methods().nth(usize::from(sub).checked_sub(1)?)
+    }
 }
+
+/// The most methods 60E3h (supported homing methods) lists: the 33 standard methods this crate
+/// runs and up to 31 vendor methods.
+pub const MAX_LISTED_METHODS: u8 = 64;
 
 impl Default for HomingConfig {
     fn default() -> Self {

@@ -26,4 +26,4 @@ pub mod profile;
 mod slots;
 pub mod vl;
 
-pub use config::{OptionCodes, ProfileConfig, StatusFlag};
+pub use config::{OptionCodes, ProfileConfig, StatusFlag, TorqueUnit, Units, VelocityUnit};

@@ -3,8 +3,10 @@
 
 use super::config::{OptionCodes, ProfileConfig};
 pub use super::probe::{
-    TOUCH_PROBE_1_NEGATIVE_EDGE, TOUCH_PROBE_1_POSITIVE_EDGE, TOUCH_PROBE_2_NEGATIVE_EDGE,
-    TOUCH_PROBE_2_POSITIVE_EDGE, TOUCH_PROBE_FUNCTION, TOUCH_PROBE_STATUS,
+    TOUCH_PROBE_1_NEGATIVE_EDGE, TOUCH_PROBE_1_NEGATIVE_EDGE_COUNTER, TOUCH_PROBE_1_POSITIVE_EDGE,
+    TOUCH_PROBE_1_POSITIVE_EDGE_COUNTER, TOUCH_PROBE_2_NEGATIVE_EDGE, TOUCH_PROBE_2_NEGATIVE_EDGE_COUNTER,
+    TOUCH_PROBE_2_POSITIVE_EDGE, TOUCH_PROBE_2_POSITIVE_EDGE_COUNTER, TOUCH_PROBE_FUNCTION,
+    TOUCH_PROBE_STATUS,
 };
 use crate::od::{
     layout, AbortCode, Access, DataType, DefaultValue, DeviceField, Dictionary, Object, PdoMapping, Var,
@@ -132,6 +134,9 @@ pub const INTERPOLATION_TIME_PERIOD: u16 = 0x60C2;
 pub const MAX_ACCELERATION: u16 = 0x60C5;
 /// 60C6h max deceleration.
 pub const MAX_DECELERATION: u16 = 0x60C6;
+/// 60E3h supported homing methods (ARRAY of INTEGER8, constant: the methods 6098h accepts,
+/// from [`super::hm::HomingConfig`], ascending).
+pub const SUPPORTED_HOMING_METHODS: u16 = 0x60E3;
 /// 60F2h positioning option code.
 pub const POSITIONING_OPTION_CODE: u16 = 0x60F2;
 /// 60F4h following error actual value.
@@ -303,7 +308,7 @@ const DIGITAL_OUTPUT_SUBS: [(u8, Var); 3] = [
 ];
 
 /// The profile objects, ascending.
-pub static PROFILE: [Object; 98] = layout([
+pub static PROFILE: [Object; 103] = layout([
     option_code(ABORT_CONNECTION_OPTION_CODE, "Abort connection option code", 1),
     actual(ERROR_CODE, "Error code", DataType::Unsigned16),
     command(CONTROLWORD, "Controlword", DataType::Unsigned16),
@@ -432,6 +437,21 @@ pub static PROFILE: [Object; 98] = layout([
     super::ip::DATA_CONFIGURATION_OBJECT,
     setting(MAX_ACCELERATION, "Max acceleration", DataType::Unsigned32, DefaultValue::Unsigned(100_000)),
     setting(MAX_DECELERATION, "Max deceleration", DataType::Unsigned32, DefaultValue::Unsigned(100_000)),
+    actual(TOUCH_PROBE_1_POSITIVE_EDGE_COUNTER, "Touch probe 1 positive edge counter", DataType::Unsigned16),
+    actual(TOUCH_PROBE_1_NEGATIVE_EDGE_COUNTER, "Touch probe 1 negative edge counter", DataType::Unsigned16),
+    actual(TOUCH_PROBE_2_POSITIVE_EDGE_COUNTER, "Touch probe 2 positive edge counter", DataType::Unsigned16),
+    actual(TOUCH_PROBE_2_NEGATIVE_EDGE_COUNTER, "Touch probe 2 negative edge counter", DataType::Unsigned16),
+    Object::array_with_sub0(
+        SUPPORTED_HOMING_METHODS,
+        "Supported homing methods",
+        super::hm::MAX_LISTED_METHODS,
+        Var::new("Highest sub-index supported", DataType::Unsigned8)
+            .access(Access::Const)
+            .default(DefaultValue::Device(DeviceField::HomingMethodCount)),
+        Var::new("Supported homing method", DataType::Integer8)
+            .access(Access::Const)
+            .default(DefaultValue::Device(DeviceField::HomingMethods)),
+    ),
     parameter(POSITIONING_OPTION_CODE, "Positioning option code", DataType::Unsigned16, DefaultValue::Zero),
     actual(FOLLOWING_ERROR_ACTUAL_VALUE, "Following error actual value", DataType::Integer32),
     parameter(MAX_SLIPPAGE, "Max slippage", DataType::Integer32, DefaultValue::Zero),

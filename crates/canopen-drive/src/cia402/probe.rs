@@ -49,8 +49,12 @@
 //!   the sample, from which the position is interpolated back with the actual velocity.
 //! - **Reserved bits** 3 and 11 are refused by [`check_write`]; the user-defined bits 6, 7, 14,
 //!   15 are accepted and have no function. [`TouchProbe::tick`] ignores all of them.
-//!
-//! The digest lists no edge counters, so there are none.
+//! - **Edge counters** (60D5h–60D8h: probe 1 positive, probe 1 negative, probe 2 positive,
+//!   probe 2 negative; UNSIGNED16, ro): each counts the positions its edge kind latched. They
+//!   restart at 0 when the probe is switched on (bit 0/8 0→1). In continuous mode they count on,
+//!   wrapping from FFFFh to 0; in first-event mode re-arming an edge kind also restarts its
+//!   counter, so it reads 0 until the edge is stored and 1 after. While the probe is off they keep
+//!   their last values.
 
 use crate::hal::DigitalInputs;
 use crate::od::AbortCode;
@@ -68,6 +72,14 @@ pub const TOUCH_PROBE_1_NEGATIVE_EDGE: u16 = 0x60BB;
 pub const TOUCH_PROBE_2_POSITIVE_EDGE: u16 = 0x60BC;
 /// 60BDh touch probe 2 negative edge (INTEGER32, ro, user position units).
 pub const TOUCH_PROBE_2_NEGATIVE_EDGE: u16 = 0x60BD;
+/// 60D5h touch probe 1 positive edge counter (UNSIGNED16, ro).
+pub const TOUCH_PROBE_1_POSITIVE_EDGE_COUNTER: u16 = 0x60D5;
+/// 60D6h touch probe 1 negative edge counter (UNSIGNED16, ro).
+pub const TOUCH_PROBE_1_NEGATIVE_EDGE_COUNTER: u16 = 0x60D6;
+/// 60D7h touch probe 2 positive edge counter (UNSIGNED16, ro).
+pub const TOUCH_PROBE_2_POSITIVE_EDGE_COUNTER: u16 = 0x60D7;
+/// 60D8h touch probe 2 negative edge counter (UNSIGNED16, ro).
+pub const TOUCH_PROBE_2_NEGATIVE_EDGE_COUNTER: u16 = 0x60D8;
 
 /// 60B8h bits 3 and 11: reserved, must be 0.
 pub const RESERVED_FUNCTION_BITS: u16 = 0x0808;
@@ -165,6 +177,8 @@ bitflags! {
         const PROBE_2_POSITIVE = 1 << 3;
         /// 60BDh latched a new position.
         const PROBE_2_NEGATIVE = 1 << 4;
+        /// An edge counter (60D5h–60D8h) differs from the previous tick.
+        const COUNTERS = 1 << 5;
     }
 }
 
@@ -177,6 +191,10 @@ pub struct ProbeOutputs {
     pub positive: [i32; 2],
     /// Negative-edge positions in increments: `[60BBh, 60BDh]` (probe 1, probe 2).
     pub negative: [i32; 2],
+    /// Positive-edge counters: `[60D5h, 60D7h]` (probe 1, probe 2).
+    pub positive_count: [u16; 2],
+    /// Negative-edge counters: `[60D6h, 60D8h]` (probe 1, probe 2).
+    pub negative_count: [u16; 2],
     /// What changed in this tick (empty from [`TouchProbe::outputs`]).
     pub changed: Changed,
 }
@@ -206,6 +224,9 @@ struct Probe {
     negative_stored: bool,
     positive: i32,
     negative: i32,
+    /// Edge counters (60D5h/60D6h, 60D7h/60D8h).
+    positive_count: u16,
+    negative_count: u16,
 }
 
 impl Probe {
@@ -220,13 +241,23 @@ impl Probe {
         let was_on = |bit: u8| previous & ENABLE != 0 && previous & bit != 0;
         let sampling_positive = function & POSITIVE_EDGE != 0;
         let sampling_negative = function & NEGATIVE_EDGE != 0;
+        let continuous = function & CONTINUOUS != 0;
+        if previous & ENABLE == 0 {
+            self.positive_count = 0;
+            self.negative_count = 0;
+        }
         if sampling_positive && !was_on(POSITIVE_EDGE) {
             self.positive_stored = false;
+            if !continuous {
+                self.positive_count = 0;
+            }
         }
         if sampling_negative && !was_on(NEGATIVE_EDGE) {
             self.negative_stored = false;
+            if !continuous {
+                self.negative_count = 0;
+            }
         }
-        let continuous = function & CONTINUOUS != 0;
         let latched = Latched {
             positive: sampling_positive && edges.rising && (continuous || !self.positive_stored),
             negative: sampling_negative && edges.falling && (continuous || !self.negative_stored),
@@ -234,10 +265,12 @@ impl Probe {
         if latched.positive {
             self.positive = edges.position;
             self.positive_stored = true;
+            self.positive_count = self.positive_count.wrapping_add(1);
         }
         if latched.negative {
             self.negative = edges.position;
             self.negative_stored = true;
+            self.negative_count = self.negative_count.wrapping_add(1);
         }
         latched
     }
@@ -289,6 +322,7 @@ impl TouchProbe {
         capture: &Capture,
     ) -> ProbeOutputs {
         let function = function & !RESERVED_FUNCTION_BITS;
+        let counts_before = self.counts();
         let previous = self.inputs.unwrap_or(inputs);
         let index = inputs.contains(DigitalInputs::INDEX);
         let edges = |input: DigitalInputs, input_capture: EdgeCapture, source_is_index: bool| {
@@ -330,6 +364,7 @@ impl TouchProbe {
         changed.set(Changed::PROBE_2_NEGATIVE, two.negative);
         let status = self.status_word();
         changed.set(Changed::STATUS, status != self.status);
+        changed.set(Changed::COUNTERS, self.counts() != counts_before);
         self.status = status;
         ProbeOutputs { changed, ..self.outputs() }
     }
@@ -340,8 +375,15 @@ impl TouchProbe {
             status: self.status,
             positive: [self.one.positive, self.two.positive],
             negative: [self.one.negative, self.two.negative],
+            positive_count: [self.one.positive_count, self.two.positive_count],
+            negative_count: [self.one.negative_count, self.two.negative_count],
             changed: Changed::empty(),
         }
+    }
+
+    /// The four edge counters: 60D5h, 60D6h, 60D7h, 60D8h.
+    pub fn counts(&self) -> [u16; 4] {
+        [self.one.positive_count, self.one.negative_count, self.two.positive_count, self.two.negative_count]
     }
 
     /// 60B9h as of the last tick.
@@ -355,7 +397,14 @@ impl TouchProbe {
     }
 }
 
-const PROBE_OFF: Probe = Probe { positive_stored: false, negative_stored: false, positive: 0, negative: 0 };
+const PROBE_OFF: Probe = Probe {
+    positive_stored: false,
+    negative_stored: false,
+    positive: 0,
+    negative: 0,
+    positive_count: 0,
+    negative_count: 0,
+};
 
 #[cfg(test)]
 mod tests {
@@ -398,7 +447,7 @@ mod tests {
         let out = tick(&mut probe, 0x0011, TP1, 1234);
         assert_eq!(out.positive[0], 1234);
         assert_eq!(out.status, 0x0003);
-        assert_eq!(out.changed, Changed::STATUS | Changed::PROBE_1_POSITIVE);
+        assert_eq!(out.changed, Changed::STATUS | Changed::PROBE_1_POSITIVE | Changed::COUNTERS);
     }
 
     #[test]
@@ -438,7 +487,7 @@ mod tests {
         let out = tick(&mut probe, 0x0021, NONE, 42);
         assert_eq!(out.negative[0], 42);
         assert_eq!(out.status, 0x0005);
-        assert_eq!(out.changed, Changed::STATUS | Changed::PROBE_1_NEGATIVE);
+        assert_eq!(out.changed, Changed::STATUS | Changed::PROBE_1_NEGATIVE | Changed::COUNTERS);
     }
 
     #[test]
@@ -464,12 +513,12 @@ mod tests {
         let out = tick(&mut probe, 0x3300, TP2, 20);
         assert_eq!(
             (out.status, out.positive[1], out.changed),
-            (0x0300, 20, Changed::STATUS | Changed::PROBE_2_POSITIVE)
+            (0x0300, 20, Changed::STATUS | Changed::PROBE_2_POSITIVE | Changed::COUNTERS)
         );
         let out = tick(&mut probe, 0x3300, NONE, 30);
         assert_eq!(
             (out.status, out.negative[1], out.changed),
-            (0x0700, 30, Changed::STATUS | Changed::PROBE_2_NEGATIVE)
+            (0x0700, 30, Changed::STATUS | Changed::PROBE_2_NEGATIVE | Changed::COUNTERS)
         );
         assert_eq!((out.positive[0], out.negative[0]), (0, 0));
         let out = tick(&mut probe, 0x3200, NONE, 30);
@@ -552,7 +601,9 @@ mod tests {
         // Back on: re-armed, the negative edge is untouched.
         let out = tick(&mut probe, 0x0031, NONE, 20);
         assert_eq!((out.status, out.positive[0], out.negative[0]), (0x0005, 10, 20));
-        assert_eq!(out.changed, Changed::STATUS);
+        // (First event: re-arming restarts the positive-edge counter.)
+        assert_eq!(out.changed, Changed::STATUS | Changed::COUNTERS);
+        assert_eq!((out.positive_count[0], out.negative_count[0]), (0, 1));
         let out = tick(&mut probe, 0x0031, TP1, 60);
         assert_eq!((out.status, out.positive[0]), (0x0007, 60));
         // A further falling edge is still spent.
@@ -609,6 +660,39 @@ mod tests {
     }
 
     #[test]
+    fn edge_counters_count_latched_edges_and_restart_when_switched_on() {
+        // Continuous, both edges of probe 1: each latched edge counts.
+        let mut probe = armed(0x0033);
+        for n in 1..=3u16 {
+            let out = tick(&mut probe, 0x0033, TP1, 10);
+            assert_eq!(out.positive_count[0], n);
+            assert!(out.changed.contains(Changed::COUNTERS));
+            let out = tick(&mut probe, 0x0033, NONE, 20);
+            assert_eq!((out.positive_count[0], out.negative_count[0]), (n, n));
+        }
+        assert_eq!(probe.counts(), [3, 3, 0, 0]);
+        // Switched off: the counters keep their values; switched on again: they restart.
+        let out = tick(&mut probe, 0x0032, TP1, 30);
+        assert_eq!((out.positive_count[0], out.changed.contains(Changed::COUNTERS)), (3, false));
+        let out = tick(&mut probe, 0x0033, NONE, 40);
+        assert_eq!((out.positive_count[0], out.negative_count[0]), (0, 1));
+        // Wrapping: a counter at FFFFh goes on at 0.
+        probe.one.positive_count = u16::MAX;
+        let out = tick(&mut probe, 0x0033, TP1, 50);
+        assert_eq!(out.positive_count[0], 0);
+        // First event: 0 until the edge is stored, 1 after, 0 again when re-armed.
+        let mut probe = armed(0x1100);
+        let out = tick(&mut probe, 0x1100, TP2, 1);
+        assert_eq!(out.positive_count[1], 1);
+        tick(&mut probe, 0x1100, NONE, 2);
+        let out = tick(&mut probe, 0x1100, TP2, 3);
+        assert_eq!((out.positive_count[1], out.changed), (1, Changed::empty()));
+        tick(&mut probe, 0x0100, NONE, 4);
+        let out = tick(&mut probe, 0x1100, NONE, 5);
+        assert_eq!((out.positive_count[1], out.changed), (0, Changed::STATUS | Changed::COUNTERS));
+    }
+
+    #[test]
     fn both_probes_at_once() {
         let mut probe = armed(0x2711);
         // TP1 rises; the index pulse comes, but probe 2 samples only negative edges.
@@ -626,7 +710,10 @@ mod tests {
         let out = tick(&mut probe, 0x3333, TP1, 2);
         assert_eq!(out.status, 0x0703);
         assert_eq!((out.positive, out.negative), ([2, 1], [0, 2]));
-        assert_eq!(out.changed, Changed::STATUS | Changed::PROBE_1_POSITIVE | Changed::PROBE_2_NEGATIVE);
+        assert_eq!(
+            out.changed,
+            Changed::STATUS | Changed::PROBE_1_POSITIVE | Changed::PROBE_2_NEGATIVE | Changed::COUNTERS
+        );
     }
 
     #[test]

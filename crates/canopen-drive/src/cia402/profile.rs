@@ -379,10 +379,11 @@ impl Profile {
         let actual_user = factors.to_user(actual - self.origin) * position_sign;
         od.store(self.slots.position_actual_internal, sample.position);
         od.store(self.slots.position_actual, saturate(actual_user));
-        let velocity_user = factors.to_user(i64::from(sample.velocity)) * velocity_sign;
+        let velocity_user = factors.velocity_to_user(i64::from(sample.velocity)) * velocity_sign;
         od.store(self.slots.velocity_actual, saturate(velocity_user));
-        od.store(self.slots.torque_actual, sample.torque);
-        od.store(self.slots.current_actual, sample.torque);
+        let torque_user = factors.torque_to_user(i64::from(sample.torque));
+        od.store(self.slots.torque_actual, torque_user);
+        od.store(self.slots.current_actual, torque_user);
         od.store(self.slots.dc_link_voltage, sample.dc_link_millivolts);
         // 60FDh bits 0..3: negative/positive limit, home, interlock (the hal uses the same bits).
         od.store(self.slots.digital_inputs, sample.inputs.bits() & 0x0F);
@@ -405,6 +406,17 @@ impl Profile {
         for (flag, index, position) in latched {
             if probe.changed.contains(flag) {
                 let _ = od.set::<i32>(index, 0, to_user(position));
+            }
+        }
+        if probe.changed.contains(Changed::COUNTERS) {
+            let counters = [
+                TOUCH_PROBE_1_POSITIVE_EDGE_COUNTER,
+                TOUCH_PROBE_1_NEGATIVE_EDGE_COUNTER,
+                TOUCH_PROBE_2_POSITIVE_EDGE_COUNTER,
+                TOUCH_PROBE_2_NEGATIVE_EDGE_COUNTER,
+            ];
+            for (index, count) in counters.into_iter().zip(self.probe.counts()) {
+                let _ = od.set::<u16>(index, 0, count);
             }
         }
         // Probe 1's latch of this tick, for touch-probe homing (method 36).
@@ -727,9 +739,9 @@ impl Profile {
         od.store(self.slots.position_demand, saturate(demand_user));
         let following_error = demand_user - actual_user;
         od.store(self.slots.following_error_actual, saturate(following_error));
-        let velocity_demand = factors.to_user(self.velocity_demand()) * velocity_sign;
+        let velocity_demand = factors.velocity_to_user(self.velocity_demand()) * velocity_sign;
         od.store(self.slots.velocity_demand, saturate(velocity_demand));
-        od.store(self.slots.torque_demand, self.torque.value as i16);
+        od.store(self.slots.torque_demand, factors.torque_to_user(self.torque.value));
         let following =
             self.position_mode() && drive_enabled && self.following_error(od, following_error, now);
         if following && self.config.following_error_fault && self.fault.is_none() {
@@ -808,7 +820,7 @@ impl Profile {
     /// Reads the parameters cached between writes: the factor group and the cascade's gains
     /// (the integrator is kept across a re-tuning).
     fn refresh<const B: usize>(&mut self, od: &Dictionary<B>) -> Factors {
-        let factors = Factors::from_od(od);
+        let factors = Factors::from_od_in(od, self.config.units);
         self.factors = Some(factors);
         self.slots = Slots::resolve(od);
         if let Some(index) = self.config.cascade {
@@ -856,7 +868,7 @@ impl Profile {
                 return setpoint;
             }
         };
-        let effort = factors.to_user(i64::from(output.velocity)) * factors.velocity_sign();
+        let effort = factors.velocity_to_user(i64::from(output.velocity)) * factors.velocity_sign();
         od.store(self.slots.control_effort, saturate(effort));
         Setpoint::Torque(output.torque)
     }
@@ -951,12 +963,12 @@ impl Profile {
         let hz = self.config.tick_rate.hz();
         let (period_ticks, tolerance_ticks) = self.cycle_timing(od);
         let cycle = Cycle { sync: input.cycle.sync, fresh: input.cycle.fresh, period_ticks, tolerance_ticks };
-        let velocity_offset = factors.to_internal(i64::from(od.load(self.slots.velocity_offset)));
-        let torque_offset = od.load(self.slots.torque_offset);
+        let velocity_offset = factors.velocity_to_internal(i64::from(od.load(self.slots.velocity_offset)));
+        let torque_offset = factors.torque_to_internal(i64::from(od.load(self.slots.torque_offset)));
         // The offsets reach the power stage as feed-forward: within the limits of the demand
         // (DESIGN invariant 2), as the set-point is.
         let max_torque = i64::from(od.load(self.slots.max_torque).min(od.load(self.slots.max_current)));
-        let torque_feed_forward = i64::from(torque_offset).clamp(-max_torque, max_torque) as i16;
+        let torque_feed_forward = torque_offset.clamp(-max_torque, max_torque) as i16;
         let bridge: Bridge = self.config.cyclic.bridge;
         let target = match self.active_mode {
             mode::CYCLIC_POSITION => {
@@ -964,10 +976,10 @@ impl Profile {
                     + i64::from(od.load(self.slots.position_offset));
                 factors.to_internal(user * factors.position_sign()).saturating_add(self.origin)
             }
-            mode::CYCLIC_VELOCITY => {
-                factors.to_internal(i64::from(od.load(self.slots.target_velocity)) * factors.velocity_sign())
-            }
-            _ => i64::from(od.load(self.slots.target_torque)),
+            mode::CYCLIC_VELOCITY => factors.velocity_to_internal(
+                i64::from(od.load(self.slots.target_velocity)) * factors.velocity_sign(),
+            ),
+            _ => factors.torque_to_internal(i64::from(od.load(self.slots.target_torque))),
         };
         let stream = self.interpolator.tick(&cycle, target, bridge);
         let lost = stream.missed > u32::from(self.config.cyclic.max_missed_cycles);
@@ -1017,7 +1029,7 @@ impl Profile {
             }
             _ => {
                 let max = i64::from(od.load(self.slots.max_torque).min(od.load(self.slots.max_current)));
-                let wanted = value.saturating_add(i64::from(torque_offset));
+                let wanted = value.saturating_add(torque_offset);
                 let clamped = wanted.clamp(-max, max);
                 if input.halt {
                     self.torque.toward(0, od.load(self.slots.torque_slope), input.dt);
@@ -1062,7 +1074,7 @@ impl Profile {
             mode::PROFILE_VELOCITY => {
                 let limit = i64::from(velocity_limit(od, &self.slots, factors));
                 let target_user = i64::from(od.load(self.slots.target_velocity)) * factors.velocity_sign();
-                let target = factors.to_internal(target_user).clamp(-limit, limit);
+                let target = factors.velocity_to_internal(target_user).clamp(-limit, limit);
                 let current = self.velocity.value;
                 // Accelerating away from zero uses 6083h, approaching zero 6084h.
                 let accelerating = (target - current).signum() == current.signum() || current == 0;
@@ -1076,8 +1088,11 @@ impl Profile {
             }
             mode::PROFILE_TORQUE => {
                 let max = i64::from(od.load(self.slots.max_torque).min(od.load(self.slots.max_current)));
-                let target =
-                    if halt { 0 } else { i64::from(od.load(self.slots.target_torque)).clamp(-max, max) };
+                let target = if halt {
+                    0
+                } else {
+                    factors.torque_to_internal(i64::from(od.load(self.slots.target_torque))).clamp(-max, max)
+                };
                 self.torque.toward(target, od.load(self.slots.torque_slope), dt);
                 // The slope (6087h) shapes changes of the target; a limit lowered below the
                 // running torque holds at once (DESIGN invariant 2).
@@ -1169,7 +1184,11 @@ impl Profile {
             }
             mode::PROFILE_TORQUE => {
                 let max = i64::from(od.load(self.slots.max_torque).min(od.load(self.slots.max_current)));
-                self.torque.value == i64::from(od.load(self.slots.target_torque)).clamp(-max, max)
+                let target = self
+                    .factors
+                    .unwrap_or_default()
+                    .torque_to_internal(i64::from(od.load(self.slots.target_torque)));
+                self.torque.value == target.clamp(-max, max)
             }
             _ => false,
         }

@@ -147,6 +147,7 @@ fn write_object<const B: usize>(od: &Dictionary<B>, object: &Object, w: &mut imp
             write_var(od, var, od.default_of(index, 0, var), w)
         }
         Kind::Array { sub0, element, len } => {
+            let len = &od.array_len(sub0, *len);
             writeln!(w, "\n[{index:04X}]\nParameterName={}", ObjectName(object))?;
             writeln!(w, "ObjectType=0x8\nSubNumber=0x{:X}", u16::from(*len) + 1)?;
             writeln!(w, "\n[{index:04X}sub0]\nParameterName={}", Clean(sub0.name))?;
@@ -247,6 +248,8 @@ fn write_default<const B: usize>(
                 DeviceField::HardwareVersion => return default_text(device.hardware_version, w),
                 DeviceField::SoftwareVersion => return default_text(device.software_version, w),
                 DeviceField::Eds => return Ok(()),
+                // Resolved by `default_of`.
+                DeviceField::HomingMethodCount | DeviceField::HomingMethods => 0,
             };
             writeln!(w, "DefaultValue=0x{value:08X}")
         }

@@ -213,6 +213,10 @@ pub enum DeviceField {
     Eds,
     /// 6502h supported drive modes.
     DriveModes,
+    /// 60E3h sub 0: how many homing methods the configuration supports.
+    HomingMethodCount,
+    /// 60E3h sub 1..: the supported homing methods, ascending (each sub-index its own).
+    HomingMethods,
 }
 
 /// The power-on value of an entry (before stored parameters are applied).

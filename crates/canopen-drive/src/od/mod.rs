@@ -276,6 +276,8 @@ pub struct Dictionary<const BYTES: usize> {
     device: DeviceInfo,
     node_id: u8,
     overrides: &'static [DefaultOverride],
+    /// The homing methods 60E3h lists ([`DeviceField::HomingMethods`]).
+    homing: crate::cia402::hm::HomingConfig,
 }
 
 /// A default value resolved to bytes.
@@ -308,6 +310,7 @@ impl<const BYTES: usize> Dictionary<BYTES> {
             device,
             node_id,
             overrides: &[],
+            homing: crate::cia402::hm::HomingConfig::new(),
         };
         let mut region = 0usize;
         let mut previous: Option<u16> = None;
@@ -363,7 +366,33 @@ impl<const BYTES: usize> Dictionary<BYTES> {
     /// The power-on value of sub-index `sub` of `index`, described by `var`: the firmware's
     /// override, or the table's default.
     pub fn default_of(&self, index: u16, sub: u8, var: &Var) -> DefaultValue {
-        self.overrides.iter().find(|o| o.index == index && o.sub == sub).map_or(var.default, |o| o.value)
+        let default =
+            self.overrides.iter().find(|o| o.index == index && o.sub == sub).map_or(var.default, |o| o.value);
+        match default {
+            DefaultValue::Device(DeviceField::HomingMethodCount) => {
+                DefaultValue::Unsigned(u64::from(self.homing.listed_method_count()))
+            }
+            DefaultValue::Device(DeviceField::HomingMethods) => {
+                DefaultValue::Signed(self.homing.listed_method(sub).map_or(0, i64::from))
+            }
+            other => other,
+        }
+    }
+
+    /// The homing methods the drive supports, for the entries whose default is
+    /// [`DeviceField::HomingMethodCount`] or [`DeviceField::HomingMethods`] (60E3h).
+    pub fn set_homing_methods(&mut self, homing: crate::cia402::hm::HomingConfig) {
+        self.homing = homing;
+    }
+
+    /// The number of elements of an ARRAY with `len` elements and sub-index 0 `sub0`: fewer
+    /// when sub 0 counts a list of the configuration ([`DeviceField::HomingMethodCount`]).
+    pub fn array_len(&self, sub0: &Var, len: u8) -> u8 {
+        if sub0.default == DefaultValue::Device(DeviceField::HomingMethodCount) {
+            self.homing.listed_method_count().min(len)
+        } else {
+            len
+        }
     }
 
     /// Bytes of the store the tables use.
@@ -413,6 +442,11 @@ impl<const BYTES: usize> Dictionary<BYTES> {
     pub fn entry(&self, index: u16, sub: u8) -> Result<Entry, AbortCode> {
         let (object, region) = self.object(index).ok_or(AbortCode::ObjectDoesNotExist)?;
         let (var, offset) = object.sub(sub).ok_or(AbortCode::SubIndexDoesNotExist)?;
+        if let Kind::Array { sub0, len, .. } = &object.kind {
+            if sub > self.array_len(sub0, *len) {
+                return Err(AbortCode::SubIndexDoesNotExist);
+            }
+        }
         let offset = usize::from(region) + usize::from(object.base) + offset;
         Ok(Entry { object, var, sub, offset: offset as u16 })
     }
@@ -446,6 +480,8 @@ impl<const BYTES: usize> Dictionary<BYTES> {
                     DeviceField::HardwareVersion => DefaultBytes::Slice(d.hardware_version.as_bytes()),
                     DeviceField::SoftwareVersion => DefaultBytes::Slice(d.software_version.as_bytes()),
                     DeviceField::Eds => DefaultBytes::Slice(d.eds),
+                    // Resolved by `default_of`.
+                    DeviceField::HomingMethodCount | DeviceField::HomingMethods => number(0),
                 }
             }
         }

@@ -1,0 +1,139 @@
+//! Units of the torque and velocity objects ([`canopen_drive::cia402::Units`]): the CiA 402
+//! defaults (‰ of rated torque, position units per second) unchanged, and a drive configured
+//! for torques in mA (through 6075h) and velocities in motor rpm (through 608Fh) converting
+//! at the object boundary — what the master writes and reads, and what reaches the power stage.
+
+mod common;
+
+use common::profile::*;
+use common::*;
+
+use canopen_drive::cia402::{TorqueUnit, Units, VelocityUnit};
+use canopen_drive::hal::Setpoint;
+use canopen_drive::Duration;
+
+fn torque_bench(torque: TorqueUnit) -> Bench {
+    let mut bench = Bench::with_config(|mut config| {
+        config.profile.units = Units { torque, ..Units::CIA_402 };
+        config
+    });
+    write(&mut bench, 0x6075, &2000u32.to_le_bytes()); // motor rated current, mA
+    write(&mut bench, 0x6087, &1_000_000u32.to_le_bytes()); // a fast slope
+    enable(&mut bench, 4);
+    bench
+}
+
+fn velocity_bench(velocity: VelocityUnit) -> Bench {
+    let mut bench = Bench::with_config(|mut config| {
+        config.profile.units = Units { velocity, ..Units::CIA_402 };
+        config
+    });
+    // 4000 increments per revolution; gear 3:1 and a feed of 360 per turn change positions only.
+    write_sub(&mut bench, 0x608F, 1, &4000u32.to_le_bytes());
+    write_sub(&mut bench, 0x6091, 1, &3u32.to_le_bytes());
+    write_sub(&mut bench, 0x6092, 1, &360u32.to_le_bytes());
+    bench
+}
+
+#[test]
+fn cia_default_torque_is_per_mille_whatever_the_rated_current() {
+    let mut bench = torque_bench(TorqueUnit::PerMilleOfRated);
+    write(&mut bench, 0x6071, &500i16.to_le_bytes());
+    bench.advance(Duration::from_millis(50));
+    assert_eq!(od_i16(&mut bench, 0x6074), 500);
+    assert_eq!(node(&mut bench).demand.setpoint, Setpoint::Torque(500));
+}
+
+#[test]
+fn torque_in_milliamps_converts_through_the_rated_current() {
+    let mut bench = torque_bench(TorqueUnit::MilliAmps);
+    // 1000 mA at 2000 mA rated: 500 ‰ to the power stage; 6074h reads it back in mA.
+    write(&mut bench, 0x6071, &1000i16.to_le_bytes());
+    bench.advance(Duration::from_millis(50));
+    assert_eq!(node(&mut bench).demand.setpoint, Setpoint::Torque(500));
+    assert_eq!(od_i16(&mut bench, 0x6074), 1000);
+    // The actual torque and current (the motor's ‰) read in mA too: twice the ‰ value.
+    let sample = node(&mut bench).motor.sample().torque;
+    bench.advance(Duration::from_millis(1));
+    let actual = i32::from(od_i16(&mut bench, 0x6077));
+    assert!((actual - 2 * i32::from(sample)).abs() <= 40, "6077h {actual} mA, motor {sample} ‰");
+    assert_eq!(od_i16(&mut bench, 0x6078), od_i16(&mut bench, 0x6077));
+    // The limits stay in ‰: 6072h = 300 ‰ caps a 1000 mA target at 300 ‰ = 600 mA.
+    write(&mut bench, 0x6072, &300u16.to_le_bytes());
+    bench.advance(Duration::from_millis(20));
+    assert_eq!(node(&mut bench).demand.setpoint, Setpoint::Torque(300));
+    assert_eq!(od_i16(&mut bench, 0x6074), 600);
+    // Target reached (bit 10) compares in the same unit.
+    write(&mut bench, 0x6072, &3000u16.to_le_bytes());
+    write(&mut bench, 0x6071, &(-700i16).to_le_bytes());
+    bench.advance(Duration::from_millis(20));
+    assert_eq!(node(&mut bench).demand.setpoint, Setpoint::Torque(-350));
+    assert_ne!(sw(&mut bench) & 0x0400, 0);
+}
+
+#[test]
+fn torque_in_milliamps_without_a_rated_current_commands_nothing() {
+    let mut bench = torque_bench(TorqueUnit::MilliAmps);
+    write(&mut bench, 0x6075, &0u32.to_le_bytes());
+    write(&mut bench, 0x6071, &1000i16.to_le_bytes());
+    bench.advance(Duration::from_millis(50));
+    assert_eq!(node(&mut bench).demand.setpoint, Setpoint::Torque(0));
+}
+
+#[test]
+fn cia_default_velocity_is_position_units_per_second() {
+    let mut bench = velocity_bench(VelocityUnit::PositionUnitsPerSecond);
+    enable_pv(&mut bench);
+    // 360 user units per output turn, 3 motor turns per output turn: 1 user unit/s = 100/3
+    // increments/s; 60 → 2000 increments/s.
+    write(&mut bench, 0x60FF, &60i32.to_le_bytes());
+    bench.advance(Duration::from_millis(500));
+    assert_eq!(node(&mut bench).demand.setpoint, Setpoint::Velocity(2000));
+    assert_eq!(od_i32(&mut bench, 0x606B), 60);
+}
+
+#[test]
+fn velocity_in_rpm_converts_through_the_encoder_resolution() {
+    let mut bench = velocity_bench(VelocityUnit::MotorRpm);
+    // Accelerations in rpm/s: 600 rpm/s = 40 000 increments/s².
+    write(&mut bench, 0x6083, &600u32.to_le_bytes());
+    enable_pv(&mut bench);
+    // 60 rpm at 4000 increments per revolution: 4000 increments/s (the gear does not enter).
+    write(&mut bench, 0x60FF, &60i32.to_le_bytes());
+    bench.advance(Duration::from_millis(50));
+    // After 50 ms at 600 rpm/s: 30 rpm = 2000 increments/s.
+    let Setpoint::Velocity(ramping) = node(&mut bench).demand.setpoint else { panic!() };
+    assert!((1900..=2100).contains(&ramping), "{ramping}");
+    bench.advance(Duration::from_millis(500));
+    assert_eq!(node(&mut bench).demand.setpoint, Setpoint::Velocity(4000));
+    assert_eq!(od_i32(&mut bench, 0x606B), 60);
+    bench.advance(Duration::from_millis(500));
+    let actual = od_i32(&mut bench, 0x606C);
+    assert!((58..=62).contains(&actual), "606Ch {actual} rpm");
+    // Positions keep the factor group: 6064h is in user units (360 per output turn).
+    let increments = od_i32(&mut bench, 0x6063);
+    let user = od_i32(&mut bench, 0x6064);
+    assert!((i64::from(user) - i64::from(increments) * 360 / 12_000).abs() <= 1);
+    // The velocity limit 607Fh is in rpm too: 30 rpm caps the demand at 2000 increments/s.
+    write(&mut bench, 0x607F, &30u32.to_le_bytes());
+    bench.advance(Duration::from_millis(500));
+    assert_eq!(node(&mut bench).demand.setpoint, Setpoint::Velocity(2000));
+}
+
+#[test]
+fn profile_position_speeds_in_rpm() {
+    let mut bench = velocity_bench(VelocityUnit::MotorRpm);
+    write_sub(&mut bench, 0x6091, 1, &1u32.to_le_bytes());
+    write_sub(&mut bench, 0x6092, 1, &4000u32.to_le_bytes()); // positions in increments
+    write(&mut bench, 0x6081, &120u32.to_le_bytes()); // 120 rpm = 8000 increments/s
+    write(&mut bench, 0x6083, &6000u32.to_le_bytes()); // 400 000 increments/s²
+    write(&mut bench, 0x6084, &6000u32.to_le_bytes());
+    enable(&mut bench, 1);
+    write(&mut bench, 0x607A, &40_000i32.to_le_bytes());
+    cw(&mut bench, 0x001F, 1);
+    cw(&mut bench, 0x000F, 200);
+    // Cruising at the profile velocity: 120 rpm in 606Bh, 8000 increments/s of feed-forward.
+    assert_eq!(od_i32(&mut bench, 0x606B), 120);
+    let feed_forward = node(&mut bench).demand.feed_forward.velocity;
+    assert!((7990..=8000).contains(&feed_forward), "{feed_forward}");
+}
