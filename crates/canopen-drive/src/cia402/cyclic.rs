@@ -159,7 +159,15 @@ impl Interpolator {
     /// stream is not quantised into steps).
     pub fn value_fixed(&self) -> i128 {
         let span = (i128::from(self.to) - i128::from(self.from)) * ONE;
-        i128::from(self.from) * ONE + span * i128::from(self.k) / i128::from(self.ticks.max(1))
+        let scaled = span * i128::from(self.k);
+        let ticks = self.ticks.max(1);
+        // A segment's span × k fits 64 bits unless the stream jumps by ~2³¹ / k increments:
+        // then the (library) 128-bit division; both truncate toward zero.
+        let part = match i64::try_from(scaled) {
+            Ok(scaled) => i128::from(scaled / i64::from(ticks)),
+            Err(_) => scaled / i128::from(ticks),
+        };
+        i128::from(self.from) * ONE + part
     }
 
     /// The change per tick of the present segment (a velocity in units per tick).
@@ -240,9 +248,11 @@ pub struct TickLimits {
 impl TickLimits {
     /// From increments/s and increments/s² at `hz` ticks per second.
     pub fn new(velocity: u32, acceleration: u32, deceleration: u32, hz: u32) -> Self {
-        let hz = i128::from(hz.max(1));
-        let per_tick = |v: u32| (i128::from(v) * ONE / hz).max(1);
-        let per_tick2 = |a: u32| (i128::from(a) * ONE / (hz * hz)).max(1);
+        // u32 × 2³² and hz² fit 64 bits: unsigned 64-bit divisions (a 128-bit one is a library
+        // call of several hundred instructions on a 32-bit MCU, and this runs every tick).
+        let hz = u64::from(hz.max(1));
+        let per_tick = |v: u32| i128::from(((u64::from(v) << 32) / hz).max(1));
+        let per_tick2 = |a: u32| i128::from(((u64::from(a) << 32) / (hz * hz)).max(1));
         TickLimits {
             velocity: per_tick(velocity),
             acceleration: per_tick2(acceleration),
@@ -339,6 +349,31 @@ impl Limiter {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The 64-bit arithmetic of `TickLimits::new` and `value_fixed` gives what 128 bits give.
+    #[test]
+    fn narrow_arithmetic_agrees_with_128_bits() {
+        for v in [0u32, 1, 7, 1000, 123_457, 1 << 31, u32::MAX] {
+            for hz in [1u32, 250, 1000, 4000, 16_000, 65_535] {
+                let limits = TickLimits::new(v, v, v, hz);
+                let hz = i128::from(hz);
+                assert_eq!(limits.velocity, (i128::from(v) * ONE / hz).max(1), "{v} at {hz} Hz");
+                assert_eq!(limits.acceleration, (i128::from(v) * ONE / (hz * hz)).max(1), "{v} at {hz} Hz");
+            }
+        }
+        for (from, to) in
+            [(0i64, 1000), (5, -7), (-1 << 40, 1 << 40), (i64::from(i32::MIN), i64::from(i32::MAX)), (3, 3)]
+        {
+            for ticks in [1u32, 3, 4, 16] {
+                for k in 0..=ticks {
+                    let i = Interpolator { from, to, ticks, k, ..Interpolator::default() };
+                    let span = (i128::from(to) - i128::from(from)) * ONE;
+                    let reference = i128::from(from) * ONE + span * i128::from(k) / i128::from(ticks);
+                    assert_eq!(i.value_fixed(), reference, "{from} -> {to}, {k}/{ticks}");
+                }
+            }
+        }
+    }
 
     fn cycle(sync: bool, fresh: bool) -> Cycle {
         Cycle { sync, fresh, period_ticks: 4, tolerance_ticks: 2 }
