@@ -32,7 +32,7 @@
 //!   disabled and reported with EMCY 0x8200.
 
 use crate::od::{
-    AbortCode, Access, DataType, DefaultValue, Dictionary, Entry, Object, ObjectHooks, PdoMapping, Var,
+    AbortCode, Access, DataType, DefaultValue, Dictionary, Entry, Object, ObjectHooks, PdoMapping, Span, Var,
 };
 use crate::time::{Duration, Instant};
 use crate::wire::cob_id::{self, CobId, BIT30, INVALID};
@@ -270,6 +270,8 @@ pub fn count(table: &[Object]) -> (usize, usize) {
 struct Slot {
     /// The mapped entry; `None` for a dummy entry.
     entry: Option<Entry>,
+    /// Where its value is stored (every mappable entry is a stored number).
+    span: Option<Span>,
     bits: u8,
 }
 
@@ -282,8 +284,11 @@ struct Mapping {
 }
 
 impl Mapping {
-    const EMPTY: Mapping =
-        Mapping { slots: [Slot { entry: None, bits: 0 }; MAX_MAPPED as usize], count: 0, bits: 0 };
+    const EMPTY: Mapping = Mapping {
+        slots: [Slot { entry: None, span: None, bits: 0 }; MAX_MAPPED as usize],
+        count: 0,
+        bits: 0,
+    };
 
     fn bytes(&self) -> usize {
         usize::from(self.bits).div_ceil(8)
@@ -312,7 +317,7 @@ fn resolve<const B: usize>(od: &Dictionary<B>, raw: u32, direction: Direction) -
             _ => 32,
         };
         return if sub == 0 && bits == size {
-            Ok(Slot { entry: None, bits })
+            Ok(Slot { entry: None, span: None, bits })
         } else {
             Err(AbortCode::ObjectNotMappable)
         };
@@ -328,7 +333,7 @@ fn resolve<const B: usize>(od: &Dictionary<B>, raw: u32, direction: Direction) -
     if !direction_ok || !length_ok || var.is_fixed() {
         return Err(AbortCode::ObjectNotMappable);
     }
-    Ok(Slot { entry: Some(entry), bits })
+    Ok(Slot { span: od.span(&entry), entry: Some(entry), bits })
 }
 
 /// Resolves the mapping record of `record` as stored in the dictionary.
@@ -546,10 +551,16 @@ impl<const R: usize, const T: usize> Default for PdoSet<R, T> {
     }
 }
 
-fn read_value<const B: usize>(od: &Dictionary<B>, entry: &Entry) -> u64 {
-    let mut raw = [0u8; 8];
-    od.read(entry, 0, &mut raw);
-    u64::from_le_bytes(raw)
+fn read_value<const B: usize>(od: &Dictionary<B>, slot: &Slot) -> u64 {
+    match (slot.span, &slot.entry) {
+        (Some(span), _) => od.load_span(span),
+        (None, Some(entry)) => {
+            let mut raw = [0u8; 8];
+            od.read(entry, 0, &mut raw);
+            u64::from_le_bytes(raw)
+        }
+        (None, None) => 0,
+    }
 }
 
 /// Writes the low `bits` of `value` at bit `position` of the frame (little-endian bit order,
@@ -580,7 +591,7 @@ fn sample<const B: usize>(od: &Dictionary<B>, mapping: &Mapping) -> [u8; 8] {
     let mut frame = [0u8; 8];
     let mut position = 0;
     for slot in mapping.slots() {
-        let value = slot.entry.as_ref().map_or(0, |e| read_value(od, e));
+        let value = read_value(od, slot);
         put_bits(&mut frame, position, usize::from(slot.bits), value);
         position += usize::from(slot.bits);
     }
@@ -932,7 +943,10 @@ fn apply<const B: usize>(
         let size = entry.var.data_type.fixed_size().unwrap_or(0);
         let bytes = value.to_le_bytes();
         let data = bytes.get(..size).unwrap_or(&[]);
-        od.commit(&entry, data);
+        match slot.span {
+            Some(span) => od.store_span(span, value),
+            None => od.commit(&entry, data),
+        }
         hooks.written(entry.index(), entry.sub, data);
     }
 }

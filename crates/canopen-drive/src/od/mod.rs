@@ -267,6 +267,13 @@ impl<T: Scalar> Slot<T> {
     }
 }
 
+/// The place of a stored numeric value of up to 8 bytes ([`Dictionary::span`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Span {
+    offset: u16,
+    len: u8,
+}
+
 /// The object dictionary: description tables plus a value store of `BYTES` bytes.
 pub struct Dictionary<const BYTES: usize> {
     tables: [&'static [Object]; MAX_TABLES],
@@ -535,6 +542,43 @@ impl<const BYTES: usize> Dictionary<BYTES> {
             d.copy_from_slice(s);
         }
         n
+    }
+
+    /// Where a stored numeric value of up to 8 bytes lives (what a PDO maps), for
+    /// [`load_span`](Self::load_span) / [`store_span`](Self::store_span) without a lookup or a
+    /// copy of variable length; `None` for constants and other entries.
+    pub fn span(&self, entry: &Entry) -> Option<Span> {
+        let len = entry.var.data_type.fixed_size().filter(|n| *n <= 8 && !entry.var.is_fixed())?;
+        Some(Span { offset: entry.offset, len: len as u8 })
+    }
+
+    /// The value at `span`, little-endian, zero-extended to 64 bits.
+    #[inline]
+    pub fn load_span(&self, span: Span) -> u64 {
+        let start = usize::from(span.offset);
+        match span.len {
+            1 => self.store.get(start).map_or(0, |b| u64::from(*b)),
+            2 => self.store.get(start..start + 2).map_or(0, |b| u64::from(<u16 as Scalar>::from_le(b))),
+            4 => self.store.get(start..start + 4).map_or(0, |b| u64::from(<u32 as Scalar>::from_le(b))),
+            n => self
+                .store
+                .get(start..start + usize::from(n))
+                .map_or(0, |bytes| bytes.iter().rev().fold(0, |value, byte| value << 8 | u64::from(*byte))),
+        }
+    }
+
+    /// Stores the low bytes of `value` at `span` (after the checks a bus write needs).
+    #[inline]
+    pub fn store_span(&mut self, span: Span, value: u64) {
+        let start = usize::from(span.offset);
+        let bytes = value.to_le_bytes();
+        if let (Some(dst), Some(src)) =
+            (self.store.get_mut(start..start + usize::from(span.len)), bytes.get(..usize::from(span.len)))
+        {
+            for (d, s) in dst.iter_mut().zip(src) {
+                *d = *s;
+            }
+        }
     }
 
     /// Checks that `data` is an acceptable new value for `entry` from the bus: size and limits
