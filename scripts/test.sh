@@ -2,8 +2,9 @@
 # Installs everything the test suite needs on a fresh machine, then runs all of it:
 # formatting, lints, unit + integration tests, the robustness scenarios (24 h simulated soak),
 # no_std builds of the core for the MCU targets, the python-canopen interoperability tests
-# against the Linux drive program (generic and vendor profiles), fuzzing (scripts/fuzz.sh) and
-# the MCU part (scripts/mcu.sh: firmware in QEMU, tick bound, footprint budgets).
+# against the Linux drive program (generic and vendor profiles), fuzzing (scripts/fuzz.sh),
+# the MCU part (scripts/mcu.sh: firmware in QEMU, tick bound, footprint budgets) and the
+# instruction-count benchmarks against their budgets (scripts/bench.sh --check).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 root=$(pwd)
@@ -53,3 +54,6 @@ step "fuzzing: every cargo-fuzz target for 45 s (scripts/fuzz.sh)"
 
 step "MCU: firmware in QEMU with python-canopen, tick bound, footprint budgets (scripts/mcu.sh)"
 ./scripts/mcu.sh
+
+step "benchmarks: instruction counts against their budgets, BENCHMARKS.md up to date (scripts/bench.sh --check)"
+./scripts/bench.sh --check
