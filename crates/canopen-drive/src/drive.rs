@@ -478,7 +478,12 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
         let data = embedded_can::Frame::data(frame);
         // One dictionary look-up for the SYNC identifier; the rest only for a SYNC.
         let sync_id = (self.od.load_or(self.slots.cob_id_sync, 0x80) & 0x7FF) as u16;
-        if id == sync_id && self.nmt.serves_emcy() {
+        // SDO first: its identifier is restricted, no PDO or SYNC can use it.
+        if id == SDO_RX_BASE + u16::from(node_id) {
+            if self.nmt.serves_sdo() {
+                self.sdo_request(data, now);
+            }
+        } else if id == sync_id && self.nmt.serves_emcy() {
             self.sync_received(data, now, self.sync_config().0);
         } else if self.nmt.serves_pdo() && self.rpdo_received(id, data, now) {
             // An RPDO.
@@ -491,24 +496,28 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
             if let Some(control) = NodeControl::parse(data).filter(|c| c.addresses(node_id)) {
                 self.nmt_command(transition(self.nmt, control.command), now);
             }
-        } else if id == SDO_RX_BASE + u16::from(node_id) && self.nmt.serves_sdo() {
-            let mut access =
-                Access::new(&mut self.od, &mut self.hooks, &mut self.storage, self.nmt, &self.profile);
-            access.error_behaviour = self.error_behaviour;
-            let response = self.sdo.on_request(data, now, &mut access);
-            let written = access.written;
-            let stored = access.stored;
-            if let Some(response) = response {
-                self.send(SDO_TX_BASE + u16::from(node_id), &response);
-            }
-            if let Some(mux) = written {
-                self.after_write(mux, now);
-            }
-            if stored {
-                self.clear_error(code::DATA_SET);
-            }
-            self.drain_sdo(now);
         }
+    }
+
+    /// A request to this node's SDO server.
+    fn sdo_request(&mut self, data: &[u8], now: Instant) {
+        let node_id = self.node_id();
+        let mut access =
+            Access::new(&mut self.od, &mut self.hooks, &mut self.storage, self.nmt, &self.profile);
+        access.error_behaviour = self.error_behaviour;
+        let response = self.sdo.on_request(data, now, &mut access);
+        let written = access.written;
+        let stored = access.stored;
+        if let Some(response) = response {
+            self.send(SDO_TX_BASE + u16::from(node_id), &response);
+        }
+        if let Some(mux) = written {
+            self.after_write(mux, now);
+        }
+        if stored {
+            self.clear_error(code::DATA_SET);
+        }
+        self.drain_sdo(now);
     }
 
     /// Runs the timers and background work due at `now`; returns when to call again
@@ -1051,6 +1060,9 @@ struct Access<'a, H, S, const B: usize> {
     written: Option<Mux>,
     /// A store on command succeeded.
     stored: bool,
+    /// The entry the last lookup of this call resolved: a transfer asks for the same entry
+    /// two or three times (size, access, value) within one frame.
+    resolved: Option<Entry>,
 }
 
 impl<'a, H: ObjectHooks, S: Persistence, const B: usize> Access<'a, H, S, B> {
@@ -1070,6 +1082,7 @@ impl<'a, H: ObjectHooks, S: Persistence, const B: usize> Access<'a, H, S, B> {
             error_behaviour: &ErrorBehaviour::CIA_301,
             written: None,
             stored: false,
+            resolved: None,
         }
     }
 
@@ -1098,8 +1111,18 @@ impl<'a, H: ObjectHooks, S: Persistence, const B: usize> Access<'a, H, S, B> {
         Ok(())
     }
 
-    fn writable_entry(&self, mux: Mux) -> Result<Entry, AbortCode> {
+    /// `mux` resolved, from the call's one-entry cache when it was the last one asked for.
+    fn entry(&mut self, mux: Mux) -> Result<Entry, AbortCode> {
+        if let Some(entry) = self.resolved.filter(|e| e.index() == mux.index && e.sub == mux.sub) {
+            return Ok(entry);
+        }
         let entry = self.od.entry(mux.index, mux.sub)?;
+        self.resolved = Some(entry);
+        Ok(entry)
+    }
+
+    fn writable_entry(&mut self, mux: Mux) -> Result<Entry, AbortCode> {
+        let entry = self.entry(mux)?;
         if !entry.var.access.writable() {
             return Err(AbortCode::WriteOfReadOnly);
         }
@@ -1117,7 +1140,7 @@ impl<'a, H: ObjectHooks, S: Persistence, const B: usize> Access<'a, H, S, B> {
 
 impl<H: ObjectHooks, S: Persistence, const B: usize> ObjectAccess for Access<'_, H, S, B> {
     fn upload_len(&mut self, mux: Mux) -> Result<usize, AbortCode> {
-        let entry = self.od.entry(mux.index, mux.sub)?;
+        let entry = self.entry(mux)?;
         if !entry.var.access.readable() {
             return Err(AbortCode::ReadOfWriteOnly);
         }
@@ -1134,7 +1157,7 @@ impl<H: ObjectHooks, S: Persistence, const B: usize> ObjectAccess for Access<'_,
     }
 
     fn read(&mut self, mux: Mux, offset: usize, buf: &mut [u8]) -> Result<usize, AbortCode> {
-        let entry = self.od.entry(mux.index, mux.sub)?;
+        let entry = self.entry(mux)?;
         if let Some(capability) = self.command_capability(mux) {
             let bytes = capability.to_le_bytes();
             let rest = bytes.get(offset..).unwrap_or(&[]);

@@ -69,6 +69,7 @@ impl BlockUpload {
 
 /// Where the server is in a transfer.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u32)]
 enum State {
     Idle,
     SegmentedDownload {

@@ -64,6 +64,7 @@ pub enum Download {
 /// Block-download sub-block segments carry no command specifier; they are parsed with
 /// [`BlockSegment::parse`] while a block download is in progress.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u32)]
 pub enum Request {
     /// ccs 1: initiate download.
     InitiateDownload {
@@ -258,6 +259,7 @@ impl BlockSegment {
 
 /// A response of the SDO server.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u32)]
 pub enum Response {
     /// scs 3: initiate download response.
     DownloadInitiated {
