@@ -116,14 +116,11 @@ MANUAL = [
 ]
 
 DEVIATIONS = {
-    ((0x67FE, 0), "exists"): "not an object of the core (the CiA 402 digest it follows has no 67FEh)",
-    ((0x60E3, 0), "type"): "CiA 301: UNSIGNED8",
     # sub-index 0 is UNSIGNED8 by CiA 301; the table prints the entries' type.
     ((0x607D, 0), "type"): "CiA 301: UNSIGNED8",
     ((0x6099, 0), "type"): "CiA 301: UNSIGNED8",
     ((0x60FE, 0), "type"): "CiA 301: UNSIGNED8",
     ((0x60FE, 0), "default"): "the core's 60FEh has the bit mask (sub 2) too",
-    ((0x6071, 0), "type"): "CiA 402: INTEGER16 (a negative torque)",
     # Zero defaults that would stop the simulated drive at once: the core's stay.
     ((0x6065, 0), "default"): "a window of 0 would be a following error (a fault) at the first move",
     ((0x6066, 0), "default"): "see 6065h",
@@ -382,6 +379,15 @@ def test_supported_homing_methods_60e3h(cpc):
     assert abort_code(lambda: cpc.sdo.download(0x60E3, 1, b"\x05")) == 0x06010002
     for method in SUPPORTED_HOMING_METHODS:
         cpc.sdo[0x6098].raw = method
+
+
+def test_version_number_and_the_manuals_types(cpc):
+    # §16: 67FEh, a constant; §11.3: 6071h UNSIGNED16 (the same two bytes as CiA 402's INTEGER16).
+    assert cpc.sdo[0x67FE].raw == 3
+    assert abort_code(lambda: cpc.sdo.download(0x67FE, 0, (4).to_bytes(4, "little"))) == 0x06010002
+    cpc.sdo.download(0x6071, 0, b"\xff\xff")
+    assert cpc.sdo[0x6071].raw == 0xFFFF
+    cpc.sdo[0x6071].raw = 0
 
 
 def test_touch_probe_edge_counters_timing_example(cpc):

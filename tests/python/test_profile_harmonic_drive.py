@@ -174,22 +174,14 @@ MANUAL = COMMUNICATION + MANUFACTURER + PROFILE_AREA
 DEVIATIONS = {
     ((0x1010, 3), "default"): "the core offers every storage group (reads 1)",
     ((0x1011, 3), "default"): "the core offers every storage group (reads 1)",
-    ((0x1016, 0), "default"): "the core supervises up to 4 heartbeats",
     ((0x1016, 0), "access"): "the core's number of consumer entries is constant",
-    ((0x1018, 0), "default"): "the core's identity object has sub 4 (serial number)",
     ((0x1029, 0), "default"): "the core's 1029h has only sub 1",
     ((0x1029, 2), "exists"): "the core's 1029h has only sub 1",
-    ((0x605B, 0), "type"): "CiA 402: INTEGER16",
-    ((0x605C, 0), "type"): "CiA 402: INTEGER16",
-    ((0x605D, 0), "type"): "CiA 402: INTEGER16",
-    ((0x605E, 0), "type"): "CiA 402: INTEGER16",
-    ((0x6082, 0), "type"): "CiA 402: UNSIGNED32",
     ((0x6071, 0), "type"): "CiA 402: INTEGER16",
     ((0x6077, 0), "type"): "CiA 402: INTEGER16",
     ((0x60B2, 0), "type"): "CiA 402: INTEGER16",
     ((0x6061, 0), "access"): "read-only (CiA 402); the manual's table says rw",
     ((0x6041, 0), "access"): "read-only (CiA 402); the manual's table says rw",
-    ((0x6084, 0), "access"): "writable (CiA 402); the manual keeps it equal to 6083h",
     ((0x608F, 2), "access"): "the core's factor group lets 608Fh sub 2 be written",
     **{((index, sub), "pdo"): "mappable in the core" for index, sub in
        [(0x606B, 0), (0x6081, 0), (0x6082, 0), (0x6083, 0), (0x6084, 0), (0x6085, 0), (0x6098, 0), (0x6099, 1),
@@ -298,6 +290,17 @@ class Sync:
 def test_identity_modes_option_codes_and_homing_methods(actuator):
     assert actuator.sdo[0x1000].raw == 0x00420192
     assert actuator.sdo[0x1018][1].raw == 0x443
+    # The manual's 1018h has no serial number, its 1016h one consumer entry.
+    assert abort_code(lambda: actuator.sdo.upload(0x1018, 4)) == 0x06090011
+    assert abort_code(lambda: actuator.sdo.upload(0x1016, 2)) == 0x06090011
+    # 6084h is read-only and follows the profile acceleration 6083h.
+    assert abort_code(lambda: actuator.sdo.download(0x6084, 0, (100).to_bytes(4, "little"))) == 0x06010002
+    acceleration = actuator.sdo[0x6083].raw
+    assert actuator.sdo[0x6084].raw == acceleration
+    actuator.sdo[0x6083].raw = 1234
+    assert wait_until(lambda: actuator.sdo[0x6084].raw == 1234)
+    actuator.sdo[0x6083].raw = acceleration
+    assert wait_until(lambda: actuator.sdo[0x6084].raw == acceleration)
     assert actuator.sdo[0x6502].raw == 0x3A5
     for index, refused in ((0x605A, (0, 3, 4, 7)), (0x605B, (1,)), (0x605C, (0,)), (0x605D, (2,)), (0x605E, (1,))):
         for value in refused:

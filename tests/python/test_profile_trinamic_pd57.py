@@ -217,23 +217,11 @@ MANUAL = COMMUNICATION + MANUFACTURER + PROFILE_AREA
 
 # Where this rebuild deliberately differs from the table, and why (key: (index, sub), field).
 DEVIATIONS = {
-    # The core's communication objects: 1016h has 4 consumer entries, 1018h a serial number,
-    # 1029h only the communication-error entry.
-    ((0x1016, 0), "default"): "the core supervises up to 4 heartbeats",
-    ((0x1018, 0), "default"): "the core's identity object has sub 4 (serial number)",
+    # The core's communication objects: 1029h has only the communication-error entry.
     ((0x1029, 0), "default"): "the core's 1029h has only sub 1",
     ((0x1029, 2), "exists"): "the core's 1029h has only sub 1 (application errors keep the state anyway)",
     ((0x1001, 0), "pdo"): "TPDO-mappable in the core (CiA 301 allows it)",
     # Types the manual prints against CiA 402 (same bytes on the wire for its values).
-    ((0x605B, 0), "type"): "CiA 402: INTEGER16",
-    ((0x605C, 0), "type"): "CiA 402: INTEGER16",
-    ((0x605D, 0), "type"): "CiA 402: INTEGER16",
-    ((0x605E, 0), "type"): "CiA 402: INTEGER16",
-    ((0x6081, 0), "type"): "CiA 402: UNSIGNED32",
-    ((0x6082, 0), "type"): "CiA 402: UNSIGNED32",
-    ((0x6083, 0), "type"): "CiA 402: UNSIGNED32",
-    ((0x6084, 0), "type"): "CiA 402: UNSIGNED32",
-    ((0x6086, 0), "type"): "CiA 402: INTEGER16",
     ((0x2707, 0), "type"): "1000 kbit/s does not fit the manual's UNSIGNED8",
     # Access the manual prints for objects the drive itself writes.
     ((0x6061, 0), "access"): "read-only (CiA 402); the manual's table says rw",
@@ -343,6 +331,13 @@ def test_identity_and_supported_modes(pd57):
     assert pd57.sdo[0x1008].raw == "PD57/60-1378"
     assert pd57.sdo[0x1018][1].raw == 0x286
     assert pd57.sdo[0x1018][2].raw == 1378
+    # The manual's 1018h has no serial number, its 1016h one consumer entry.
+    assert pd57.sdo[0x1018][0].raw == 3
+    assert abort_code(lambda: pd57.sdo.upload(0x1018, 4)) == 0x06090011
+    assert pd57.sdo[0x1016][0].raw == 1
+    assert abort_code(lambda: pd57.sdo.upload(0x1016, 2)) == 0x06090011
+    # The manual's SIGNED32 velocities: the core takes magnitudes only.
+    assert abort_code(lambda: pd57.sdo.download(0x6081, 0, (-1).to_bytes(4, "little", signed=True))) == 0x06090032
     assert pd57.sdo[0x6502].raw == 0x3A5  # pp, pv, hm, csp, csv, cst
     assert pd57.sdo[0x2708].raw == NODE_ID
     assert pd57.sdo[0x2707].raw == 1000

@@ -5,11 +5,17 @@
 mod common;
 
 use canopen_drive::cia402::fsa::State;
+use canopen_drive::cia402::objects::PROFILE;
 use canopen_drive::cia402::StatusFlag;
 use canopen_drive::comm::error_control::ErrorBehaviour;
 use canopen_drive::comm::NmtState;
-use canopen_drive::od::{layout, Access, DataType, DefaultOverride, DefaultValue, Object, Var, WriteRule};
-use canopen_drive::{Config, Duration};
+use canopen_drive::od::eds::EdsInfo;
+use canopen_drive::od::standard::COMMUNICATION;
+use canopen_drive::od::{
+    layout, Access, ConfigError, DataType, DefaultOverride, DefaultValue, EntryOverride, Object, PdoMapping,
+    Var, WriteRule,
+};
+use canopen_drive::{Config, Drive, Duration};
 use common::profile::*;
 use common::*;
 
@@ -38,6 +44,153 @@ fn firmware_defaults_of_standard_entries_hold_at_power_on_and_after_a_reset() {
     // Without the override, the crate's default.
     let mut standard = Bench::new();
     assert_ne!(read_i32(&mut standard, 0x6085), 51_200);
+}
+
+/// The EDS section of `index`/`sub` (e.g. `[6071]` or `[60E3sub0]`) of `drive`.
+fn eds_section(drive: &Drive<impl canopen_drive::od::ObjectHooks>, header: &str) -> String {
+    let mut eds = String::new();
+    drive.write_eds(&EdsInfo::default(), &mut eds).unwrap();
+    let start = eds.find(&format!("\n[{header}]\n")).unwrap_or_else(|| panic!("no [{header}]"));
+    let rest = &eds[start + 1..];
+    let end = rest[1..].find("\n[").map_or(rest.len(), |e| e + 1);
+    rest[..end].to_string()
+}
+
+#[test]
+fn standard_entries_may_be_described_as_the_device_documents() {
+    static DESCRIPTIONS: [EntryOverride; 4] = [
+        EntryOverride::of(&PROFILE, 0x6071, 0).data_type(DataType::Unsigned16),
+        EntryOverride::of(&PROFILE, 0x6084, 0).access(Access::ReadOnly),
+        EntryOverride::of(&PROFILE, 0x6077, 0).pdo(PdoMapping::No),
+        EntryOverride::of(&PROFILE, 0x6081, 0).data_type(DataType::Integer32).limits_signed(0, 1_000_000),
+    ];
+    let mut bench = Bench::with_config(|c| Config { entry_overrides: &DESCRIPTIONS, ..c });
+
+    // A read-only override: writes are refused with "attempt to write a read only object".
+    let before = read_i32(&mut bench, 0x6084);
+    let r = bench.sdo1(&req(0x23, 0x6084, 0, 1000u32.to_le_bytes()));
+    assert_eq!(r, abort(0x6084, 0, 0x0601_0002));
+    assert_eq!(read_i32(&mut bench, 0x6084), before, "unchanged, still readable");
+
+    // INTEGER16 retyped UNSIGNED16: the same two bytes, now unsigned on the bus and in the EDS;
+    // the core still reads its signed target torque.
+    write(&mut bench, 0x6071, &(-1i16).to_le_bytes());
+    let r = bench.sdo1(&req(0x40, 0x6071, 0, [0; 4]));
+    assert_eq!(r, req(0x4B, 0x6071, 0, [0xFF, 0xFF, 0, 0]));
+    assert_eq!(u16::from_le_bytes([r[4], r[5]]), 65_535);
+    assert_eq!(bench.drive().od().get::<i16>(0x6071, 0), Ok(-1));
+    let section = eds_section(bench.drive(), "6071");
+    assert!(section.contains("DataType=0x0006\n"), "{section}");
+
+    // The overridden limits hold for SDO writes, and the EDS states them with the new type.
+    let r = bench.sdo1(&req(0x23, 0x6081, 0, 1_000_001u32.to_le_bytes()));
+    assert_eq!(r, abort(0x6081, 0, 0x0609_0031));
+    let r = bench.sdo1(&req(0x23, 0x6081, 0, (-1i32).to_le_bytes()));
+    assert_eq!(r, abort(0x6081, 0, 0x0609_0032));
+    write(&mut bench, 0x6081, &5000i32.to_le_bytes());
+    let section = eds_section(bench.drive(), "6081");
+    assert!(section.contains("DataType=0x0004\nAccessType=rww\n"), "{section}");
+    assert!(section.contains("LowLimit=0\nHighLimit=1000000\n"), "{section}");
+    assert!(eds_section(bench.drive(), "6084").contains("AccessType=ro\n"));
+
+    // PDO mapping sees the override: 6077h is no longer TPDO-mappable.
+    let r = bench.sdo1(&req(0x23, 0x1800, 1, 0xC000_0185u32.to_le_bytes()));
+    assert_eq!(r, req(0x60, 0x1800, 1, [0; 4]));
+    let r = bench.sdo1(&req(0x2F, 0x1A00, 0, [0; 4]));
+    assert_eq!(r, req(0x60, 0x1A00, 0, [0; 4]));
+    let r = bench.sdo1(&req(0x23, 0x1A00, 1, 0x6077_0010u32.to_le_bytes()));
+    assert_eq!(r, abort(0x1A00, 1, 0x0604_0041));
+
+    // Without overrides: CiA 402's descriptions.
+    let mut standard = Bench::new();
+    write(&mut standard, 0x6084, &1000u32.to_le_bytes());
+    write(&mut standard, 0x6081, &2_000_000u32.to_le_bytes());
+    assert!(eds_section(standard.drive(), "6071").contains("DataType=0x0003\n"));
+    assert!(eds_section(standard.drive(), "6081").contains("DataType=0x0007\nAccessType=rww\n"));
+    assert!(eds_section(standard.drive(), "6084").contains("AccessType=rww\n"));
+    write_sub(&mut standard, 0x1800, 1, &0xC000_0185u32.to_le_bytes());
+    write_sub(&mut standard, 0x1A00, 0, &[0]);
+    write_sub(&mut standard, 0x1A00, 1, &0x6077_0010u32.to_le_bytes());
+}
+
+#[test]
+fn a_description_override_must_keep_the_entrys_size() {
+    static WIDER: [EntryOverride; 1] =
+        [EntryOverride::of(&PROFILE, 0x6071, 0).data_type(DataType::Integer32)];
+    static CONSTANT: [EntryOverride; 1] = [EntryOverride::of(&PROFILE, 0x6084, 0).access(Access::Const)];
+    static NARROWER: [EntryOverride; 1] =
+        [EntryOverride::new(0x6081, 0, Var::new("Profile velocity", DataType::Unsigned16))];
+    for (overrides, index) in [(&WIDER, 0x6071), (&CONSTANT, 0x6084), (&NARROWER, 0x6081)] {
+        let config = Config { entry_overrides: overrides, ..Config::new(NODE) };
+        assert_eq!(Drive::new(config).err(), Some(ConfigError::EntrySize { index, sub: 0 }));
+    }
+    static MISSING: [EntryOverride; 1] = [EntryOverride::of(&PROFILE, 0x6071, 1)];
+    let config = Config { entry_overrides: &MISSING, ..Config::new(NODE) };
+    assert_eq!(Drive::new(config).err(), Some(ConfigError::BadEntry { index: 0x6071 }));
+    assert!(Config::new(NODE).entry_overrides.is_empty());
+    assert!(Config::new(NODE).extra_profile_objects.is_empty());
+}
+
+#[test]
+fn a_smaller_count_of_a_standard_record_or_array_hides_the_entries_above_it() {
+    static DESCRIPTIONS: [EntryOverride; 2] = [
+        EntryOverride::of(&COMMUNICATION, 0x1016, 0).default(DefaultValue::Unsigned(1)),
+        EntryOverride::of(&COMMUNICATION, 0x1018, 0).default(DefaultValue::Unsigned(3)),
+    ];
+    let mut bench = Bench::with_config(|c| Config { entry_overrides: &DESCRIPTIONS, ..c });
+    assert_eq!(bench.sdo1(&req(0x40, 0x1018, 0, [0; 4])), req(0x4F, 0x1018, 0, [3, 0, 0, 0]));
+    assert_eq!(bench.sdo1(&req(0x40, 0x1018, 4, [0; 4])), abort(0x1018, 4, 0x0609_0011));
+    assert_eq!(bench.sdo1(&req(0x40, 0x1016, 0, [0; 4])), req(0x4F, 0x1016, 0, [1, 0, 0, 0]));
+    assert_eq!(bench.sdo1(&req(0x23, 0x1016, 2, [0; 4])), abort(0x1016, 2, 0x0609_0011));
+    write_sub(&mut bench, 0x1016, 1, &0x0010_0064u32.to_le_bytes());
+    let identity = eds_section_of(bench.drive(), "1018", "1018sub4");
+    assert!(identity.contains("SubNumber=0x4\n"), "{identity}");
+    assert!(!eds_contains(bench.drive(), "[1018sub4]") && !eds_contains(bench.drive(), "[1016sub2]"));
+    assert!(eds_section(bench.drive(), "1016").contains("SubNumber=0x2\n"));
+
+    // CiA 301's defaults: four consumer entries, the serial number.
+    let mut standard = Bench::new();
+    assert_eq!(standard.sdo1(&req(0x40, 0x1018, 4, [0; 4])), req(0x43, 0x1018, 4, [0; 4]));
+    write_sub(&mut standard, 0x1016, 4, &0u32.to_le_bytes());
+    assert!(eds_contains(standard.drive(), "[1018sub4]"));
+}
+
+fn eds_contains(drive: &Drive<impl canopen_drive::od::ObjectHooks>, text: &str) -> bool {
+    let mut eds = String::new();
+    drive.write_eds(&EdsInfo::default(), &mut eds).unwrap();
+    eds.contains(text)
+}
+
+/// The EDS from section `[from]` up to section `[to]`.
+fn eds_section_of(drive: &Drive<impl canopen_drive::od::ObjectHooks>, from: &str, to: &str) -> String {
+    let mut eds = String::new();
+    drive.write_eds(&EdsInfo::default(), &mut eds).unwrap();
+    let start = eds.find(&format!("[{from}]")).unwrap();
+    let end = eds[start..].find(&format!("[{to}]")).map_or(eds.len(), |e| start + e);
+    eds[start..end].to_string()
+}
+
+#[test]
+fn the_profile_area_may_hold_objects_after_the_crates() {
+    static VERSION: [Object; 1] = layout([Object::var(
+        0x67FE,
+        "Version number",
+        Var::new("Version number", DataType::Unsigned32)
+            .access(Access::Const)
+            .default(DefaultValue::Unsigned(3)),
+    )]);
+    let mut bench = Bench::with_config(|c| Config { extra_profile_objects: &VERSION, ..c });
+    assert_eq!(bench.sdo1(&req(0x40, 0x67FE, 0, [0; 4])), req(0x43, 0x67FE, 0, [3, 0, 0, 0]));
+    assert_eq!(bench.sdo1(&req(0x23, 0x67FE, 0, [4, 0, 0, 0])), abort(0x67FE, 0, 0x0601_0002));
+    assert!(eds_section(bench.drive(), "67FE").contains("AccessType=const\n"));
+    // Not in the standard configuration (CiA 402-2 v3.0 has no 67FEh).
+    let mut standard = Bench::new();
+    assert_eq!(standard.sdo1(&req(0x40, 0x67FE, 0, [0; 4])), abort(0x67FE, 0, 0x0602_0000));
+    // Below the crate's profile objects: refused (the tables cover ascending index ranges).
+    static INSIDE: [Object; 1] =
+        layout([Object::var(0x6500, "Inside", Var::new("Inside", DataType::Unsigned8))]);
+    let config = Config { extra_profile_objects: &INSIDE, ..Config::new(NODE) };
+    assert_eq!(Drive::new(config).err(), Some(ConfigError::NotSorted { index: 0x6500 }));
 }
 
 #[test]

@@ -35,8 +35,8 @@ use crate::od::standard::{
     SYNCHRONOUS_WINDOW_LENGTH,
 };
 use crate::od::{
-    AbortCode, ConfigError, DefaultOverride, DeviceInfo, Dictionary, Entry, Object, ObjectHooks, Slot,
-    WriteRule,
+    AbortCode, ConfigError, DefaultOverride, DeviceInfo, Dictionary, Entry, EntryOverride, Object,
+    ObjectHooks, Slot, WriteRule,
 };
 use crate::storage::{
     Group, Persistence, LOAD_SIGNATURE, RESTORE_DEFAULT_PARAMETERS, SAVE_SIGNATURE, STORE_PARAMETERS,
@@ -128,6 +128,15 @@ pub struct Config {
     /// The firmware's own power-on values of entries of the crate's tables (default: none, the
     /// CiA defaults). They are the values after power-on and restore defaults, and the EDS's.
     pub default_overrides: &'static [DefaultOverride],
+    /// The firmware's own descriptions of entries of the crate's tables: another data type of
+    /// the same size, access, PDO mappability, limits or default where the drive's
+    /// documentation departs from CiA 301/402 (default: none, the standard descriptions). An
+    /// override that changes an entry's size is refused ([`ConfigError::EntrySize`]).
+    pub entry_overrides: &'static [EntryOverride],
+    /// Objects of the device-profile area beyond the crate's (indices above those of
+    /// [`crate::cia402::objects::PROFILE`], ascending, laid out with [`crate::od::layout`]),
+    /// e.g. objects of a later edition of CiA 402 or a second axis (default: none).
+    pub extra_profile_objects: &'static [Object],
     /// What each value of 1029h sub 1 means (default [`ErrorBehaviour::CIA_301`]: 0
     /// Pre-operational, 1 no change, 2 Stopped); other values below 80h are refused.
     pub error_behaviour_values: &'static [(u8, ErrorBehaviour)],
@@ -146,6 +155,8 @@ impl Config {
             pdo_objects: &pdo::DEFAULT_OBJECTS,
             profile: ProfileConfig::new(),
             default_overrides: &[],
+            entry_overrides: &[],
+            extra_profile_objects: &[],
             error_behaviour_values: &ErrorBehaviour::CIA_301,
         }
     }
@@ -353,14 +364,16 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
         if pdo::count(config.pdo_objects) != (RPDOS, TPDOS) {
             return Err(ConfigError::PdoCount);
         }
-        let tables: [&'static [Object]; 4] = [
+        let tables: [&'static [Object]; 5] = [
             &standard::COMMUNICATION,
             config.pdo_objects,
             config.manufacturer_objects,
             &crate::cia402::objects::PROFILE,
+            config.extra_profile_objects,
         ];
         let mut od = Dictionary::new(&tables, config.device, config.node_id)?;
         od.set_homing_methods(config.profile.homing);
+        od.set_entry_overrides(config.entry_overrides)?;
         od.set_default_overrides(config.default_overrides)?;
         let mut drive = Drive {
             slots: CommSlots::resolve(&od),

@@ -35,13 +35,16 @@
 //! # Not reproduced
 //!
 //! Option code −1 (dynamic brake) and 605Dh 0, the manufacturer modes −1…−6 of 6060h, methods
-//! −11/−12 reverse on a limit switch where the drive reverses on a hard stop, 67FEh (version
-//! number; the CiA 402 digest the core follows has no such object), 60E3h sub 0 typed
-//! UNSIGNED8 (CiA 301; the manual prints INTEGER8), 6080h in counts/s (the core's is rpm: 608Fh/6092h are set to
-//! the axis's 10 000 counts per revolution, so the manual's 1 500 000 is no tighter limit), 60FEh's second sub-index (the core's bit mask), 607Fh written
-//! into 6080h, the manual's zero defaults of 6065h/6066h/6067h/6068h/6073h (the drive would
-//! fault at the first move, or not move: the core's defaults stay), 6071h typed UNSIGNED16 (the
-//! core keeps CiA 402's INTEGER16), and bit 7 (warning) is the core's.
+//! −11/−12 reverse on a limit switch where the drive reverses on a hard stop, 6080h in counts/s
+//! (the core's is rpm: 608Fh/6092h are set to the axis's 10 000 counts per revolution, so the
+//! manual's 1 500 000 is no tighter limit), 60FEh's second sub-index (the core's bit mask),
+//! 607Fh written into 6080h, the manual's zero defaults of 6065h/6066h/6067h/6068h/6073h (the
+//! drive would fault at the first move, or not move: the core's defaults stay), and bit 7
+//! (warning) is the core's.
+//!
+//! The manual's types of 6071h (UNSIGNED16) and 60E3h sub 0 (INTEGER8) are the core's entry
+//! descriptions overridden ([`DESCRIPTIONS`]); 67FEh (version number, §16) is an object of this
+//! profile after the core's profile objects ([`PROFILE_OBJECTS`]).
 
 use canopen_drive::cia402::fsa::State;
 use canopen_drive::cia402::hm::{hard_stop_object, HomingConfig, VendorMethod};
@@ -51,11 +54,14 @@ use canopen_drive::comm::error_control::ErrorBehaviour;
 use canopen_drive::comm::pdo;
 use canopen_drive::hal::Sample;
 use canopen_drive::od::eds::EdsInfo;
-use canopen_drive::od::{layout, Bound, DataType, DefaultOverride, DefaultValue, DeviceInfo, Object, Var};
+use canopen_drive::od::{
+    layout, Access, Bound, DataType, DefaultOverride, DefaultValue, DeviceInfo, EntryOverride, Object, Var,
+};
 
 use super::trinamic::method_mask;
 use super::{
-    default_of, rw, s, u, value_of, var, BoardDictionary, BoardProfile, Firmware, ProfileName, Update,
+    default_of, profile_entry, rw, s, u, value_of, var, BoardDictionary, BoardProfile, Firmware, ProfileName,
+    Update,
 };
 use crate::board_objects::{simulated_faults, simulated_inputs, simulated_load, PROFILE_SIMULATION};
 
@@ -131,6 +137,24 @@ pub static DEFAULTS: [DefaultOverride; 19] = [
     default_of(0x60C6, 0, u(100_000_000)),
 ];
 
+/// The manual's types of standard entries where they differ from CiA 301/402's (same sizes):
+/// the target torque 6071h UNSIGNED16 (§11.3) and the count of supported homing methods, 60E3h
+/// sub 0, INTEGER8 (§8.3).
+pub static DESCRIPTIONS: [EntryOverride; 2] = [
+    profile_entry(0x6071, 0).data_type(DataType::Unsigned16),
+    profile_entry(0x60E3, 0).data_type(DataType::Integer8),
+];
+
+/// 67FEh version number (§16): the CiA 402 version the drive implements. The value is the
+/// manual's default, 3 (its bit layout would put 3.0.0 at 030000h; the table gives 3).
+pub const VERSION_NUMBER: u16 = 0x67FE;
+
+/// Objects of the profile area the core does not have (CiA 402-2 v3.0 defines no 67FEh).
+pub static PROFILE_OBJECTS: [Object; 1] = layout([var(
+    VERSION_NUMBER,
+    Var::new("Version number", DataType::Unsigned32).access(Access::Const).default(DefaultValue::Unsigned(3)),
+)]);
+
 /// The core's drive-profile configuration of this drive.
 pub fn profile_config() -> ProfileConfig {
     let mut config = ProfileConfig::new();
@@ -191,6 +215,8 @@ pub fn profile() -> BoardProfile {
         pdo_objects: &pdo::DEFAULT_OBJECTS,
         profile: profile_config(),
         default_overrides: &DEFAULTS,
+        entry_overrides: &DESCRIPTIONS,
+        extra_profile_objects: &PROFILE_OBJECTS,
         error_behaviour_values: &ErrorBehaviour::CIA_301,
         simulation: PROFILE_SIMULATION,
         rules: &[],

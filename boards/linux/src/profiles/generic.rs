@@ -56,6 +56,8 @@ pub fn profile() -> BoardProfile {
         pdo_objects: &pdo::DEFAULT_OBJECTS,
         profile: ProfileConfig::new(),
         default_overrides: &[],
+        entry_overrides: &[],
+        extra_profile_objects: &[],
         error_behaviour_values: &ErrorBehaviour::CIA_301,
         simulation: GENERIC_SIMULATION,
         rules: &[],

@@ -45,11 +45,16 @@
 //! # Not reproduced
 //!
 //! 2050h sub 8 position scaler (−5/−6 do not compute it), teach mode (2025h sub 5), the
-//! automatic parameter saving after homing, 1010h/1011h sub 3 reading 0, 1016h with one entry,
-//! 1018h without sub 4, 1029h sub 2, the manual's types UNSIGNED16 of 605Bh–605Eh and
-//! INTEGER32 of 6071h/6077h/60B2h, 6084h read-only, SDO block transfer (still offered), and
-//! cyclic modes without SYNC: the set-points of the examples come by SDO (the core takes them
-//! as the stream), but the core's cyclic modes advance at each SYNC.
+//! automatic parameter saving after homing, 1010h/1011h sub 3 reading 0, 1016h sub 0 writable
+//! (the core's count is a constant), 1029h sub 2, the manual's INTEGER32 of 6071h/6077h/60B2h (a
+//! wider type than CiA 402's INTEGER16: a description override must keep an entry's size), SDO
+//! block transfer (still offered), and cyclic modes without SYNC: the set-points of the examples
+//! come by SDO (the core takes them as the stream), but the core's cyclic modes advance at each
+//! SYNC.
+//!
+//! The manual's types of 605Bh–605Eh (UNSIGNED16) and 6082h (INTEGER32), 6084h read-only (kept
+//! equal to 6083h by the firmware), 1016h with one entry and 1018h without sub 4 are the core's
+//! entry descriptions overridden ([`DESCRIPTIONS`]).
 
 use std::ops::RangeInclusive;
 
@@ -61,16 +66,16 @@ use canopen_drive::comm::error_control::ErrorBehaviour;
 use canopen_drive::hal::{DigitalInputs, HardwareFaults, Sample};
 use canopen_drive::od::eds::EdsInfo;
 use canopen_drive::od::{
-    layout, AbortCode, DataType, DefaultOverride, DefaultValue, DeviceInfo, Object, PdoMapping, Var,
-    WriteRule,
+    layout, AbortCode, Access, DataType, DefaultOverride, DefaultValue, DeviceInfo, EntryOverride, Object,
+    PdoMapping, Var, WriteRule,
 };
 use canopen_drive::wire::lss::BitTiming;
 use canopen_drive_sim::motor::MotorParams;
 
 use super::trinamic::method_mask;
 use super::{
-    bit_timing_index, default_of, highest, ro, rw, u, value_of, var, BoardDictionary, BoardProfile,
-    Environment, Firmware, ProfileName, Update,
+    bit_timing_index, communication_entry, default_of, highest, profile_entry, ro, rw, u, value_of, var,
+    BoardDictionary, BoardProfile, Environment, Firmware, ProfileName, Update,
 };
 use crate::board_objects::{
     simulated_faults, simulated_inputs, simulated_load, ValueRule, PROFILE_SIMULATION,
@@ -374,6 +379,23 @@ pub static DEFAULTS: [DefaultOverride; 12] = [
     default_of(0x6075, 0, u(1000)),
 ];
 
+/// The manual's descriptions of standard objects where they differ from CiA 301/402's: 1016h
+/// and 1018h with fewer entries, the option
+/// codes 605Bh–605Eh UNSIGNED16 (§5.1.2–5.1.5), the end velocity 6082h INTEGER32 (§6.1.12; a
+/// magnitude for the core, so negative values are refused), and the profile deceleration 6084h
+/// read-only (§6.1.14: the firmware keeps it equal to the profile acceleration 6083h).
+pub static DESCRIPTIONS: [EntryOverride; 8] = [
+    // One heartbeat consumer entry (§3.1.11), an identity without a serial number (§3.1.13).
+    communication_entry(0x1016, 0).default(u(1)),
+    communication_entry(0x1018, 0).default(u(3)),
+    profile_entry(0x605B, 0).data_type(Unsigned16),
+    profile_entry(0x605C, 0).data_type(Unsigned16),
+    profile_entry(0x605D, 0).data_type(Unsigned16),
+    profile_entry(0x605E, 0).data_type(Unsigned16),
+    profile_entry(0x6082, 0).data_type(Integer32).limits_signed(0, i32::MAX as i64),
+    profile_entry(0x6084, 0).access(Access::ReadOnly),
+];
+
 /// 1029h sub 1: 0 = Stopped, 1 = stay (§3.1.14).
 pub static ERROR_BEHAVIOUR: [(u8, ErrorBehaviour); 2] =
     [(0, ErrorBehaviour::Stopped), (1, ErrorBehaviour::NoChange)];
@@ -477,6 +499,8 @@ pub fn profile() -> BoardProfile {
         pdo_objects: &PDOS,
         profile: profile_config(),
         default_overrides: &DEFAULTS,
+        entry_overrides: &DESCRIPTIONS,
+        extra_profile_objects: &[],
         error_behaviour_values: &ERROR_BEHAVIOUR,
         simulation: PROFILE_SIMULATION,
         rules: &RULES,
@@ -615,6 +639,8 @@ impl Firmware for Actuator {
     fn after_tick(&mut self, od: &BoardDictionary, sample: &Sample, state: State, updates: &mut Vec<Update>) {
         let mut put = |index: u16, sub: u8, value: u64| updates.push(Update { index, sub, value });
         put(0x200D, 0, Actuator::status_flags(od, sample, state));
+        // 6084h is read-only (§6.1.14): the deceleration follows the acceleration.
+        put(0x6084, 0, value_of(od, 0x6083, 0));
         put(0x200E, 0, u64::from(sample.dc_link_millivolts / 100));
         let temperature: i64 =
             if sample.faults.contains(HardwareFaults::OVER_TEMPERATURE) { 120 } else { 25 };

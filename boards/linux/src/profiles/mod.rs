@@ -28,7 +28,7 @@ use canopen_drive::comm::error_control::ErrorBehaviour;
 use canopen_drive::hal::Sample;
 use canopen_drive::od::eds::EdsInfo;
 use canopen_drive::od::{
-    Access, DataType, DefaultOverride, DefaultValue, DeviceInfo, Dictionary, Object, Var,
+    Access, DataType, DefaultOverride, DefaultValue, DeviceInfo, Dictionary, EntryOverride, Object, Var,
 };
 use canopen_drive::Config;
 use canopen_drive_sim::motor::MotorParams;
@@ -159,6 +159,10 @@ pub struct BoardProfile {
     pub profile: ProfileConfig,
     /// The drive's own defaults of the core's standard objects.
     pub default_overrides: &'static [DefaultOverride],
+    /// The drive's own descriptions (type, access) of the core's standard entries.
+    pub entry_overrides: &'static [EntryOverride],
+    /// The drive's objects of the profile area beyond the core's (e.g. 67FEh).
+    pub extra_profile_objects: &'static [Object],
     /// The meaning of 1029h's values.
     pub error_behaviour_values: &'static [(u8, ErrorBehaviour)],
     /// Index of the first simulation object ([`crate::board_objects`]).
@@ -190,6 +194,8 @@ impl BoardProfile {
             pdo_objects: self.pdo_objects,
             profile: self.profile,
             default_overrides: self.default_overrides,
+            entry_overrides: self.entry_overrides,
+            extra_profile_objects: self.extra_profile_objects,
             error_behaviour_values: self.error_behaviour_values,
             ..Config::new(node_id)
         }
@@ -236,6 +242,17 @@ pub(crate) const fn highest(name: &'static str, n: u64) -> (u8, Var) {
 /// An override of a standard entry's default.
 pub(crate) const fn default_of(index: u16, sub: u8, value: DefaultValue) -> DefaultOverride {
     DefaultOverride { index, sub, value }
+}
+
+/// The core's description of a CiA 402 entry, to be changed into the drive's own.
+pub(crate) const fn profile_entry(index: u16, sub: u8) -> EntryOverride {
+    EntryOverride::of(&canopen_drive::cia402::objects::PROFILE, index, sub)
+}
+
+/// The core's description of a communication entry (1000h–1FFFh), to be changed into the
+/// drive's own.
+pub(crate) const fn communication_entry(index: u16, sub: u8) -> EntryOverride {
+    EntryOverride::of(&canopen_drive::od::standard::COMMUNICATION, index, sub)
 }
 
 /// The value of a fixed-size entry as a number (0 when it cannot be read).

@@ -139,20 +139,28 @@ impl fmt::Display for ObjectName<'_> {
     }
 }
 
-fn write_object<const B: usize>(od: &Dictionary<B>, object: &Object, w: &mut impl Write) -> fmt::Result {
+fn write_object<const B: usize>(
+    od: &Dictionary<B>,
+    object: &'static Object,
+    w: &mut impl Write,
+) -> fmt::Result {
     let index = object.index;
     match &object.kind {
         Kind::Var(var) => {
+            let var = od.describe(index, 0, var);
             writeln!(w, "\n[{index:04X}]\nParameterName={}", ObjectName(object))?;
             write_var(od, var, od.default_of(index, 0, var), w)
         }
         Kind::Array { sub0, element, len } => {
-            let len = &od.array_len(sub0, *len);
+            let len = &(1..=od.array_len(sub0, *len)).take_while(|sub| !od.hidden(object, *sub)).count();
+            let len = &u8::try_from(*len).unwrap_or(u8::MAX);
             writeln!(w, "\n[{index:04X}]\nParameterName={}", ObjectName(object))?;
             writeln!(w, "ObjectType=0x8\nSubNumber=0x{:X}", u16::from(*len) + 1)?;
+            let sub0 = od.describe(index, 0, sub0);
             writeln!(w, "\n[{index:04X}sub0]\nParameterName={}", Clean(sub0.name))?;
             write_var(od, sub0, od.default_of(index, 0, sub0), w)?;
             for sub in 1..=*len {
+                let element = od.describe(index, sub, element);
                 writeln!(w, "\n[{index:04X}sub{sub:X}]\nParameterName={} {sub}", Clean(element.name))?;
                 write_var(od, element, od.default_of(index, sub, element), w)?;
             }
@@ -160,8 +168,10 @@ fn write_object<const B: usize>(od: &Dictionary<B>, object: &Object, w: &mut imp
         }
         Kind::Record(subs) => {
             writeln!(w, "\n[{index:04X}]\nParameterName={}", ObjectName(object))?;
-            writeln!(w, "ObjectType=0x9\nSubNumber=0x{:X}", subs.len())?;
-            for (sub, var) in subs.iter() {
+            let visible = || subs.iter().filter(|(sub, _)| !od.hidden(object, *sub));
+            writeln!(w, "ObjectType=0x9\nSubNumber=0x{:X}", visible().count())?;
+            for (sub, var) in visible() {
+                let var = od.describe(index, *sub, var);
                 writeln!(w, "\n[{index:04X}sub{sub:X}]\nParameterName={}", Clean(var.name))?;
                 write_var(od, var, od.default_of(index, *sub, var), w)?;
             }

@@ -16,6 +16,7 @@
 mod abort;
 pub mod eds;
 mod entry;
+mod overrides;
 pub mod persist;
 pub mod standard;
 
@@ -23,11 +24,13 @@ pub use abort::AbortCode;
 pub use entry::{
     layout, Access, Bound, DataType, DefaultValue, DeviceField, Kind, Object, PdoMapping, Var, WriteRule,
 };
+pub use overrides::EntryOverride;
 
 use core::ops::RangeInclusive;
 
-/// Most tables one dictionary joins (communication, manufacturer, device profile, spare).
-pub const MAX_TABLES: usize = 4;
+/// Most tables one dictionary joins (communication, PDOs, manufacturer, device profile, the
+/// firmware's further device-profile objects).
+pub const MAX_TABLES: usize = 5;
 
 /// Identity and descriptive data of the device, given by the firmware at start-up.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -168,6 +171,13 @@ pub enum ConfigError {
         /// Index of the entry.
         index: u16,
     },
+    /// An [`EntryOverride`] that changes the size or the storage of its entry.
+    EntrySize {
+        /// Index of the entry.
+        index: u16,
+        /// Sub-index of the entry.
+        sub: u8,
+    },
 }
 
 /// A resolved entry: one sub-index, its description and where its value lives.
@@ -243,17 +253,22 @@ scalar!(u8, u16, u32, u64, i8, i16, i32, i64, f32, f64);
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Slot<T> {
     index: u16,
+    /// Store offset of a stored value of `T::SIZE` bytes; [`NOT_STORED`]: resolved by lookup
+    /// (a sentinel rather than an `Option`: six bytes a slot, not eight — a drive holds ~80).
+    offset: u16,
     sub: u8,
-    /// Store offset of a stored value of `T::SIZE` bytes; `None`: resolved by lookup.
-    offset: Option<u16>,
     _value: core::marker::PhantomData<T>,
 }
+
+/// [`Slot::offset`] of a slot that looks its entry up (a store never reaches this offset: a
+/// dictionary's store is below 64 KiB).
+const NOT_STORED: u16 = u16::MAX;
 
 impl<T: Scalar> Slot<T> {
     /// A slot that resolves `index`/`sub` on every access (the cost of [`Dictionary::get`]);
     /// the placeholder before [`Dictionary::slot`] resolved it.
     pub const fn lookup(index: u16, sub: u8) -> Self {
-        Slot { index, sub, offset: None, _value: core::marker::PhantomData }
+        Slot { index, sub, offset: NOT_STORED, _value: core::marker::PhantomData }
     }
 
     /// Index of the entry.
@@ -263,7 +278,7 @@ impl<T: Scalar> Slot<T> {
 
     /// Whether the slot reaches a stored value directly (no lookup per access).
     pub fn is_stored(&self) -> bool {
-        self.offset.is_some()
+        self.offset != NOT_STORED
     }
 }
 
@@ -283,6 +298,8 @@ pub struct Dictionary<const BYTES: usize> {
     device: DeviceInfo,
     node_id: u8,
     overrides: &'static [DefaultOverride],
+    /// The firmware's descriptions of entries of the tables ([`EntryOverride`]).
+    entry_overrides: &'static [EntryOverride],
     /// The homing methods 60E3h lists ([`DeviceField::HomingMethods`]).
     homing: crate::cia402::hm::HomingConfig,
 }
@@ -317,6 +334,7 @@ impl<const BYTES: usize> Dictionary<BYTES> {
             device,
             node_id,
             overrides: &[],
+            entry_overrides: &[],
             homing: crate::cia402::hm::HomingConfig::new(),
         };
         let mut region = 0usize;
@@ -355,13 +373,7 @@ impl<const BYTES: usize> Dictionary<BYTES> {
         for o in overrides {
             let bad = ConfigError::BadEntry { index: o.index };
             let entry = self.entry(o.index, o.sub).map_err(|_| bad)?;
-            let fits = match (o.value, entry.var.data_type.fixed_size()) {
-                (DefaultValue::Text(t), None) => t.len() <= usize::from(entry.var.capacity),
-                (DefaultValue::Bytes(b), None) => b.len() <= usize::from(entry.var.capacity),
-                (DefaultValue::Text(_) | DefaultValue::Bytes(_), Some(_)) => false,
-                (_, fixed) => fixed.is_some(),
-            };
-            if !fits {
+            if !overrides::default_fits(entry.var, o.value) {
                 return Err(bad);
             }
         }
@@ -460,6 +472,7 @@ impl<const BYTES: usize> Dictionary<BYTES> {
             }
         }
         let offset = usize::from(region) + usize::from(object.base) + offset;
+        let var = self.resolve(object, sub, var)?;
         Ok(Entry { object, var, sub, offset: offset as u16 })
     }
 
@@ -662,7 +675,7 @@ impl<const BYTES: usize> Dictionary<BYTES> {
             .entry(index, sub)
             .ok()
             .filter(|e| !e.var.is_fixed() && e.var.data_type.fixed_size() == Some(T::SIZE))
-            .map(|e| e.offset);
+            .map_or(NOT_STORED, |e| e.offset);
         Slot { offset, ..Slot::lookup(index, sub) }
     }
 
@@ -676,29 +689,24 @@ impl<const BYTES: usize> Dictionary<BYTES> {
     /// The value behind `slot`, or `missing` when the entry is missing or differently sized.
     #[inline]
     pub fn load_or<T: Scalar>(&self, slot: Slot<T>, missing: T) -> T {
-        match slot.offset {
-            Some(offset) => {
-                let start = usize::from(offset);
-                self.store.get(start..start + T::SIZE).map_or(missing, T::from_le)
-            }
-            None => self.get::<T>(slot.index, slot.sub).unwrap_or(missing),
+        if slot.offset == NOT_STORED {
+            return self.get::<T>(slot.index, slot.sub).unwrap_or(missing);
         }
+        let start = usize::from(slot.offset);
+        self.store.get(start..start + T::SIZE).map_or(missing, T::from_le)
     }
 
     /// Writes the value behind `slot` as [`set`](Self::set) does (a missing, constant or
     /// differently sized entry is left alone).
     #[inline]
     pub fn store<T: Scalar>(&mut self, slot: Slot<T>, value: T) {
-        match slot.offset {
-            Some(offset) => {
-                let start = usize::from(offset);
-                if let Some(bytes) = self.store.get_mut(start..start + T::SIZE) {
-                    value.to_le(bytes);
-                }
-            }
-            None => {
-                let _ = self.set::<T>(slot.index, slot.sub, value);
-            }
+        if slot.offset == NOT_STORED {
+            let _ = self.set::<T>(slot.index, slot.sub, value);
+            return;
+        }
+        let start = usize::from(slot.offset);
+        if let Some(bytes) = self.store.get_mut(start..start + T::SIZE) {
+            value.to_le(bytes);
         }
     }
 
@@ -709,6 +717,7 @@ impl<const BYTES: usize> Dictionary<BYTES> {
             for object in table.iter().filter(|o| range.contains(&o.index)) {
                 for sub in 0..=object.highest_sub() {
                     if let Some((var, offset)) = object.sub(sub) {
+                        let var = self.describe(object.index, sub, var);
                         let offset = usize::from(region) + usize::from(object.base) + offset;
                         let entry = Entry { object, var, sub, offset: offset as u16 };
                         let default = self.default_bytes(var, self.default_of(object.index, sub, var));
@@ -926,7 +935,7 @@ mod tests {
             Dictionary::<8>::new(&[&TABLE], info, 1).err(),
             Some(ConfigError::StorageTooSmall { needed: 27 })
         );
-        let too_many: [&'static [Object]; 5] = [&[], &[], &[], &[], &[]];
+        let too_many: [&'static [Object]; 6] = [&[], &[], &[], &[], &[], &[]];
         assert_eq!(Dictionary::<8>::new(&too_many, info, 1).err(), Some(ConfigError::TooManyTables));
     }
 

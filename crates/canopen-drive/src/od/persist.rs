@@ -131,6 +131,10 @@ impl<const BYTES: usize> Iterator for Parameters<'_, BYTES> {
             self.sub += 1;
             let sub = sub as u8;
             let Some((var, offset)) = object.sub(sub) else { continue };
+            if self.od.hidden(object, sub) {
+                continue;
+            }
+            let var = self.od.describe(object.index, sub, var);
             if !is_parameter(object.index, var) {
                 continue;
             }
