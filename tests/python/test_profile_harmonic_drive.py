@@ -633,3 +633,13 @@ def test_velocities_are_motor_rpm_and_accelerations_rpm_per_second(actuator):
     actuator.sdo[0x60FF].raw = 0
     wait_until(lambda: statusword(actuator) & 0x4000 == 0, timeout=3)
     actuator.sdo[0x6040].raw = 0
+
+
+def test_sdo_block_transfer_is_not_offered(actuator):
+    # The manual documents expedited and segmented SDO only: a block upload is refused with
+    # "command specifier not valid", a segmented upload of the same entry works.
+    with pytest.raises(canopen.SdoAbortedError) as error:
+        with actuator.sdo.open(0x1008, 0, "rb", block_transfer=True) as f:
+            f.read()
+    assert error.value.code == 0x05040001
+    assert actuator.sdo[0x1008].raw == "RSF-5B-30"

@@ -220,7 +220,6 @@ DEVIATIONS = {
     # The core's communication objects: 1029h has only the communication-error entry.
     ((0x1029, 0), "default"): "the core's 1029h has only sub 1",
     ((0x1029, 2), "exists"): "the core's 1029h has only sub 1 (application errors keep the state anyway)",
-    ((0x1001, 0), "pdo"): "TPDO-mappable in the core (CiA 301 allows it)",
     # Types the manual prints against CiA 402 (same bytes on the wire for its values).
     ((0x2707, 0), "type"): "1000 kbit/s does not fit the manual's UNSIGNED8",
     # Access the manual prints for objects the drive itself writes.
@@ -228,10 +227,6 @@ DEVIATIONS = {
     ((0x6041, 0), "access"): "read-only (CiA 402); the manual's table says rw",
     ((0x60FD, 0), "access"): "read-only (CiA 402); the manual's table says rw",
     ((0x608F, 2), "access"): "the core's factor group lets 608Fh sub 2 be written",
-    # The core keeps these settings RPDO-mappable (a superset of the manual's).
-    **{((index, sub), "pdo"): "RPDO-mappable in the core" for index, sub in
-       [(0x6081, 0), (0x6082, 0), (0x6083, 0), (0x6084, 0), (0x6085, 0), (0x6098, 0), (0x6099, 1),
-        (0x6099, 2), (0x609A, 0)]},
     ((0x606A, 0), "exists"): "606Ah (sensor selection) is not an object of the core",
     ((0x2705, 0), "default"): "reads the active node-ID ($NODEID), the manual's example module has 1",
 }
@@ -576,6 +571,20 @@ def test_encoder_n_channel_latch_and_step_counter(pd57):
 
 # --- §3.1.18/§3.1.20 PDO remapping ----------------------------------------------------------------
 
+def test_motion_settings_and_the_error_register_are_not_pdo_mappable(pd57):
+    # The manual lists 6081h-6085h and 6098h-609Ah (and 1001h) without PDO mapping: SDO only.
+    pd57.sdo[0x1400][1].raw = pd57.sdo[0x1400][1].raw | 0x8000_0000
+    pd57.sdo[0x1600][0].raw = 0
+    for index, sub, bits in [(0x6081, 0, 32), (0x6083, 0, 32), (0x6085, 0, 32), (0x6098, 0, 8),
+                             (0x6099, 1, 32), (0x6099, 2, 32), (0x609A, 0, 32)]:
+        entry = index << 16 | sub << 8 | bits
+        assert abort_code(lambda: setattr(pd57.sdo[0x1600][1], "raw", entry)) == 0x06040041, hex(index)
+    pd57.sdo[0x1600][1].raw = 0x607A0020  # a target stays mappable
+    pd57.sdo[0x1801][1].raw = pd57.sdo[0x1801][1].raw | 0x8000_0000
+    pd57.sdo[0x1A01][0].raw = 0
+    assert abort_code(lambda: setattr(pd57.sdo[0x1A01][1], "raw", 0x10010008)) == 0x06040041
+
+
 def test_pdo_remapping_procedure_with_at_most_three_entries(pd57, network):
     tpdo2 = Recorder(network, 0x280 + NODE_ID)
     cob = pd57.sdo[0x1801][1].raw
@@ -734,3 +743,13 @@ def test_cst_target_torque_in_milliamps(pd57, network):
     assert abs(pd57.sdo[0x6074].raw) <= 2
     pd57.nmt.send_command(0x80)
     pd57.sdo[0x6040].raw = 0
+
+
+def test_sdo_block_transfer_is_not_offered(pd57):
+    # The manual documents expedited and segmented SDO only: a block upload is refused with
+    # "command specifier not valid", a segmented upload of the same entry works.
+    with pytest.raises(canopen.SdoAbortedError) as error:
+        with pd57.sdo.open(0x1008, 0, "rb", block_transfer=True) as f:
+            f.read()
+    assert error.value.code == 0x05040001
+    assert pd57.sdo[0x1008].raw == "PD57/60-1378"

@@ -634,3 +634,26 @@ fn a_hard_stop_search_may_pass_the_limit_switch() {
         assert_eq!(sw(&mut bench) & 0x3400, expected, "passes the limit switch: {passes}");
     }
 }
+
+/// Block transfers are optional in CiA 301: a drive documented without them answers both
+/// initiations with abort 0x0504_0001; by default they are offered.
+#[test]
+fn sdo_block_transfer_can_be_left_out() {
+    const INVALID_COMMAND: u32 = 0x0504_0001;
+    // Block upload initiate of 1008h (cc = 1, 16 segments per block, pst 0); block download
+    // initiate of 6081h with the size indicated (4 bytes).
+    let upload = req(0xA4, 0x1008, 0, [16, 0, 0, 0]);
+    let download = req(0xC6, 0x6081, 0, [4, 0, 0, 0]);
+
+    let mut standard = Bench::new();
+    assert_eq!(standard.sdo1(&upload)[0] & 0xE3, 0xC2, "block upload initiated");
+    // The master aborts it again (an abort is never answered).
+    assert!(standard.send(frame(SDO_RX, &abort(0x1008, 0, 0x0800_0000))).is_empty());
+    assert_eq!(standard.sdo1(&download)[0] & 0xE3, 0xA0, "block download initiated");
+
+    let mut without = Bench::with_config(|c| Config { sdo_block_transfer: false, ..c });
+    assert_eq!(without.sdo1(&upload), abort(0x1008, 0, INVALID_COMMAND));
+    assert_eq!(without.sdo1(&download), abort(0x6081, 0, INVALID_COMMAND));
+    // Expedited and segmented transfers are unchanged.
+    assert_eq!(without.sdo1(&req(0x40, 0x6081, 0, [0; 4]))[0], 0x43);
+}

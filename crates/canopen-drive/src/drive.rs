@@ -112,6 +112,10 @@ pub struct Config {
     pub device: DeviceInfo,
     /// Time without a frame after which an SDO transfer is aborted (0x0504_0000).
     pub sdo_timeout: Duration,
+    /// Whether the SDO server offers block transfers (default true; CiA 301 makes them
+    /// optional, and a drive documented without them answers their initiation with abort
+    /// 0x0504_0001).
+    pub sdo_block_transfer: bool,
     /// The firmware's own objects (2000h–5FFFh), laid out with [`crate::od::layout`].
     pub manufacturer_objects: &'static [Object],
     /// What an RPDO longer than its mapping does (default: applied, EMCY 0x8220).
@@ -149,6 +153,7 @@ impl Config {
             node_id,
             device: DeviceInfo::servo_drive(),
             sdo_timeout: Duration::from_millis(1000),
+            sdo_block_transfer: true,
             manufacturer_objects: &[],
             lss_store: false,
             long_rpdo: pdo::LongRpdo::ApplyAndReport,
@@ -378,7 +383,11 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
         let mut drive = Drive {
             slots: CommSlots::resolve(&od),
             od,
-            sdo: SdoServer::new(config.sdo_timeout),
+            sdo: if config.sdo_block_transfer {
+                SdoServer::new(config.sdo_timeout)
+            } else {
+                SdoServer::new(config.sdo_timeout).without_block_transfer()
+            },
             nmt: NmtState::Initialising,
             heartbeat: HeartbeatProducer::default(),
             emcy: EmcyProducer::new(),

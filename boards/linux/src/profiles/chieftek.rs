@@ -218,6 +218,7 @@ pub fn profile() -> BoardProfile {
         entry_overrides: &DESCRIPTIONS,
         extra_profile_objects: &PROFILE_OBJECTS,
         error_behaviour_values: &ErrorBehaviour::CIA_301,
+        sdo_block_transfer: true,
         simulation: PROFILE_SIMULATION,
         rules: &[],
         axis: super::generic::axis(),

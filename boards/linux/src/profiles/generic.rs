@@ -59,6 +59,7 @@ pub fn profile() -> BoardProfile {
         entry_overrides: &[],
         extra_profile_objects: &[],
         error_behaviour_values: &ErrorBehaviour::CIA_301,
+        sdo_block_transfer: true,
         simulation: GENERIC_SIMULATION,
         rules: &[],
         axis: axis(),

@@ -47,10 +47,10 @@
 //! 2050h sub 8 position scaler (−5/−6 do not compute it), teach mode (2025h sub 5), the
 //! automatic parameter saving after homing, 1010h/1011h sub 3 reading 0, 1016h sub 0 writable
 //! (the core's count is a constant), 1029h sub 2, the manual's INTEGER32 of 6071h/6077h/60B2h (a
-//! wider type than CiA 402's INTEGER16: a description override must keep an entry's size), SDO
-//! block transfer (still offered), and cyclic modes without SYNC: the set-points of the examples
-//! come by SDO (the core takes them as the stream), but the core's cyclic modes advance at each
-//! SYNC.
+//! wider type than CiA 402's INTEGER16: a description override must keep an entry's size), and
+//! cyclic modes without SYNC: the set-points of the examples come by SDO (the core takes them as
+//! the stream), but the core's cyclic modes advance at each SYNC. (SDO block transfer, which the
+//! manual does not list, is switched off: `Config::sdo_block_transfer`.)
 //!
 //! The manual's types of 605Bh–605Eh (UNSIGNED16) and 6082h (INTEGER32), 6084h read-only (kept
 //! equal to 6083h by the firmware), 1016h with one entry and 1018h without sub 4 are the core's
@@ -502,6 +502,7 @@ pub fn profile() -> BoardProfile {
         entry_overrides: &DESCRIPTIONS,
         extra_profile_objects: &[],
         error_behaviour_values: &ERROR_BEHAVIOUR,
+        sdo_block_transfer: false,
         simulation: PROFILE_SIMULATION,
         rules: &RULES,
         axis: axis(),

@@ -165,6 +165,8 @@ pub struct BoardProfile {
     pub extra_profile_objects: &'static [Object],
     /// The meaning of 1029h's values.
     pub error_behaviour_values: &'static [(u8, ErrorBehaviour)],
+    /// SDO block transfers offered (a manual without them: refused with 0x0504_0001).
+    pub sdo_block_transfer: bool,
     /// Index of the first simulation object ([`crate::board_objects`]).
     pub simulation: u16,
     /// Value rules of the manufacturer objects (signatures, value lists).
@@ -197,6 +199,7 @@ impl BoardProfile {
             entry_overrides: self.entry_overrides,
             extra_profile_objects: self.extra_profile_objects,
             error_behaviour_values: self.error_behaviour_values,
+            sdo_block_transfer: self.sdo_block_transfer,
             ..Config::new(node_id)
         }
     }

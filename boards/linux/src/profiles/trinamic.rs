@@ -48,10 +48,9 @@
 //! # Not reproduced
 //!
 //! 606Ah (sensor selection, not an object of the core), 1029h sub 2 (application error, the
-//! core's 1029h has one entry), TPDO inhibit time in ms (the core uses 100 µs), SDO block
-//! transfer (still offered), the EMCY codes FF00h/FF01h, the rule that the same mode may not be
-//! written twice to 6060h, and the PDO mappability the manual denies 6081h–6085h, 6098h–609Ah
-//! (the core keeps them RPDO-mappable).
+//! core's 1029h has one entry), TPDO inhibit time in ms (the core uses 100 µs), the EMCY codes
+//! FF00h/FF01h, and the rule that the same mode may not be written twice to 6060h. (SDO block
+//! transfer, which the manual does not list, is switched off: `Config::sdo_block_transfer`.)
 //!
 //! The manual's types of 605Bh–605Eh (UNSIGNED16), 6081h–6084h (SIGNED32) and 6086h
 //! (UNSIGNED16), 1016h with one entry and 1018h without sub 4 are the core's entry descriptions
@@ -67,8 +66,8 @@ use canopen_drive::comm::error_control::ErrorBehaviour;
 use canopen_drive::hal::{DigitalInputs, HardwareFaults, Sample};
 use canopen_drive::od::eds::EdsInfo;
 use canopen_drive::od::{
-    layout, AbortCode, DataType, DefaultOverride, DefaultValue, DeviceInfo, EntryOverride, Object, Var,
-    WriteRule,
+    layout, AbortCode, DataType, DefaultOverride, DefaultValue, DeviceInfo, EntryOverride, Object,
+    PdoMapping, Var, WriteRule,
 };
 use canopen_drive::wire::lss::BitTiming;
 use canopen_drive_sim::motor::{MotorParams, Zone};
@@ -385,23 +384,30 @@ pub static DEFAULTS: [DefaultOverride; 17] = [
 ];
 
 /// The manual's descriptions of standard objects where they differ from CiA 301/402's: 1016h
-/// and 1018h with fewer entries, and types of the same sizes (the bytes on the bus are the
-/// same): the option codes 605Bh–605Eh UNSIGNED16 (§5.1.2–5.1.5), the profile velocities and
+/// and 1018h with fewer entries; types of the same sizes (the bytes on the bus are the same):
+/// the option codes 605Bh–605Eh UNSIGNED16 (§5.1.2–5.1.5), the profile velocities and
 /// accelerations 6081h–6084h SIGNED32 (§6.1.12–6.1.15; the core takes them as magnitudes, so
-/// negative values are refused), 6086h UNSIGNED16 (§6.1.17).
-pub static DESCRIPTIONS: [EntryOverride; 11] = [
+/// negative values are refused), 6086h UNSIGNED16 (§6.1.17); and the PDO mappability the manual
+/// denies: 1001h and the motion settings 6081h–6085h, 6098h–609Ah (SDO only).
+pub static DESCRIPTIONS: [EntryOverride; 17] = [
     // One heartbeat consumer entry (§3.1.13), an identity without a serial number (§3.1.15).
     communication_entry(0x1016, 0).default(u(1)),
     communication_entry(0x1018, 0).default(u(3)),
+    communication_entry(0x1001, 0).pdo(PdoMapping::No),
     profile_entry(0x605B, 0).data_type(Unsigned16),
     profile_entry(0x605C, 0).data_type(Unsigned16),
     profile_entry(0x605D, 0).data_type(Unsigned16),
     profile_entry(0x605E, 0).data_type(Unsigned16),
-    profile_entry(0x6081, 0).data_type(Integer32).limits_signed(0, i32::MAX as i64),
-    profile_entry(0x6082, 0).data_type(Integer32).limits_signed(0, i32::MAX as i64),
-    profile_entry(0x6083, 0).data_type(Integer32).limits_signed(0, i32::MAX as i64),
-    profile_entry(0x6084, 0).data_type(Integer32).limits_signed(0, i32::MAX as i64),
+    profile_entry(0x6081, 0).data_type(Integer32).limits_signed(0, i32::MAX as i64).pdo(PdoMapping::No),
+    profile_entry(0x6082, 0).data_type(Integer32).limits_signed(0, i32::MAX as i64).pdo(PdoMapping::No),
+    profile_entry(0x6083, 0).data_type(Integer32).limits_signed(0, i32::MAX as i64).pdo(PdoMapping::No),
+    profile_entry(0x6084, 0).data_type(Integer32).limits_signed(0, i32::MAX as i64).pdo(PdoMapping::No),
+    profile_entry(0x6085, 0).pdo(PdoMapping::No),
     profile_entry(0x6086, 0).data_type(Unsigned16),
+    profile_entry(0x6098, 0).pdo(PdoMapping::No),
+    profile_entry(0x6099, 1).pdo(PdoMapping::No),
+    profile_entry(0x6099, 2).pdo(PdoMapping::No),
+    profile_entry(0x609A, 0).pdo(PdoMapping::No),
 ];
 
 /// The module's current at 2003h = 255 (§1.5: 85 is 1 A), mA.
@@ -513,6 +519,7 @@ pub fn profile() -> BoardProfile {
         entry_overrides: &DESCRIPTIONS,
         extra_profile_objects: &[],
         error_behaviour_values: &ERROR_BEHAVIOUR,
+        sdo_block_transfer: false,
         simulation: PROFILE_SIMULATION,
         rules: &RULES,
         axis: axis(),

@@ -112,6 +112,8 @@ pub struct SdoServer<const BUF: usize> {
     state: State,
     deadline: Option<Instant>,
     timeout: Duration,
+    /// Block transfers offered (CiA 301 makes them optional).
+    block: bool,
     buf: [u8; BUF],
 }
 
@@ -125,7 +127,14 @@ fn abort(mux: Mux, code: AbortCode) -> Step {
 impl<const BUF: usize> SdoServer<BUF> {
     /// An idle server whose transfers time out after `timeout` without a frame.
     pub const fn new(timeout: Duration) -> Self {
-        SdoServer { state: State::Idle, deadline: None, timeout, buf: [0; BUF] }
+        SdoServer { state: State::Idle, deadline: None, timeout, block: true, buf: [0; BUF] }
+    }
+
+    /// The same server without block transfers: their initiate requests are answered with
+    /// abort 0x0504_0001 (command specifier not valid), as by a server that has none.
+    pub const fn without_block_transfer(mut self) -> Self {
+        self.block = false;
+        self
     }
 
     /// True when no transfer is in progress.
@@ -219,6 +228,10 @@ impl<const BUF: usize> SdoServer<BUF> {
 
             (State::Idle, Request::InitiateDownload { mux, kind }) => self.initiate_download(mux, kind, od),
             (State::Idle, Request::InitiateUpload { mux }) => self.initiate_upload(mux, od),
+            (
+                State::Idle,
+                Request::BlockUploadInitiate { mux, .. } | Request::BlockDownloadInitiate { mux, .. },
+            ) if !self.block => abort(mux, AbortCode::InvalidCommandSpecifier),
             (State::Idle, Request::BlockUploadInitiate { mux, crc, block_size, pst }) => {
                 self.initiate_block_upload(mux, crc, block_size, pst, od)
             }
