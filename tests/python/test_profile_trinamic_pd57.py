@@ -465,6 +465,22 @@ def test_emcy_of_an_over_current_and_of_the_fault_reset(pd57, network):
     emcy.wait_for(lambda d: d[:2] == b"\x00\x00", timeout=1.0)  # 0000h: fault reset
 
 
+def test_under_voltage_is_reported_with_the_manuals_code_ff00h(pd57, network):
+    emcy = Recorder(network, 0x80 + NODE_ID)
+    enable(pd57, 3)
+    pd57.sdo[SIM_FAULTS].raw = 0x04  # under-voltage
+    _, _, data = emcy.wait_for(lambda d: d[:2] == b"\x00\xff", timeout=1.0)  # FF00h
+    assert data[2] & 0x05 == 0x05  # error register: generic + voltage
+    wait_until(lambda: statusword(pd57) & 0x4F == 0x08)
+    assert pd57.sdo[0x603F].raw == 0xFF00
+    assert pd57.sdo[0x1003][1].raw & 0xFFFF == 0xFF00
+    pd57.sdo[SIM_FAULTS].raw = 0
+    emcy.clear()
+    pd57.sdo[0x6040].raw = 0x80
+    emcy.wait_for(lambda d: d[:2] == b"\x00\x00", timeout=1.0)  # 0000h: fault reset
+    wait_until(lambda: pd57.sdo[0x1001].raw & 0x04 == 0)
+
+
 def test_a_following_error_stops_the_motor_with_an_emcy_and_0_switches_it_off(pd57, network):
     emcy = Recorder(network, 0x80 + NODE_ID)
     motion_parameters(pd57)

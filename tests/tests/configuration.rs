@@ -657,3 +657,33 @@ fn sdo_block_transfer_can_be_left_out() {
     // Expedited and segmented transfers are unchanged.
     assert_eq!(without.sdo1(&req(0x40, 0x6081, 0, [0; 4]))[0], 0x43);
 }
+
+/// A manual's own error codes: the crate's code is reported as the drive's in the EMCY, 1003h
+/// and 603Fh, and cleared as such; without the map the CiA 402 code is reported.
+#[test]
+fn error_codes_can_be_the_drives_own() {
+    use canopen_drive::cia402::ProfileConfig;
+    use canopen_drive::hal::HardwareFaults;
+    static CODES: [(u16, u16); 1] = [(0x3220, 0xFF00)];
+    for (codes, expected) in [(&[][..], 0x3220u16), (&CODES[..], 0xFF00)] {
+        let mut bench = Bench::with_config(|c| Config {
+            profile: ProfileConfig { error_codes: codes, ..c.profile },
+            ..c
+        });
+        enable_pv(&mut bench);
+        node(&mut bench).motor.inject_fault(HardwareFaults::UNDER_VOLTAGE);
+        let frames = bench.advance(Duration::from_millis(5));
+        let emcy: Vec<_> =
+            frames.iter().filter(|f| f.standard_id() == Some(0x80 + u16::from(NODE))).collect();
+        assert_eq!(emcy.len(), 1, "{frames:?}");
+        assert_eq!(embedded_can::Frame::data(emcy[0])[..2], expected.to_le_bytes());
+        assert_eq!(bench.drive().od().get::<u16>(0x603F, 0), Ok(expected));
+        assert_eq!(bench.drive().od().get::<u32>(0x1003, 1).map(|e| e as u16), Ok(expected));
+        assert_eq!(bench.drive().error_register().bits() & 0x04, 0x04, "voltage bit set");
+        // Cause gone, fault reset: the error (under its reported code) is cleared.
+        node(&mut bench).motor.clear_faults();
+        bench.advance(Duration::from_millis(5));
+        cw(&mut bench, 0x0080, 5);
+        assert_eq!(bench.drive().error_register().bits() & 0x04, 0, "voltage bit cleared");
+    }
+}

@@ -688,8 +688,10 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
 
     /// Raises an error: sends its EMCY (in Pre-operational and Operational; queued in Stopped),
     /// records it in 1003h and sets its bits in 1001h. An error that is already active is not
-    /// reported again. `info` is the manufacturer-specific field of the EMCY frame.
+    /// reported again. `info` is the manufacturer-specific field of the EMCY frame. A code in
+    /// [`crate::cia402::ProfileConfig::error_codes`] is reported as the drive's own code.
     pub fn raise_error(&mut self, code: u16, register: ErrorRegister, info: [u8; 5]) {
+        let code = self.profile.config().reported_code(code);
         if self.emcy.raise(code, register, info).is_some() {
             self.record_history(code, info);
             self.sync_error_register();
@@ -698,6 +700,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
 
     /// Clears an active error: sends the "error reset" EMCY (code 0000h) and updates 1001h.
     pub fn clear_error(&mut self, code: u16) {
+        let code = self.profile.config().reported_code(code);
         if self.emcy.clear(code) {
             self.sync_error_register();
         }

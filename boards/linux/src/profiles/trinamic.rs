@@ -48,8 +48,10 @@
 //! # Not reproduced
 //!
 //! 606Ah (sensor selection, not an object of the core), 1029h sub 2 (application error, the
-//! core's 1029h has one entry), TPDO inhibit time in ms (the core uses 100 µs), the EMCY codes
-//! FF00h/FF01h, and the rule that the same mode may not be written twice to 6060h. (SDO block
+//! core's 1029h has one entry), TPDO inhibit time in ms (the core uses 100 µs), the EMCY code
+//! FF01h (software limit / limit switch outside homing: the core raises no EMCY there), and the
+//! rule that the same mode may not be written twice to 6060h. Under-voltage is reported as the
+//! manual's FF00h (`ProfileConfig::error_codes`). (SDO block
 //! transfer, which the manual does not list, is switched off: `Config::sdo_block_transfer`.)
 //!
 //! The manual's types of 605Bh–605Eh (UNSIGNED16), 6081h–6084h (SIGNED32) and 6086h
@@ -457,6 +459,8 @@ pub fn profile_config() -> ProfileConfig {
     config.statusword_bit_15 = StatusFlag::Negative;
     // §11.1.6/11.1.7: target and actual torque in mA.
     config.units.torque = TorqueUnit::MilliAmps;
+    // The EMCY table of the manual (§ error messages): under-voltage is FF00h, not 3220h.
+    config.error_codes = &[(0x3220, 0xFF00)];
     config
 }
 

@@ -178,6 +178,11 @@ pub struct ProfileConfig {
     pub zero_following_error_window_off: bool,
     /// The units of the torque, current and velocity objects (default [`Units::CIA_402`]).
     pub units: Units,
+    /// Error codes the drive reports instead of the crate's: pairs (the crate's code, the
+    /// drive's code), applied to every EMCY, the error history 1003h and 603Fh (default none:
+    /// the codes of CiA 301/402, e.g. 3220h for under-voltage where a manual documents a
+    /// manufacturer-specific FFxxh).
+    pub error_codes: &'static [(u16, u16)],
 }
 
 impl ProfileConfig {
@@ -205,7 +210,13 @@ impl ProfileConfig {
             mode_change_in_operation: true,
             zero_following_error_window_off: false,
             units: Units::CIA_402,
+            error_codes: &[],
         }
+    }
+
+    /// The code the drive reports for the crate's error `code` ([`Self::error_codes`]).
+    pub fn reported_code(&self, code: u16) -> u16 {
+        self.error_codes.iter().find(|(own, _)| *own == code).map_or(code, |(_, reported)| *reported)
     }
 
     /// The same configuration at another tick rate.

@@ -488,7 +488,7 @@ impl Profile {
             }
         }
         if let Some(code) = self.fault {
-            od.store(self.slots.error_code, code);
+            od.store(self.slots.error_code, self.config.reported_code(code));
         }
         let enabled = step.state.drive_function_enabled();
 
