@@ -19,6 +19,7 @@ import pytest
 from canopen.objectdictionary import datatypes as dt
 
 from conftest import NODE_ID, DriveProcess, Recorder, binary_path
+from profile_support import abort_code, assert_matches_manual, reset, statusword, wait_until
 
 PROFILE = "trinamic-pd57"
 
@@ -232,45 +233,9 @@ DEVIATIONS = {
 }
 
 
-def _entry(od, index, sub):
-    if index not in od:
-        return None
-    obj = od[index]
-    if isinstance(obj, canopen.objectdictionary.ODVariable):
-        return obj if sub == 0 else None
-    return obj.subindices.get(sub)
-
-
 def test_eds_imports_and_matches_the_manuals_object_list(eds_file):
     od = canopen.import_od(str(eds_file), NODE_ID)
-    problems = []
-    for index, sub, data_type, access, pdo, default in MANUAL:
-        key = (index, sub)
-        entry = _entry(od, index, sub)
-        if entry is None:
-            if (key, "exists") not in DEVIATIONS:
-                problems.append(f"{index:04X}sub{sub}: missing")
-            continue
-        if entry.data_type != data_type and (key, "type") not in DEVIATIONS:
-            problems.append(f"{index:04X}sub{sub}: type {entry.data_type:#x}, manual {data_type:#x}")
-        eds_access = "ro" if entry.access_type in ("ro", "const") else "rw" if "w" in entry.access_type else "?"
-        if eds_access != access and (key, "access") not in DEVIATIONS:
-            problems.append(f"{index:04X}sub{sub}: access {entry.access_type}, manual {access}")
-        if pdo is not None and bool(entry.pdo_mappable) != pdo and (key, "pdo") not in DEVIATIONS:
-            problems.append(f"{index:04X}sub{sub}: PDO mapping {entry.pdo_mappable}, manual {pdo}")
-        if default is not None and (key, "default") not in DEVIATIONS:
-            expected = default[1] + NODE_ID if isinstance(default, tuple) else default
-            if entry.default != expected:
-                problems.append(f"{index:04X}sub{sub}: default {entry.default!r}, manual {expected!r}")
-    # The manufacturer area is exactly the manual's (plus this board's simulation objects).
-    manual_area = {index for index, *_ in MANUFACTURER}
-    eds_area = {index for index in od.indices if 0x2000 <= index <= 0x5FFF} - SIMULATION_OBJECTS
-    assert eds_area == manual_area, (sorted(map(hex, eds_area - manual_area)), sorted(map(hex, manual_area - eds_area)))
-    assert not problems, "\n".join(problems)
-    # Every deviation listed is one the comparison needs.
-    for (key, field), reason in DEVIATIONS.items():
-        assert reason
-        assert any((i, s) == key for i, s, *_ in MANUAL), key
+    assert_matches_manual(od, MANUAL, DEVIATIONS, NODE_ID, {index for index, *_ in MANUFACTURER}, SIMULATION_OBJECTS)
 
 
 # --- Helpers ----------------------------------------------------------------------------------
@@ -278,31 +243,7 @@ def test_eds_imports_and_matches_the_manuals_object_list(eds_file):
 @pytest.fixture
 def pd57(node, heartbeats):
     """The drive after NMT reset node (every parameter at its default), simulation cleared."""
-    node.nmt.send_command(0x81)
-    heartbeats.wait_for(lambda d: d == b"\x00", timeout=2.0)
-    for index in (SIM_FAULTS, SIM_INPUTS, SIM_LOAD):
-        node.sdo[index].raw = 0
-    return node
-
-
-def abort_code(action):
-    with pytest.raises(canopen.SdoAbortedError) as error:
-        action()
-    return error.value.code
-
-
-def statusword(node):
-    return node.sdo[0x6041].raw
-
-
-def wait_until(predicate, timeout=5.0, period=0.01):
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        value = predicate()
-        if value:
-            return value
-        time.sleep(period)
-    raise AssertionError("condition not met in time")
+    return reset(node, heartbeats, (SIM_FAULTS, SIM_INPUTS, SIM_LOAD))
 
 
 def enable(node, mode):
