@@ -279,6 +279,77 @@ pub(crate) fn bit_rate_of(index: u8) -> Option<u16> {
     [1000, 800, 500, 250, 125, 100, 50, 20, 10].get(usize::from(index)).copied()
 }
 
+// --- PDO records of the vendor drives: 4 + 4 PDOs, at most three mapping entries ---------------
+
+/// An RPDO communication record (subs 0–2): COB-ID `cob_id` + node-ID, transmission type.
+pub(crate) const fn rpdo_communication(cob_id: u32, transmission: u64) -> [(u8, Var); 3] {
+    [
+        highest("Largest sub-index supported", 2),
+        (1, rw("COB-ID used by PDO", DataType::Unsigned32).default(DefaultValue::NodeIdPlus(cob_id))),
+        (2, rw("Transmission type", DataType::Unsigned8).default(DefaultValue::Unsigned(transmission))),
+    ]
+}
+
+/// A TPDO communication record (subs 0–5): COB-ID `cob_id` + node-ID, transmission type.
+pub(crate) const fn tpdo_communication(cob_id: u32, transmission: u64) -> [(u8, Var); 6] {
+    [
+        highest("Largest sub-index supported", 5),
+        (1, rw("COB-ID", DataType::Unsigned32).default(DefaultValue::NodeIdPlus(cob_id))),
+        (2, rw("Transmission type", DataType::Unsigned8).default(DefaultValue::Unsigned(transmission))),
+        (3, rw("Inhibit time", DataType::Unsigned16)),
+        (4, ro("Compatibility entry", DataType::Unsigned8)),
+        (5, rw("Event timer", DataType::Unsigned16)),
+    ]
+}
+
+/// A mapping record of at most three entries, `first` and `second` (0: none) by default.
+pub(crate) const fn pdo_mapping(first: u32, second: u32) -> [(u8, Var); 4] {
+    let count = if second != 0 { 2 } else { 1 };
+    [
+        (
+            0,
+            rw("Number of mapped application objects in PDO", DataType::Unsigned8)
+                .limits_unsigned(0, 3)
+                .default(DefaultValue::Unsigned(count)),
+        ),
+        (1, rw("Mapping entry 1", DataType::Unsigned32).default(DefaultValue::Unsigned(first as u64))),
+        (2, rw("Mapping entry 2", DataType::Unsigned32).default(DefaultValue::Unsigned(second as u64))),
+        (3, rw("Mapping entry 3", DataType::Unsigned32)),
+    ]
+}
+
+/// The PDO records 1400h–1403h, 1600h–1603h, 1800h–1803h and 1A00h–1A03h (lay them out with
+/// [`canopen_drive::od::layout`]).
+pub(crate) const fn pdo_records(
+    rpdo_communication: &'static [[(u8, Var); 3]; 4],
+    rpdo_mapping: &'static [[(u8, Var); 4]; 4],
+    tpdo_communication: &'static [[(u8, Var); 6]; 4],
+    tpdo_mapping: &'static [[(u8, Var); 4]; 4],
+) -> [Object; 16] {
+    let [rc0, rc1, rc2, rc3] = rpdo_communication;
+    let [rm0, rm1, rm2, rm3] = rpdo_mapping;
+    let [tc0, tc1, tc2, tc3] = tpdo_communication;
+    let [tm0, tm1, tm2, tm3] = tpdo_mapping;
+    [
+        Object::record(0x1400, "RPDO communication parameter", rc0).numbered(1),
+        Object::record(0x1401, "RPDO communication parameter", rc1).numbered(2),
+        Object::record(0x1402, "RPDO communication parameter", rc2).numbered(3),
+        Object::record(0x1403, "RPDO communication parameter", rc3).numbered(4),
+        Object::record(0x1600, "RPDO mapping parameter", rm0).numbered(1),
+        Object::record(0x1601, "RPDO mapping parameter", rm1).numbered(2),
+        Object::record(0x1602, "RPDO mapping parameter", rm2).numbered(3),
+        Object::record(0x1603, "RPDO mapping parameter", rm3).numbered(4),
+        Object::record(0x1800, "TPDO communication parameter", tc0).numbered(1),
+        Object::record(0x1801, "TPDO communication parameter", tc1).numbered(2),
+        Object::record(0x1802, "TPDO communication parameter", tc2).numbered(3),
+        Object::record(0x1803, "TPDO communication parameter", tc3).numbered(4),
+        Object::record(0x1A00, "TPDO mapping parameter", tm0).numbered(1),
+        Object::record(0x1A01, "TPDO mapping parameter", tm1).numbered(2),
+        Object::record(0x1A02, "TPDO mapping parameter", tm2).numbered(3),
+        Object::record(0x1A03, "TPDO mapping parameter", tm3).numbered(4),
+    ]
+}
+
 #[cfg(test)]
 #[cfg_attr(test, allow(clippy::unwrap_used, clippy::expect_used, clippy::indexing_slicing, clippy::panic))]
 mod tests {

@@ -75,8 +75,9 @@ use canopen_drive::wire::lss::BitTiming;
 use canopen_drive_sim::motor::{MotorParams, Zone};
 
 use super::{
-    bit_timing_index, communication_entry, default_of, highest, profile_entry, ro, rw, u, value_of, var,
-    BoardDictionary, BoardProfile, Environment, Firmware, ProfileName, Update,
+    bit_timing_index, communication_entry, default_of, highest, pdo_mapping, pdo_records, profile_entry, ro,
+    rpdo_communication, rw, tpdo_communication, u, value_of, var, BoardDictionary, BoardProfile, Environment,
+    Firmware, ProfileName, Update,
 };
 use crate::board_objects::{
     simulated_faults, simulated_inputs, simulated_load, ValueRule, PROFILE_SIMULATION,
@@ -250,41 +251,6 @@ pub static OBJECTS: [Object; 74] = layout([
 
 // --- PDOs (§3.1.17–3.1.20) --------------------------------------------------------------
 
-const fn rpdo_communication(cob_id: u32, transmission: u64) -> [(u8, Var); 3] {
-    [
-        highest("Largest sub-index supported", 2),
-        (1, rw("COB-ID used by PDO", Unsigned32).default(DefaultValue::NodeIdPlus(cob_id))),
-        (2, rw("Transmission type", Unsigned8).default(DefaultValue::Unsigned(transmission))),
-    ]
-}
-
-const fn tpdo_communication(cob_id: u32, transmission: u64) -> [(u8, Var); 6] {
-    [
-        highest("Largest sub-index supported", 5),
-        (1, rw("COB-ID", Unsigned32).default(DefaultValue::NodeIdPlus(cob_id))),
-        (2, rw("Transmission type", Unsigned8).default(DefaultValue::Unsigned(transmission))),
-        (3, rw("Inhibit time", Unsigned16)),
-        (4, ro("Compatibility entry", Unsigned8)),
-        (5, rw("Event timer", Unsigned16)),
-    ]
-}
-
-/// A mapping record of at most three entries.
-const fn mapping(first: u32, second: u32) -> [(u8, Var); 4] {
-    let count = if second != 0 { 2 } else { 1 };
-    [
-        (
-            0,
-            rw("Number of mapped application objects in PDO", Unsigned8)
-                .limits_unsigned(0, 3)
-                .default(DefaultValue::Unsigned(count)),
-        ),
-        (1, rw("Mapping entry 1", Unsigned32).default(DefaultValue::Unsigned(first as u64))),
-        (2, rw("Mapping entry 2", Unsigned32).default(DefaultValue::Unsigned(second as u64))),
-        (3, rw("Mapping entry 3", Unsigned32)),
-    ]
-}
-
 static RPDO_COMMUNICATION: [[(u8, Var); 3]; 4] = [
     rpdo_communication(0x200, 0xFF),
     rpdo_communication(0x300, 0xFF),
@@ -292,10 +258,10 @@ static RPDO_COMMUNICATION: [[(u8, Var); 3]; 4] = [
     rpdo_communication(0x500, 0xFE),
 ];
 static RPDO_MAPPING: [[(u8, Var); 4]; 4] = [
-    mapping(0x6040_0010, 0),
-    mapping(0x6040_0010, 0x6060_0008),
-    mapping(0x6040_0010, 0x607A_0020),
-    mapping(0x6040_0010, 0x60FF_0020),
+    pdo_mapping(0x6040_0010, 0),
+    pdo_mapping(0x6040_0010, 0x6060_0008),
+    pdo_mapping(0x6040_0010, 0x607A_0020),
+    pdo_mapping(0x6040_0010, 0x60FF_0020),
 ];
 static TPDO_COMMUNICATION: [[(u8, Var); 6]; 4] = [
     tpdo_communication(0x180, 0xFF),
@@ -304,31 +270,15 @@ static TPDO_COMMUNICATION: [[(u8, Var); 6]; 4] = [
     tpdo_communication(0x480, 0x01),
 ];
 static TPDO_MAPPING: [[(u8, Var); 4]; 4] = [
-    mapping(0x6041_0010, 0),
-    mapping(0x6041_0010, 0x6061_0008),
-    mapping(0x6041_0010, 0x6064_0020),
-    mapping(0x6041_0010, 0x606C_0020),
+    pdo_mapping(0x6041_0010, 0),
+    pdo_mapping(0x6041_0010, 0x6061_0008),
+    pdo_mapping(0x6041_0010, 0x6064_0020),
+    pdo_mapping(0x6041_0010, 0x606C_0020),
 ];
 
 /// The PDO records: 1400h–1403h, 1600h–1603h, 1800h–1803h, 1A00h–1A03h.
-pub static PDOS: [Object; 16] = layout([
-    Object::record(0x1400, "RPDO communication parameter", &RPDO_COMMUNICATION[0]).numbered(1),
-    Object::record(0x1401, "RPDO communication parameter", &RPDO_COMMUNICATION[1]).numbered(2),
-    Object::record(0x1402, "RPDO communication parameter", &RPDO_COMMUNICATION[2]).numbered(3),
-    Object::record(0x1403, "RPDO communication parameter", &RPDO_COMMUNICATION[3]).numbered(4),
-    Object::record(0x1600, "RPDO mapping parameter", &RPDO_MAPPING[0]).numbered(1),
-    Object::record(0x1601, "RPDO mapping parameter", &RPDO_MAPPING[1]).numbered(2),
-    Object::record(0x1602, "RPDO mapping parameter", &RPDO_MAPPING[2]).numbered(3),
-    Object::record(0x1603, "RPDO mapping parameter", &RPDO_MAPPING[3]).numbered(4),
-    Object::record(0x1800, "TPDO communication parameter", &TPDO_COMMUNICATION[0]).numbered(1),
-    Object::record(0x1801, "TPDO communication parameter", &TPDO_COMMUNICATION[1]).numbered(2),
-    Object::record(0x1802, "TPDO communication parameter", &TPDO_COMMUNICATION[2]).numbered(3),
-    Object::record(0x1803, "TPDO communication parameter", &TPDO_COMMUNICATION[3]).numbered(4),
-    Object::record(0x1A00, "TPDO mapping parameter", &TPDO_MAPPING[0]).numbered(1),
-    Object::record(0x1A01, "TPDO mapping parameter", &TPDO_MAPPING[1]).numbered(2),
-    Object::record(0x1A02, "TPDO mapping parameter", &TPDO_MAPPING[2]).numbered(3),
-    Object::record(0x1A03, "TPDO mapping parameter", &TPDO_MAPPING[3]).numbered(4),
-]);
+pub static PDOS: [Object; 16] =
+    layout(pdo_records(&RPDO_COMMUNICATION, &RPDO_MAPPING, &TPDO_COMMUNICATION, &TPDO_MAPPING));
 
 // --- Value rules, defaults, configuration -----------------------------------------------
 
