@@ -714,3 +714,23 @@ fn random_setpoints_halts_and_replans_never_exceed_the_limits() {
         }
     }
 }
+
+/// A velocity limit (607Fh) lowered below a running move holds at once: the velocity demand
+/// comes down to it at the deceleration and stays there, never rising on the way; a lower
+/// profile velocity 6081h alone waits for the next set-point. (Found by the drive_frames
+/// fuzzer: the old plan ran on at its speed.)
+#[test]
+fn a_velocity_limit_lowered_mid_move_holds_at_once() {
+    let mut bench = pp_bench();
+    setpoint(&mut bench, 1_000_000, 0);
+    let ticks = run(&mut bench, 200);
+    let cruise = ticks.last().unwrap().velocity;
+    assert!(cruise > 19_000, "cruising: {cruise}");
+    write(&mut bench, 0x6081, &5_000u32.to_le_bytes());
+    let ticks = run(&mut bench, 20);
+    assert!(ticks.iter().all(|t| t.velocity == cruise), "6081h waits for the next set-point");
+    write(&mut bench, 0x607F, &2_000u32.to_le_bytes());
+    let ticks = run(&mut bench, 200);
+    assert!(ticks.windows(2).all(|w| w[1].velocity <= w[0].velocity.max(2_000)), "never rising");
+    assert!(ticks[150..].iter().all(|t| (0..=2_000).contains(&t.velocity)), "{:?}", &ticks[150..155]);
+}

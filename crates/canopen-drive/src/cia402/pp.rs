@@ -103,6 +103,8 @@ pub struct ProfilePosition {
     in_window_since: Option<Instant>,
     /// The last target's user value and clamp state (kept after it is reached).
     last: Option<SetPoint>,
+    /// The velocity the running plan was made with (increments/s; `u32::MAX`: no plan yet).
+    planned_velocity: u32,
 }
 
 /// The motion limits of pp and of the stops in pp, in increments (digest §9.5).
@@ -142,6 +144,7 @@ impl ProfilePosition {
             halted: false,
             in_window_since: None,
             last: None,
+            planned_velocity: u32::MAX,
         }
     }
 
@@ -255,7 +258,11 @@ impl ProfilePosition {
             }
             _ => 0,
         };
-        self.planner.plan(active.internal, end, limits).is_ok()
+        let planned = self.planner.plan(active.internal, end, limits).is_ok();
+        if planned {
+            self.planned_velocity = limits.velocity;
+        }
+        planned
     }
 
     /// One tick of pp in Operation enabled (no FSA stop running).
@@ -292,6 +299,18 @@ impl ProfilePosition {
         }
         if input.controlword & 0x0010 == 0 {
             self.acknowledged = false;
+        }
+        // A velocity limit (607Fh, 6080h) lowered below the running plan's velocity holds at
+        // once: the set-point is re-planned from the present state (a lower 6081h alone waits
+        // for the next set-point, as CiA 402 has it).
+        let cap = input
+            .factors
+            .limit_to_internal(od.load(input.slots.max_profile_velocity))
+            .min(input.factors.rpm_to_internal(od.load(input.slots.max_motor_speed)));
+        if !self.halted && self.active.is_some() && cap < self.planned_velocity {
+            // Once per lowering, even when no plan fits (the old one then runs on).
+            let _ = self.plan_active(&limits, end_velocity);
+            self.planned_velocity = self.planned_velocity.min(limits.velocity);
         }
 
         let halt = input.controlword & 0x0100 != 0;
