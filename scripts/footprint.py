@@ -209,7 +209,7 @@ panic = abort:
 - `node301`: a CiA 301-only node composed from the crate's services (NMT, SDO server with
   expedited / segmented / block transfer, heartbeat, EMCY, SYNC consumer, 4 + 4 PDOs, the
   standard 1xxxh objects; see `benches/footprint/src/node301.rs`);
-- `drive-full`: `Drive::new(Config::new(5))`, every CiA 402 mode, 4 + 4 PDOs, the default
+- `drive-full`: `Drive::build_in` with `Config::new(5)`, every CiA 402 mode, 4 + 4 PDOs, the default
   3 KiB dictionary store.
 
 Flash = `.vector_table + .text + .rodata + .data`; static RAM = `.data + .bss + .uninit`,
@@ -247,11 +247,11 @@ The largest symbols of `drive-full` on thumbv7em:
 
 ## Stack
 
-Constructing a `Drive` takes tens of KiB of stack (the *build* column): `Drive::build` returns
-the whole drive (about 9 KiB) by value and builds it from a by-value `Dictionary`, so the
-compiler keeps several copies in the constructor's frame (the `main` of `drive-full` reserves
-about 36 KiB). A board with 32 KiB of RAM cannot afford that even once at start-up; an
-in-place constructor (`Drive::init(&mut MaybeUninit<Drive>, ..)`) would remove it. The tick's
+Boards build the drive in place (`Drive::build_in` into a `static`, e.g. `StaticCell::uninit()`):
+the *build* column is then about one drive's worth of stack (the drive is assembled once and
+written into its place). Built by value with `Drive::new` and moved into a static, the same
+image needed about 43 KiB (several copies in the constructor's frame) — more than a 32 KiB
+part has. The tick's
 depth comes from `Profile::tick` and the trajectory planner (`PositionPlanner::plan` and
 `::stop` reserve about 3.5 and 2 KiB on thumbv7em); the deepest communication call is an NMT
 reset (`Drive::nmt_command` reserves about 4 KiB).

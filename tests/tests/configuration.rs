@@ -15,7 +15,7 @@ use canopen_drive::od::{
     layout, Access, ConfigError, DataType, DefaultOverride, DefaultValue, EntryOverride, Object, PdoMapping,
     Var, WriteRule,
 };
-use canopen_drive::{Config, Drive, Duration};
+use canopen_drive::{CanFrame, Config, Drive, Duration};
 use common::profile::*;
 use common::*;
 
@@ -686,4 +686,55 @@ fn error_codes_can_be_the_drives_own() {
         cw(&mut bench, 0x0080, 5);
         assert_eq!(bench.drive().error_register().bits() & 0x04, 0, "voltage bit cleared");
     }
+}
+
+/// Every frame a drive sends for `requests` (one per millisecond, polled in between).
+fn session(drive: &mut Drive, requests: &[CanFrame]) -> Vec<CanFrame> {
+    let mut out = Vec::new();
+    let mut now = canopen_drive::Instant::from_micros(0);
+    drive.poll(now);
+    for request in requests {
+        drive.on_frame(request, now);
+        now = now + Duration::from_millis(1);
+        drive.poll(now);
+        while let Some(f) = drive.pop_tx() {
+            out.push(f);
+        }
+    }
+    out
+}
+
+#[test]
+fn a_drive_built_in_place_answers_as_one_built_by_value() {
+    static OVERRIDES: [DefaultOverride; 1] =
+        [DefaultOverride { index: 0x6085, sub: 0, value: DefaultValue::Unsigned(51_200) }];
+    let config = || Config { default_overrides: &OVERRIDES, ..Config::new(NODE) };
+    let requests = [
+        frame(0x000, &[0x01, NODE]),                                   // start
+        frame(0x600 + u16::from(NODE), &req(0x40, 0x1000, 0, [0; 4])), // device type
+        frame(0x600 + u16::from(NODE), &req(0x40, 0x1018, 1, [0; 4])), // vendor-ID
+        frame(0x600 + u16::from(NODE), &req(0x40, 0x6085, 0, [0; 4])), // the override
+        frame(0x600 + u16::from(NODE), &req(0x40, 0x1A00, 1, [0; 4])), // a PDO default
+        frame(0x600 + u16::from(NODE), &req(0x40, 0x6041, 0, [0; 4])), // statusword
+        frame(0x080, &[]),                                             // SYNC
+    ];
+    let mut by_value = Drive::new(config()).unwrap();
+    let mut slot = core::mem::MaybeUninit::<Drive>::uninit();
+    let in_place = Drive::build_in(&mut slot, config(), (), ()).unwrap();
+    let expected = session(&mut by_value, &requests);
+    assert_eq!(session(in_place, &requests), expected);
+    // Boot-up, five SDO answers, the two SYNC TPDOs: the session is not empty.
+    assert!(expected.len() >= 8, "{expected:?}");
+    assert_eq!(sdo_data(&expected)[2][4..], 51_200u32.to_le_bytes());
+
+    // The same refusals.
+    let mut slot = core::mem::MaybeUninit::<Drive>::uninit();
+    let bad_node = Drive::build_in(&mut slot, Config::new(0), (), ());
+    assert!(matches!(bad_node, Err(ConfigError::InvalidNodeId)));
+    static BAD: [DefaultOverride; 1] =
+        [DefaultOverride { index: 0x6085, sub: 7, value: DefaultValue::Unsigned(1) }];
+    let mut slot = core::mem::MaybeUninit::<Drive>::uninit();
+    let bad_override =
+        Drive::build_in(&mut slot, Config { default_overrides: &BAD, ..Config::new(NODE) }, (), ());
+    assert!(matches!(bad_override, Err(ConfigError::BadEntry { index: 0x6085 })));
 }

@@ -26,6 +26,7 @@ use canopen_drive::od::{AbortCode, ConfigError, DeviceInfo, Dictionary, Entry, O
 use canopen_drive::wire::nmt::NodeControl;
 use canopen_drive::wire::sdo::Mux;
 use canopen_drive::{CanFrame, Duration, Instant};
+use core::mem::MaybeUninit;
 use heapless::Deque;
 
 /// Bytes of the value store (the communication objects and the PDO records need about 1 KiB).
@@ -64,12 +65,20 @@ pub struct Node301 {
 }
 
 impl Node301 {
-    /// A node at `node_id` with the standard communication objects and 4 + 4 PDOs.
-    pub fn new(node_id: u8) -> Result<Self, ConfigError> {
+    /// A node at `node_id` with the standard communication objects and 4 + 4 PDOs, built in
+    /// `slot` (a static) without being moved, as `Drive::build_in` builds the drive.
+    pub fn build_in(slot: &mut MaybeUninit<Self>, node_id: u8) -> Result<&mut Self, ConfigError> {
+        let node = Self::unconfigured_in(slot, node_id);
         let tables: [&'static [Object]; 2] = [&COMMUNICATION, &pdo::DEFAULT_OBJECTS];
-        let od = Dictionary::new(&tables, DEVICE, node_id)?;
-        let mut node = Node301 {
-            od,
+        node.od.attach(&tables)?;
+        node.configure_pdos();
+        Ok(node)
+    }
+
+    #[inline(never)]
+    fn unconfigured_in(slot: &mut MaybeUninit<Self>, node_id: u8) -> &mut Self {
+        slot.write(Node301 {
+            od: Dictionary::empty(DEVICE, node_id),
             sdo: SdoServer::new(Duration::from_millis(1000)),
             nmt: NmtState::Initialising,
             heartbeat: HeartbeatProducer::default(),
@@ -77,9 +86,7 @@ impl Node301 {
             sync: Sync::default(),
             pdos: PdoSet::default(),
             tx: Tx(Deque::new()),
-        };
-        node.configure_pdos();
-        Ok(node)
+        })
     }
 
     fn node_id(&self) -> u8 {

@@ -76,8 +76,9 @@ fn device_info() -> DeviceInfo {
 #[inline(never)]
 fn make_drive(store: storage::ParameterStore) -> Option<&'static mut BoardDrive> {
     let config = Config { device: device_info(), ..Config::new(NODE_ID) };
-    let drive = Drive::with_storage(config, (), store).ok()?;
-    Some(DRIVE_CELL.init(drive))
+    // Built in place: a drive built by value and moved would need several times its size
+    // of stack, more than this part's 32 KiB of RAM.
+    Drive::build_in(DRIVE_CELL.uninit(), config, (), store).ok()
 }
 
 #[embassy_executor::main]

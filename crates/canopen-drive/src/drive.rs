@@ -9,6 +9,7 @@
 //! most [`TX_QUEUE`] frames).
 
 use core::fmt;
+use core::mem::MaybeUninit;
 
 use heapless::Deque;
 
@@ -178,6 +179,15 @@ struct CommSlots {
 }
 
 impl CommSlots {
+    /// Slots that look their entries up (before the dictionary has its tables).
+    const LOOKUP: CommSlots = CommSlots {
+        cob_id_sync: Slot::lookup(COB_ID_SYNC, 0),
+        communication_cycle_period: Slot::lookup(COMMUNICATION_CYCLE_PERIOD, 0),
+        synchronous_counter_overflow: Slot::lookup(SYNCHRONOUS_COUNTER_OVERFLOW, 0),
+        synchronous_window_length: Slot::lookup(SYNCHRONOUS_WINDOW_LENGTH, 0),
+        producer_heartbeat_time: Slot::lookup(PRODUCER_HEARTBEAT_TIME, 0),
+    };
+
     fn resolve<const B: usize>(od: &Dictionary<B>) -> Self {
         CommSlots {
             cob_id_sync: od.slot(COB_ID_SYNC, 0),
@@ -363,31 +373,47 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
 {
     /// The general constructor: any value store size, PDO capacity and storage.
     pub fn build(config: Config, hooks: H, storage: S) -> Result<Self, ConfigError> {
+        Self::check(&config)?;
+        let mut drive = Self::unconfigured(&config, hooks, storage);
+        drive.configure(&config)?;
+        Ok(drive)
+    }
+
+    /// [`build`](Self::build), in place: the drive is built inside `slot` (a `static` on a
+    /// board, e.g. `StaticCell::uninit()`) and never moved, so that building it takes about
+    /// as much stack as one of its parts rather than several copies of the whole drive.
+    /// On an error `slot` stays unusable (it may have been written).
+    pub fn build_in(
+        slot: &mut MaybeUninit<Self>,
+        config: Config,
+        hooks: H,
+        storage: S,
+    ) -> Result<&mut Self, ConfigError> {
+        Self::check(&config)?;
+        let drive = Self::unconfigured_in(slot, &config, hooks, storage);
+        drive.configure(&config)?;
+        Ok(drive)
+    }
+
+    /// The checks of the configuration that need no dictionary.
+    fn check(config: &Config) -> Result<(), ConfigError> {
         if !(1..=127).contains(&config.node_id) && config.node_id != NODE_ID_UNCONFIGURED {
             return Err(ConfigError::InvalidNodeId);
         }
         if pdo::count(config.pdo_objects) != (RPDOS, TPDOS) {
             return Err(ConfigError::PdoCount);
         }
-        let tables: [&'static [Object]; 5] = [
-            &standard::COMMUNICATION,
-            config.pdo_objects,
-            config.manufacturer_objects,
-            &crate::cia402::objects::PROFILE,
-            config.extra_profile_objects,
-        ];
-        let mut od = Dictionary::new(&tables, config.device, config.node_id)?;
-        od.set_homing_methods(config.profile.homing);
-        od.set_entry_overrides(config.entry_overrides)?;
-        od.set_default_overrides(config.default_overrides)?;
-        let mut drive = Drive {
-            slots: CommSlots::resolve(&od),
-            od,
-            sdo: if config.sdo_block_transfer {
-                SdoServer::new(config.sdo_timeout)
-            } else {
-                SdoServer::new(config.sdo_timeout).without_block_transfer()
-            },
+        Ok(())
+    }
+
+    /// The drive with an empty dictionary: every part at its power-on state, the store zeroed.
+    #[inline(always)]
+    fn unconfigured(config: &Config, hooks: H, storage: S) -> Self {
+        let sdo = SdoServer::new(config.sdo_timeout);
+        Drive {
+            slots: CommSlots::LOOKUP,
+            od: Dictionary::empty(config.device, config.node_id),
+            sdo: if config.sdo_block_transfer { sdo } else { sdo.without_block_transfer() },
             nmt: NmtState::Initialising,
             heartbeat: HeartbeatProducer::default(),
             emcy: EmcyProducer::new(),
@@ -413,12 +439,40 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
             tx: TxQueue { frames: Deque::new(), dropped: 0 },
             hooks,
             storage,
-        };
-        drive.pdos.long_rpdo = config.long_rpdo;
+        }
+    }
+
+    /// [`unconfigured`](Self::unconfigured) written into `slot`: about one drive's worth of
+    /// stack (inlined into its caller, the drive would be assembled twice).
+    #[inline(never)]
+    fn unconfigured_in<'a>(
+        slot: &'a mut MaybeUninit<Self>,
+        config: &Config,
+        hooks: H,
+        storage: S,
+    ) -> &'a mut Self {
+        slot.write(Self::unconfigured(config, hooks, storage))
+    }
+
+    /// Gives the dictionary its tables and the firmware's overrides, then the power-on values.
+    fn configure(&mut self, config: &Config) -> Result<(), ConfigError> {
+        let tables: [&'static [Object]; 5] = [
+            &standard::COMMUNICATION,
+            config.pdo_objects,
+            config.manufacturer_objects,
+            &crate::cia402::objects::PROFILE,
+            config.extra_profile_objects,
+        ];
+        self.od.attach(&tables)?;
+        self.od.set_homing_methods(config.profile.homing);
+        self.od.set_entry_overrides(config.entry_overrides)?;
+        self.od.set_default_overrides(config.default_overrides)?;
+        self.slots = CommSlots::resolve(&self.od);
+        self.pdos.long_rpdo = config.long_rpdo;
         // Power-on values: the stored set where there is one (digest §3.3).
-        drive.load_stored(Group::All);
-        drive.configure_pdos();
-        Ok(drive)
+        self.load_stored(Group::All);
+        self.configure_pdos();
+        Ok(())
     }
 
     /// The node-ID.

@@ -11,10 +11,11 @@ use canopen_drive_footprint::{run, target, NODE_ID};
 #[cortex_m_rt::entry]
 fn main() -> ! {
     // The node lives in a static, as on a board (cortex-m-rt makes this `static mut` a
-    // `&'static mut`); it is built on the stack and moved there.
+    // `&'static mut`), and is built in place there.
     static mut NODE: MaybeUninit<Drive> = MaybeUninit::uninit();
-    let Ok(built) = Drive::new(Config::new(NODE_ID)) else { semihosting::process::exit(102) };
-    let node = NODE.write(built);
+    let Ok(node) = Drive::build_in(NODE, Config::new(NODE_ID), (), ()) else {
+        semihosting::process::exit(102)
+    };
     let init = target::used_since_reset();
     let depth = run(node, &mut target::probe);
     target::report_and_exit(init, depth)

@@ -10,10 +10,9 @@ use canopen_drive_footprint::{run, target, NODE_ID};
 #[cortex_m_rt::entry]
 fn main() -> ! {
     // The node lives in a static, as on a board (cortex-m-rt makes this `static mut` a
-    // `&'static mut`); it is built on the stack and moved there.
+    // `&'static mut`), and is built in place there.
     static mut NODE: MaybeUninit<Node301> = MaybeUninit::uninit();
-    let Ok(built) = Node301::new(NODE_ID) else { semihosting::process::exit(102) };
-    let node = NODE.write(built);
+    let Ok(node) = Node301::build_in(NODE, NODE_ID) else { semihosting::process::exit(102) };
     let init = target::used_since_reset();
     let depth = run(node, &mut target::probe);
     target::report_and_exit(init, depth)

@@ -65,13 +65,13 @@ mod firmware {
     #[inline(never)]
     fn make_drive() -> &'static mut BoardDrive {
         let hooks = BoardHooks { measurements: &board::BoardMeasurements };
-        DRIVE_CELL.init_with(|| match BoardDrive::with_hooks(node::config(), hooks) {
+        match BoardDrive::build_in(DRIVE_CELL.uninit(), node::config(), hooks, ()) {
             Ok(drive) => drive,
             Err(e) => {
                 defmt::error!("dictionary: {}", e);
                 mps2::exit(102);
             }
-        })
+        }
     }
 
     #[entry]

@@ -323,23 +323,38 @@ impl<const BYTES: usize> Dictionary<BYTES> {
     /// Joins `tables` (each laid out by [`layout`], covering disjoint ascending index ranges,
     /// given in ascending order) into a dictionary with every value at its default.
     pub fn new(tables: &[&'static [Object]], device: DeviceInfo, node_id: u8) -> Result<Self, ConfigError> {
-        if tables.len() > MAX_TABLES {
-            return Err(ConfigError::TooManyTables);
-        }
-        let mut dict = Dictionary {
+        let mut dict = Dictionary::empty(device, node_id);
+        dict.attach(tables)?;
+        Ok(dict)
+    }
+
+    /// A dictionary without tables (every access answers "object does not exist"), to be given
+    /// its tables in place with [`attach`](Self::attach): the store is only zeroed here, so a
+    /// dictionary inside a larger structure can be set up without being moved.
+    pub fn empty(device: DeviceInfo, node_id: u8) -> Self {
+        Dictionary {
             tables: [&[]; MAX_TABLES],
             regions: [0; MAX_TABLES],
-            table_count: tables.len(),
+            table_count: 0,
             store: [0; BYTES],
             device,
             node_id,
             overrides: &[],
             entry_overrides: &[],
             homing: crate::cia402::hm::HomingConfig::new(),
-        };
+        }
+    }
+
+    /// Replaces the tables with `tables` (see [`new`](Self::new)) and sets every value to its
+    /// default. On an error the dictionary is left without tables.
+    pub fn attach(&mut self, tables: &[&'static [Object]]) -> Result<(), ConfigError> {
+        self.table_count = 0;
+        if tables.len() > MAX_TABLES {
+            return Err(ConfigError::TooManyTables);
+        }
         let mut region = 0usize;
         let mut previous: Option<u16> = None;
-        for (table, (slot, start)) in tables.iter().zip(dict.tables.iter_mut().zip(dict.regions.iter_mut())) {
+        for (table, (slot, start)) in tables.iter().zip(self.tables.iter_mut().zip(self.regions.iter_mut())) {
             *slot = table;
             *start = u16::try_from(region).map_err(|_| ConfigError::StorageTooSmall { needed: region })?;
             let mut offset = 0usize;
@@ -359,8 +374,9 @@ impl<const BYTES: usize> Dictionary<BYTES> {
         if region > BYTES || region > usize::from(u16::MAX) {
             return Err(ConfigError::StorageTooSmall { needed: region });
         }
-        dict.reset(0x0000..=0xFFFF);
-        Ok(dict)
+        self.table_count = tables.len();
+        self.reset(0x0000..=0xFFFF);
+        Ok(())
     }
 
     /// Replaces the crate's defaults of some entries with the firmware's own
