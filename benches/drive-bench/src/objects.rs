@@ -28,7 +28,7 @@ pub static BENCH_OBJECTS: [Object; 3] = layout([
         PDO_BYTES,
         "Process bytes",
         8,
-        Var::new("Process byte", DataType::Unsigned8).access(Access::ReadWrite).pdo(PdoMapping::Both),
+        &Var::new("Process byte", DataType::Unsigned8).access(Access::ReadWrite).pdo(PdoMapping::Both),
     ),
     Object::var(
         TEXT,

@@ -48,7 +48,7 @@ static MANUFACTURER: [Object; 4] = layout([
         0x2002,
         "Calibration table",
         8,
-        Var::new("Calibration point", DataType::Integer32).access(Access::ReadWrite),
+        &Var::new("Calibration point", DataType::Integer32).access(Access::ReadWrite),
     ),
     Object::var(
         0x2003,

@@ -140,7 +140,7 @@ pub const DATA_RECORD_OBJECT: Object = Object::array(
     INTERPOLATION_DATA_RECORD,
     "Interpolation data record",
     RECORD_ENTRIES as u8,
-    Var::new("Interpolation data record", DataType::Integer32)
+    &Var::new("Interpolation data record", DataType::Integer32)
         .access(Access::ReadWrite)
         .pdo(PdoMapping::Rpdo),
 );

@@ -250,13 +250,13 @@ const fn highest_sub(n: u64) -> Var {
 
 /// A two-entry ratio of the factor group (608Fh–6092h), both entries 1 by default (digest §8.1:
 /// never 0).
-const fn ratio(index: u16, name: &'static str) -> Object {
-    Object::array(
-        index,
-        name,
-        2,
-        Var::new(name, DataType::Unsigned32).access(Access::ReadWrite).default(DefaultValue::Unsigned(1)),
-    )
+const fn ratio(index: u16, name: &'static str, element: &'static Var) -> Object {
+    Object::array(index, name, 2, element)
+}
+
+/// The element of a ratio (in the table, `&ratio_entry(..)` is a `'static` reference).
+const fn ratio_entry(name: &'static str) -> Var {
+    Var::new(name, DataType::Unsigned32).access(Access::ReadWrite).default(DefaultValue::Unsigned(1))
 }
 
 const fn bound(name: &'static str, default: i32) -> Var {
@@ -401,10 +401,18 @@ pub static PROFILE: [Object; 103] = layout([
     parameter(MOTION_PROFILE_TYPE, "Motion profile type", DataType::Integer16, DefaultValue::Zero),
     setting(TORQUE_SLOPE, "Torque slope", DataType::Unsigned32, DefaultValue::Unsigned(10_000)),
     parameter(TORQUE_PROFILE_TYPE, "Torque profile type", DataType::Integer16, DefaultValue::Zero),
-    ratio(POSITION_ENCODER_RESOLUTION, "Position encoder resolution"),
-    ratio(VELOCITY_ENCODER_RESOLUTION, "Velocity encoder resolution"),
-    ratio(GEAR_RATIO, "Gear ratio"),
-    ratio(FEED_CONSTANT, "Feed constant"),
+    ratio(
+        POSITION_ENCODER_RESOLUTION,
+        "Position encoder resolution",
+        &ratio_entry("Position encoder resolution"),
+    ),
+    ratio(
+        VELOCITY_ENCODER_RESOLUTION,
+        "Velocity encoder resolution",
+        &ratio_entry("Velocity encoder resolution"),
+    ),
+    ratio(GEAR_RATIO, "Gear ratio", &ratio_entry("Gear ratio")),
+    ratio(FEED_CONSTANT, "Feed constant", &ratio_entry("Feed constant")),
     setting(HOMING_METHOD, "Homing method", DataType::Integer8, DefaultValue::Zero),
     Object::record(HOMING_SPEEDS, "Homing speeds", &HOMING_SPEED_SUBS),
     setting(
@@ -418,7 +426,7 @@ pub static PROFILE: [Object; 103] = layout([
         PROFILE_JERK,
         "Profile jerk",
         4,
-        Var::new("Profile jerk", DataType::Unsigned32)
+        &Var::new("Profile jerk", DataType::Unsigned32)
             .access(Access::ReadWrite)
             .default(DefaultValue::Unsigned(1_000_000)),
     ),
@@ -448,7 +456,7 @@ pub static PROFILE: [Object; 103] = layout([
         Var::new("Highest sub-index supported", DataType::Unsigned8)
             .access(Access::Const)
             .default(DefaultValue::Device(DeviceField::HomingMethodCount)),
-        Var::new("Supported homing method", DataType::Integer8)
+        &Var::new("Supported homing method", DataType::Integer8)
             .access(Access::Const)
             .default(DefaultValue::Device(DeviceField::HomingMethods)),
     ),

@@ -248,7 +248,7 @@ pub const VL_SET_POINT_FACTOR_OBJECT: Object = Object::array(
     VL_SET_POINT_FACTOR,
     "vl set-point factor",
     2,
-    Var::new("vl set-point factor", DataType::Integer16)
+    &Var::new("vl set-point factor", DataType::Integer16)
         .access(Access::ReadWrite)
         .default(DefaultValue::Signed(1)),
 );
@@ -257,7 +257,7 @@ pub const VL_DIMENSION_FACTOR_OBJECT: Object = Object::array(
     VL_DIMENSION_FACTOR,
     "vl dimension factor",
     2,
-    Var::new("vl dimension factor", DataType::Integer32)
+    &Var::new("vl dimension factor", DataType::Integer32)
         .access(Access::ReadWrite)
         .default(DefaultValue::Signed(1)),
 );

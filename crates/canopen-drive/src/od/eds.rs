@@ -319,7 +319,7 @@ mod tests {
                 .pdo(PdoMapping::Rpdo)
                 .limits_signed(-5, 5),
         ),
-        Object::array(0x2001, "Gains", 2, Var::new("Gain", DataType::Real32).access(Access::ReadWrite)),
+        Object::array(0x2001, "Gains", 2, &Var::new("Gain", DataType::Real32).access(Access::ReadWrite)),
     ]);
 
     fn eds() -> String {

@@ -348,8 +348,9 @@ pub enum Kind {
     Array {
         /// Sub-index 0.
         sub0: Var,
-        /// Description shared by subs 1..=len.
-        element: Var,
+        /// Description shared by subs 1..=len (a reference: an object is as large as its
+        /// largest kind, and every object of a table pays for it).
+        element: &'static Var,
         /// Highest sub-index.
         len: u8,
     },
@@ -380,14 +381,21 @@ impl Object {
         Object { index, name, kind: Kind::Var(var), base: 0, number: 0 }
     }
     /// An ARRAY object with a read-only sub 0 holding `len`.
-    pub const fn array(index: u16, name: &'static str, len: u8, element: Var) -> Self {
+    /// In a `static` or `const` table `&Var::new(..)` is a `'static` reference.
+    pub const fn array(index: u16, name: &'static str, len: u8, element: &'static Var) -> Self {
         let sub0 = Var::new("Highest sub-index supported", DataType::Unsigned8)
             .access(Access::Const)
             .default(DefaultValue::Unsigned(len as u64));
         Object { index, name, kind: Kind::Array { sub0, element, len }, base: 0, number: 0 }
     }
     /// An ARRAY object with a custom sub 0 (e.g. a writable count).
-    pub const fn array_with_sub0(index: u16, name: &'static str, len: u8, sub0: Var, element: Var) -> Self {
+    pub const fn array_with_sub0(
+        index: u16,
+        name: &'static str,
+        len: u8,
+        sub0: Var,
+        element: &'static Var,
+    ) -> Self {
         Object { index, name, kind: Kind::Array { sub0, element, len }, base: 0, number: 0 }
     }
     /// A RECORD object; `subs` sorted by sub-index, sub 0 included.

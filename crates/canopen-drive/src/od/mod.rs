@@ -859,7 +859,7 @@ mod tests {
             0x2001,
             "Array",
             3,
-            Var::new("Element", DataType::Unsigned16)
+            &Var::new("Element", DataType::Unsigned16)
                 .access(Access::ReadWrite)
                 .default(DefaultValue::Unsigned(0xBEEF)),
         ),

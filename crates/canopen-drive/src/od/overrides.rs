@@ -162,7 +162,7 @@ const fn find(table: &[Object], index: u16, sub: u8) -> Option<Var> {
                 Kind::Var(var) if sub == 0 => Some(*var),
                 Kind::Var(_) => None,
                 Kind::Array { sub0, .. } if sub == 0 => Some(*sub0),
-                Kind::Array { element, len, .. } if sub <= *len => Some(*element),
+                Kind::Array { element, len, .. } if sub <= *len => Some(**element),
                 Kind::Array { .. } => None,
                 Kind::Record(subs) => {
                     let mut k = 0;
@@ -358,7 +358,7 @@ mod tests {
             0x2001,
             "Array",
             2,
-            Var::new("Element", DataType::Unsigned32).access(Access::ReadWrite),
+            &Var::new("Element", DataType::Unsigned32).access(Access::ReadWrite),
         ),
         Object::record(0x2002, "Record", &RECORD),
     ]);

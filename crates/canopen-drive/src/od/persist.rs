@@ -517,7 +517,7 @@ mod tests {
             0x2003,
             "Offsets",
             3,
-            Var::new("Offset", DataType::Integer32)
+            &Var::new("Offset", DataType::Integer32)
                 .access(Access::ReadWrite)
                 .default(DefaultValue::Signed(-1)),
         ),

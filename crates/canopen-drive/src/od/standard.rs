@@ -96,7 +96,7 @@ const ALL_COMMUNICATION: [Object; 22] = [
         "Pre-defined error field",
         ERROR_HISTORY_LEN,
         Var::new("Number of errors", DataType::Unsigned8).access(Access::ReadWrite),
-        Var::new("Standard error field", DataType::Unsigned32),
+        &Var::new("Standard error field", DataType::Unsigned32),
     ),
     Object::var(
         COB_ID_SYNC,
@@ -144,7 +144,7 @@ const ALL_COMMUNICATION: [Object; 22] = [
         crate::storage::STORE_PARAMETERS,
         "Store parameters",
         4,
-        Var::new("Store parameters", DataType::Unsigned32)
+        &Var::new("Store parameters", DataType::Unsigned32)
             .access(Access::ReadWrite)
             .default(DefaultValue::Unsigned(1)),
     ),
@@ -152,7 +152,7 @@ const ALL_COMMUNICATION: [Object; 22] = [
         crate::storage::RESTORE_DEFAULT_PARAMETERS,
         "Restore default parameters",
         4,
-        Var::new("Restore default parameters", DataType::Unsigned32)
+        &Var::new("Restore default parameters", DataType::Unsigned32)
             .access(Access::ReadWrite)
             .default(DefaultValue::Unsigned(1)),
     ),
@@ -172,7 +172,7 @@ const ALL_COMMUNICATION: [Object; 22] = [
         CONSUMER_HEARTBEAT_TIME,
         "Consumer heartbeat time",
         HEARTBEAT_CONSUMERS,
-        Var::new("Consumer heartbeat time", DataType::Unsigned32).access(Access::ReadWrite),
+        &Var::new("Consumer heartbeat time", DataType::Unsigned32).access(Access::ReadWrite),
     ),
     Object::var(
         PRODUCER_HEARTBEAT_TIME,
@@ -196,7 +196,7 @@ const ALL_COMMUNICATION: [Object; 22] = [
         ERROR_BEHAVIOUR,
         "Error behaviour",
         1,
-        Var::new("Communication error", DataType::Unsigned8).access(Access::ReadWrite),
+        &Var::new("Communication error", DataType::Unsigned8).access(Access::ReadWrite),
     ),
     Object::record(SDO_SERVER_PARAMETER, "SDO server parameter", &SDO_SERVER_SUBS),
 ];

@@ -110,7 +110,7 @@ static MANUFACTURER: [Object; 3] = layout([
         0x2002,
         "Offsets",
         4,
-        Var::new("Offset", DataType::Integer32).access(Access::ReadWrite).default(DefaultValue::Signed(-5)),
+        &Var::new("Offset", DataType::Integer32).access(Access::ReadWrite).default(DefaultValue::Signed(-5)),
     ),
 ]);
 
