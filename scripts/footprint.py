@@ -232,14 +232,15 @@ The goals are not reached. The budgets in `benches/footprint/budgets.txt` are th
 at the measured values plus 3 % (`scripts/footprint.py --update`) so that CI catches growth;
 they are not the goals. Where the bytes go:
 
-- the object-dictionary tables: every entry is a `Var` descriptor of about 60–70 bytes
-  (name for the EDS, type, access, two 16-byte bounds, a 16-byte default), and the PDO records
-  alone are about 12 KiB of them (`pdo::*_SUBS`, `pdo::DEFAULT_OBJECTS`); the CiA 402 table
-  (`cia402::objects::PROFILE`) is about 15 KiB;
+- the object-dictionary tables: every entry is a `Var` descriptor of about 64 bytes (name for
+  the EDS, type, access, two 16-byte bounds, a 16-byte default) and every object about 88; the
+  CiA 402 table (`cia402::objects::PROFILE`) is the largest. The PDO records share one
+  description per record kind (their per-PDO defaults are computed, `DefaultValue::PdoPreset`);
 - the CiA 402 profile code: `Profile::tick` is one function of well over 30 KiB after
   inlining (every mode, the stops, the factor group), and the trajectory planner and solver
   add more than 20 KiB;
-- in the 301-only node, about half the flash is `.rodata` (the tables above).
+- in the 301-only node, a quarter of the flash is `.rodata` (the tables above); the rest is
+  the code of the services.
 
 The largest symbols of `drive-full` on thumbv7em:
 

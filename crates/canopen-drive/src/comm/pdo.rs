@@ -102,112 +102,91 @@ const fn u32_rw(name: &'static str, default: DefaultValue) -> Var {
     Var::new(name, DataType::Unsigned32).access(Access::ReadWrite).default(default)
 }
 
-const fn rpdo_communication(cob_id: DefaultValue) -> [(u8, Var); 4] {
-    [
-        (
-            0,
-            Var::new(HIGHEST_SUB, DataType::Unsigned8)
-                .access(Access::Const)
-                .default(DefaultValue::Unsigned(5)),
-        ),
-        (1, u32_rw("COB-ID used by RPDO", cob_id)),
-        (
-            2,
-            Var::new("Transmission type", DataType::Unsigned8)
-                .access(Access::ReadWrite)
-                .default(DefaultValue::Unsigned(255)),
-        ),
-        (5, Var::new("Event timer", DataType::Unsigned16).access(Access::ReadWrite)),
-    ]
-}
+// One description per record kind, shared by every PDO of the table: the defaults that
+// differ from PDO to PDO (COB-ID, transmission type, mapping) are `DefaultValue::PdoPreset`,
+// computed by `preset` from the index (a description per PDO cost ~10 KiB of flash).
 
-const fn tpdo_communication(cob_id: DefaultValue, transmission: u8) -> [(u8, Var); 6] {
-    [
-        (
-            0,
-            Var::new(HIGHEST_SUB, DataType::Unsigned8)
-                .access(Access::Const)
-                .default(DefaultValue::Unsigned(6)),
-        ),
-        (1, u32_rw("COB-ID used by TPDO", cob_id)),
-        (
-            2,
-            Var::new("Transmission type", DataType::Unsigned8)
-                .access(Access::ReadWrite)
-                .default(DefaultValue::Unsigned(transmission as u64)),
-        ),
-        (3, Var::new("Inhibit time", DataType::Unsigned16).access(Access::ReadWrite)),
-        (5, Var::new("Event timer", DataType::Unsigned16).access(Access::ReadWrite)),
-        (6, Var::new("SYNC start value", DataType::Unsigned8).access(Access::ReadWrite)),
-    ]
-}
+const PRESET_U32: Var = u32_rw("", DefaultValue::PdoPreset);
 
-const fn mapping_entry(raw: u32) -> Var {
-    u32_rw("Mapping entry", DefaultValue::Unsigned(raw as u64))
-}
+static RPDO_COMMUNICATION_SUBS: [(u8, Var); 4] = [
+    (0, Var::new(HIGHEST_SUB, DataType::Unsigned8).access(Access::Const).default(DefaultValue::Unsigned(5))),
+    (1, u32_rw("COB-ID used by RPDO", DefaultValue::PdoPreset)),
+    (
+        2,
+        Var::new("Transmission type", DataType::Unsigned8)
+            .access(Access::ReadWrite)
+            .default(DefaultValue::Unsigned(255)),
+    ),
+    (5, Var::new("Event timer", DataType::Unsigned16).access(Access::ReadWrite)),
+];
 
-const fn mapping(entries: [u32; 2]) -> [(u8, Var); 9] {
-    let count = if entries[1] != 0 {
-        2
-    } else if entries[0] != 0 {
-        1
-    } else {
-        0
+static TPDO_COMMUNICATION_SUBS: [(u8, Var); 6] = [
+    (0, Var::new(HIGHEST_SUB, DataType::Unsigned8).access(Access::Const).default(DefaultValue::Unsigned(6))),
+    (1, u32_rw("COB-ID used by TPDO", DefaultValue::PdoPreset)),
+    (
+        2,
+        Var::new("Transmission type", DataType::Unsigned8)
+            .access(Access::ReadWrite)
+            .default(DefaultValue::PdoPreset),
+    ),
+    (3, Var::new("Inhibit time", DataType::Unsigned16).access(Access::ReadWrite)),
+    (5, Var::new("Event timer", DataType::Unsigned16).access(Access::ReadWrite)),
+    (6, Var::new("SYNC start value", DataType::Unsigned8).access(Access::ReadWrite)),
+];
+
+const MAPPING_ENTRY: Var = Var { name: "Mapping entry", ..PRESET_U32 };
+
+static MAPPING_SUBS: [(u8, Var); 9] = [
+    (
+        0,
+        Var::new("Number of mapped objects", DataType::Unsigned8)
+            .access(Access::ReadWrite)
+            .default(DefaultValue::PdoPreset),
+    ),
+    (1, MAPPING_ENTRY),
+    (2, MAPPING_ENTRY),
+    (3, MAPPING_ENTRY),
+    (4, MAPPING_ENTRY),
+    (5, MAPPING_ENTRY),
+    (6, MAPPING_ENTRY),
+    (7, MAPPING_ENTRY),
+    (8, MAPPING_ENTRY),
+];
+
+/// The mapping of the pre-defined PDOs 1–4 (CiA 402): controlword / statusword, then the mode,
+/// the pp target / position, the pv target / velocity.
+const RPDO_PRESET_MAPPING: [[u32; 2]; 4] =
+    [[0x6040_0010, 0], [0x6040_0010, 0x6060_0008], [0x6040_0010, 0x607A_0020], [0x6040_0010, 0x60FF_0020]];
+const TPDO_PRESET_MAPPING: [[u32; 2]; 4] =
+    [[0x6041_0010, 0], [0x6041_0010, 0x6061_0008], [0x6041_0010, 0x6064_0020], [0x6041_0010, 0x606C_0020]];
+
+/// The power-on value of [`DefaultValue::PdoPreset`] entries: PDOs 1–4 carry the CiA 402
+/// pre-defined identifiers (TPDOs with bit 30, no RTR) and mapping, TPDOs 1–2 event-driven and
+/// 3–4 on every SYNC; higher PDOs start invalid and empty.
+pub fn preset(index: u16, sub: u8) -> DefaultValue {
+    let Some(record) = PdoRecord::of(index) else { return DefaultValue::Zero };
+    let predefined = record.number < 4;
+    let (base, mappings) = match record.direction {
+        Direction::Rpdo => (0x200, &RPDO_PRESET_MAPPING),
+        Direction::Tpdo => (BIT30 | 0x180, &TPDO_PRESET_MAPPING),
     };
-    [
-        (
-            0,
-            Var::new("Number of mapped objects", DataType::Unsigned8)
-                .access(Access::ReadWrite)
-                .default(DefaultValue::Unsigned(count)),
-        ),
-        (1, mapping_entry(entries[0])),
-        (2, mapping_entry(entries[1])),
-        (3, mapping_entry(0)),
-        (4, mapping_entry(0)),
-        (5, mapping_entry(0)),
-        (6, mapping_entry(0)),
-        (7, mapping_entry(0)),
-        (8, mapping_entry(0)),
-    ]
+    let unassigned = match record.direction {
+        Direction::Rpdo => INVALID,
+        Direction::Tpdo => INVALID | BIT30,
+    };
+    let mapping = mappings.get(record.number).copied().unwrap_or([0, 0]);
+    match (record.communication, sub) {
+        (true, 1) if predefined => DefaultValue::NodeIdPlus(base + 0x100 * record.number as u32),
+        (true, 1) => DefaultValue::Unsigned(u64::from(unassigned)),
+        (true, 2) if predefined && record.number >= 2 => DefaultValue::Unsigned(1),
+        (true, 2) => DefaultValue::Unsigned(255),
+        (false, 0) => DefaultValue::Unsigned(mapping.iter().filter(|m| **m != 0).count() as u64),
+        (false, s) => DefaultValue::Unsigned(u64::from(
+            mapping.get(usize::from(s).wrapping_sub(1)).copied().unwrap_or(0),
+        )),
+        _ => DefaultValue::Zero,
+    }
 }
-
-/// COB-ID of a PDO without a pre-defined identifier: invalid.
-const UNASSIGNED: DefaultValue = DefaultValue::Unsigned(INVALID as u64);
-
-static RPDO_COMMUNICATION_SUBS: [[(u8, Var); 4]; 5] = [
-    rpdo_communication(DefaultValue::NodeIdPlus(0x200)),
-    rpdo_communication(DefaultValue::NodeIdPlus(0x300)),
-    rpdo_communication(DefaultValue::NodeIdPlus(0x400)),
-    rpdo_communication(DefaultValue::NodeIdPlus(0x500)),
-    rpdo_communication(UNASSIGNED),
-];
-
-// TPDOs: bit 30 set (no RTR) on the pre-defined identifiers; status event-driven, actual
-// values every SYNC.
-static TPDO_COMMUNICATION_SUBS: [[(u8, Var); 6]; 5] = [
-    tpdo_communication(DefaultValue::NodeIdPlus(BIT30 | 0x180), 255),
-    tpdo_communication(DefaultValue::NodeIdPlus(BIT30 | 0x280), 255),
-    tpdo_communication(DefaultValue::NodeIdPlus(BIT30 | 0x380), 1),
-    tpdo_communication(DefaultValue::NodeIdPlus(BIT30 | 0x480), 1),
-    tpdo_communication(DefaultValue::Unsigned((INVALID | BIT30) as u64), 255),
-];
-
-static RPDO_MAPPING_SUBS: [[(u8, Var); 9]; 5] = [
-    mapping([0x6040_0010, 0]),
-    mapping([0x6040_0010, 0x6060_0008]),
-    mapping([0x6040_0010, 0x607A_0020]),
-    mapping([0x6040_0010, 0x60FF_0020]),
-    mapping([0, 0]),
-];
-
-static TPDO_MAPPING_SUBS: [[(u8, Var); 9]; 5] = [
-    mapping([0x6041_0010, 0]),
-    mapping([0x6041_0010, 0x6061_0008]),
-    mapping([0x6041_0010, 0x6064_0020]),
-    mapping([0x6041_0010, 0x606C_0020]),
-    mapping([0, 0]),
-];
 
 /// The 1400h/1600h/1800h/1A00h objects of `rpdos` RPDOs and `N / 2 - rpdos` TPDOs, to be laid out
 /// with [`crate::od::layout`]: `static PDOS: [Object; 16] = layout(pdo::objects::<16>(4));`.
@@ -220,32 +199,28 @@ pub const fn objects<const N: usize>(rpdos: usize) -> [Object; N] {
     let mut out = [Object::var(0, "", Var::new("", DataType::Unsigned8)); N];
     let mut i = 0;
     while i < rpdos {
-        let preset = if i < 4 { i } else { 4 };
         let n = (i + 1) as u16;
         out[i] = Object::record(
             RPDO_COMMUNICATION + i as u16,
             "RPDO communication parameter",
-            &RPDO_COMMUNICATION_SUBS[preset],
+            &RPDO_COMMUNICATION_SUBS,
         )
         .numbered(n);
         out[rpdos + i] =
-            Object::record(RPDO_MAPPING + i as u16, "RPDO mapping parameter", &RPDO_MAPPING_SUBS[preset])
-                .numbered(n);
+            Object::record(RPDO_MAPPING + i as u16, "RPDO mapping parameter", &MAPPING_SUBS).numbered(n);
         i += 1;
     }
     let mut j = 0;
     while j < tpdos {
-        let preset = if j < 4 { j } else { 4 };
         let n = (j + 1) as u16;
         out[2 * rpdos + j] = Object::record(
             TPDO_COMMUNICATION + j as u16,
             "TPDO communication parameter",
-            &TPDO_COMMUNICATION_SUBS[preset],
+            &TPDO_COMMUNICATION_SUBS,
         )
         .numbered(n);
         out[2 * rpdos + tpdos + j] =
-            Object::record(TPDO_MAPPING + j as u16, "TPDO mapping parameter", &TPDO_MAPPING_SUBS[preset])
-                .numbered(n);
+            Object::record(TPDO_MAPPING + j as u16, "TPDO mapping parameter", &MAPPING_SUBS).numbered(n);
         j += 1;
     }
     out
@@ -1008,5 +983,27 @@ mod tests {
         assert_eq!(count(&BIG), (6, 4));
         assert_eq!(BIG[5].index, 0x1405);
         assert_eq!(BIG[6].index, 0x1600);
+    }
+
+    #[test]
+    fn presets_give_pdos_1_to_4_the_cia_402_set_and_the_others_nothing() {
+        static BIG: [Object; 20] = crate::od::layout(objects::<20>(6));
+        let od =
+            crate::od::Dictionary::<2048>::new(&[&BIG], crate::od::DeviceInfo::servo_drive(), 9).unwrap();
+        let u32_of = |index, sub| od.get::<u32>(index, sub).unwrap();
+        assert_eq!(u32_of(0x1401, 1), 0x309);
+        assert_eq!(u32_of(0x1404, 1), INVALID, "RPDO5 starts invalid");
+        assert_eq!(u32_of(0x1405, 1), INVALID);
+        assert_eq!(u32_of(0x1803, 1), BIT30 | 0x489);
+        assert_eq!(od.get::<u8>(0x1801, 2).unwrap(), 255);
+        assert_eq!(od.get::<u8>(0x1802, 2).unwrap(), 1);
+        assert_eq!(od.get::<u8>(0x1400, 2).unwrap(), 255);
+        assert_eq!(od.get::<u8>(0x1603, 0).unwrap(), 2);
+        assert_eq!(u32_of(0x1603, 2), 0x60FF_0020);
+        assert_eq!(od.get::<u8>(0x1604, 0).unwrap(), 0, "RPDO5 maps nothing");
+        assert_eq!(u32_of(0x1605, 1), 0);
+        assert_eq!(od.get::<u8>(0x1A00, 0).unwrap(), 1);
+        assert_eq!(u32_of(0x1A00, 1), 0x6041_0010);
+        assert_eq!(u32_of(0x1A00, 2), 0);
     }
 }

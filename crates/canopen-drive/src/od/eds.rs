@@ -246,6 +246,8 @@ fn write_default<const B: usize>(
             writeln!(w)
         }
         DefaultValue::NodeIdPlus(base) => writeln!(w, "DefaultValue=$NODEID+0x{base:X}"),
+        // Resolved by `default_of`.
+        DefaultValue::PdoPreset => writeln!(w, "DefaultValue=0x0"),
         DefaultValue::Device(field) => {
             let value = match field {
                 DeviceField::DeviceType => device.device_type,

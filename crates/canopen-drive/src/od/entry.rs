@@ -239,6 +239,10 @@ pub enum DefaultValue {
     NodeIdPlus(u32),
     /// A field of the device description given at start-up (identity, names, EDS).
     Device(DeviceField),
+    /// The value of the pre-defined PDO set for this PDO record entry (COB-ID, transmission
+    /// type, mapping of PDOs 1–4; see [`comm::pdo::preset`](crate::comm::pdo::preset)),
+    /// resolved from the index and sub-index.
+    PdoPreset,
 }
 
 /// One value of the dictionary: a VAR, or one sub-index of an ARRAY or RECORD.

@@ -410,6 +410,7 @@ impl<const BYTES: usize> Dictionary<BYTES> {
             DefaultValue::Device(DeviceField::HomingMethods) => {
                 DefaultValue::Signed(self.homing.listed_method(sub).map_or(0, i64::from))
             }
+            DefaultValue::PdoPreset => crate::comm::pdo::preset(index, sub),
             other => other,
         }
     }
@@ -525,6 +526,8 @@ impl<const BYTES: usize> Dictionary<BYTES> {
                     DeviceField::HomingMethodCount | DeviceField::HomingMethods => number(0),
                 }
             }
+            // Resolved by `default_of`.
+            DefaultValue::PdoPreset => number(0),
         }
     }
 
