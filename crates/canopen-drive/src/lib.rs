@@ -71,6 +71,7 @@ pub mod motion;
 pub mod od;
 pub mod storage;
 pub mod time;
+mod wide;
 pub mod wire;
 
 pub use drive::{Config, Drive};

@@ -165,7 +165,7 @@ impl Interpolator {
         // then the (library) 128-bit division; both truncate toward zero.
         let part = match i64::try_from(scaled) {
             Ok(scaled) => i128::from(scaled / i64::from(ticks)),
-            Err(_) => scaled / i128::from(ticks),
+            Err(_) => crate::wide::sdiv(scaled, i128::from(ticks)),
         };
         i128::from(self.from) * ONE + part
     }
@@ -324,7 +324,8 @@ impl Limiter {
         // stopping distance of the relative velocity.
         let relative = self.velocity - target_velocity;
         if relative != 0 && relative.signum() == error.signum() {
-            let stopping = relative.saturating_mul(relative) / (2 * limits.deceleration.max(1));
+            let stopping =
+                crate::wide::sdiv(relative.saturating_mul(relative), 2 * limits.deceleration.max(1));
             if stopping >= error.abs() {
                 change = -relative.signum() * limits.deceleration;
             }

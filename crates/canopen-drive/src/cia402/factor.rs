@@ -76,9 +76,9 @@ impl Default for Factors {
     }
 }
 
-const fn gcd(mut a: u128, mut b: u128) -> u128 {
+fn gcd(mut a: u128, mut b: u128) -> u128 {
     while b != 0 {
-        let r = a % b;
+        let r = crate::wide::urem(a, b);
         a = b;
         b = r;
     }
@@ -106,7 +106,7 @@ fn scale(value: i64, numerator: u128, denominator: u128) -> i64 {
         return if value < 0 { -result } else { result };
     }
     let result = match magnitude.checked_mul(numerator) {
-        Some(product) => (product + denominator / 2) / denominator.max(1),
+        Some(product) => crate::wide::udiv(product + denominator / 2, denominator.max(1)),
         None => u128::MAX,
     };
     let result = i64::try_from(result).unwrap_or(i64::MAX);
@@ -120,7 +120,7 @@ fn scale(value: i64, numerator: u128, denominator: u128) -> i64 {
 /// `numerator / denominator` reduced (neither is 0 after).
 fn reduced(numerator: u128, denominator: u128) -> (u128, u128) {
     let common = gcd(numerator, denominator).max(1);
-    ((numerator / common).max(1), (denominator / common).max(1))
+    (crate::wide::udiv(numerator, common).max(1), crate::wide::udiv(denominator, common).max(1))
 }
 
 fn saturate(value: i64) -> i32 {

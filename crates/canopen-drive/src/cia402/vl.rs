@@ -510,7 +510,7 @@ fn rescale(value: i128, numerator: i128, denominator: i128) -> i128 {
     let divisor = denominator.unsigned_abs().max(1);
     let magnitude = match value.unsigned_abs().checked_mul(numerator.unsigned_abs()) {
         Some(product) => {
-            let (quotient, remainder) = (product / divisor, product % divisor);
+            let (quotient, remainder) = crate::wide::udivrem(product, divisor);
             if remainder >= divisor - remainder {
                 quotient.saturating_add(1)
             } else {
@@ -648,11 +648,11 @@ impl Ramp {
         let per = i128::from(slope.delta_time.max(1)) * MICROS_PER_SECOND;
         let budget =
             i128::from(slope.delta_speed) * FINE * i128::from(dt.as_micros()) + i128::from(self.remainder);
-        let step = budget / per;
+        let (step, remainder) = crate::wide::sdivrem(budget, per);
         if step >= distance.abs() {
             *self = Ramp::at(goal);
         } else {
-            self.remainder = i64::try_from(budget % per).unwrap_or(0);
+            self.remainder = i64::try_from(remainder).unwrap_or(0);
             self.value = fine(i128::from(self.value) + step * distance.signum());
         }
     }

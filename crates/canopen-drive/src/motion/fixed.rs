@@ -24,7 +24,7 @@ pub(crate) fn hz_pow(hz: u32, k: u32) -> i128 {
 /// shifted value fits).
 pub(crate) fn per_tick(rate: u32, hz: u32, k: u32) -> i128 {
     let den = hz_pow(hz, k).max(1);
-    (i128::from(rate) << FRAC) / den
+    crate::wide::sdiv(i128::from(rate) << FRAC, den)
 }
 
 /// A fixed-point per-tickᵏ value as `f32` increments/sᵏ.
@@ -68,7 +68,8 @@ pub(crate) fn div_ceil(num: i128, den: i128) -> i128 {
 /// instead of a 128-bit division, which neither Cortex-M has in hardware.
 fn div_trunc(num: i128, den: i128) -> (i128, bool) {
     let Ok(small) = u32::try_from(den) else {
-        return (num / den, num % den == 0);
+        let (quotient, remainder) = crate::wide::sdivrem(num, den);
+        return (quotient, remainder == 0);
     };
     let divisor = u64::from(small);
     let magnitude = num.unsigned_abs();

@@ -166,7 +166,7 @@ impl<'s> Builder<'s> {
     ) -> Self {
         // Accelerations are multiples of 6 (so a/2 is exact and a ramp can end exactly at
         // zero; only a trapezoid's leaves another); a trapezoid starts each ramp afresh.
-        let a = if limits.jerk_limited { start.a - start.a % 6 } else { 0 };
+        let a = if limits.jerk_limited { start.a - crate::wide::srem(start.a, 6) } else { 0 };
         Builder {
             limits,
             allowance,
@@ -271,7 +271,7 @@ impl<'s> Builder<'s> {
         let Exact { v, a, .. } = self.end;
         // Of the two jerks, the larger comes where it gains the least speed. The ramp does not
         // depend on the peak velocity, so it is held to the exact limits.
-        let segment = Segment::ramp(self.end, ticks, -a / 6, a > 0);
+        let segment = Segment::ramp(self.end, ticks, crate::wide::sdiv(-a, 6), a > 0);
         self.push_checked(segment, self.limits.ramp_jerk(a, v), true)?;
         self.end.a = 0;
         Some(())
@@ -309,7 +309,7 @@ impl<'s> Builder<'s> {
                 let rise6 = if down { div_floor(num, den) } else { div_ceil(num, den) };
                 self.push(Segment::ramp(self.end, ticks[0], rise6, down), jerk_up)?;
                 self.push(Some(Segment::uniform(self.end, ticks[1], 0)), 0)?;
-                let fall6 = self.end.a.checked_neg()? / 6;
+                let fall6 = crate::wide::sdiv(self.end.a.checked_neg()?, 6);
                 self.push(Segment::ramp(self.end, ticks[2], fall6, down), jerk_down)?;
             }
         } else if ticks[0] > 0 {

@@ -221,7 +221,8 @@ impl Problem<'_> {
     fn size(&self, layout: &mut Layout, peaks: [i128; 2]) -> Option<()> {
         let limits = self.limits;
         let mut velocity = [self.start.v; 2];
-        let mut acceleration = if limits.jerk_limited { self.start.a - self.start.a % 6 } else { 0 };
+        let mut acceleration =
+            if limits.jerk_limited { self.start.a - crate::wide::srem(self.start.a, 6) } else { 0 };
         let mut index = 0;
         while index < layout.len {
             match *layout.legs.get(index)? {
@@ -396,7 +397,7 @@ impl Problem<'_> {
     /// Returns the layout (sized) and the signed peak.
     fn fallback(&mut self, to_go: i128, limits: &Limits) -> Option<(Layout, i128)> {
         let mut layout = Layout::new();
-        if self.start.v != 0 || (self.limits.jerk_limited && self.start.a - self.start.a % 6 != 0) {
+        if self.start.v != 0 || (self.limits.jerk_limited && crate::wide::srem(self.start.a, 6) != 0) {
             layout.push(Aim::Zero)?;
         }
         layout.push(Aim::Peak)?;
@@ -429,7 +430,7 @@ fn interpolate(low: i128, high: i128, miss_low: i128, miss_high: i128) -> i128 {
         return low;
     }
     // num ≤ den < 2⁶⁴, so the shifted numerator fits; t ≤ 2⁶².
-    let t = (num << 62) / den;
+    let t = crate::wide::udiv(num << 62, den);
     let width = high.abs_diff(low);
     let mask = (1u128 << 62) - 1;
     let part = (width >> 62).saturating_mul(t).saturating_add(((width & mask) * t) >> 62);

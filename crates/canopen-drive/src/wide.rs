@@ -1,0 +1,78 @@
+//! 128-bit division and remainder, compiled once.
+//!
+//! Neither Cortex-M nor RISC-V has a 128-bit divide, and the compiler writes every 128-bit `/`
+//! or `%` out in place as a shift-and-subtract sequence of about a kilobyte of code (a division
+//! by a power-of-two constant excepted: that is a shift). The planner, the factor group and the
+//! velocity ramps divide 128-bit values in dozens of places, so they call these functions
+//! instead: one copy of the sequence for the whole crate, for the price of a call where the
+//! division happens. Same results as the operators, including a panic on a zero divisor (the
+//! callers never divide by zero).
+
+/// `(n / d, n % d)`.
+#[inline(never)]
+pub(crate) fn udivrem(n: u128, d: u128) -> (u128, u128) {
+    (n / d, n % d)
+}
+
+/// `n / d`.
+pub(crate) fn udiv(n: u128, d: u128) -> u128 {
+    udivrem(n, d).0
+}
+
+/// `n % d`.
+pub(crate) fn urem(n: u128, d: u128) -> u128 {
+    udivrem(n, d).1
+}
+
+/// `(n / d, n % d)` truncated toward zero, as the operators (the one overflowing case,
+/// `i128::MIN / -1`, wraps).
+pub(crate) fn sdivrem(n: i128, d: i128) -> (i128, i128) {
+    let (q, r) = udivrem(n.unsigned_abs(), d.unsigned_abs());
+    let (q, r) = (q as i128, r as i128);
+    let q = if (n < 0) != (d < 0) { q.wrapping_neg() } else { q };
+    let r = if n < 0 { r.wrapping_neg() } else { r };
+    (q, r)
+}
+
+/// `n / d`, truncated toward zero.
+pub(crate) fn sdiv(n: i128, d: i128) -> i128 {
+    sdivrem(n, d).0
+}
+
+/// `n % d`, with the sign of `n`.
+pub(crate) fn srem(n: i128, d: i128) -> i128 {
+    sdivrem(n, d).1
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_functions_answer_as_the_operators() {
+        let values: [i128; 12] = [
+            0,
+            1,
+            -1,
+            6,
+            -6,
+            7,
+            -7,
+            1 << 70,
+            -(1 << 70) + 3,
+            i128::MAX,
+            i128::MIN + 1,
+            0x1234_5678_9ABC_DEF0_1111,
+        ];
+        for n in values {
+            for d in values.iter().copied().filter(|d| *d != 0) {
+                assert_eq!(sdivrem(n, d), (n / d, n % d), "{n} / {d}");
+                let (un, ud) = (n.unsigned_abs(), d.unsigned_abs());
+                assert_eq!(udivrem(un, ud), (un / ud, un % ud), "{un} / {ud}");
+            }
+        }
+        assert_eq!(sdiv(i128::MIN, 3), i128::MIN / 3);
+        assert_eq!(srem(i128::MIN, 10), -8);
+        assert_eq!(sdiv(i128::MIN, -1), i128::MIN, "wraps where the operator overflows");
+    }
+}
