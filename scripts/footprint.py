@@ -236,9 +236,10 @@ they are not the goals. Where the bytes go:
   the EDS, type, access, two 16-byte bounds, a 16-byte default) and every object about 88; the
   CiA 402 table (`cia402::objects::PROFILE`) is the largest. The PDO records share one
   description per record kind (their per-PDO defaults are computed, `DefaultValue::PdoPreset`);
-- the CiA 402 profile code: `Profile::tick` is one function of well over 30 KiB after
-  inlining (every mode, the stops, the factor group), and the trajectory planner and solver
-  add more than 20 KiB;
+- the CiA 402 profile code: `Profile::tick` is one function of about 19 KiB after inlining
+  (every mode, the stops, the factor group), and the exact fixed-point trajectory planner
+  (`motion::solve`, `legs`, `planner`) about 30 KiB; 128-bit divisions go through one
+  out-of-line function (`crate::wide`: written out in place, each cost about a kilobyte);
 - in the 301-only node, a quarter of the flash is `.rodata` (the tables above); the rest is
   the code of the services.
 
