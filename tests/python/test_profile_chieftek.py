@@ -341,6 +341,23 @@ def test_version_number_and_the_manuals_types(cpc):
     cpc.sdo[0x6071].raw = 0
 
 
+def test_max_profile_velocity_and_max_motor_speed_are_one_value_in_counts_per_second(cpc):
+    # §6.3: a change of 607Fh is applied to 6080h (and the other way); both count/s.
+    assert cpc.sdo[0x607F].raw == cpc.sdo[0x6080].raw == 1_500_000
+    cpc.sdo[0x607F].raw = 30_000
+    wait_until(lambda: cpc.sdo[0x6080].raw == 30_000, timeout=1.0)
+    cpc.sdo[0x6080].raw = 20_000
+    wait_until(lambda: cpc.sdo[0x607F].raw == 20_000, timeout=1.0)
+    # pv asks for 40 000 counts/s: held at 20 000 counts/s (not 20 000 rpm).
+    cpc.sdo[0x6083].raw = 2_000_000
+    enable(cpc, 3)
+    cpc.sdo[0x60FF].raw = 40_000
+    time.sleep(0.3)
+    assert abs(cpc.sdo[0x606B].raw - 20_000) <= 100, cpc.sdo[0x606B].raw
+    cpc.sdo[0x60FF].raw = 0
+    cpc.sdo[0x6040].raw = 0
+
+
 def test_touch_probe_edge_counters_timing_example(cpc):
     """§9.2.2: probe 1 enabled on both edges, continuous; each edge is stored and counted (60D5h,
     60D6h); sampling of the positive edge off and on again; the probe switched off."""

@@ -228,7 +228,6 @@ DEVIATIONS = {
     ((0x6041, 0), "access"): "read-only (CiA 402); the manual's table says rw",
     ((0x60FD, 0), "access"): "read-only (CiA 402); the manual's table says rw",
     ((0x608F, 2), "access"): "the core's factor group lets 608Fh sub 2 be written",
-    ((0x606A, 0), "exists"): "606Ah (sensor selection) is not an object of the core",
     ((0x2705, 0), "default"): "reads the active node-ID ($NODEID), the manual's example module has 1",
 }
 
@@ -422,6 +421,26 @@ def test_under_voltage_is_reported_with_the_manuals_code_ff00h(pd57, network):
     wait_until(lambda: pd57.sdo[0x1001].raw & 0x04 == 0)
 
 
+def test_travel_limits_are_reported_with_the_manuals_emcy_ff01h(pd57, network):
+    emcy = Recorder(network, 0x80 + NODE_ID)
+    pd57.sdo[SIM_INPUTS].raw = 0x02  # the right (positive) limit switch
+    _, _, data = emcy.wait_for(lambda d: d[:2] == b"\x01\xff", timeout=1.0)
+    assert data[3] == 3, "byte 1: positive limit switch"
+    assert data[2] & 0x81 == 0x81  # error register: generic + manufacturer-specific
+    emcy.clear()
+    pd57.sdo[SIM_INPUTS].raw = 0
+    emcy.wait_for(lambda d: d[:2] == b"\x00\x00", timeout=1.0)
+    emcy.clear()
+    position = pd57.sdo[0x6064].raw
+    pd57.sdo[0x607D][1].raw = position + 1000  # the axis is now below the negative limit
+    _, _, data = emcy.wait_for(lambda d: d[:2] == b"\x01\xff", timeout=1.0)
+    assert data[3] == 2, "byte 1: negative software limit"
+    emcy.clear()
+    pd57.sdo[0x607D][1].raw = -2147483648
+    emcy.wait_for(lambda d: d[:2] == b"\x00\x00", timeout=1.0)
+    wait_until(lambda: pd57.sdo[0x1001].raw & 0x80 == 0)
+
+
 def test_a_following_error_stops_the_motor_with_an_emcy_and_0_switches_it_off(pd57, network):
     emcy = Recorder(network, 0x80 + NODE_ID)
     motion_parameters(pd57)
@@ -569,6 +588,24 @@ def test_pdo_remapping_procedure_with_at_most_three_entries(pd57, network):
     # RPDO 1 (6040h) drives the state machine.
     network.send_message(0x200 + NODE_ID, (6).to_bytes(2, "little"))
     wait_until(lambda: statusword(pd57) & 0x6F == 0x21, timeout=1)
+    pd57.nmt.send_command(0x80)
+    pd57.sdo[0x6040].raw = 0
+
+
+def test_the_tpdo_inhibit_time_is_given_in_milliseconds(pd57, network):
+    tpdo1 = Recorder(network, 0x180 + NODE_ID)  # statusword, on change
+    cob = pd57.sdo[0x1800][1].raw
+    pd57.sdo[0x1800][1].raw = cob | 0x8000_0000
+    pd57.sdo[0x1800][3].raw = 200  # 200 ms (20 ms in CiA 301's 100 µs)
+    pd57.sdo[0x1800][1].raw = cob
+    pd57.nmt.send_command(0x01)
+    time.sleep(0.4)  # the start's TPDO and its inhibit time
+    tpdo1.clear()
+    pd57.sdo[0x6040].raw = 6
+    pd57.sdo[0x6040].raw = 7  # two statusword changes a few ms apart
+    i, first, _ = tpdo1.wait_for(lambda d: d[0] & 0x6F == 0x21, timeout=1.0)
+    _, second, _ = tpdo1.wait_for(lambda d: d[0] & 0x6F == 0x23, timeout=1.0, start=i + 1)
+    assert second - first > 0.18, f"{(second - first) * 1000:.0f} ms between the two TPDOs"
     pd57.nmt.send_command(0x80)
     pd57.sdo[0x6040].raw = 0
 

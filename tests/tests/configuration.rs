@@ -595,6 +595,46 @@ fn cyclic_set_points_by_sdo_feed_the_stream_only_when_configured() {
 }
 
 #[test]
+fn cyclic_cycles_may_start_at_each_set_point_without_sync() {
+    use canopen_drive::cia402::cyclic::CycleStart;
+    // Set-points by SDO, 10 ms apart, no SYNC at all; 60C2h = 10 ms.
+    fn run(cycle_start: CycleStart) -> (i32, i32, Vec<i32>) {
+        let mut bench = Bench::with_config(|mut c| {
+            c.profile.cyclic.sdo_set_points = true;
+            c.profile.cyclic.cycle_start = cycle_start;
+            c
+        });
+        write_sub(&mut bench, 0x60C2, 1, &[10]);
+        write(&mut bench, 0x60C5, &u32::MAX.to_le_bytes());
+        write(&mut bench, 0x60C6, &u32::MAX.to_le_bytes());
+        nmt(&mut bench, 0x01);
+        let start = od_i32(&mut bench, 0x6064);
+        enable(&mut bench, 8);
+        let mut demands = Vec::new();
+        for k in 1..=20 {
+            write(&mut bench, 0x607A, &(start + 100 * k).to_le_bytes());
+            for _ in 0..10 {
+                bench.advance(Duration::from_millis(1));
+                demands.push(od_i32(&mut bench, 0x6062) - start);
+            }
+        }
+        // The master stops writing: the last set-point holds, no lost stream.
+        bench.advance(Duration::from_millis(200));
+        (od_i32(&mut bench, 0x6062) - start, i32::from(sw(&mut bench) & 0x6F), demands)
+    }
+    let (end, state, _) = run(CycleStart::Sync);
+    assert_eq!(end, 0, "CiA 402: without SYNC the stream does not advance");
+    assert_eq!(state, 0x27);
+    let (end, state, demands) = run(CycleStart::SetPoint);
+    assert_eq!(state, 0x27, "Operation enabled: no lost stream");
+    assert_eq!(end, 2000, "the last set-point, held");
+    // Each set-point is reached over 60C2h from its arrival: 10 increments per ms.
+    assert_eq!(demands[9], 100);
+    assert_eq!(demands[104], 1050, "half-way through the eleventh set-point");
+    assert!(demands.windows(2).all(|w| w[1] - w[0] <= 11), "no jumps: {demands:?}");
+}
+
+#[test]
 fn a_hard_stop_search_may_pass_the_limit_switch() {
     use canopen_drive::cia402::hm::{hard_stop_object, HomingConfig, VendorMethod};
     use canopen_drive_sim::motor::{MotorParams, SimMotor};
@@ -737,4 +777,58 @@ fn a_drive_built_in_place_answers_as_one_built_by_value() {
     let bad_override =
         Drive::build_in(&mut slot, Config { default_overrides: &BAD, ..Config::new(NODE) }, (), ());
     assert!(matches!(bad_override, Err(ConfigError::BadEntry { index: 0x6085 })));
+}
+
+fn emcys(frames: &[CanFrame]) -> Vec<Vec<u8>> {
+    frames
+        .iter()
+        .filter(|f| f.standard_id() == Some(0x80 + u16::from(NODE)))
+        .map(|f| embedded_can::Frame::data(f).to_vec())
+        .collect()
+}
+
+#[test]
+fn travel_limits_can_raise_the_drives_emcy() {
+    use canopen_drive::hal::DigitalInputs;
+    // Standard: the limit switch is an input (60FDh), no EMCY.
+    let mut standard = Bench::new();
+    node(&mut standard).motor.set_input(DigitalInputs::POSITIVE_LIMIT, true);
+    assert_eq!(emcys(&standard.advance(Duration::from_millis(5))), Vec::<Vec<u8>>::new());
+    assert_eq!(od_u32(&mut standard, 0x60FD) & 0b11, 0b10);
+
+    let mut bench = Bench::with_config(|c| Config {
+        profile: canopen_drive::cia402::ProfileConfig { travel_limit_emcy: Some(0xFF01), ..c.profile },
+        ..c
+    });
+    node(&mut bench).motor.set_input(DigitalInputs::POSITIVE_LIMIT, true);
+    let frames = bench.advance(Duration::from_millis(5));
+    assert_eq!(emcys(&frames), vec![vec![0x01, 0xFF, 0x81, 3, 0, 0, 0, 0]], "positive switch");
+    node(&mut bench).motor.set_input(DigitalInputs::POSITIVE_LIMIT, false);
+    node(&mut bench).motor.set_input(DigitalInputs::NEGATIVE_LIMIT, true);
+    let frames = bench.advance(Duration::from_millis(5));
+    assert_eq!(
+        emcys(&frames),
+        vec![vec![0, 0, 0, 0, 0, 0, 0, 0], vec![0x01, 0xFF, 0x81, 4, 0, 0, 0, 0]],
+        "reset, then the negative switch"
+    );
+    node(&mut bench).motor.set_input(DigitalInputs::NEGATIVE_LIMIT, false);
+    assert_eq!(emcys(&bench.advance(Duration::from_millis(5))), vec![vec![0; 8]], "left the switch");
+
+    // Software limits: the axis stands at 0; limits above it put it below the negative one.
+    write_sub(&mut bench, 0x607D, 2, &2000i32.to_le_bytes());
+    write_sub(&mut bench, 0x607D, 1, &1000i32.to_le_bytes());
+    let frames = bench.advance(Duration::from_millis(5));
+    assert_eq!(emcys(&frames), vec![vec![0x01, 0xFF, 0x81, 2, 0, 0, 0, 0]], "negative software limit");
+    write_sub(&mut bench, 0x607D, 1, &(-1000i32).to_le_bytes());
+    assert_eq!(emcys(&bench.advance(Duration::from_millis(5))), vec![vec![0; 8]], "inside again");
+    write_sub(&mut bench, 0x607D, 2, &(-10i32).to_le_bytes());
+    let frames = bench.advance(Duration::from_millis(5));
+    assert_eq!(emcys(&frames), vec![vec![0x01, 0xFF, 0x81, 1, 0, 0, 0, 0]], "positive software limit");
+    // In homing mode the switches are the method's signals, not limits.
+    write_sub(&mut bench, 0x607D, 2, &2000i32.to_le_bytes());
+    bench.advance(Duration::from_millis(5));
+    write(&mut bench, 0x6060, &[6]);
+    bench.advance(Duration::from_millis(5));
+    node(&mut bench).motor.set_input(DigitalInputs::POSITIVE_LIMIT, true);
+    assert_eq!(emcys(&bench.advance(Duration::from_millis(5))), Vec::<Vec<u8>>::new(), "homing");
 }

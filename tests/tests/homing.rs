@@ -544,3 +544,19 @@ fn supported_homing_methods_60e3_follow_the_configuration() {
         write(&mut bench, 0x6098, &[method as u8]);
     }
 }
+
+#[test]
+fn the_homing_speeds_are_held_within_the_maximum_profile_velocity() {
+    let mut bench = enabled_hm(scene(17), 0);
+    write(&mut bench, 0x607F, &1000u32.to_le_bytes()); // below the search speed 6099h sub 1
+    write(&mut bench, 0x6098, &[17]);
+    cw(&mut bench, 0x001F, 0);
+    let mut fastest = 0;
+    for _ in 0..100 {
+        bench.advance(Duration::from_millis(10));
+        fastest = fastest.max(od_i32(&mut bench, 0x606B).unsigned_abs());
+    }
+    assert!(fastest <= 1000, "velocity demand {fastest} above 607Fh");
+    assert!(fastest >= 990, "searching at the capped speed, not slower ({fastest})");
+    assert!(od_i32(&mut bench, 0x6064) < -900, "moving toward the negative limit switch");
+}

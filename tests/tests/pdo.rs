@@ -165,6 +165,50 @@ fn acyclic_synchronous_tpdo_sends_at_sync_only_after_a_change() {
     assert!(only(&sync(&mut bench), TPDO1).is_empty());
 }
 
+/// The times TPDO1 (statusword) goes out while the drive is enabled one command per ms, with
+/// inhibit time 5 in the drive's unit.
+fn statusword_tpdo_times(bench: &mut Bench) -> Vec<Duration> {
+    write_u32(bench, 0x1800, 1, 0xC000_0185);
+    assert_eq!(write_u16(bench, 0x1800, 3, 5), ok(0x1800, 3));
+    write_u32(bench, 0x1800, 1, 0x4000_0185);
+    operational(bench);
+    bench.advance(Duration::from_millis(20));
+    let start = bench.now();
+    let mut times = Vec::new();
+    for cw in [0x0006u16, 0x0007, 0x000F] {
+        let now = bench.now();
+        times.extend(only(&controlword(bench, cw), TPDO1).iter().map(|_| now - start));
+        times.extend(
+            bench
+                .advance_timed(Duration::from_millis(1))
+                .into_iter()
+                .filter(|(_, f)| f.standard_id() == Some(TPDO1))
+                .map(|(t, _)| t - start),
+        );
+    }
+    times.extend(
+        bench
+            .advance_timed(Duration::from_millis(20))
+            .into_iter()
+            .filter(|(_, f)| f.standard_id() == Some(TPDO1))
+            .map(|(t, _)| t - start),
+    );
+    times
+}
+
+#[test]
+fn the_tpdo_inhibit_time_unit_can_be_the_drives_own() {
+    // CiA 301: 5 × 100 µs; every change of the three goes out (one per ms).
+    let times = statusword_tpdo_times(&mut Bench::new());
+    assert_eq!(times.len(), 3, "{times:?}");
+    // A drive documented in ms: 5 ms between frames, the last change waits.
+    let mut bench =
+        Bench::with_config(|c| canopen_drive::Config { tpdo_inhibit_unit: Duration::from_millis(1), ..c });
+    let times = statusword_tpdo_times(&mut bench);
+    assert_eq!(times.len(), 2, "{times:?}");
+    assert_eq!(times[1].as_micros() - times[0].as_micros(), 5_000);
+}
+
 #[test]
 fn event_tpdo_on_change_with_inhibit_time_and_event_timer() {
     let mut bench = Bench::new();

@@ -19,9 +19,17 @@ const EMCY: u16 = 0x80 + NODE as u16;
 
 /// A drive on `flash` (as after a power-on), booted; returns it and its boot frames.
 fn power_on(flash: SimFlash) -> (StoredDrive, Vec<canopen_drive::CanFrame>) {
+    power_on_with(flash, |config| config)
+}
+
+/// [`power_on`] with the configuration `adjust` changed.
+fn power_on_with(
+    flash: SimFlash,
+    adjust: impl FnOnce(Config) -> Config,
+) -> (StoredDrive, Vec<canopen_drive::CanFrame>) {
     let device = DeviceInfo::servo_drive();
     let storage = Storage::new(flash, device_signature(&device, 1)).unwrap();
-    let config = Config { manufacturer_objects: &TEST_OBJECTS, ..Config::new(NODE) };
+    let config = adjust(Config { manufacturer_objects: &TEST_OBJECTS, ..Config::new(NODE) });
     let mut drive = Drive::with_storage(config, TestHooks::default(), storage).unwrap();
     drive.poll(Instant::ZERO);
     let frames = std::iter::from_fn(|| drive.pop_tx()).collect();
@@ -60,6 +68,25 @@ fn read_values_say_what_is_supported() {
     let mut bench = Bench::new();
     assert_eq!(bench.sdo1(&req(0x40, 0x1010, 1, [0; 4])), req(0x43, 0x1010, 1, [0; 4]));
     assert_eq!(bench.sdo1(&req(0x23, 0x1010, 1, SAVE)), abort(0x1010, 1, 0x0800_0020));
+}
+
+#[test]
+fn a_drive_may_store_only_some_groups() {
+    use canopen_drive::storage::Group;
+    static GROUPS: [Group; 3] = [Group::All, Group::Communication, Group::Manufacturer];
+    let (mut drive, _) = power_on_with(blank(), |c| Config { store_groups: &GROUPS, ..c });
+    for index in [0x1010, 0x1011] {
+        for (sub, capable) in [(1, 1), (2, 1), (3, 0), (4, 1)] {
+            assert_eq!(
+                sdo(&mut drive, req(0x40, index, sub, [0; 4])),
+                req(0x43, index, sub, [capable, 0, 0, 0])
+            );
+        }
+    }
+    assert_eq!(sdo(&mut drive, req(0x23, 0x1010, 3, SAVE)), abort(0x1010, 3, 0x0800_0020));
+    assert_eq!(sdo(&mut drive, req(0x23, 0x1011, 3, LOAD)), abort(0x1011, 3, 0x0800_0020));
+    assert_eq!(sdo(&mut drive, req(0x23, 0x1010, 2, SAVE)), req(0x60, 0x1010, 2, [0; 4]));
+    assert_eq!(sdo(&mut drive, req(0x23, 0x1010, 1, SAVE)), req(0x60, 0x1010, 1, [0; 4]));
 }
 
 #[test]

@@ -137,3 +137,26 @@ fn profile_position_speeds_in_rpm() {
     let feed_forward = node(&mut bench).demand.feed_forward.velocity;
     assert!((7990..=8000).contains(&feed_forward), "{feed_forward}");
 }
+
+#[test]
+fn the_maximum_motor_speed_may_be_in_the_velocity_unit() {
+    use canopen_drive::cia402::MotorSpeedUnit;
+    // pv at 2000 increments/s (608Fh 1:1: a position unit is an increment, one per revolution).
+    let run = |motor_speed, max_motor_speed: u32| {
+        let mut bench = Bench::with_config(|mut config| {
+            config.profile.units = Units { motor_speed, ..Units::CIA_402 };
+            config
+        });
+        write(&mut bench, 0x6080, &max_motor_speed.to_le_bytes());
+        write(&mut bench, 0x6083, &1_000_000u32.to_le_bytes());
+        enable(&mut bench, 3);
+        write(&mut bench, 0x60FF, &2000i32.to_le_bytes());
+        bench.advance(Duration::from_millis(100));
+        od_i32(&mut bench, 0x606B)
+    };
+    // CiA 402: 3000 rpm of a motor with one increment per revolution is 50 increments/s.
+    assert_eq!(run(MotorSpeedUnit::Rpm, 3000), 50);
+    // In the velocity unit: 3000 increments/s, no limit here; 1000 is one.
+    assert_eq!(run(MotorSpeedUnit::VelocityUnit, 3000), 2000);
+    assert_eq!(run(MotorSpeedUnit::VelocityUnit, 1000), 1000);
+}

@@ -156,7 +156,8 @@ impl ObjectHooks for BoardHooks {
             i if i == base => Change::Faults(raw as u32),
             i if i == base + 1 => Change::Inputs(raw as u32),
             i if i == base + 2 => Change::Load(raw as u16 as i16),
-            0x2000..=0x5FFF => Change::Written { index, sub, value: raw },
+            // Manufacturer objects, and the profile's (a firmware may couple standard entries).
+            0x2000..=0x9FFF => Change::Written { index, sub, value: raw },
             _ => return,
         };
         self.changes.push(change);
@@ -207,7 +208,7 @@ mod tests {
     }
 
     #[test]
-    fn rules_and_other_manufacturer_writes() {
+    fn rules_and_the_writes_the_firmware_sees() {
         static RULES: [ValueRule; 2] = [
             ValueRule {
                 index: 0x2704,
@@ -234,11 +235,17 @@ mod tests {
         assert_eq!(stored.validate(0x2706, 0, &1u32.to_le_bytes()), Err(AbortCode::CannotStore));
         hooks.written(0x5E01, 0, &4u32.to_le_bytes());
         hooks.written(0x2704, 0, &125u16.to_le_bytes());
-        hooks.written(0x6040, 0, &15u16.to_le_bytes());
+        hooks.written(0x1017, 0, &100u16.to_le_bytes()); // communication: not the firmware's
+        hooks.written(0x607F, 0, &15u32.to_le_bytes());
         hooks.stored(2);
         assert_eq!(
             hooks.take_changes(),
-            [Change::Inputs(4), Change::Written { index: 0x2704, sub: 0, value: 125 }, Change::Stored(2)]
+            [
+                Change::Inputs(4),
+                Change::Written { index: 0x2704, sub: 0, value: 125 },
+                Change::Written { index: 0x607F, sub: 0, value: 15 },
+                Change::Stored(2)
+            ]
         );
     }
 }

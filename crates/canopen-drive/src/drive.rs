@@ -13,6 +13,7 @@ use core::mem::MaybeUninit;
 
 use heapless::Deque;
 
+use crate::cia402::cyclic::CycleStart;
 use crate::cia402::fsa::State;
 use crate::cia402::profile::Profile;
 use crate::cia402::ProfileConfig;
@@ -121,6 +122,12 @@ pub struct Config {
     pub manufacturer_objects: &'static [Object],
     /// What an RPDO longer than its mapping does (default: applied, EMCY 0x8220).
     pub long_rpdo: pdo::LongRpdo,
+    /// The unit of the TPDO inhibit times (sub 3 of 1800h…): [`pdo::INHIBIT_UNIT`] (100 µs, CiA
+    /// 301) by default; a drive documented with another unit (e.g. 1 ms) sets it here.
+    pub tpdo_inhibit_unit: Duration,
+    /// The parameter groups of 1010h/1011h the drive stores and restores (default all four).
+    /// The others read 0 ("cannot store") and refuse the signature with 0x0800_0020.
+    pub store_groups: &'static [Group],
     /// The board can make an LSS "store configuration" persistent (see
     /// [`Drive::take_lss_store`]); otherwise the request is answered "not supported".
     pub lss_store: bool,
@@ -158,6 +165,8 @@ impl Config {
             manufacturer_objects: &[],
             lss_store: false,
             long_rpdo: pdo::LongRpdo::ApplyAndReport,
+            tpdo_inhibit_unit: pdo::INHIBIT_UNIT,
+            store_groups: &Group::ALL,
             pdo_objects: &pdo::DEFAULT_OBJECTS,
             profile: ProfileConfig::new(),
             default_overrides: &[],
@@ -230,6 +239,8 @@ pub struct Drive<
     profile: Profile,
     /// The meaning of 1029h's values ([`Config::error_behaviour_values`]).
     error_behaviour: &'static [(u8, ErrorBehaviour)],
+    /// [`Config::store_groups`].
+    store_groups: &'static [Group],
     tx: TxQueue,
     hooks: H,
     storage: S,
@@ -436,6 +447,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
             lss_requests: LssRequests { store_supported: config.lss_store, ..LssRequests::default() },
             profile: Profile::new(config.profile),
             error_behaviour: config.error_behaviour_values,
+            store_groups: config.store_groups,
             tx: TxQueue { frames: Deque::new(), dropped: 0 },
             hooks,
             storage,
@@ -469,6 +481,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
         self.od.set_default_overrides(config.default_overrides)?;
         self.slots = CommSlots::resolve(&self.od);
         self.pdos.long_rpdo = config.long_rpdo;
+        self.pdos.inhibit_unit = config.tpdo_inhibit_unit;
         // Power-on values: the stored set where there is one (digest §3.3).
         self.load_stored(Group::All);
         self.configure_pdos();
@@ -581,6 +594,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
         let mut access =
             Access::new(&mut self.od, &mut self.hooks, &mut self.storage, self.nmt, &self.profile);
         access.error_behaviour = self.error_behaviour;
+        access.store_groups = self.store_groups;
         let response = self.sdo.on_request(data, now, &mut access);
         let written = access.written;
         let stored = access.stored;
@@ -830,14 +844,28 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
             }
         }
         let sync = self.cycle.sync.take();
+        let set_point = match self.profile.config().cyclic.cycle_start {
+            CycleStart::Sync => false,
+            CycleStart::SetPoint => core::mem::take(&mut self.cycle.rpdo_since_sync),
+        };
         self.cycle.last_tick = Some(now);
-        let cycle = crate::cia402::profile::SyncInput { sync: sync.is_some(), fresh: sync.unwrap_or(false) };
+        let cycle = crate::cia402::profile::SyncInput {
+            sync: sync.is_some(),
+            fresh: sync.unwrap_or(false),
+            set_point,
+        };
         let (demand, report) = self.profile.tick(now, sample, &mut self.od, cycle);
         if let Some((code, register)) = report.raise {
             self.raise_error(code, register, [0; 5]);
         }
         if let Some(code) = report.clear {
             self.clear_error(code);
+        }
+        if let Some((code, limit)) = report.travel_limit {
+            self.clear_error(code);
+            if let Some(limit) = limit {
+                self.raise_error(code, ErrorRegister::MANUFACTURER, [limit as u8, 0, 0, 0, 0]);
+            }
         }
         for notice in report.notices {
             match notice {
@@ -887,7 +915,12 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
             }
             SyncReception::Sync(event) => {
                 self.clear_error(code::SYNC_LENGTH);
-                self.cycle.sync = Some(core::mem::take(&mut self.cycle.rpdo_since_sync));
+                let fresh = match self.profile.config().cyclic.cycle_start {
+                    CycleStart::Sync => core::mem::take(&mut self.cycle.rpdo_since_sync),
+                    // The set-point starts the cycle: it stays for the tick.
+                    CycleStart::SetPoint => self.cycle.rpdo_since_sync,
+                };
+                self.cycle.sync = Some(fresh);
                 if let Some(tick) = self.cycle.last_tick {
                     let phase = now - tick;
                     self.cycle.phase = Some(phase);
@@ -1112,6 +1145,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
             let mut access =
                 Access::new(&mut self.od, &mut self.hooks, &mut self.storage, self.nmt, &self.profile);
             access.error_behaviour = self.error_behaviour;
+            access.store_groups = self.store_groups;
             match self.sdo.poll(now, &mut access) {
                 Some(frame) => self.send(SDO_TX_BASE + u16::from(node_id), &frame),
                 None => break,
@@ -1136,6 +1170,7 @@ struct Access<'a, H, S, const B: usize> {
     nmt: NmtState,
     profile: &'a Profile,
     error_behaviour: &'static [(u8, ErrorBehaviour)],
+    store_groups: &'static [Group],
     written: Option<Mux>,
     /// A store on command succeeded.
     stored: bool,
@@ -1159,6 +1194,7 @@ impl<'a, H: ObjectHooks, S: Persistence, const B: usize> Access<'a, H, S, B> {
             nmt,
             profile,
             error_behaviour: &ErrorBehaviour::CIA_301,
+            store_groups: &Group::ALL,
             written: None,
             stored: false,
             resolved: None,
@@ -1168,7 +1204,8 @@ impl<'a, H: ObjectHooks, S: Persistence, const B: usize> Access<'a, H, S, B> {
     /// 1010h/1011h subs 1..=4: the read value says whether the command is supported (§11).
     fn command_capability(&self, mux: Mux) -> Option<u32> {
         let command = matches!(mux.index, STORE_PARAMETERS | RESTORE_DEFAULT_PARAMETERS);
-        (command && Group::from_sub(mux.sub).is_some()).then_some(u32::from(self.storage.available()))
+        let group = Group::from_sub(mux.sub).filter(|_| command)?;
+        Some(u32::from(self.storage.available() && self.store_groups.contains(&group)))
     }
 
     /// Store or restore on command: the signature, then the operation; nothing is written to
@@ -1177,7 +1214,7 @@ impl<'a, H: ObjectHooks, S: Persistence, const B: usize> Access<'a, H, S, B> {
         let group = Group::from_sub(mux.sub).ok_or(AbortCode::SubIndexDoesNotExist)?;
         let value = u32_le(data);
         let signature = if mux.index == STORE_PARAMETERS { SAVE_SIGNATURE } else { LOAD_SIGNATURE };
-        if value != signature || !self.storage.available() {
+        if value != signature || !self.storage.available() || !self.store_groups.contains(&group) {
             return Err(AbortCode::CannotStore);
         }
         if mux.index == STORE_PARAMETERS {

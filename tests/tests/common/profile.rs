@@ -88,3 +88,7 @@ pub fn od_u16(bench: &mut Bench, index: u16) -> u16 {
 pub fn sw(bench: &mut Bench) -> u16 {
     od_u16(bench, 0x6041)
 }
+
+pub fn od_u32(bench: &mut Bench, index: u16) -> u32 {
+    bench.drive().od().get::<u32>(index, 0).unwrap()
+}

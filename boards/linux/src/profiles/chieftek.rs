@@ -32,13 +32,14 @@
 //! stop period (ms) work: the firmware turns them into the core's hard-stop parameters, kept in
 //! the board's record at 5E10h (next to the simulation objects 5E00h–5E02h).
 //!
+//! 6080h is in count/s as 607Fh (`Units::motor_speed`), and the two are one value: a write of
+//! either sets both (the firmware's `written`).
+//!
 //! # Not reproduced
 //!
 //! Option code −1 (dynamic brake) and 605Dh 0, the manufacturer modes −1…−6 of 6060h, methods
-//! −11/−12 reverse on a limit switch where the drive reverses on a hard stop, 6080h in counts/s
-//! (the core's is rpm: 608Fh/6092h are set to the axis's 10 000 counts per revolution, so the
-//! manual's 1 500 000 is no tighter limit), 60FEh's second sub-index (the core's bit mask),
-//! 607Fh written into 6080h, the manual's zero defaults of 6065h/6066h/6067h/6068h/6073h (the
+//! −11/−12 reverse on a limit switch where the drive reverses on a hard stop, 60FEh's second
+//! sub-index (the core's bit mask), the manual's zero defaults of 6065h/6066h/6067h/6068h/6073h (the
 //! drive would fault at the first move, or not move: the core's defaults stay), and bit 7
 //! (warning) is the core's.
 //!
@@ -49,7 +50,7 @@
 use canopen_drive::cia402::fsa::State;
 use canopen_drive::cia402::hm::{hard_stop_object, HomingConfig, VendorMethod};
 use canopen_drive::cia402::objects::mode_bit;
-use canopen_drive::cia402::{OptionCodes, ProfileConfig, StatusFlag};
+use canopen_drive::cia402::{MotorSpeedUnit, OptionCodes, ProfileConfig, StatusFlag};
 use canopen_drive::comm::error_control::ErrorBehaviour;
 use canopen_drive::comm::pdo;
 use canopen_drive::hal::Sample;
@@ -57,11 +58,12 @@ use canopen_drive::od::eds::EdsInfo;
 use canopen_drive::od::{
     layout, Access, Bound, DataType, DefaultOverride, DefaultValue, DeviceInfo, EntryOverride, Object, Var,
 };
+use canopen_drive::storage::Group;
 
 use super::trinamic::method_mask;
 use super::{
-    default_of, profile_entry, rw, s, u, value_of, var, BoardDictionary, BoardProfile, Firmware, ProfileName,
-    Update,
+    default_of, profile_entry, rw, s, u, value_of, var, BoardDictionary, BoardProfile, Environment, Firmware,
+    ProfileName, Update,
 };
 use crate::board_objects::{simulated_faults, simulated_inputs, simulated_load, PROFILE_SIMULATION};
 
@@ -128,8 +130,7 @@ pub static DEFAULTS: [DefaultOverride; 19] = [
     default_of(0x6099, 2, u(20_000)),
     default_of(0x609A, 0, u(20_000)),
     default_of(0x60B8, 0, u(1)),
-    // The axis's resolution and a feed of as many counts per revolution: positions stay counts,
-    // and 6080h (the core converts it as rpm) is no tighter limit than the manual's counts/s.
+    // The axis's resolution and a feed of as many counts per revolution: positions stay counts.
     default_of(0x608F, 1, u(10_000)),
     default_of(0x6092, 1, u(10_000)),
     // The drive has no max acceleration/deceleration objects: the core's are set high.
@@ -178,6 +179,8 @@ pub fn profile_config() -> ProfileConfig {
     config.mode_change_in_operation = false;
     config.following_error_fault = true;
     config.statusword_bit_14 = StatusFlag::Transition;
+    // §6.3: 6080h in count/s, as 607Fh.
+    config.units.motor_speed = MotorSpeedUnit::VelocityUnit;
     config
 }
 
@@ -219,6 +222,8 @@ pub fn profile() -> BoardProfile {
         extra_profile_objects: &PROFILE_OBJECTS,
         error_behaviour_values: &ErrorBehaviour::CIA_301,
         sdo_block_transfer: true,
+        tpdo_inhibit_unit: pdo::INHIBIT_UNIT,
+        store_groups: &Group::ALL,
         simulation: PROFILE_SIMULATION,
         rules: &[],
         axis: super::generic::axis(),
@@ -231,6 +236,23 @@ pub fn profile() -> BoardProfile {
 pub struct Cpc;
 
 impl Firmware for Cpc {
+    /// §6.3: 607Fh and 6080h are one value internally: a write of either sets both.
+    fn written(
+        &mut self,
+        index: u16,
+        sub: u8,
+        value: u64,
+        _od: &BoardDictionary,
+        _env: &Environment<'_>,
+        updates: &mut Vec<Update>,
+    ) {
+        match (index, sub) {
+            (0x607F, 0) => updates.push(Update { index: 0x6080, sub: 0, value }),
+            (0x6080, 0) => updates.push(Update { index: 0x607F, sub: 0, value }),
+            _ => {}
+        }
+    }
+
     fn after_tick(
         &mut self,
         od: &BoardDictionary,

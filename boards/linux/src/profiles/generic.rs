@@ -7,6 +7,7 @@ use canopen_drive::comm::error_control::ErrorBehaviour;
 use canopen_drive::comm::pdo;
 use canopen_drive::od::eds::EdsInfo;
 use canopen_drive::od::DeviceInfo;
+use canopen_drive::storage::Group;
 use canopen_drive_sim::motor::{MotorParams, Zone};
 
 use super::{BoardProfile, NoFirmware, ProfileName};
@@ -60,6 +61,8 @@ pub fn profile() -> BoardProfile {
         extra_profile_objects: &[],
         error_behaviour_values: &ErrorBehaviour::CIA_301,
         sdo_block_transfer: true,
+        tpdo_inhibit_unit: pdo::INHIBIT_UNIT,
+        store_groups: &Group::ALL,
         simulation: GENERIC_SIMULATION,
         rules: &[],
         axis: axis(),

@@ -42,15 +42,18 @@
 //! 2010h, 2015h, the loop gains in 2030h/2040h/2050h, 2055h, 2056h, 2080h subs 2–7, 2090h,
 //! 2095h, 2703h, 270Eh.
 //!
+//! 1010h/1011h sub 3 (actuator profile parameters, "not used") read 0 and refuse the signature
+//! (`Config::store_groups`).
+//!
 //! # Not reproduced
 //!
 //! 2050h sub 8 position scaler (−5/−6 do not compute it), teach mode (2025h sub 5), the
-//! automatic parameter saving after homing, 1010h/1011h sub 3 reading 0, 1016h sub 0 writable
-//! (the core's count is a constant), 1029h sub 2, the manual's INTEGER32 of 6071h/6077h/60B2h (a
-//! wider type than CiA 402's INTEGER16: a description override must keep an entry's size), and
-//! cyclic modes without SYNC: the set-points of the examples come by SDO (the core takes them as
-//! the stream), but the core's cyclic modes advance at each SYNC. (SDO block transfer, which the
-//! manual does not list, is switched off: `Config::sdo_block_transfer`.)
+//! automatic parameter saving after homing, 1016h sub 0 writable
+//! (the core's count is a constant), 1029h sub 2, and the manual's INTEGER32 of 6071h/6077h/60B2h
+//! (a wider type than CiA 402's INTEGER16: a description override must keep an entry's size).
+//! The cyclic modes run without SYNC, as in the manual's examples: each set-point written by
+//! SDO is reached over 60C2h (`CyclicConfig::{sdo_set_points, cycle_start}`). (SDO block
+//! transfer, which the manual does not list, is switched off: `Config::sdo_block_transfer`.)
 //!
 //! The manual's types of 605Bh–605Eh (UNSIGNED16) and 6082h (INTEGER32), 6084h read-only (kept
 //! equal to 6083h by the firmware), 1016h with one entry and 1018h without sub 4 are the core's
@@ -69,6 +72,7 @@ use canopen_drive::od::{
     layout, AbortCode, Access, DataType, DefaultOverride, DefaultValue, DeviceInfo, EntryOverride, Object,
     PdoMapping, Var, WriteRule,
 };
+use canopen_drive::storage::Group;
 use canopen_drive::wire::lss::BitTiming;
 use canopen_drive_sim::motor::MotorParams;
 
@@ -313,7 +317,10 @@ pub static RULES: [ValueRule; 10] = [
 
 /// The manual's defaults of standard objects (the velocities are encoder steps per second
 /// here, see the module docs) and the simulated actuator's rated current.
-pub static DEFAULTS: [DefaultOverride; 12] = [
+pub static DEFAULTS: [DefaultOverride; 14] = [
+    // §3.1.7/§3.1.8: the profile group cannot be stored or restored (reads 0).
+    default_of(0x1010, 3, u(0)),
+    default_of(0x1011, 3, u(0)),
     default_of(0x6067, 0, u(0xFFFF_FFFF)),
     default_of(0x6081, 0, u(6000)),
     default_of(0x6082, 0, u(500)),
@@ -389,11 +396,14 @@ pub fn profile_config() -> ProfileConfig {
     config.following_error_fault = true;
     // The examples of §9.2–§11.2 stream the set-points by SDO.
     config.cyclic.sdo_set_points = true;
+    // §9.2/§10.2/§11.2: no SYNC; each written set-point is reached over 60C2h.
+    config.cyclic.cycle_start = canopen_drive::cia402::cyclic::CycleStart::SetPoint;
     config.nmt_stopped_fault = true;
     config.statusword_bit_14 = StatusFlag::Moving;
     config.statusword_bit_15 = StatusFlag::Negative;
     // Torques in mA (through 6075h), velocities in rpm and accelerations in rpm/s (§4.1.7, §6–§11).
-    config.units = Units { torque: TorqueUnit::MilliAmps, velocity: VelocityUnit::MotorRpm };
+    config.units =
+        Units { torque: TorqueUnit::MilliAmps, velocity: VelocityUnit::MotorRpm, ..Units::CIA_402 };
     config
 }
 
@@ -454,6 +464,9 @@ pub fn profile() -> BoardProfile {
         extra_profile_objects: &[],
         error_behaviour_values: &ERROR_BEHAVIOUR,
         sdo_block_transfer: false,
+        tpdo_inhibit_unit: canopen_drive::comm::pdo::INHIBIT_UNIT,
+        // §3.1.7/§3.1.8: sub 3 (actuator profile parameters) is not used: it reads 0.
+        store_groups: &[Group::All, Group::Communication, Group::Manufacturer],
         simulation: PROFILE_SIMULATION,
         rules: &RULES,
         axis: axis(),

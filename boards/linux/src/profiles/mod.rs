@@ -30,7 +30,8 @@ use canopen_drive::od::eds::EdsInfo;
 use canopen_drive::od::{
     Access, DataType, DefaultOverride, DefaultValue, DeviceInfo, Dictionary, EntryOverride, Object, Var,
 };
-use canopen_drive::Config;
+use canopen_drive::storage::Group;
+use canopen_drive::{Config, Duration};
 use canopen_drive_sim::motor::MotorParams;
 
 use crate::board_objects::{BoardHooks, ValueRule};
@@ -111,7 +112,8 @@ pub trait Firmware: Send {
         let _ = (od, sample);
     }
 
-    /// A master wrote `value` to a manufacturer object (after the dictionary stored it).
+    /// A master wrote `value` to a manufacturer object or a profile object (2000h–9FFFh),
+    /// after the dictionary stored it.
     fn written(
         &mut self,
         index: u16,
@@ -167,6 +169,10 @@ pub struct BoardProfile {
     pub error_behaviour_values: &'static [(u8, ErrorBehaviour)],
     /// SDO block transfers offered (a manual without them: refused with 0x0504_0001).
     pub sdo_block_transfer: bool,
+    /// The unit of the TPDO inhibit times (100 µs in CiA 301).
+    pub tpdo_inhibit_unit: Duration,
+    /// The parameter groups of 1010h/1011h the drive stores (default all four).
+    pub store_groups: &'static [Group],
     /// Index of the first simulation object ([`crate::board_objects`]).
     pub simulation: u16,
     /// Value rules of the manufacturer objects (signatures, value lists).
@@ -200,6 +206,8 @@ impl BoardProfile {
             extra_profile_objects: self.extra_profile_objects,
             error_behaviour_values: self.error_behaviour_values,
             sdo_block_transfer: self.sdo_block_transfer,
+            tpdo_inhibit_unit: self.tpdo_inhibit_unit,
+            store_groups: self.store_groups,
             ..Config::new(node_id)
         }
     }

@@ -45,13 +45,16 @@
 //! axis (they tune a real stepper power stage): 2001h–2004h, 200Ah–200Ch, 2010h–2015h,
 //! 2021h–2036h, 204Eh, 2089h, 2092h–20A5h, 2700h (TMCL mode is not entered), 2703h, 270Eh.
 //!
+//! 606Ah (sensor selection code, −1 "no encoder" by default) is stored within the manual's range
+//! 0/−1; the simulated axis has one sensor, so the value changes nothing.
+//!
 //! # Not reproduced
 //!
-//! 606Ah (sensor selection, not an object of the core), 1029h sub 2 (application error, the
-//! core's 1029h has one entry), TPDO inhibit time in ms (the core uses 100 µs), the EMCY code
-//! FF01h (software limit / limit switch outside homing: the core raises no EMCY there), and the
-//! rule that the same mode may not be written twice to 6060h. Under-voltage is reported as the
-//! manual's FF00h (`ProfileConfig::error_codes`). (SDO block
+//! 1029h sub 2 (application error, the core's 1029h has one entry), and the rule that the same mode may not be written twice to 6060h (the manual forbids it without saying
+//! how the drive answers; the core accepts the repeated value, which changes nothing).
+//! Under-voltage is reported as the manual's FF00h (`ProfileConfig::error_codes`), the travel
+//! limits as its FF01h with bytes 1–4 (`ProfileConfig::travel_limit_emcy`), the TPDO inhibit
+//! time in ms (`Config::tpdo_inhibit_unit`). (SDO block
 //! transfer, which the manual does not list, is switched off: `Config::sdo_block_transfer`.)
 //!
 //! The manual's types of 605Bh–605Eh (UNSIGNED16), 6081h–6084h (SIGNED32) and 6086h
@@ -71,6 +74,7 @@ use canopen_drive::od::{
     layout, AbortCode, DataType, DefaultOverride, DefaultValue, DeviceInfo, EntryOverride, Object,
     PdoMapping, Var, WriteRule,
 };
+use canopen_drive::storage::Group;
 use canopen_drive::wire::lss::BitTiming;
 use canopen_drive_sim::motor::{MotorParams, Zone};
 
@@ -341,7 +345,7 @@ pub static DEFAULTS: [DefaultOverride; 17] = [
 /// accelerations 6081h–6084h SIGNED32 (§6.1.12–6.1.15; the core takes them as magnitudes, so
 /// negative values are refused), 6086h UNSIGNED16 (§6.1.17); and the PDO mappability the manual
 /// denies: 1001h and the motion settings 6081h–6085h, 6098h–609Ah (SDO only).
-pub static DESCRIPTIONS: [EntryOverride; 17] = [
+pub static DESCRIPTIONS: [EntryOverride; 18] = [
     // One heartbeat consumer entry (§3.1.13), an identity without a serial number (§3.1.15).
     communication_entry(0x1016, 0).default(u(1)),
     communication_entry(0x1018, 0).default(u(3)),
@@ -360,6 +364,8 @@ pub static DESCRIPTIONS: [EntryOverride; 17] = [
     profile_entry(0x6099, 1).pdo(PdoMapping::No),
     profile_entry(0x6099, 2).pdo(PdoMapping::No),
     profile_entry(0x609A, 0).pdo(PdoMapping::No),
+    // §5.1.8: 0 encoder used, −1 no encoder (the default).
+    profile_entry(0x606A, 0).limits_signed(-1, 0).default(DefaultValue::Signed(-1)),
 ];
 
 /// The module's current at 2003h = 255 (§1.5: 85 is 1 A), mA.
@@ -411,6 +417,9 @@ pub fn profile_config() -> ProfileConfig {
     config.units.torque = TorqueUnit::MilliAmps;
     // The EMCY table of the manual (§ error messages): under-voltage is FF00h, not 3220h.
     config.error_codes = &[(0x3220, 0xFF00)];
+    // The same table: FF01h while at a software limit (byte 1 = 1/2) or a limit switch outside
+    // homing (3/4).
+    config.travel_limit_emcy = Some(0xFF01);
     config
 }
 
@@ -474,6 +483,9 @@ pub fn profile() -> BoardProfile {
         extra_profile_objects: &[],
         error_behaviour_values: &ERROR_BEHAVIOUR,
         sdo_block_transfer: false,
+        // §3.2: the TPDO inhibit time is given in milliseconds.
+        tpdo_inhibit_unit: canopen_drive::Duration::from_millis(1),
+        store_groups: &Group::ALL,
         simulation: PROFILE_SIMULATION,
         rules: &RULES,
         axis: axis(),

@@ -86,7 +86,7 @@ pub enum TorqueUnit {
 
 /// The unit of the velocity objects (60FFh, 606Bh, 606Ch, 6081h, 6082h, 607Fh, 6099h, 60B1h,
 /// 60FAh, 60F8h) and with it of the accelerations (6083h–6085h, 609Ah, 60C5h, 60C6h: per
-/// second) and jerks (60A4h: per second²). 6080h is rpm in either case; velocity mode
+/// second) and jerks (60A4h: per second²). 6080h has its own unit ([`MotorSpeedUnit`]); velocity mode
 /// (6042h–604Ch) has its own units.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -99,6 +99,18 @@ pub enum VelocityUnit {
     MotorRpm,
 }
 
+/// The unit of the maximum motor speed 6080h.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum MotorSpeedUnit {
+    /// Revolutions of the motor per minute, through 608Fh: CiA 402, the default.
+    #[default]
+    Rpm,
+    /// The velocity unit of 607Fh ([`VelocityUnit`]), for drives documenting 6080h in counts
+    /// (or position units) per second.
+    VelocityUnit,
+}
+
 /// The units of the profile's physical objects ([`ProfileConfig::units`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -107,12 +119,17 @@ pub struct Units {
     pub torque: TorqueUnit,
     /// Velocities, accelerations and jerks.
     pub velocity: VelocityUnit,
+    /// The maximum motor speed 6080h.
+    pub motor_speed: MotorSpeedUnit,
 }
 
 impl Units {
     /// The units of CiA 402: ‰ of rated torque, position units per second.
-    pub const CIA_402: Units =
-        Units { torque: TorqueUnit::PerMilleOfRated, velocity: VelocityUnit::PositionUnitsPerSecond };
+    pub const CIA_402: Units = Units {
+        torque: TorqueUnit::PerMilleOfRated,
+        velocity: VelocityUnit::PositionUnitsPerSecond,
+        motor_speed: MotorSpeedUnit::Rpm,
+    };
 }
 
 // Evaluated by the compiler: it can only fail the build, never run.
@@ -183,6 +200,26 @@ pub struct ProfileConfig {
     /// the codes of CiA 301/402, e.g. 3220h for under-voltage where a manual documents a
     /// manufacturer-specific FFxxh).
     pub error_codes: &'static [(u16, u16)],
+    /// An EMCY (this code, manufacturer-specific register bit) while the axis is at a travel
+    /// limit outside homing, with the limit in byte 1 of the manufacturer field
+    /// ([`TravelLimit`]); the "error reset" EMCY when it leaves it. Default none: CiA 402
+    /// reports travel limits in the statusword only.
+    pub travel_limit_emcy: Option<u16>,
+}
+
+/// Which travel limit the axis is at (byte 1 of the [`ProfileConfig::travel_limit_emcy`] EMCY).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[repr(u8)]
+pub enum TravelLimit {
+    /// 6064h above the positive software limit 607Dh sub 2.
+    PositiveSoftware = 1,
+    /// 6064h below the negative software limit 607Dh sub 1.
+    NegativeSoftware = 2,
+    /// The positive limit switch is active (outside homing).
+    PositiveSwitch = 3,
+    /// The negative limit switch is active (outside homing).
+    NegativeSwitch = 4,
 }
 
 impl ProfileConfig {
@@ -211,6 +248,7 @@ impl ProfileConfig {
             zero_following_error_window_off: false,
             units: Units::CIA_402,
             error_codes: &[],
+            travel_limit_emcy: None,
         }
     }
 

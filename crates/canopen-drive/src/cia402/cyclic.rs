@@ -74,6 +74,21 @@ pub struct CyclicConfig {
     /// masters that stream by SDO. Default false: the stream is process data (CiA 402), and a
     /// cycle without an RPDO is a missed one.
     pub sdo_set_points: bool,
+    /// What starts a cycle of csp/csv/cst (default [`CycleStart::Sync`], CiA 402).
+    pub cycle_start: CycleStart,
+}
+
+/// What starts a cycle of the cyclic synchronous modes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum CycleStart {
+    /// The SYNC (CiA 402): the set-point received before it is reached over the interpolation
+    /// period 60C2h; a SYNC without one is a missed cycle.
+    Sync,
+    /// A new set-point (written by RPDO, or by SDO with [`CyclicConfig::sdo_set_points`]), for
+    /// drives used without SYNC: each is reached over 60C2h from when it arrives; without a
+    /// new one the drive holds the last (no missed cycles, no lost stream).
+    SetPoint,
 }
 
 impl CyclicConfig {
@@ -84,6 +99,7 @@ impl CyclicConfig {
             max_missed_cycles: 2,
             sync_phase_object: None,
             sdo_set_points: false,
+            cycle_start: CycleStart::Sync,
         }
     }
 }

@@ -30,7 +30,7 @@
 //! mode and the reported velocities 606Bh/606Ch. Homing will ignore 607Eh for its search
 //! directions (digest §8.2); torque modes ignore it.
 
-use super::config::{TorqueUnit, Units, VelocityUnit};
+use super::config::{MotorSpeedUnit, TorqueUnit, Units, VelocityUnit};
 use super::objects::{
     FEED_CONSTANT, GEAR_RATIO, POLARITY, POSITION_ENCODER_RESOLUTION, VELOCITY_ENCODER_RESOLUTION,
 };
@@ -55,6 +55,7 @@ pub struct Factors {
     revolutions: u32,
     polarity: u8,
     torque_unit: TorqueUnit,
+    motor_speed_unit: MotorSpeedUnit,
     /// 6075h motor rated current (mA).
     rated_current: u32,
 }
@@ -71,6 +72,7 @@ impl Default for Factors {
             revolutions: 1,
             polarity: 0,
             torque_unit: TorqueUnit::PerMilleOfRated,
+            motor_speed_unit: MotorSpeedUnit::Rpm,
             rated_current: 0,
         }
     }
@@ -161,6 +163,7 @@ impl Factors {
             revolutions,
             polarity: od.get::<u8>(POLARITY, 0).unwrap_or(0),
             torque_unit: units.torque,
+            motor_speed_unit: units.motor_speed,
             rated_current: od.get::<u32>(MOTOR_RATED_CURRENT, 0).unwrap_or(0),
         }
     }
@@ -216,7 +219,16 @@ impl Factors {
         }
     }
 
-    /// 6080h (rpm) in increments/s, saturated to u32.
+    /// The maximum motor speed 6080h in increments/s, saturated to u32, in its unit
+    /// ([`MotorSpeedUnit`]).
+    pub fn motor_speed_to_internal(&self, value: u32) -> u32 {
+        match self.motor_speed_unit {
+            MotorSpeedUnit::Rpm => self.rpm_to_internal(value),
+            MotorSpeedUnit::VelocityUnit => self.limit_to_internal(value),
+        }
+    }
+
+    /// A speed in rpm in increments/s, saturated to u32.
     pub fn rpm_to_internal(&self, rpm: u32) -> u32 {
         // Below 2⁶⁴ both: 64-bit arithmetic, not 128 (see `scale`).
         let per_minute = u64::from(rpm) * u64::from(self.increments);
@@ -276,6 +288,7 @@ mod tests {
             revolutions,
             polarity: 0,
             torque_unit: TorqueUnit::PerMilleOfRated,
+            motor_speed_unit: MotorSpeedUnit::Rpm,
             rated_current: 0,
         }
     }

@@ -26,4 +26,6 @@ pub mod profile;
 mod slots;
 pub mod vl;
 
-pub use config::{OptionCodes, ProfileConfig, StatusFlag, TorqueUnit, Units, VelocityUnit};
+pub use config::{
+    MotorSpeedUnit, OptionCodes, ProfileConfig, StatusFlag, TorqueUnit, TravelLimit, Units, VelocityUnit,
+};

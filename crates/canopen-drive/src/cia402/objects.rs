@@ -48,6 +48,10 @@ pub const FOLLOWING_ERROR_TIME_OUT: u16 = 0x6066;
 pub const POSITION_WINDOW: u16 = 0x6067;
 /// 6068h position window time (ms).
 pub const POSITION_WINDOW_TIME: u16 = 0x6068;
+/// 606Ah sensor selection code: where the velocity actual value comes from (0 = the position
+/// encoder, 1 = a velocity encoder, negative values manufacturer-specific). The board reads it
+/// and fills [`Sample::velocity`](crate::hal::Sample) accordingly; the core only stores it.
+pub const SENSOR_SELECTION_CODE: u16 = 0x606A;
 /// 606Bh velocity demand value.
 pub const VELOCITY_DEMAND_VALUE: u16 = 0x606B;
 /// 606Ch velocity actual value.
@@ -308,7 +312,7 @@ const DIGITAL_OUTPUT_SUBS: [(u8, Var); 3] = [
 ];
 
 /// The profile objects, ascending.
-pub static PROFILE: [Object; 103] = layout([
+pub static PROFILE: [Object; 104] = layout([
     option_code(ABORT_CONNECTION_OPTION_CODE, "Abort connection option code", 1),
     actual(ERROR_CODE, "Error code", DataType::Unsigned16),
     command(CONTROLWORD, "Controlword", DataType::Unsigned16),
@@ -346,6 +350,7 @@ pub static PROFILE: [Object; 103] = layout([
     ),
     parameter(POSITION_WINDOW, "Position window", DataType::Unsigned32, DefaultValue::Unsigned(100)),
     parameter(POSITION_WINDOW_TIME, "Position window time", DataType::Unsigned16, DefaultValue::Unsigned(10)),
+    parameter(SENSOR_SELECTION_CODE, "Sensor selection code", DataType::Integer16, DefaultValue::Zero),
     actual(VELOCITY_DEMAND_VALUE, "Velocity demand value", DataType::Integer32),
     actual(VELOCITY_ACTUAL_VALUE, "Velocity actual value", DataType::Integer32),
     parameter(VELOCITY_WINDOW, "Velocity window", DataType::Unsigned16, DefaultValue::Zero),

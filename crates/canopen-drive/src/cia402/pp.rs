@@ -110,8 +110,9 @@ pub struct ProfilePosition {
 /// The motion limits of pp and of the stops in pp, in increments (digest §9.5).
 pub(crate) fn limits<const B: usize>(od: &Dictionary<B>, s: &Slots, factors: &Factors) -> Limits {
     let user_velocity = od.load(s.profile_velocity).min(od.load(s.max_profile_velocity));
-    let velocity =
-        factors.limit_to_internal(user_velocity).min(factors.rpm_to_internal(od.load(s.max_motor_speed)));
+    let velocity = factors
+        .limit_to_internal(user_velocity)
+        .min(factors.motor_speed_to_internal(od.load(s.max_motor_speed)));
     let acceleration = od.load(s.profile_acceleration).min(od.load(s.max_acceleration));
     let deceleration = od.load(s.profile_deceleration).min(od.load(s.max_deceleration));
     let limits = Limits::new(
@@ -306,7 +307,7 @@ impl ProfilePosition {
         let cap = input
             .factors
             .limit_to_internal(od.load(input.slots.max_profile_velocity))
-            .min(input.factors.rpm_to_internal(od.load(input.slots.max_motor_speed)));
+            .min(input.factors.motor_speed_to_internal(od.load(input.slots.max_motor_speed)));
         if !self.halted && self.active.is_some() && cap < self.planned_velocity {
             // Once per lowering, even when no plan fits (the old one then runs on).
             let _ = self.plan_active(&limits, end_velocity);

@@ -34,8 +34,8 @@
 //! Arithmetic: velocities are integers in increments/s; the ramps advance by `rate × dt` in
 //! i64 µs arithmetic with the remainder carried, so a ramp does not drift.
 
-use super::config::{ProfileConfig, StatusFlag};
-use super::cyclic::{Bridge, Cycle, Interpolator, Limiter, TickLimits, STREAM_LOST};
+use super::config::{ProfileConfig, StatusFlag, TravelLimit};
+use super::cyclic::{Bridge, Cycle, CycleStart, Interpolator, Limiter, TickLimits, STREAM_LOST};
 use super::factor::Factors;
 use super::fsa::{Fsa, Options, State, StopKind};
 use super::hm::{self, Homing};
@@ -64,6 +64,9 @@ pub struct Report {
     pub clear: Option<u16>,
     /// Conditions that come and go without a fault (code, present): EMCY while present.
     pub notices: [Option<(u16, bool)>; 2],
+    /// The travel limit changed ([`ProfileConfig::travel_limit_emcy`]): the EMCY code and the
+    /// limit now reached, if any.
+    pub travel_limit: Option<(u16, Option<TravelLimit>)>,
 }
 
 /// What the communication side learnt about the SYNC cycle since the previous tick.
@@ -73,6 +76,8 @@ pub struct SyncInput {
     pub sync: bool,
     /// An RPDO arrived in the cycle before that SYNC (the stream delivered).
     pub fresh: bool,
+    /// A set-point arrived since the last tick ([`CycleStart::SetPoint`]).
+    pub set_point: bool,
 }
 
 /// A quantity ramped towards a target at a rate per second, in integer steps with the
@@ -162,6 +167,8 @@ pub struct Profile {
     engaging_since: Option<Instant>,
     /// A bit-4 edge that came while the brake was still opening.
     pending_edge: bool,
+    /// The travel limit last reported ([`ProfileConfig::travel_limit_emcy`]).
+    travel_limit: Option<TravelLimit>,
 }
 
 fn fault_code(faults: HardwareFaults) -> Option<(u16, ErrorRegister)> {
@@ -191,7 +198,7 @@ fn saturate(value: i64) -> i32 {
 fn velocity_limit<const B: usize>(od: &Dictionary<B>, slots: &Slots, factors: &Factors) -> u32 {
     factors
         .limit_to_internal(od.load(slots.max_profile_velocity))
-        .min(factors.rpm_to_internal(od.load(slots.max_motor_speed)))
+        .min(factors.motor_speed_to_internal(od.load(slots.max_motor_speed)))
 }
 
 impl Profile {
@@ -235,6 +242,7 @@ impl Profile {
             released_at: None,
             engaging_since: None,
             pending_edge: false,
+            travel_limit: None,
         }
     }
 
@@ -387,6 +395,13 @@ impl Profile {
         od.store(self.slots.dc_link_voltage, sample.dc_link_millivolts);
         // 60FDh bits 0..3: negative/positive limit, home, interlock (the hal uses the same bits).
         od.store(self.slots.digital_inputs, sample.inputs.bits() & 0x0F);
+        if let Some(code) = self.config.travel_limit_emcy {
+            let limit = self.travel_limit(od, actual_user, sample.inputs);
+            if limit != self.travel_limit {
+                self.travel_limit = limit;
+                report.travel_limit = Some((code, limit));
+            }
+        }
 
         // Touch probe (digest §10.6): latched in increments, reported in user units.
         let probe = self.probe.tick(
@@ -618,10 +633,14 @@ impl Profile {
                 Setpoint::Velocity(self.velocity.value as i32)
             }
             None if self.active_mode == mode::HOMING => {
+                // 607Fh/6080h and 60C5h/60C6h limit homing as every mode (digest §9.5).
                 let speeds = (
-                    factors.limit_to_internal(od.load(self.slots.homing_speed_switch)),
-                    factors.limit_to_internal(od.load(self.slots.homing_speed_zero)),
-                    factors.limit_to_internal(od.load(self.slots.homing_acceleration)).min(max_deceleration),
+                    factors.limit_to_internal(od.load(self.slots.homing_speed_switch)).min(vmax),
+                    factors.limit_to_internal(od.load(self.slots.homing_speed_zero)).min(vmax),
+                    factors
+                        .limit_to_internal(od.load(self.slots.homing_acceleration))
+                        .min(max_acceleration)
+                        .min(max_deceleration),
                 );
                 let inputs = hm::Inputs {
                     od,
@@ -838,6 +857,32 @@ impl Profile {
         factors
     }
 
+    /// The travel limit the axis is at: a limit switch outside homing first, then 6064h
+    /// outside the software limits 607Dh (off while min > max, as for pp targets).
+    fn travel_limit<const B: usize>(
+        &self,
+        od: &Dictionary<B>,
+        actual_user: i64,
+        inputs: DigitalInputs,
+    ) -> Option<TravelLimit> {
+        if self.active_mode != mode::HOMING {
+            if inputs.contains(DigitalInputs::POSITIVE_LIMIT) {
+                return Some(TravelLimit::PositiveSwitch);
+            }
+            if inputs.contains(DigitalInputs::NEGATIVE_LIMIT) {
+                return Some(TravelLimit::NegativeSwitch);
+            }
+        }
+        let offset = i64::from(od.load(self.slots.home_offset));
+        let low = i64::from(od.load(self.slots.software_position_limit_min)) - offset;
+        let high = i64::from(od.load(self.slots.software_position_limit_max)) - offset;
+        match low <= high {
+            true if actual_user > high => Some(TravelLimit::PositiveSoftware),
+            true if actual_user < low => Some(TravelLimit::NegativeSoftware),
+            _ => None,
+        }
+    }
+
     /// The core's loops turn a position or velocity demand into a torque demand (60FAh gets
     /// the velocity command). Without them, 60FAh reports 0.
     fn close_loops<const B: usize>(
@@ -962,7 +1007,15 @@ impl Profile {
         let factors = input.factors;
         let hz = self.config.tick_rate.hz();
         let (period_ticks, tolerance_ticks) = self.cycle_timing(od);
-        let cycle = Cycle { sync: input.cycle.sync, fresh: input.cycle.fresh, period_ticks, tolerance_ticks };
+        let cycle = match self.config.cyclic.cycle_start {
+            CycleStart::Sync => {
+                Cycle { sync: input.cycle.sync, fresh: input.cycle.fresh, period_ticks, tolerance_ticks }
+            }
+            // Never late: without a new set-point the last one holds.
+            CycleStart::SetPoint => {
+                Cycle { sync: input.cycle.set_point, fresh: true, period_ticks, tolerance_ticks: u32::MAX }
+            }
+        };
         let velocity_offset = factors.velocity_to_internal(i64::from(od.load(self.slots.velocity_offset)));
         let torque_offset = factors.torque_to_internal(i64::from(od.load(self.slots.torque_offset)));
         // The offsets reach the power stage as feed-forward: within the limits of the demand

@@ -518,13 +518,23 @@ pub struct PdoSet<const R: usize, const T: usize> {
     tpdos: [Tpdo; T],
     /// What an RPDO longer than its mapping does.
     pub long_rpdo: LongRpdo,
+    /// The unit of the TPDO inhibit time (sub 3): 100 µs in CiA 301.
+    pub inhibit_unit: Duration,
 }
 
 impl<const R: usize, const T: usize> Default for PdoSet<R, T> {
     fn default() -> Self {
-        PdoSet { rpdos: [Rpdo::OFF; R], tpdos: [Tpdo::OFF; T], long_rpdo: LongRpdo::ApplyAndReport }
+        PdoSet {
+            rpdos: [Rpdo::OFF; R],
+            tpdos: [Tpdo::OFF; T],
+            long_rpdo: LongRpdo::ApplyAndReport,
+            inhibit_unit: INHIBIT_UNIT,
+        }
     }
 }
+
+/// The unit of the inhibit times in CiA 301 (TPDO sub 3, 1015h): 100 µs.
+pub const INHIBIT_UNIT: Duration = Duration::from_micros(100);
 
 fn read_value<const B: usize>(od: &Dictionary<B>, slot: &Slot) -> u64 {
     match (slot.span, &slot.entry) {
@@ -618,7 +628,8 @@ impl<const R: usize, const T: usize> PdoSet<R, T> {
             }
             Direction::Tpdo => {
                 if let Some(tpdo) = self.tpdos.get_mut(record.number) {
-                    let inhibit = u64::from(od.get::<u16>(communication, 3).unwrap_or(0)) * 100;
+                    let inhibit = u64::from(od.get::<u16>(communication, 3).unwrap_or(0))
+                        * self.inhibit_unit.as_micros();
                     *tpdo = Tpdo {
                         can_id,
                         rtr: cob.is_some_and(|c| !c.bit30),
