@@ -173,9 +173,9 @@ def slow_motion(node):
 
 def test_modes_and_option_code_ranges(cpc):
     assert cpc.sdo[0x6502].raw == 0x3AD
-    for mode in (0, 1, 3, 4, 6, 8, 9, 10):
+    for mode in (0, 1, 3, 4, 6, 8, 9, 10, -2, -3, -4):  # with the direct modes
         cpc.sdo[0x6060].raw = mode
-    for mode in (2, 5, 7, -1, -4):  # reserved, ip, and the cpc direct modes
+    for mode in (2, 5, 7, -1, -5, -6, -7):  # reserved, ip, direct voltage, cpc internal
         assert abort_code(lambda: setattr(cpc.sdo[0x6060], "raw", mode)) == 0x06090030, mode
     for index, accepted, refused in ((0x6007, range(0, 4), (4,)), (0x605A, range(0, 5), (5, 6, 7, 8)),
                                      (0x605B, (0, 1), (2,)), (0x605C, (0, 1), (2,)), (0x605D, range(1, 5), (5,)),
@@ -354,6 +354,24 @@ def test_max_profile_velocity_and_max_motor_speed_are_one_value_in_counts_per_se
     cpc.sdo[0x60FF].raw = 40_000
     time.sleep(0.3)
     assert abs(cpc.sdo[0x606B].raw - 20_000) <= 100, cpc.sdo[0x606B].raw
+    cpc.sdo[0x60FF].raw = 0
+    cpc.sdo[0x6040].raw = 0
+
+
+def test_direct_position_and_velocity_modes(cpc):
+    # §5: 6060h −4 direct position, −3 direct velocity (set-points used at once, no profile).
+    start = cpc.sdo[0x6064].raw
+    cpc.sdo[0x607A].raw = start
+    enable(cpc, -4)
+    assert cpc.sdo[0x6061].raw == -4
+    cpc.sdo[0x607A].raw = start + 2000
+    wait_until(lambda: abs(cpc.sdo[0x6064].raw - (start + 2000)) < 50, timeout=2)
+    cpc.sdo[0x6040].raw = 7  # modes change outside Operation enabled only (§5)
+    wait_until(lambda: statusword(cpc) & 0x6F == 0x23, timeout=1)
+    cpc.sdo[0x60FF].raw = 5000
+    enable(cpc, -3)
+    assert cpc.sdo[0x6061].raw == -3
+    wait_until(lambda: abs(cpc.sdo[0x606C].raw - 5000) < 300, timeout=2)
     cpc.sdo[0x60FF].raw = 0
     cpc.sdo[0x6040].raw = 0
 

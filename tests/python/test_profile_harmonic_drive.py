@@ -174,8 +174,6 @@ MANUAL = COMMUNICATION + MANUFACTURER + PROFILE_AREA
 
 DEVIATIONS = {
     ((0x1016, 0), "access"): "the core's number of consumer entries is constant",
-    ((0x1029, 0), "default"): "the core's 1029h has only sub 1",
-    ((0x1029, 2), "exists"): "the core's 1029h has only sub 1",
     ((0x6071, 0), "type"): "CiA 402: INTEGER16",
     ((0x6077, 0), "type"): "CiA 402: INTEGER16",
     ((0x60B2, 0), "type"): "CiA 402: INTEGER16",

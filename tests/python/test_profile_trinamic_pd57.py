@@ -219,8 +219,6 @@ MANUAL = COMMUNICATION + MANUFACTURER + PROFILE_AREA
 # Where this rebuild deliberately differs from the table, and why (key: (index, sub), field).
 DEVIATIONS = {
     # The core's communication objects: 1029h has only the communication-error entry.
-    ((0x1029, 0), "default"): "the core's 1029h has only sub 1",
-    ((0x1029, 2), "exists"): "the core's 1029h has only sub 1 (application errors keep the state anyway)",
     # Types the manual prints against CiA 402 (same bytes on the wire for its values).
     ((0x2707, 0), "type"): "1000 kbit/s does not fit the manual's UNSIGNED8",
     # Access the manual prints for objects the drive itself writes.
@@ -389,6 +387,29 @@ def test_error_behaviour_0_enters_stopped_on_a_heartbeat_timeout(pd57, network, 
     network.send_message(0x710, b"\x05")
     heartbeats.clear()
     heartbeats.wait_for(lambda d: d == b"\x04", timeout=1.0)  # Stopped (CiA 301 would be 7Fh)
+
+
+def test_error_behaviour_of_an_application_error_the_drives_fault(pd57, network, heartbeats):
+    pd57.sdo[0x1017].raw = 20
+    assert pd57.sdo[0x1029][0].raw == 2
+    assert pd57.sdo[0x1029][2].raw == 1  # default: remain in the current state
+    pd57.nmt.send_command(0x01)
+    enable(pd57, 3)
+    pd57.sdo[SIM_FAULTS].raw = 0x01  # over-current: the drive enters Fault
+    wait_until(lambda: statusword(pd57) & 0x4F == 0x08)
+    heartbeats.clear()
+    heartbeats.wait_for(lambda d: d == b"\x05", timeout=1.0)  # still Operational
+    pd57.sdo[SIM_FAULTS].raw = 0
+    pd57.sdo[0x6040].raw = 0x80
+    wait_until(lambda: statusword(pd57) & 0x4F == 0x40)
+    pd57.sdo[0x1029][2].raw = 0  # the manual's 0: enter Stopped
+    enable(pd57, 3)
+    pd57.sdo[SIM_FAULTS].raw = 0x01
+    heartbeats.clear()
+    heartbeats.wait_for(lambda d: d == b"\x04", timeout=1.0)  # Stopped
+    pd57.nmt.send_command(0x80)  # (no SDO in Stopped)
+    time.sleep(0.05)
+    pd57.sdo[SIM_FAULTS].raw = 0
 
 
 def test_emcy_of_an_over_current_and_of_the_fault_reset(pd57, network):
@@ -602,6 +623,7 @@ def test_the_tpdo_inhibit_time_is_given_in_milliseconds(pd57, network):
     time.sleep(0.4)  # the start's TPDO and its inhibit time
     tpdo1.clear()
     pd57.sdo[0x6040].raw = 6
+    wait_until(lambda: statusword(pd57) & 0x6F == 0x21, timeout=1.0)
     pd57.sdo[0x6040].raw = 7  # two statusword changes a few ms apart
     i, first, _ = tpdo1.wait_for(lambda d: d[0] & 0x6F == 0x21, timeout=1.0)
     _, second, _ = tpdo1.wait_for(lambda d: d[0] & 0x6F == 0x23, timeout=1.0, start=i + 1)

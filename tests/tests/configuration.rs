@@ -832,3 +832,70 @@ fn travel_limits_can_raise_the_drives_emcy() {
     node(&mut bench).motor.set_input(DigitalInputs::POSITIVE_LIMIT, true);
     assert_eq!(emcys(&bench.advance(Duration::from_millis(5))), Vec::<Vec<u8>>::new(), "homing");
 }
+
+#[test]
+fn error_behaviour_may_show_a_class_for_the_drives_fault() {
+    // CiA 301 as configured by default: 1029h has one class, communication errors.
+    let mut standard = Bench::new();
+    assert_eq!(standard.sdo1(&req(0x40, 0x1029, 0, [0; 4])), req(0x4F, 0x1029, 0, [1, 0, 0, 0]));
+    assert_eq!(standard.sdo1(&req(0x40, 0x1029, 2, [0; 4])), abort(0x1029, 2, 0x0609_0011));
+    assert!(!eds_section(standard.drive(), "1029").contains("SubNumber=0x3"));
+
+    static CLASSES: [DefaultOverride; 1] =
+        [DefaultOverride { index: 0x1029, sub: 0, value: DefaultValue::Unsigned(2) }];
+    let run = |behaviour: u8| {
+        let mut bench = Bench::with_config(|c| Config { default_overrides: &CLASSES, ..c });
+        assert_eq!(bench.sdo1(&req(0x40, 0x1029, 0, [0; 4])), req(0x4F, 0x1029, 0, [2, 0, 0, 0]));
+        write_sub(&mut bench, 0x1029, 2, &[behaviour]);
+        write(&mut bench, 0x1017, &10u16.to_le_bytes());
+        nmt(&mut bench, 0x01);
+        enable(&mut bench, 3);
+        node(&mut bench).motor.inject_fault(canopen_drive::hal::HardwareFaults::OVER_CURRENT);
+        let frames = bench.advance(Duration::from_millis(30));
+        assert_eq!(sw(&mut bench) & 0x4F, 0x08, "Fault");
+        let heartbeats: Vec<u8> = frames
+            .iter()
+            .filter(|f| f.standard_id() == Some(ERROR_CONTROL))
+            .map(|f| embedded_can::Frame::data(f)[0])
+            .collect();
+        (eds_section(bench.drive(), "1029"), heartbeats.last().copied())
+    };
+    let (eds, last) = run(0);
+    assert!(eds.contains("SubNumber=0x3"), "{eds}");
+    assert_eq!(last, Some(0x7F), "0: Pre-operational on the drive's Fault");
+    assert_eq!(run(1).1, Some(0x05), "1: no change");
+    assert_eq!(run(2).1, Some(0x04), "2: Stopped");
+}
+
+#[test]
+fn manufacturer_modes_may_run_as_direct_set_point_modes() {
+    use canopen_drive::cia402::DirectMode;
+    // CiA 402 only: a negative mode is refused, 6061h stays.
+    let mut standard = Bench::new();
+    assert_eq!(standard.sdo1(&req(0x2F, 0x6060, 0, [0xFC, 0, 0, 0])), abort(0x6060, 0, INVALID_VALUE));
+
+    static MODES: [(i8, DirectMode); 2] = [(-4, DirectMode::Position), (-3, DirectMode::Velocity)];
+    let mut bench = Bench::with_config(|c| Config {
+        profile: canopen_drive::cia402::ProfileConfig { manufacturer_modes: &MODES, ..c.profile },
+        ..c
+    });
+    write(&mut bench, 0x60C5, &u32::MAX.to_le_bytes());
+    write(&mut bench, 0x60C6, &u32::MAX.to_le_bytes());
+    let start = od_i32(&mut bench, 0x6064);
+    write(&mut bench, 0x607A, &start.to_le_bytes());
+    enable(&mut bench, 0xFC); // −4: direct position
+    assert_eq!(bench.drive().od().get::<i8>(0x6061, 0).unwrap(), -4);
+    // No SYNC, no interpolation period: the target is the demand at the next tick.
+    write(&mut bench, 0x607A, &(start + 300).to_le_bytes());
+    bench.advance(Duration::from_millis(2));
+    assert_eq!(od_i32(&mut bench, 0x6062), start + 300);
+    bench.advance(Duration::from_millis(300));
+    assert!((od_i32(&mut bench, 0x6064) - (start + 300)).abs() < 20, "the axis follows");
+    assert_eq!(sw(&mut bench) & 0x106F, 0x1027, "Operation enabled, target used (csp's bit 12)");
+    // −3: direct velocity; the switch happens at rest, as any mode change.
+    write(&mut bench, 0x60FF, &2000i32.to_le_bytes());
+    write(&mut bench, 0x6060, &[0xFD]);
+    bench.advance(Duration::from_millis(50));
+    assert_eq!(bench.drive().od().get::<i8>(0x6061, 0).unwrap(), -3);
+    assert_eq!(od_i32(&mut bench, 0x606B), 2000);
+}

@@ -99,3 +99,28 @@ fn inhibit_time_spaces_frames_and_stopped_holds_them() {
     let frames = bench.send(frame(0x000, &[0x80, NODE]));
     assert_eq!(frames, vec![emcy([0x00, 0x30, 0x07, 0, 0, 0, 0, 0])]);
 }
+
+#[test]
+fn a_reset_node_forgets_the_active_errors_and_a_fault_after_it_is_reported_again() {
+    use canopen_drive::hal::HardwareFaults;
+    use common::profile::{enable, node};
+    let emcys = |frames: &[CanFrame]| {
+        frames.iter().filter(|f| f.standard_id() == Some(0x80 + u16::from(NODE))).count()
+    };
+    let mut bench = Bench::new();
+    enable(&mut bench, 3);
+    node(&mut bench).motor.inject_fault(HardwareFaults::OVER_CURRENT);
+    assert_eq!(emcys(&bench.advance(Duration::from_millis(5))), 1, "the fault's EMCY");
+    node(&mut bench).motor.clear_faults();
+    bench.send(frame(0x000, &[0x81, NODE])); // reset node, the fault not reset
+    bench.advance(Duration::from_millis(5));
+    assert_eq!(
+        bench.sdo1(&req(0x40, 0x1001, 0, [0; 4])),
+        req(0x4F, 0x1001, 0, [0; 4]),
+        "1001h after the reset"
+    );
+    enable(&mut bench, 3);
+    node(&mut bench).motor.inject_fault(HardwareFaults::OVER_CURRENT);
+    let frames = bench.advance(Duration::from_millis(5));
+    assert_eq!(emcys(&frames), 1, "the same fault again: its EMCY again");
+}

@@ -739,7 +739,13 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
 
     fn communication_reaction(&mut self, event: ConnectionEvent, now: Instant) {
         self.connection_lost(event);
-        let value = self.od.get::<u8>(ERROR_BEHAVIOUR, 1).unwrap_or(0);
+        self.error_class_reaction(1, now);
+    }
+
+    /// The NMT state 1029h sub `class` selects for an error of that class (sub 1 communication,
+    /// sub 2 the drive's Fault); nothing when the sub-index is not shown.
+    fn error_class_reaction(&mut self, class: u8, now: Instant) {
+        let Ok(value) = self.od.get::<u8>(ERROR_BEHAVIOUR, class) else { return };
         if let Some(state) =
             ErrorBehaviour::lookup(self.error_behaviour, value).and_then(|b| b.next_state(self.nmt))
         {
@@ -854,7 +860,13 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
             fresh: sync.unwrap_or(false),
             set_point,
         };
+        let faulted = |state| matches!(state, State::FaultReactionActive | State::Fault);
+        let was_faulted = faulted(self.profile.state());
         let (demand, report) = self.profile.tick(now, sample, &mut self.od, cycle);
+        if !was_faulted && faulted(self.profile.state()) {
+            // CiA 402-2 §7.2: entering Fault is a device-internal error for 1029h.
+            self.error_class_reaction(2, now);
+        }
         if let Some((code, register)) = report.raise {
             self.raise_error(code, register, [0; 5]);
         }
@@ -975,12 +987,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
                 let [lo, hi] = number.to_le_bytes();
                 // No 1029h-driven connection event: the RPDO timeout is a process-data error.
                 self.raise_error(code::RPDO_TIMEOUT, ErrorRegister::COMMUNICATION, [lo, hi, 0, 0, 0]);
-                let value = self.od.get::<u8>(ERROR_BEHAVIOUR, 1).unwrap_or(0);
-                if let Some(state) =
-                    ErrorBehaviour::lookup(self.error_behaviour, value).and_then(|b| b.next_state(self.nmt))
-                {
-                    self.nmt_command(NmtAction::Enter(state), now);
-                }
+                self.error_class_reaction(1, now);
             }
         }
     }
@@ -1061,6 +1068,9 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
                 }
             }
             NmtAction::ResetApplication => {
+                // The application restarts as at power-on: its fault and every active error
+                // are forgotten (a condition still present is raised again when detected).
+                self.emcy.reset();
                 self.od.reset(0x2000..=0xFFFF);
                 self.load_stored(Group::Manufacturer);
                 self.load_stored(Group::Application);

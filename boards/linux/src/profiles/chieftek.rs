@@ -33,11 +33,14 @@
 //! the board's record at 5E10h (next to the simulation objects 5E00h–5E02h).
 //!
 //! 6080h is in count/s as 607Fh (`Units::motor_speed`), and the two are one value: a write of
-//! either sets both (the firmware's `written`).
+//! either sets both (the firmware's `written`). The manufacturer modes −4/−3/−2 (direct
+//! position, velocity, torque) run as the core's direct set-point modes
+//! (`ProfileConfig::manufacturer_modes`).
 //!
 //! # Not reproduced
 //!
-//! Option code −1 (dynamic brake) and 605Dh 0, the manufacturer modes −1…−6 of 6060h, methods
+//! Option code −1 (dynamic brake) and 605Dh 0, the manufacturer modes −1 (direct voltage: the
+//! power stage's) and −5/−6 ("for cpc internal use only"), methods
 //! −11/−12 reverse on a limit switch where the drive reverses on a hard stop, 60FEh's second
 //! sub-index (the core's bit mask), the manual's zero defaults of 6065h/6066h/6067h/6068h/6073h (the
 //! drive would fault at the first move, or not move: the core's defaults stay), and bit 7
@@ -50,7 +53,7 @@
 use canopen_drive::cia402::fsa::State;
 use canopen_drive::cia402::hm::{hard_stop_object, HomingConfig, VendorMethod};
 use canopen_drive::cia402::objects::mode_bit;
-use canopen_drive::cia402::{MotorSpeedUnit, OptionCodes, ProfileConfig, StatusFlag};
+use canopen_drive::cia402::{DirectMode, MotorSpeedUnit, OptionCodes, ProfileConfig, StatusFlag};
 use canopen_drive::comm::error_control::ErrorBehaviour;
 use canopen_drive::comm::pdo;
 use canopen_drive::hal::Sample;
@@ -181,6 +184,9 @@ pub fn profile_config() -> ProfileConfig {
     config.statusword_bit_14 = StatusFlag::Transition;
     // §6.3: 6080h in count/s, as 607Fh.
     config.units.motor_speed = MotorSpeedUnit::VelocityUnit;
+    // §5: the direct modes −4…−2 (−1 direct voltage and −5/−6 are not reproduced).
+    config.manufacturer_modes =
+        &[(-4, DirectMode::Position), (-3, DirectMode::Velocity), (-2, DirectMode::Torque)];
     config
 }
 

@@ -43,17 +43,18 @@
 //! 2095h, 2703h, 270Eh.
 //!
 //! 1010h/1011h sub 3 (actuator profile parameters, "not used") read 0 and refuse the signature
-//! (`Config::store_groups`).
+//! (`Config::store_groups`). 1029h has the manual's two error classes: sub 2 (application
+//! error) is the actuator entering Fault (CiA 402-2 §7.2), by default 1 (the NMT state stays).
+//! The cyclic modes run without SYNC, as in the manual's examples: each set-point written by
+//! SDO is reached over 60C2h (`CyclicConfig::{sdo_set_points, cycle_start}`). (SDO block
+//! transfer, which the manual does not list, is switched off: `Config::sdo_block_transfer`.)
 //!
 //! # Not reproduced
 //!
 //! 2050h sub 8 position scaler (−5/−6 do not compute it), teach mode (2025h sub 5), the
-//! automatic parameter saving after homing, 1016h sub 0 writable
-//! (the core's count is a constant), 1029h sub 2, and the manual's INTEGER32 of 6071h/6077h/60B2h
-//! (a wider type than CiA 402's INTEGER16: a description override must keep an entry's size).
-//! The cyclic modes run without SYNC, as in the manual's examples: each set-point written by
-//! SDO is reached over 60C2h (`CyclicConfig::{sdo_set_points, cycle_start}`). (SDO block
-//! transfer, which the manual does not list, is switched off: `Config::sdo_block_transfer`.)
+//! automatic parameter saving after homing, 1016h sub 0 writable (the core's count is a
+//! constant), and the manual's INTEGER32 of 6071h/6077h/60B2h (a wider type than CiA 402's
+//! INTEGER16: a description override must keep an entry's size).
 //!
 //! The manual's types of 605Bh–605Eh (UNSIGNED16) and 6082h (INTEGER32), 6084h read-only (kept
 //! equal to 6083h by the firmware), 1016h with one entry and 1018h without sub 4 are the core's
@@ -317,7 +318,10 @@ pub static RULES: [ValueRule; 10] = [
 
 /// The manual's defaults of standard objects (the velocities are encoder steps per second
 /// here, see the module docs) and the simulated actuator's rated current.
-pub static DEFAULTS: [DefaultOverride; 14] = [
+pub static DEFAULTS: [DefaultOverride; 16] = [
+    // §3.1.14: two error classes; the application error (the drive's Fault) keeps the state.
+    default_of(0x1029, 0, u(2)),
+    default_of(0x1029, 2, u(1)),
     // §3.1.7/§3.1.8: the profile group cannot be stored or restored (reads 0).
     default_of(0x1010, 3, u(0)),
     default_of(0x1011, 3, u(0)),

@@ -50,9 +50,11 @@
 //!
 //! # Not reproduced
 //!
-//! 1029h sub 2 (application error, the core's 1029h has one entry), and the rule that the same mode may not be written twice to 6060h (the manual forbids it without saying
-//! how the drive answers; the core accepts the repeated value, which changes nothing).
-//! Under-voltage is reported as the manual's FF00h (`ProfileConfig::error_codes`), the travel
+//! The rule that the same mode may not be written twice to 6060h (the manual forbids it without
+//! saying how the drive answers; the core accepts the repeated value, which changes nothing).
+//!
+//! 1029h has the manual's two error classes: sub 2 (application error) is the drive entering
+//! Fault (CiA 402-2 §7.2), by default 1 (the NMT state stays). Under-voltage is reported as the manual's FF00h (`ProfileConfig::error_codes`), the travel
 //! limits as its FF01h with bytes 1–4 (`ProfileConfig::travel_limit_emcy`), the TPDO inhibit
 //! time in ms (`Config::tpdo_inhibit_unit`). (SDO block
 //! transfer, which the manual does not list, is switched off: `Config::sdo_block_transfer`.)
@@ -317,7 +319,10 @@ pub static RULES: [ValueRule; 15] = [
 ];
 
 /// The manual's defaults of standard objects where they differ from the core's.
-pub static DEFAULTS: [DefaultOverride; 17] = [
+pub static DEFAULTS: [DefaultOverride; 19] = [
+    // §3.1.16: two error classes; the application error (the drive's Fault) keeps the state.
+    default_of(0x1029, 0, u(2)),
+    default_of(0x1029, 2, u(1)),
     default_of(0x6065, 0, u(0)),
     default_of(0x6067, 0, u(0xFFFF_FFFF)),
     default_of(0x6068, 0, u(0)),

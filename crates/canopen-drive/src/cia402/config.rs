@@ -205,6 +205,34 @@ pub struct ProfileConfig {
     /// ([`TravelLimit`]); the "error reset" EMCY when it leaves it. Default none: CiA 402
     /// reports travel limits in the statusword only.
     pub travel_limit_emcy: Option<u16>,
+    /// Manufacturer-specific modes (negative 6060h values) the drive runs as direct set-point
+    /// modes: (value, mode). Default none: 6060h accepts the modes of 6502h only.
+    pub manufacturer_modes: &'static [(i8, DirectMode)],
+}
+
+/// A direct set-point mode: the target object goes to the loops at every tick, within the
+/// limits of the cyclic synchronous mode of the same quantity (csp, csv, cst) but without SYNC
+/// or interpolation — a vendor's "direct position / velocity / torque" mode.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum DirectMode {
+    /// 607Ah (+ 60B0h) as the position demand.
+    Position,
+    /// 60FFh (+ 60B1h) as the velocity demand.
+    Velocity,
+    /// 6071h (+ 60B2h) as the torque demand.
+    Torque,
+}
+
+impl DirectMode {
+    /// The cyclic synchronous mode whose limits and statusword bits the direct mode has.
+    pub const fn cyclic_mode(self) -> i8 {
+        match self {
+            DirectMode::Position => super::objects::mode::CYCLIC_POSITION,
+            DirectMode::Velocity => super::objects::mode::CYCLIC_VELOCITY,
+            DirectMode::Torque => super::objects::mode::CYCLIC_TORQUE,
+        }
+    }
 }
 
 /// Which travel limit the axis is at (byte 1 of the [`ProfileConfig::travel_limit_emcy`] EMCY).
@@ -249,7 +277,13 @@ impl ProfileConfig {
             units: Units::CIA_402,
             error_codes: &[],
             travel_limit_emcy: None,
+            manufacturer_modes: &[],
         }
+    }
+
+    /// The direct mode a manufacturer-specific 6060h value runs as ([`Self::manufacturer_modes`]).
+    pub fn manufacturer_mode(&self, value: i8) -> Option<DirectMode> {
+        self.manufacturer_modes.iter().find(|(v, _)| *v == value).map(|(_, mode)| *mode)
     }
 
     /// The code the drive reports for the crate's error `code` ([`Self::error_codes`]).

@@ -27,5 +27,6 @@ mod slots;
 pub mod vl;
 
 pub use config::{
-    MotorSpeedUnit, OptionCodes, ProfileConfig, StatusFlag, TorqueUnit, TravelLimit, Units, VelocityUnit,
+    DirectMode, MotorSpeedUnit, OptionCodes, ProfileConfig, StatusFlag, TorqueUnit, TravelLimit, Units,
+    VelocityUnit,
 };

@@ -514,7 +514,9 @@ pub fn check_write<const B: usize>(
         MODES_OF_OPERATION => {
             let mode = raw as u8 as i8;
             let supported = od.get::<u32>(SUPPORTED_DRIVE_MODES, 0).unwrap_or(0);
-            mode == 0 || (1..=10).contains(&mode) && supported & (1 << (mode - 1)) != 0
+            mode == 0
+                || (1..=10).contains(&mode) && supported & (1 << (mode - 1)) != 0
+                || config.manufacturer_mode(mode).is_some()
         }
         // Trapezoidal and jerk-limited profiles (motion::ProfileType).
         MOTION_PROFILE_TYPE => crate::motion::ProfileType::from_raw(value).is_some(),

@@ -34,7 +34,7 @@
 //! Arithmetic: velocities are integers in increments/s; the ramps advance by `rate × dt` in
 //! i64 µs arithmetic with the remainder carried, so a ramp does not drift.
 
-use super::config::{ProfileConfig, StatusFlag, TravelLimit};
+use super::config::{DirectMode, ProfileConfig, StatusFlag, TravelLimit};
 use super::cyclic::{Bridge, Cycle, CycleStart, Interpolator, Limiter, TickLimits, STREAM_LOST};
 use super::factor::Factors;
 use super::fsa::{Fsa, Options, State, StopKind};
@@ -121,6 +121,10 @@ pub struct Profile {
     /// The core's own position/velocity loops ([`ProfileConfig::cascade`]).
     cascade: Option<Cascade>,
     active_mode: i8,
+    /// The mode 6061h shows: [`Self::active_mode`], or the manufacturer-specific value whose
+    /// direct mode runs as it (then [`Self::direct`]).
+    display_mode: i8,
+    direct: bool,
     /// Velocity demand (increments/s) of the velocity ramps (pv, stops outside pp).
     velocity: Ramp,
     /// Torque demand (‰).
@@ -211,6 +215,8 @@ impl Profile {
             factors: None,
             cascade: None,
             active_mode: 0,
+            display_mode: 0,
+            direct: false,
             velocity: Ramp::default(),
             torque: Ramp::default(),
             pp: ProfilePosition::new(&config, 0),
@@ -509,12 +515,15 @@ impl Profile {
 
         // Mode switching: at once while the drive function is disabled, after a stop otherwise.
         let requested: i8 = od.load(self.slots.modes_of_operation);
-        let switching = requested != self.active_mode;
+        let switching = requested != self.display_mode;
         // A device without mode changes in Operation enabled keeps the mode until it is left.
         let may_switch =
             self.config.mode_change_in_operation || !matches!(step.state, State::OperationEnabled { .. });
         if switching && may_switch && (!enabled || at_rest) {
-            self.active_mode = requested;
+            let direct = self.config.manufacturer_mode(requested);
+            self.display_mode = requested;
+            self.active_mode = direct.map_or(requested, DirectMode::cyclic_mode);
+            self.direct = direct.is_some();
             self.mode_changed = true;
             self.pp.reset(actual, actual_user);
             self.homing.reset(actual);
@@ -522,7 +531,7 @@ impl Profile {
             self.reset_cyclic(actual, i64::from(sample.velocity));
             self.vl.reset(i64::from(sample.velocity));
         }
-        od.store(self.slots.modes_of_operation_display, self.active_mode);
+        od.store(self.slots.modes_of_operation_display, self.display_mode);
 
         let halt = controlword & 0x0100 != 0;
         if step.entered_operation {
@@ -1008,6 +1017,8 @@ impl Profile {
         let hz = self.config.tick_rate.hz();
         let (period_ticks, tolerance_ticks) = self.cycle_timing(od);
         let cycle = match self.config.cyclic.cycle_start {
+            // A direct mode: the target at every tick.
+            _ if self.direct => Cycle { sync: true, fresh: true, period_ticks: 1, tolerance_ticks: u32::MAX },
             CycleStart::Sync => {
                 Cycle { sync: input.cycle.sync, fresh: input.cycle.fresh, period_ticks, tolerance_ticks }
             }

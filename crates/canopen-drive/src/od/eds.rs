@@ -152,7 +152,8 @@ fn write_object<const B: usize>(
             write_var(od, var, od.default_of(index, 0, var), w)
         }
         Kind::Array { sub0, element, len } => {
-            let len = &(1..=od.array_len(sub0, *len)).take_while(|sub| !od.hidden(object, *sub)).count();
+            let len =
+                &(1..=od.array_len(index, sub0, *len)).take_while(|sub| !od.hidden(object, *sub)).count();
             let len = &u8::try_from(*len).unwrap_or(u8::MAX);
             writeln!(w, "\n[{index:04X}]\nParameterName={}", ObjectName(object))?;
             writeln!(w, "ObjectType=0x8\nSubNumber=0x{:X}", u16::from(*len) + 1)?;

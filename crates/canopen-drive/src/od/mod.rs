@@ -386,14 +386,18 @@ impl<const BYTES: usize> Dictionary<BYTES> {
         &mut self,
         overrides: &'static [DefaultOverride],
     ) -> Result<(), ConfigError> {
+        // Checked with the overrides in place: one may show sub-indices another one sets (an
+        // ARRAY's constant count, 1029h).
+        let previous = core::mem::replace(&mut self.overrides, overrides);
         for o in overrides {
             let bad = ConfigError::BadEntry { index: o.index };
-            let entry = self.entry(o.index, o.sub).map_err(|_| bad)?;
-            if !overrides::default_fits(entry.var, o.value) {
+            let fits =
+                self.entry(o.index, o.sub).is_ok_and(|entry| overrides::default_fits(entry.var, o.value));
+            if !fits {
+                self.overrides = previous;
                 return Err(bad);
             }
         }
-        self.overrides = overrides;
         self.reset(0x0000..=0xFFFF);
         Ok(())
     }
@@ -421,13 +425,21 @@ impl<const BYTES: usize> Dictionary<BYTES> {
         self.homing = homing;
     }
 
-    /// The number of elements of an ARRAY with `len` elements and sub-index 0 `sub0`: fewer
-    /// when sub 0 counts a list of the configuration ([`DeviceField::HomingMethodCount`]).
-    pub fn array_len(&self, sub0: &Var, len: u8) -> u8 {
-        if sub0.default == DefaultValue::Device(DeviceField::HomingMethodCount) {
-            self.homing.listed_method_count().min(len)
-        } else {
-            len
+    /// The number of elements of ARRAY `index` with `len` elements and sub-index 0 `sub0`: fewer
+    /// when sub 0 counts a list of the configuration ([`DeviceField::HomingMethodCount`]) or is
+    /// a constant below `len` (the table's or a firmware's default).
+    pub fn array_len(&self, index: u16, sub0: &Var, len: u8) -> u8 {
+        match sub0.default {
+            DefaultValue::Device(DeviceField::HomingMethodCount) => {
+                self.homing.listed_method_count().min(len)
+            }
+            // A constant count below the array's length shows that many elements: an ARRAY
+            // whose further elements a configuration switches on (1029h) by overriding it.
+            _ if sub0.access == Access::Const => match self.default_of(index, 0, sub0) {
+                DefaultValue::Unsigned(n) => u8::try_from(n).unwrap_or(u8::MAX).min(len),
+                _ => len,
+            },
+            _ => len,
         }
     }
 
@@ -484,7 +496,7 @@ impl<const BYTES: usize> Dictionary<BYTES> {
         let (object, region) = self.object(index).ok_or(AbortCode::ObjectDoesNotExist)?;
         let (var, offset) = object.sub(sub).ok_or(AbortCode::SubIndexDoesNotExist)?;
         if let Kind::Array { sub0, len, .. } = &object.kind {
-            if sub > self.array_len(sub0, *len) {
+            if sub > self.array_len(index, sub0, *len) {
                 return Err(AbortCode::SubIndexDoesNotExist);
             }
         }

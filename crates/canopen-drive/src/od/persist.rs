@@ -36,7 +36,7 @@
 use core::ops::RangeInclusive;
 
 use super::standard::PRE_DEFINED_ERROR_FIELD;
-use super::{Dictionary, Entry, Object, Var};
+use super::{Dictionary, Entry, Kind, Object, Var};
 
 /// Objects whose writable entries are not parameters: 1003h (error history: sub 0 counts the
 /// errors held in RAM), 1010h (store parameters) and 1011h (restore default parameters).
@@ -133,6 +133,11 @@ impl<const BYTES: usize> Iterator for Parameters<'_, BYTES> {
             let Some((var, offset)) = object.sub(sub) else { continue };
             if self.od.hidden(object, sub) {
                 continue;
+            }
+            if let Kind::Array { sub0, len, .. } = &object.kind {
+                if sub > self.od.array_len(object.index, sub0, *len) {
+                    continue;
+                }
             }
             let var = self.od.describe(object.index, sub, var);
             if !is_parameter(object.index, var) {

@@ -192,11 +192,16 @@ const ALL_COMMUNICATION: [Object; 22] = [
             .access(Access::ReadOnly)
             .default(DefaultValue::Device(DeviceField::Eds)),
     ),
-    Object::array(
+    // Sub 1 communication errors; sub 2 the drive's Fault (CiA 402-2 §7.2: entering Fault is
+    // a severe device-internal error), shown when a configuration overrides sub 0 to 2.
+    Object::array_with_sub0(
         ERROR_BEHAVIOUR,
         "Error behaviour",
-        1,
-        &Var::new("Communication error", DataType::Unsigned8).access(Access::ReadWrite),
+        2,
+        Var::new("Number of error classes", DataType::Unsigned8)
+            .access(Access::Const)
+            .default(DefaultValue::Unsigned(1)),
+        &Var::new("Error class", DataType::Unsigned8).access(Access::ReadWrite),
     ),
     Object::record(SDO_SERVER_PARAMETER, "SDO server parameter", &SDO_SERVER_SUBS),
 ];
