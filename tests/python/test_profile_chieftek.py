@@ -122,7 +122,6 @@ DEVIATIONS = {
     ((0x607D, 0), "type"): "CiA 301: UNSIGNED8",
     ((0x6099, 0), "type"): "CiA 301: UNSIGNED8",
     ((0x60FE, 0), "type"): "CiA 301: UNSIGNED8",
-    ((0x60FE, 0), "default"): "the core's 60FEh has the bit mask (sub 2) too",
     # Zero defaults that would stop the simulated drive at once: the core's stay.
     ((0x6065, 0), "default"): "a window of 0 would be a following error (a fault) at the first move",
     ((0x6066, 0), "default"): "see 6065h",
@@ -177,9 +176,10 @@ def test_modes_and_option_code_ranges(cpc):
         cpc.sdo[0x6060].raw = mode
     for mode in (2, 5, 7, -1, -5, -6, -7):  # reserved, ip, direct voltage, cpc internal
         assert abort_code(lambda: setattr(cpc.sdo[0x6060], "raw", mode)) == 0x06090030, mode
-    for index, accepted, refused in ((0x6007, range(0, 4), (4,)), (0x605A, range(0, 5), (5, 6, 7, 8)),
-                                     (0x605B, (0, 1), (2,)), (0x605C, (0, 1), (2,)), (0x605D, range(1, 5), (5,)),
-                                     (0x605E, range(0, 5), (5,))):
+    # §4.3: −1 is the dynamic brake; 605Dh 0 switches the drive function off.
+    for index, accepted, refused in ((0x6007, range(0, 4), (4, -1)), (0x605A, range(-1, 5), (5, 6, 7, 8, -2)),
+                                     (0x605B, (-1, 0, 1), (2, -2)), (0x605C, (-1, 0, 1), (2, -2)),
+                                     (0x605D, range(-1, 5), (5, -2)), (0x605E, range(-1, 5), (5, -2))):
         for value in accepted:
             cpc.sdo[index].raw = value
         for value in refused:
@@ -261,6 +261,20 @@ def test_statusword_bit_14_while_a_quick_stop_runs_and_pv_zero_speed(cpc):
     assert statusword(cpc) & 0x4000 == 0
 
 
+def test_quick_stop_with_the_dynamic_brake(cpc):
+    # §4.3.3: 605Ah −1: the drive function off at once, the windings shorted until rest.
+    cpc.sdo[0x605A].raw = -1
+    cpc.sdo[0x6083].raw = 500_000
+    enable(cpc, 3)
+    cpc.sdo[0x60FF].raw = 40_000
+    wait_until(lambda: abs(cpc.sdo[0x606C].raw - 40_000) < 1000, timeout=3)
+    cpc.sdo[0x6040].raw = 0x0B  # quick stop
+    wait_until(lambda: statusword(cpc) & 0x4F == 0x40, timeout=1)  # at once: switch on disabled
+    wait_until(lambda: cpc.sdo[0x606C].raw == 0, timeout=2)
+    cpc.sdo[0x60FF].raw = 0
+    cpc.sdo[0x6040].raw = 0
+
+
 def test_profile_torque_ramps_with_the_torque_slope(cpc):
     cpc.sdo[0x6087].raw = 1000  # 0.1 %/s: 100 % per second
     enable(cpc, 4)
@@ -315,6 +329,9 @@ def test_homing_methods(cpc):
     # −9: the middle of the home switch (25 000).
     cpc.sdo[0x6099][2].raw = 10_000
     assert abs(home(cpc, -9) - 25_000) < 50
+    # −11: the same, first positive; from beyond the switch the hard stop turns it (§8.6).
+    assert abs(home(cpc, -1) - 120_000) < 100  # the axis rests at the positive stop
+    assert abs(home(cpc, -11, timeout=40) - 25_000) < 50
     # 37 = 35.
     here = cpc.sdo[0x6063].raw
     assert abs(home(cpc, 37) - here) < 50

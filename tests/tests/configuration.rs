@@ -507,16 +507,24 @@ fn midpoints_searched_positive_first_and_of_the_home_switch() {
     use canopen_drive_sim::motor::{MotorParams, SimMotor, Zone};
 
     static OBJECTS: [Object; 1] = layout([hard_stop_object(0x2500)]);
-    static METHODS: [(i8, VendorMethod); 4] = [
+    static METHODS: [(i8, VendorMethod); 6] = [
         (-5, VendorMethod::MidpointOfHardStopsPositiveFirst),
         (-7, VendorMethod::MidpointOfLimitSwitchesPositiveFirst),
         (-9, VendorMethod::MidpointOfHomeSwitch { positive: true }),
         (-10, VendorMethod::MidpointOfHomeSwitch { positive: false }),
+        (-11, VendorMethod::MidpointOfHomeSwitchHardStop { positive: true }),
+        (-12, VendorMethod::MidpointOfHomeSwitchHardStop { positive: false }),
     ];
-    // (method, start, expected home, the first move is positive)
-    for (method, start, expected) in
-        [(-5, 0, 0), (-7, 3000, 0), (-9, 0, 5000), (-9, 5500, 5000), (-10, 0, 5000)]
-    {
+    // (method, start, expected home); −11/−12 start beyond the switch: they turn at the stop.
+    for (method, start, expected) in [
+        (-5, 0, 0),
+        (-7, 3000, 0),
+        (-9, 0, 5000),
+        (-9, 5500, 5000),
+        (-10, 0, 5000),
+        (-11, 7000, 5000),
+        (-12, 3000, 5000),
+    ] {
         let mut bench = Bench::with_config(|mut c| {
             c.manufacturer_objects = &OBJECTS;
             c.profile.homing = HomingConfig {
@@ -528,8 +536,9 @@ fn midpoints_searched_positive_first_and_of_the_home_switch() {
         });
         node(&mut bench).motor = SimMotor::with_params(MotorParams {
             increments_per_revolution: 1000,
-            negative_limit_switch: (method != -5).then_some(-10_000),
-            positive_limit_switch: (method != -5).then_some(10_000),
+            // The hard-stop methods on an axis without limit switches.
+            negative_limit_switch: (![-5, -11, -12].contains(&method)).then_some(-10_000),
+            positive_limit_switch: (![-5, -11, -12].contains(&method)).then_some(10_000),
             home_switch: Some(Zone::between(4000, 6000)),
             negative_hard_stop: Some(-12_000),
             positive_hard_stop: Some(12_000),
@@ -555,7 +564,11 @@ fn midpoints_searched_positive_first_and_of_the_home_switch() {
         let home = od_i32(&mut bench, 0x6063) - od_i32(&mut bench, 0x6064);
         assert!((home - expected).abs() <= 10, "method {method} from {start}: home {home}");
         if method != -9 || start == 0 {
-            assert_eq!(first_move > 0, method != -10, "method {method}: first move {first_move}");
+            assert_eq!(
+                first_move > 0,
+                !matches!(method, -10 | -12),
+                "method {method}: first move {first_move}"
+            );
         }
     }
 }
@@ -898,4 +911,87 @@ fn manufacturer_modes_may_run_as_direct_set_point_modes() {
     bench.advance(Duration::from_millis(50));
     assert_eq!(bench.drive().od().get::<i8>(0x6061, 0).unwrap(), -3);
     assert_eq!(od_i32(&mut bench, 0x606B), 2000);
+}
+
+#[test]
+fn digital_outputs_without_the_bit_mask_follow_sub_1() {
+    // A drive described with 60FEh sub 1 only (a shorter constant sub 0).
+    static DESCRIPTIONS: [EntryOverride; 1] =
+        [EntryOverride::of(&PROFILE, 0x60FE, 0).default(DefaultValue::Unsigned(1))];
+    let mut bench = Bench::with_config(|c| Config { entry_overrides: &DESCRIPTIONS, ..c });
+    assert_eq!(bench.sdo1(&req(0x40, 0x60FE, 2, [0; 4])), abort(0x60FE, 2, 0x0609_0011));
+    enable(&mut bench, 3);
+    assert!(node(&mut bench).demand.brake_released);
+    // Without a mask the brake bit is the master's at once (CiA 402's mask would be 0).
+    bench.sdo1(&req(0x23, 0x60FE, 1, [1, 0, 0, 0]));
+    bench.advance(Duration::from_millis(2));
+    assert!(!node(&mut bench).demand.brake_released, "brake engaged by the master");
+}
+
+#[test]
+fn statusword_bit_7_may_be_reserved() {
+    use canopen_drive::hal::HardwareFaults;
+    let run = |warning_bit: bool| {
+        let mut bench = Bench::with_config(|c| Config {
+            profile: canopen_drive::cia402::ProfileConfig { warning_bit, ..c.profile },
+            ..c
+        });
+        node(&mut bench).motor.set_warnings(HardwareFaults::OVER_TEMPERATURE);
+        bench.advance(Duration::from_millis(2));
+        sw(&mut bench) & 0x0080
+    };
+    assert_eq!(run(true), 0x0080, "CiA 402: the board's warning");
+    assert_eq!(run(false), 0, "reserved");
+}
+
+#[test]
+fn option_code_minus_1_may_brake_dynamically() {
+    use canopen_drive::cia402::OptionCodes;
+    // CiA 402: −1 is no value of 605Ah.
+    let mut standard = Bench::new();
+    assert_eq!(standard.sdo1(&req(0x2B, 0x605A, 0, [0xFF, 0xFF, 0, 0])), abort(0x605A, 0, INVALID_VALUE));
+
+    // A quick stop with 605Ah = `code` from 3000 increments/s: ms until the shaft is at rest,
+    // and whether the windings were shorted meanwhile.
+    let stop = |code: i16| {
+        let mut bench = Bench::with_config(|c| Config {
+            profile: canopen_drive::cia402::ProfileConfig {
+                option_codes: OptionCodes {
+                    quick_stop: OptionCodes::ALL.quick_stop | OptionCodes::DYNAMIC_BRAKE,
+                    ..OptionCodes::ALL
+                },
+                ..c.profile
+            },
+            ..c
+        });
+        // A motor without a holding brake (one would stop the shaft at once).
+        node(&mut bench).motor =
+            canopen_drive_sim::motor::SimMotor::with_params(canopen_drive_sim::motor::MotorParams {
+                brake_holding_torque: 0.0,
+                ..Default::default()
+            });
+        write(&mut bench, 0x605A, &code.to_le_bytes());
+        write(&mut bench, 0x6083, &100_000u32.to_le_bytes());
+        enable(&mut bench, 3);
+        write(&mut bench, 0x60FF, &3000i32.to_le_bytes());
+        bench.advance(Duration::from_millis(200));
+        cw(&mut bench, 0x000B, 0); // quick stop
+        let (mut ms, mut shorted) = (0, false);
+        while node(&mut bench).motor.sample().velocity != 0 && ms < 20_000 {
+            bench.advance(Duration::from_millis(1));
+            let demand = node(&mut bench).demand;
+            assert!(!demand.drive_enabled);
+            shorted |= demand.dynamic_brake;
+            ms += 1;
+        }
+        bench.advance(Duration::from_millis(2));
+        assert!(!node(&mut bench).demand.dynamic_brake, "released at rest");
+        assert_eq!(sw(&mut bench) & 0x6F, 0x40, "Switch on disabled");
+        (ms, shorted)
+    };
+    let (coasting, shorted) = stop(0);
+    assert!(!shorted);
+    let (braked, shorted) = stop(-1);
+    assert!(shorted);
+    assert!(braked * 2 < coasting, "dynamic braking {braked} ms, coasting {coasting} ms");
 }

@@ -154,10 +154,19 @@ impl Stage {
     }
 
     /// Applies the demand of one tick. Energy only while the drive profile says so
-    /// (`drive_enabled`, DESIGN invariant 1): otherwise all six switches are off.
+    /// (`drive_enabled`, DESIGN invariant 1): otherwise all six switches are off, unless a
+    /// dynamic brake is asked for (`dynamic_brake`): then the three low-side switches are on
+    /// (duty 0 of the complementary outputs), shorting the windings, and no energy flows in.
     pub fn apply(&mut self, demand: &Demand) {
         if !demand.drive_enabled {
-            if self.enabled {
+            if demand.dynamic_brake {
+                if !self.enabled {
+                    self.outputs(true);
+                }
+                for channel in [Channel::Ch1, Channel::Ch2, Channel::Ch3] {
+                    self.pwm.set_duty(channel, 0);
+                }
+            } else if self.enabled {
                 self.outputs(false);
             }
             return;

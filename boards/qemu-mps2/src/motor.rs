@@ -210,6 +210,7 @@ mod tests {
             high_voltage: true,
             drive_enabled: true,
             brake_released: true,
+            dynamic_brake: false,
             setpoint,
             feed_forward: FeedForward::NONE,
         }

@@ -247,6 +247,9 @@ pub struct MotorParams {
     pub rated_acceleration: f64,
     /// Viscous friction, in ‰ per revolution/s.
     pub viscous_friction: f64,
+    /// Braking torque of the short-circuited windings ([`Demand::dynamic_brake`]), in ‰ per
+    /// revolution/s (at most the maximum torque).
+    pub dynamic_brake_torque: f64,
     /// Coulomb (static and sliding) friction, in ‰.
     pub coulomb_friction: f64,
     /// Torque the engaged holding brake holds, in ‰.
@@ -310,6 +313,7 @@ impl Default for MotorParams {
         MotorParams {
             rated_acceleration: 100.0,
             viscous_friction: 5.0,
+            dynamic_brake_torque: 200.0,
             coulomb_friction: 5.0,
             brake_holding_torque: 4000.0,
             max_torque: 3000.0,
@@ -919,6 +923,11 @@ impl SimMotor {
     /// The torque the power stage puts out in a sub-step of `h` seconds, in ‰.
     fn motor_torque(&mut self, h: f64) -> f64 {
         let energised = self.demand.drive_enabled && self.demand.high_voltage && self.dc_link_millivolts > 0;
+        if !energised && self.demand.dynamic_brake {
+            // Shorted windings: a torque against the motion, proportional to the speed.
+            let max = self.params.max_torque.max(0.0);
+            return (-self.params.dynamic_brake_torque * self.velocity).clamp(-max, max);
+        }
         let setpoint = if energised { self.demand.setpoint } else { Setpoint::None };
         let active_loop = match setpoint {
             Setpoint::None => Loop::Off,

@@ -98,6 +98,10 @@ pub struct Demand {
     pub drive_enabled: bool,
     /// Holding brake released.
     pub brake_released: bool,
+    /// Brake the motor by short-circuiting its windings (e.g. every low-side switch of the
+    /// bridge on) while the drive function is off: a stop of option code −1
+    /// ([`StopKind::DynamicBrake`](crate::cia402::fsa::StopKind)). False otherwise.
+    pub dynamic_brake: bool,
     /// The set-point, meaningful while `drive_enabled`.
     pub setpoint: Setpoint,
     /// Feed-forward for the loops under the set-point (trajectory velocity, 60B1h/60B2h).
@@ -124,6 +128,7 @@ impl Demand {
         high_voltage: false,
         drive_enabled: false,
         brake_released: false,
+        dynamic_brake: false,
         setpoint: Setpoint::None,
         feed_forward: FeedForward::NONE,
     };

@@ -39,12 +39,16 @@
 //!
 //! # Not reproduced
 //!
-//! Option code −1 (dynamic brake) and 605Dh 0, the manufacturer modes −1 (direct voltage: the
-//! power stage's) and −5/−6 ("for cpc internal use only"), methods
-//! −11/−12 reverse on a limit switch where the drive reverses on a hard stop, 60FEh's second
-//! sub-index (the core's bit mask), the manual's zero defaults of 6065h/6066h/6067h/6068h/6073h (the
-//! drive would fault at the first move, or not move: the core's defaults stay), and bit 7
-//! (warning) is the core's.
+//! The manufacturer modes −1 (direct voltage: the power stage's) and −5/−6 ("for cpc internal
+//! use only"), and the manual's zero defaults of
+//! 6065h/6066h/6067h/6068h/6073h (the drive would fault at the first move, or not move: the
+//! core's defaults stay).
+//!
+//! The option codes take −1, dynamic brake (`OptionCodes::DYNAMIC_BRAKE`: the windings are
+//! shorted until the shaft is at rest, `Demand::dynamic_brake`), and 605Dh 0 (the drive function
+//! off while halted). Statusword bit 7 is reserved, as the manual says (`ProfileConfig::warning_bit`); 60FEh has
+//! no bit mask (§15); methods −11/−12 turn at a hard stop (`VendorMethod::
+//! MidpointOfHomeSwitchHardStop`).
 //!
 //! The manual's types of 6071h (UNSIGNED16) and 60E3h sub 0 (INTEGER8) are the core's entry
 //! descriptions overridden ([`DESCRIPTIONS`]); 67FEh (version number, §16) is an object of this
@@ -106,8 +110,8 @@ pub static CPC_METHODS: [(i8, VendorMethod); 12] = [
     (-8, VendorMethod::MidpointOfLimitSwitches),
     (-9, VendorMethod::MidpointOfHomeSwitch { positive: true }),
     (-10, VendorMethod::MidpointOfHomeSwitch { positive: false }),
-    (-11, VendorMethod::MidpointOfHomeSwitch { positive: true }),
-    (-12, VendorMethod::MidpointOfHomeSwitch { positive: false }),
+    (-11, VendorMethod::MidpointOfHomeSwitchHardStop { positive: true }),
+    (-12, VendorMethod::MidpointOfHomeSwitchHardStop { positive: false }),
 ];
 
 /// The standard methods of 60E3h (§8.3): 1–14, 17–30, 33–35, 37.
@@ -144,7 +148,9 @@ pub static DEFAULTS: [DefaultOverride; 19] = [
 /// The manual's types of standard entries where they differ from CiA 301/402's (same sizes):
 /// the target torque 6071h UNSIGNED16 (§11.3) and the count of supported homing methods, 60E3h
 /// sub 0, INTEGER8 (§8.3).
-pub static DESCRIPTIONS: [EntryOverride; 2] = [
+pub static DESCRIPTIONS: [EntryOverride; 3] = [
+    // §15: 60FEh has the physical outputs only (sub 0 = 1): no bit mask.
+    profile_entry(0x60FE, 0).default(u(1)),
     profile_entry(0x6071, 0).data_type(DataType::Unsigned16),
     profile_entry(0x60E3, 0).data_type(DataType::Integer8),
 ];
@@ -162,13 +168,16 @@ pub static PROFILE_OBJECTS: [Object; 1] = layout([var(
 /// The core's drive-profile configuration of this drive.
 pub fn profile_config() -> ProfileConfig {
     let mut config = ProfileConfig::new();
+    // §4.3.3–4.3.7: each option code from −1 (dynamic brake); the halt option code 0 disables
+    // the drive function.
+    let brake = OptionCodes::DYNAMIC_BRAKE;
     config.option_codes = OptionCodes {
         abort_connection: 0b1111,
-        quick_stop: 0b1_1111,
-        shutdown: 0b11,
-        disable_operation: 0b11,
-        halt: 0b1_1110,
-        fault_reaction: 0b1_1111,
+        quick_stop: brake | 0b1_1111,
+        shutdown: brake | 0b11,
+        disable_operation: brake | 0b11,
+        halt: brake | 0b1_1111,
+        fault_reaction: brake | 0b1_1111,
     };
     config.homing = HomingConfig {
         method_37: true,
@@ -185,6 +194,8 @@ pub fn profile_config() -> ProfileConfig {
     // §6.3: 6080h in count/s, as 607Fh.
     config.units.motor_speed = MotorSpeedUnit::VelocityUnit;
     // §5: the direct modes −4…−2 (−1 direct voltage and −5/−6 are not reproduced).
+    // §4.3.2: statusword bit 7 (warning in CiA 402) is reserved.
+    config.warning_bit = false;
     config.manufacturer_modes =
         &[(-4, DirectMode::Position), (-3, DirectMode::Velocity), (-2, DirectMode::Torque)];
     config

@@ -40,9 +40,17 @@ impl OptionCodes {
         fault_reaction: 0b1_1111,
     };
 
-    /// Whether `value` is supported by the mask `mask`.
+    /// Bit of a mask for the manufacturer-specific value −1, dynamic brake
+    /// ([`StopKind::DynamicBrake`](super::fsa::StopKind)); no CiA 402 value reaches bit 15.
+    pub const DYNAMIC_BRAKE: u16 = 1 << 15;
+
+    /// Whether `value` is supported by the mask `mask` (bit n: value n; bit 15: −1).
     pub const fn allows(mask: u16, value: i16) -> bool {
-        value >= 0 && value < 16 && mask & (1 << value) != 0
+        match value {
+            -1 => mask & Self::DYNAMIC_BRAKE != 0,
+            0..=14 => mask & (1 << value) != 0,
+            _ => false,
+        }
     }
 }
 
@@ -208,6 +216,9 @@ pub struct ProfileConfig {
     /// Manufacturer-specific modes (negative 6060h values) the drive runs as direct set-point
     /// modes: (value, mode). Default none: 6060h accepts the modes of 6502h only.
     pub manufacturer_modes: &'static [(i8, DirectMode)],
+    /// Statusword bit 7 shows warnings (the board's, an ip buffer overflow): CiA 402, the
+    /// default. False for a drive that documents the bit as reserved (always 0).
+    pub warning_bit: bool,
 }
 
 /// A direct set-point mode: the target object goes to the loops at every tick, within the
@@ -278,6 +289,7 @@ impl ProfileConfig {
             error_codes: &[],
             travel_limit_emcy: None,
             manufacturer_modes: &[],
+            warning_bit: true,
         }
     }
 

@@ -116,12 +116,22 @@ pub enum StopKind {
     CurrentLimit,
     /// Stop at the voltage limit.
     VoltageLimit,
+    /// Disable the drive function at once and brake the motor by short-circuiting its windings
+    /// ([`Demand::dynamic_brake`](crate::hal::Demand)): the manufacturer-specific option code
+    /// value −1 some drives document.
+    DynamicBrake,
 }
 
 impl StopKind {
+    /// The drive function goes off at once (no ramp): [`Self::Coast`], [`Self::DynamicBrake`].
+    pub const fn at_once(self) -> bool {
+        matches!(self, StopKind::Coast | StopKind::DynamicBrake)
+    }
+
     /// 605Ah value → (stop, stay in Quick stop active); `None` for reserved values.
     pub const fn quick_stop(code: i16) -> Option<(StopKind, bool)> {
         Some(match code {
+            -1 => (StopKind::DynamicBrake, false),
             0 => (StopKind::Coast, false),
             1 => (StopKind::SlowDown, false),
             2 => (StopKind::QuickStopRamp, false),
@@ -138,6 +148,7 @@ impl StopKind {
     /// 605Bh/605Ch value → stop; `None` for reserved values.
     pub const fn disable(code: i16) -> Option<StopKind> {
         match code {
+            -1 => Some(StopKind::DynamicBrake),
             0 => Some(StopKind::Coast),
             1 => Some(StopKind::SlowDown),
             _ => None,
@@ -147,6 +158,7 @@ impl StopKind {
     /// 605Dh/605Eh value → stop (605Dh has no 0); `None` for reserved values.
     pub const fn halt_or_fault(code: i16) -> Option<StopKind> {
         match code {
+            -1 => Some(StopKind::DynamicBrake),
             0 => Some(StopKind::Coast),
             1 => Some(StopKind::SlowDown),
             2 => Some(StopKind::QuickStopRamp),
@@ -254,7 +266,7 @@ pub fn settle(state: State, options: &Options, stopped: bool) -> State {
                 Leaving::ToSwitchedOn => StopKind::disable(options.disable_operation),
                 Leaving::ToReadyToSwitchOn => StopKind::disable(options.shutdown),
             };
-            if stopped || kind == Some(StopKind::Coast) {
+            if stopped || kind.is_some_and(StopKind::at_once) {
                 match leaving {
                     Leaving::ToSwitchedOn => SwitchedOn,           // 5
                     Leaving::ToReadyToSwitchOn => ReadyToSwitchOn, // 8
@@ -264,12 +276,12 @@ pub fn settle(state: State, options: &Options, stopped: bool) -> State {
             }
         }
         QuickStopActive => match StopKind::quick_stop(options.quick_stop) {
-            Some((StopKind::Coast, _)) => SwitchOnDisabled,
+            Some((kind, _)) if kind.at_once() => SwitchOnDisabled,
             Some((_, false)) if stopped => SwitchOnDisabled, // 12
             _ => state,
         },
         FaultReactionActive => {
-            if stopped || StopKind::halt_or_fault(options.fault_reaction) == Some(StopKind::Coast) {
+            if stopped || StopKind::halt_or_fault(options.fault_reaction).is_some_and(StopKind::at_once) {
                 Fault // 14
             } else {
                 state
@@ -369,6 +381,9 @@ pub struct Step {
     pub entered_operation: bool,
     /// The stop the motion layer must run.
     pub stop: Option<StopKind>,
+    /// The state passed through a dynamic-brake stop in this tick (such a stop takes no time,
+    /// so the state may already be past it): short the windings until the shaft is at rest.
+    pub dynamic_brake: bool,
 }
 
 impl Fsa {
@@ -399,6 +414,7 @@ impl Fsa {
             state: settled,
             entered_operation: matches!(settled, State::OperationEnabled { .. }) && !was_enabled,
             stop: stop_in(settled, options),
+            dynamic_brake: after != settled && stop_in(after, options) == Some(StopKind::DynamicBrake),
         }
     }
 

@@ -89,6 +89,12 @@ pub enum VendorMethod {
         /// The first search direction.
         positive: bool,
     },
+    /// As [`Self::MidpointOfHomeSwitch`], reversing once on a mechanical stop (detected as
+    /// for [`Self::HardStop`]) instead of a limit switch.
+    MidpointOfHomeSwitchHardStop {
+        /// The first search direction.
+        positive: bool,
+    },
     /// Into the mechanical stop in `positive` (or negative) direction, then back off: home is
     /// the backed-off position (the axis rests there), and the software position limit on that
     /// side (607Dh sub 2 after a positive stop, sub 1 after a negative one) is set to it.
@@ -289,10 +295,20 @@ enum Mark {
     },
 }
 
+/// What turns a search around once (instead of failing it).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Reverse {
+    Never,
+    /// A limit switch ahead.
+    OnLimitSwitch,
+    /// A mechanical stop (limit switches ahead are passed, as the stop lies beyond them).
+    OnHardStop,
+}
+
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Step {
     /// Move at the switch speed (`fast`) or zero speed until the event.
-    Search { positive: bool, fast: bool, until: Until, mark: Mark, reverse_on_limit: bool },
+    Search { positive: bool, fast: bool, until: Until, mark: Mark, reverse: Reverse },
     /// Move by a distance (increments) at the zero speed; the end is marked.
     BackOff { distance: i64, mark: Mark },
 }
@@ -320,7 +336,7 @@ impl Program {
     }
 
     fn search(&mut self, positive: bool, fast: bool, until: Until, mark: Mark) {
-        self.push(Step::Search { positive, fast, until, mark, reverse_on_limit: false });
+        self.push(Step::Search { positive, fast, until, mark, reverse: Reverse::Never });
     }
 
     /// A switch with one edge, active on the `active_positive` side: cross the edge slowly
@@ -360,7 +376,7 @@ impl Program {
                 fast: true,
                 until: Until::On(Signal::Home),
                 mark: Mark::None,
-                reverse_on_limit: true,
+                reverse: Reverse::OnLimitSwitch,
             });
         }
         let mark = if index { Mark::None } else { Mark::Home };
@@ -445,14 +461,20 @@ impl Program {
                     p.search(false, true, Until::On(Signal::NegativeLimit), Mark::None);
                     p.search(true, false, Until::Off(Signal::NegativeLimit), Mark::Midpoint);
                 }
-                VendorMethod::MidpointOfHomeSwitch { positive } => {
+                VendorMethod::MidpointOfHomeSwitch { positive }
+                | VendorMethod::MidpointOfHomeSwitchHardStop { positive } => {
+                    let reverse = if matches!(vendor, Some(VendorMethod::MidpointOfHomeSwitch { .. })) {
+                        Reverse::OnLimitSwitch
+                    } else {
+                        Reverse::OnHardStop
+                    };
                     if !home {
                         p.push(Step::Search {
                             positive,
                             fast: true,
                             until: Until::On(Signal::Home),
                             mark: Mark::None,
-                            reverse_on_limit: true,
+                            reverse,
                         });
                     }
                     // Leaving the switch one way, then crossing it the other way: its two edges.
@@ -824,7 +846,7 @@ impl Homing {
         previous: DigitalInputs,
         outcome: &mut Outcome,
     ) {
-        let Some(Step::Search { until, mark, reverse_on_limit, .. }) = self.program.get(n) else { return };
+        let Some(Step::Search { until, mark, reverse, .. }) = self.program.get(n) else { return };
         let inputs = input.inputs;
         let acceleration = input.speeds.2;
         let rose = |s: Signal| s.active(inputs) && !s.active(previous);
@@ -852,17 +874,27 @@ impl Homing {
             }
             return;
         }
+        let turn = |this: &mut Self, outcome: &mut Outcome| {
+            let (fast, _, _) = input.speeds;
+            this.reversed = true;
+            if !this.search(!this.positive, fast, acceleration) {
+                this.fail(acceleration, outcome);
+            }
+        };
+        if reverse == Reverse::OnHardStop && !self.reversed && self.hard_stop(input) {
+            // Stop pushing, as at a sought stop, and turn around.
+            self.planner.reset(input.actual);
+            turn(self, outcome);
+            return;
+        }
         // A limit switch ahead that the search does not look for.
         let ahead = if self.positive { Signal::PositiveLimit } else { Signal::NegativeLimit };
+        let towards_stop = until == Until::HardStop || reverse == Reverse::OnHardStop;
         let sought = matches!(until, Until::On(s) | Until::Off(s) if s == ahead)
-            || (until == Until::HardStop && self.config.hard_stop_passes_limit_switches);
+            || (towards_stop && self.config.hard_stop_passes_limit_switches);
         if rose(ahead) && !sought {
-            if reverse_on_limit && !self.reversed {
-                let (fast, _, _) = input.speeds;
-                self.reversed = true;
-                if !self.search(!self.positive, fast, acceleration) {
-                    self.fail(acceleration, outcome);
-                }
+            if reverse == Reverse::OnLimitSwitch && !self.reversed {
+                turn(self, outcome);
             } else {
                 self.fail(acceleration, outcome);
             }

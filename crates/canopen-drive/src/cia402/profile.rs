@@ -173,6 +173,9 @@ pub struct Profile {
     pending_edge: bool,
     /// The travel limit last reported ([`ProfileConfig::travel_limit_emcy`]).
     travel_limit: Option<TravelLimit>,
+    /// A stop of option code −1 shorts the windings until the shaft is at rest (or the drive
+    /// function is enabled again), whatever state the FSA moved on to.
+    dynamic_braking: bool,
 }
 
 fn fault_code(faults: HardwareFaults) -> Option<(u16, ErrorRegister)> {
@@ -249,6 +252,7 @@ impl Profile {
             engaging_since: None,
             pending_edge: false,
             travel_limit: None,
+            dynamic_braking: false,
         }
     }
 
@@ -567,7 +571,10 @@ impl Profile {
             let user = match kind {
                 StopKind::SlowDown => od.load(self.slots.profile_deceleration),
                 StopKind::QuickStopRamp => od.load(self.slots.quick_stop_deceleration),
-                StopKind::CurrentLimit | StopKind::VoltageLimit | StopKind::Coast => u32::MAX,
+                StopKind::CurrentLimit
+                | StopKind::VoltageLimit
+                | StopKind::Coast
+                | StopKind::DynamicBrake => u32::MAX,
             };
             factors.limit_to_internal(user).min(max_deceleration)
         };
@@ -599,7 +606,7 @@ impl Profile {
             self.released_at = None;
             self.engaging_since = None;
         }
-        if stop.is_some_and(|kind| kind != StopKind::Coast) && self.velocity_demand() == 0 {
+        if stop.is_some_and(|kind| !kind.at_once()) && self.velocity_demand() == 0 {
             self.engaging_since.get_or_insert(now);
         } else if stop.is_none() {
             self.engaging_since = None;
@@ -620,8 +627,9 @@ impl Profile {
                 self.torque = Ramp::default();
                 Setpoint::Position(sample.position)
             }
-            Some(StopKind::Coast) => {
+            Some(kind @ (StopKind::Coast | StopKind::DynamicBrake)) => {
                 drive_enabled = false;
+                self.dynamic_braking |= kind == StopKind::DynamicBrake;
                 self.velocity = Ramp::default();
                 self.pp.reset(actual, actual_user);
                 self.homing.reset(actual);
@@ -825,9 +833,14 @@ impl Profile {
                 statusword |= 1 << bit;
             }
         }
+        if !self.config.warning_bit {
+            statusword &= !(1 << 7);
+        }
         od.store(self.slots.statusword, statusword);
-        // 60FEh: a master may engage the brake (sub 1 bit 0) where the mask (sub 2) enables it.
-        let outputs = od.load(self.slots.digital_outputs_physical) & od.load(self.slots.digital_outputs_mask);
+        // 60FEh: a master may engage the brake (sub 1 bit 0) where the mask (sub 2) enables it;
+        // a drive described without the mask drives every output from sub 1.
+        let outputs = od.load(self.slots.digital_outputs_physical)
+            & od.load_or(self.slots.digital_outputs_mask, u32::MAX);
         let setpoint =
             if drive_enabled { self.close_loops(setpoint, sample, od, &factors) } else { Setpoint::None };
         if !drive_enabled {
@@ -835,10 +848,15 @@ impl Profile {
                 cascade.reset(0);
             }
         }
+        self.dynamic_braking |= step.dynamic_brake;
+        if drive_enabled || sample.velocity == 0 {
+            self.dynamic_braking = false;
+        }
         let demand = Demand {
             high_voltage: step.state.high_voltage(),
             drive_enabled,
             brake_released: drive_enabled && outputs & 1 == 0 && self.engaging_since.is_none(),
+            dynamic_brake: self.dynamic_braking,
             setpoint,
             feed_forward: if drive_enabled { self.feed_forward } else { FeedForward::NONE },
         };

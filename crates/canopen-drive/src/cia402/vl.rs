@@ -376,7 +376,7 @@ impl Parameters {
     /// The ramp a stop of `kind` uses; `None` = at once (coast).
     fn stop_slope(&self, kind: StopKind) -> Option<Slope> {
         match kind {
-            StopKind::Coast => None,
+            StopKind::Coast | StopKind::DynamicBrake => None,
             StopKind::SlowDown => Some(self.deceleration_slope()),
             StopKind::QuickStopRamp | StopKind::CurrentLimit | StopKind::VoltageLimit => {
                 Some(self.quick_stop_slope())
