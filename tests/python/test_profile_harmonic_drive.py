@@ -365,6 +365,37 @@ def test_hard_stop_homing_example_and_the_double_ended_methods(actuator):
     actuator.sdo[0x6040].raw = 0
 
 
+def test_teach_mode_procedure(actuator):
+    # §8.1.9: jog to the min position, 2025h:05 = 1; to the max position, 2; the scaled range, 3.
+    actuator.sdo[0x2005].raw = 3
+    actuator.sdo[0x6060].raw = 1
+    to_state(actuator, READY, SWITCHED_ON, ENABLED)
+
+    def jog_to(target):
+        actuator.sdo[0x607A].raw = target
+        actuator.sdo[0x6040].raw = 0x1F
+        wait_until(lambda: statusword(actuator) & 0x1000, timeout=1)  # set-point acknowledged
+        actuator.sdo[0x6040].raw = 0x0F
+        wait_until(lambda: statusword(actuator) & 0x0400, timeout=10)  # target reached
+        time.sleep(0.5)  # settled within the position window
+
+    jog_to(actuator.sdo[0x6064].raw - 3000)
+    count = actuator.sdo[0x6063].raw
+    actuator.sdo[0x2025][5].raw = 1
+    time.sleep(0.05)
+    assert abs(actuator.sdo[0x6064].raw) < 20, "the min position is 0 now"
+    assert actuator.sdo[0x607D][1].raw == 0
+    assert abs(actuator.sdo[0x6063].raw - count) < 20, "the encoder count did not move"
+    jog_to(5000)
+    actuator.sdo[0x2025][5].raw = 2
+    time.sleep(0.05)
+    assert abs(actuator.sdo[0x607D][2].raw - 5000) < 20, "the max limit is the present position"
+    actuator.sdo[0x2025][5].raw = 3
+    time.sleep(0.05)
+    assert actuator.sdo[0x607D][2].raw == 65_535
+    actuator.sdo[0x6040].raw = 0
+
+
 # --- §9.2, §10.2, §11.2 cyclic modes: set-points by SDO each interval, no SYNC ---------------------
 
 def test_csp_example(actuator, network):
@@ -516,6 +547,33 @@ def stored_drive(tmp_path):
     yield start
     for process in processes:
         assert process.stop() == 0, process.log()
+
+
+def test_homing_parameters_are_saved_after_homing(stored_drive):
+    # §8.1.10: the new homing parameters go to flash after each homing run.
+    process = stored_drive()
+    network, node = connect(process)
+    try:
+        node.sdo[0x6060].raw = 6
+        to_state(node, READY, SWITCHED_ON, ENABLED)
+        node.sdo[0x6099][1].raw = 180
+        node.sdo[0x6099][2].raw = 150
+        node.sdo[0x609A].raw = 1500
+        node.sdo[0x6098].raw = -1  # the positive stop: the max limit becomes 0
+        node.sdo[0x6040].raw = 31
+        wait_until(lambda: statusword(node) & 0x3400 == 0x1400, timeout=20)
+        node.sdo[0x6040].raw = 0
+        assert node.sdo[0x607D][2].raw == 0
+        time.sleep(0.2)
+    finally:
+        network.disconnect()
+    process.stop()
+    process = stored_drive()  # power cycle: no store was written by the master
+    network, node = connect(process)
+    try:
+        assert node.sdo[0x607D][2].raw == 0, "kept from the homing run"
+    finally:
+        network.disconnect()
 
 
 def connect(process, node_id=NODE_ID):

@@ -995,3 +995,22 @@ fn option_code_minus_1_may_brake_dynamically() {
     assert!(shorted);
     assert!(braked * 2 < coasting, "dynamic braking {braked} ms, coasting {coasting} ms");
 }
+
+#[test]
+fn the_firmware_may_preset_the_position() {
+    let mut bench = Bench::new();
+    node(&mut bench).motor.set_position(1234);
+    bench.advance(Duration::from_millis(2));
+    assert_eq!(od_i32(&mut bench, 0x6064), 1234);
+    bench.drive().preset_position(-100);
+    bench.advance(Duration::from_millis(2));
+    assert_eq!(od_i32(&mut bench, 0x6064), -100, "the present position reads the preset");
+    assert_eq!(od_i32(&mut bench, 0x6063), 1234, "the internal count is the encoder's");
+    // A pp move in the new coordinates.
+    enable(&mut bench, 1);
+    write(&mut bench, 0x607A, &400i32.to_le_bytes());
+    cw(&mut bench, 0x001F, 2);
+    cw(&mut bench, 0x000F, 1500);
+    assert!((od_i32(&mut bench, 0x6064) - 400).abs() <= 5, "{}", od_i32(&mut bench, 0x6064));
+    assert!((od_i32(&mut bench, 0x6063) - 1734).abs() <= 5);
+}

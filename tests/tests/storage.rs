@@ -175,3 +175,20 @@ fn a_failing_flash_answers_hardware_error() {
     let (mut drive, _) = power_on(flash);
     assert_eq!(sdo(&mut drive, req(0x23, 0x1010, 1, SAVE)), abort(0x1010, 1, 0x0606_0000));
 }
+
+#[test]
+fn the_firmware_may_store_a_group_itself() {
+    use canopen_drive::storage::Group;
+    let (mut drive, _) = power_on(blank());
+    // 1017h (communication) changed by the master, then stored by the device, not by SDO.
+    assert_eq!(sdo(&mut drive, req(0x2B, 0x1017, 0, [0x34, 0x12, 0, 0])), req(0x60, 0x1017, 0, [0; 4]));
+    assert_eq!(drive.store_parameters(Group::Communication), Ok(()));
+    let (mut restarted, _) = power_on(flash_of(&mut drive));
+    assert_eq!(sdo(&mut restarted, req(0x40, 0x1017, 0, [0; 4])), req(0x4B, 0x1017, 0, [0x34, 0x12, 0, 0]));
+    // A group the drive does not store, and a drive without storage: refused.
+    static GROUPS: [Group; 1] = [Group::All];
+    let (mut some, _) = power_on_with(blank(), |c| Config { store_groups: &GROUPS, ..c });
+    assert_eq!(some.store_parameters(Group::Communication), Err(canopen_drive::AbortCode::CannotStore));
+    let mut bench = Bench::new();
+    assert_eq!(bench.drive().store_parameters(Group::All), Err(canopen_drive::AbortCode::CannotStore));
+}

@@ -26,7 +26,7 @@ use canopen_drive_sim::motor::SimMotor;
 
 use crate::board_objects::{BoardHooks, Change};
 use crate::bus::Bus;
-use crate::profiles::{BoardProfile, Environment, Update, OD_BYTES};
+use crate::profiles::{Action, BoardProfile, Environment, Firmware, Update, OD_BYTES};
 
 /// The drive of this board, with parameter storage `S` (a file, or none).
 pub type BoardDrive<S> = Drive<BoardHooks, OD_BYTES, 4, 4, S>;
@@ -124,6 +124,7 @@ pub fn run<S: Persistence>(
             }
         }
         apply_updates(&mut drive, &mut updates);
+        take_actions(&mut drive, firmware.as_mut());
 
         let now = clock.now();
         if now >= next_tick {
@@ -135,6 +136,7 @@ pub fn run<S: Persistence>(
             motor.step(&demand, now - last_tick);
             firmware.after_tick(drive.od(), &raw, drive.state(), &mut updates);
             apply_updates(&mut drive, &mut updates);
+            take_actions(&mut drive, firmware.as_mut());
             last_tick = now;
             // Keep the 1 ms grid, but after a stall restart it instead of catching up in a burst.
             next_tick = next_tick + TICK_PERIOD;
@@ -149,6 +151,20 @@ pub fn run<S: Persistence>(
         if drive.tx_dropped() != tx_dropped {
             tx_dropped = drive.tx_dropped();
             log!("the drive's transmit queue overflowed ({tx_dropped} frames lost)");
+        }
+    }
+}
+
+/// Carries out the firmware's actions on the drive.
+fn take_actions<S: Persistence>(drive: &mut BoardDrive<S>, firmware: &mut dyn Firmware) {
+    for action in firmware.take_actions() {
+        match action {
+            Action::PresetPosition(position) => drive.preset_position(position),
+            Action::Store(group) => {
+                if let Err(e) = drive.store_parameters(group) {
+                    log!("the firmware's store of {group:?} failed: {e:?}");
+                }
+            }
         }
     }
 }

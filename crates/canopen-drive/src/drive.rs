@@ -514,6 +514,26 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
         &mut self.hooks
     }
 
+    /// Presets the position actual value: from the next tick on 6064h reads `position` (user
+    /// units) where the shaft is now — a device-side "teach" or "set position" function; the
+    /// homing coordinates move with it, a profile position move in progress stops there.
+    pub fn preset_position(&mut self, position: i32) {
+        self.profile.preset_position(&self.od, position);
+    }
+
+    /// Stores `group` as a "save" written to 1010h would (for a device-side store, e.g. after
+    /// an automatic calibration): 0x0800_0020 without storage or for a group the drive does not
+    /// store ([`Config::store_groups`]).
+    pub fn store_parameters(&mut self, group: Group) -> Result<(), AbortCode> {
+        if !self.storage.available() || !self.store_groups.contains(&group) {
+            return Err(AbortCode::CannotStore);
+        }
+        self.storage.store(&self.od, group)?;
+        self.hooks.stored(group as u8);
+        self.clear_error(code::DATA_SET);
+        Ok(())
+    }
+
     /// The parameter storage.
     pub fn storage_mut(&mut self) -> &mut S {
         &mut self.storage

@@ -49,12 +49,20 @@
 //! SDO is reached over 60C2h (`CyclicConfig::{sdo_set_points, cycle_start}`). (SDO block
 //! transfer, which the manual does not list, is switched off: `Config::sdo_block_transfer`.)
 //!
+//! Teach mode (§8.1.9, 2025h sub 5: 1 presets the position to 0 and 607Dh sub 1 to 0 —
+//! `Drive::preset_position` —, 2 sets 607Dh sub 2 to the position, 3 sets it to 65 535) and the
+//! saving after each homing run (§8.1.10: the firmware stores the "all" group —
+//! `Drive::store_parameters` — which holds 607Dh, 2025h and 2050h) work.
+//!
 //! # Not reproduced
 //!
-//! 2050h sub 8 position scaler (−5/−6 do not compute it), teach mode (2025h sub 5), the
-//! automatic parameter saving after homing, 1016h sub 0 writable (the core's count is a
-//! constant), and the manual's INTEGER32 of 6071h/6077h/60B2h (a wider type than CiA 402's
-//! INTEGER16: a description override must keep an entry's size).
+//! 2050h sub 8 position scaler (−5/−6 and teach mode 3 do not compute it: the manual gives no
+//! formula), 1016h sub 0 writable (the manual does not say what a write does; the core's count
+//! is a constant), and the manual's INTEGER32 of 6071h/6077h/60B2h (a wider type than CiA
+//! 402's INTEGER16: an entry's size is fixed by the table's layout at compile time, so a
+//! description override must keep it; a drive with 32-bit torques needs the core's torque
+//! objects declared 32-bit). Saving after homing stores the whole "all" group, so values the
+//! master changed without storing are kept too; the actuator saves the homing parameters only.
 //!
 //! The manual's types of 605Bh–605Eh (UNSIGNED16) and 6082h (INTEGER32), 6084h read-only (kept
 //! equal to 6083h by the firmware), 1016h with one entry and 1018h without sub 4 are the core's
@@ -80,8 +88,8 @@ use canopen_drive_sim::motor::MotorParams;
 use super::trinamic::method_mask;
 use super::{
     bit_timing_index, communication_entry, default_of, highest, pdo_mapping, pdo_records, profile_entry, ro,
-    rpdo_communication, rw, tpdo_communication, u, value_of, var, BoardDictionary, BoardProfile, Environment,
-    Firmware, ProfileName, Update,
+    rpdo_communication, rw, tpdo_communication, u, value_of, var, Action, BoardDictionary, BoardProfile,
+    Environment, Firmware, ProfileName, Update,
 };
 use crate::board_objects::{
     simulated_faults, simulated_inputs, simulated_load, ValueRule, PROFILE_SIMULATION,
@@ -487,11 +495,13 @@ pub struct Actuator {
     user: [i32; 256],
     /// A homing run completed (2025h sub 1 = 1).
     homed: bool,
+    /// Teach mode's position preset and the saving after homing (§8.1.9, §8.1.10).
+    actions: Vec<Action>,
 }
 
 impl Default for Actuator {
     fn default() -> Self {
-        Actuator { user: [0; 256], homed: false }
+        Actuator { user: [0; 256], homed: false, actions: Vec::new() }
     }
 }
 
@@ -580,6 +590,18 @@ impl Firmware for Actuator {
                     *slot = value as u32 as i32;
                 }
             }
+            // §8.1.9 teach mode: 1 marks the present position as 0 and as the min software limit,
+            // 2 the present position as the max limit, 3 the scaled range (607Dh sub 2 = 65 535;
+            // the position scaler 2050h sub 8 itself is not computed: the manual gives no formula).
+            (HOMING_SETTINGS, 5) => match value {
+                1 => {
+                    self.actions.push(Action::PresetPosition(0));
+                    updates.push(Update { index: 0x607D, sub: 1, value: 0 });
+                }
+                2 => updates.push(Update { index: 0x607D, sub: 2, value: value_of(od, 0x6064, 0) }),
+                3 => updates.push(Update { index: 0x607D, sub: 2, value: 65_535 }),
+                _ => {}
+            },
             // Error flags are cleared by any write; the sub-index reads 0 again.
             (0x2090, 7) | (0x2095, 2) | (0x2096, 2) => updates.push(Update { index, sub, value: 0 }),
             (0x5FFF, 0) => {
@@ -588,6 +610,10 @@ impl Firmware for Actuator {
             }
             _ => {}
         }
+    }
+
+    fn take_actions(&mut self) -> Vec<Action> {
+        core::mem::take(&mut self.actions)
     }
 
     fn stored(&mut self, sub: u8, od: &BoardDictionary, env: &Environment<'_>) {
@@ -622,6 +648,11 @@ impl Firmware for Actuator {
         // stop), 255 stopped by an error.
         let homing = mode == 6;
         if homing && statusword & 0x1000 != 0 {
+            if !self.homed {
+                // §8.1.10: the new homing parameters (607Dh, 2025h, 2050h) go to flash after
+                // each homing run; they are in the "all" group here.
+                self.actions.push(Action::Store(Group::All));
+            }
             self.homed = true;
         } else if homing && statusword & 0x3400 == 0 && state.drive_function_enabled() {
             self.homed = false;

@@ -136,6 +136,20 @@ pub trait Firmware: Send {
     fn after_tick(&mut self, od: &BoardDictionary, sample: &Sample, state: State, updates: &mut Vec<Update>) {
         let _ = (od, sample, state, updates);
     }
+
+    /// What the firmware does to the drive itself, taken after `written` and `after_tick`.
+    fn take_actions(&mut self) -> Vec<Action> {
+        Vec::new()
+    }
+}
+
+/// A firmware's action on the drive (besides values it writes).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Action {
+    /// 6064h reads this value at the present position ([`canopen_drive::Drive::preset_position`]).
+    PresetPosition(i32),
+    /// Store a parameter group as 1010h would ([`canopen_drive::Drive::store_parameters`]).
+    Store(Group),
 }
 
 /// A drive without manufacturer behaviour.

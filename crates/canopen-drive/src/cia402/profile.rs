@@ -271,6 +271,19 @@ impl Profile {
         *self = Profile::new(self.config);
     }
 
+    /// Presets the position: from the next tick on 6064h reads `user` at the present position
+    /// of the shaft (as after homing on the current position with 607Ch = −`user`). A profile
+    /// position move in progress stops where it is.
+    pub fn preset_position<const B: usize>(&mut self, od: &Dictionary<B>, user: i32) {
+        let factors = match self.factors {
+            Some(factors) => factors,
+            None => self.refresh(od),
+        };
+        let actual = i64::from(od.load(self.slots.position_actual_internal));
+        self.origin = actual.saturating_sub(factors.to_internal(i64::from(user) * factors.position_sign()));
+        self.pp.reset(actual, i64::from(user));
+    }
+
     /// Parameters may have changed (an SDO write, a restore, the firmware's access): the factor
     /// group is read again at the next tick.
     pub fn invalidate(&mut self) {
