@@ -202,7 +202,8 @@ DOC_TEMPLATE = """# Footprint on Cortex-M
 
 Written by `scripts/footprint.py` (do not edit by hand; `scripts/mcu.sh` runs it in CI).
 Images from `benches/footprint`, built with opt-level "s", fat LTO, one codegen unit,
-panic = abort:
+panic = abort, and without the crate's default `names` feature (no parameter names in the
+tables: a firmware that does not write its EDS leaves them out, some 4 KiB):
 
 - `baseline`: the measuring harness alone (cortex-m-rt start-up, a scripted master fed
   through volatile reads, the stack probe, semihosting output);

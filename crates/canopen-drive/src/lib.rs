@@ -31,6 +31,13 @@
 //! arguments. The [`can_io`] helper moves frames between the drive and any
 //! `embedded_can::nb::Can` driver.
 //!
+//! ## Features
+//!
+//! - `names` (default): parameter and object names in the tables, for the EDS. An MCU build
+//!   that never writes its EDS turns default features off and saves some 4 KiB of flash.
+//! - `eds-object`: the device's EDS as object 1021h (implies `names`).
+//! - `defmt`: `defmt::Format` for the public types.
+//!
 //! ## Panic contract
 //!
 //! No input (frame, time, sample, dictionary write) makes the core panic: the crate denies

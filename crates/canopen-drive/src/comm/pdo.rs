@@ -106,8 +106,6 @@ const fn u32_rw(name: &'static str, default: DefaultValue) -> Var {
 // differ from PDO to PDO (COB-ID, transmission type, mapping) are `DefaultValue::PdoPreset`,
 // computed by `preset` from the index (a description per PDO cost ~10 KiB of flash).
 
-const PRESET_U32: Var = u32_rw("", DefaultValue::PdoPreset);
-
 static RPDO_COMMUNICATION_SUBS: [(u8, Var); 4] = [
     (0, Var::new(HIGHEST_SUB, DataType::Unsigned8).access(Access::Const).default(DefaultValue::Unsigned(5))),
     (1, u32_rw("COB-ID used by RPDO", DefaultValue::PdoPreset)),
@@ -134,7 +132,7 @@ static TPDO_COMMUNICATION_SUBS: [(u8, Var); 6] = [
     (6, Var::new("SYNC start value", DataType::Unsigned8).access(Access::ReadWrite)),
 ];
 
-const MAPPING_ENTRY: Var = Var { name: "Mapping entry", ..PRESET_U32 };
+const MAPPING_ENTRY: Var = u32_rw("Mapping entry", DefaultValue::PdoPreset);
 
 static MAPPING_SUBS: [(u8, Var); 9] = [
     (

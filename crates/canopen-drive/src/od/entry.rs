@@ -245,6 +245,15 @@ pub enum DefaultValue {
     PdoPreset,
 }
 
+/// `name` with the `names` feature, else "" (the string then stays out of the image).
+const fn kept(name: &'static str) -> &'static str {
+    if cfg!(feature = "names") {
+        name
+    } else {
+        ""
+    }
+}
+
 /// One value of the dictionary: a VAR, or one sub-index of an ARRAY or RECORD.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -273,7 +282,7 @@ impl Var {
     /// A read-only entry of type `data_type` with default zero, no limits, not mappable.
     pub const fn new(name: &'static str, data_type: DataType) -> Self {
         Var {
-            name,
+            name: kept(name),
             data_type,
             access: Access::ReadOnly,
             pdo: PdoMapping::No,
@@ -382,7 +391,7 @@ pub struct Object {
 impl Object {
     /// A VAR object.
     pub const fn var(index: u16, name: &'static str, var: Var) -> Self {
-        Object { index, name, kind: Kind::Var(var), base: 0, number: 0 }
+        Object { index, name: kept(name), kind: Kind::Var(var), base: 0, number: 0 }
     }
     /// An ARRAY object with a read-only sub 0 holding `len`.
     /// In a `static` or `const` table `&Var::new(..)` is a `'static` reference.
@@ -390,7 +399,7 @@ impl Object {
         let sub0 = Var::new("Highest sub-index supported", DataType::Unsigned8)
             .access(Access::Const)
             .default(DefaultValue::Unsigned(len as u64));
-        Object { index, name, kind: Kind::Array { sub0, element, len }, base: 0, number: 0 }
+        Object { index, name: kept(name), kind: Kind::Array { sub0, element, len }, base: 0, number: 0 }
     }
     /// An ARRAY object with a custom sub 0 (e.g. a writable count).
     pub const fn array_with_sub0(
@@ -400,11 +409,11 @@ impl Object {
         sub0: Var,
         element: &'static Var,
     ) -> Self {
-        Object { index, name, kind: Kind::Array { sub0, element, len }, base: 0, number: 0 }
+        Object { index, name: kept(name), kind: Kind::Array { sub0, element, len }, base: 0, number: 0 }
     }
     /// A RECORD object; `subs` sorted by sub-index, sub 0 included.
     pub const fn record(index: u16, name: &'static str, subs: &'static [(u8, Var)]) -> Self {
-        Object { index, name, kind: Kind::Record(subs), base: 0, number: 0 }
+        Object { index, name: kept(name), kind: Kind::Record(subs), base: 0, number: 0 }
     }
 
     /// The same object with an instance number for its EDS name.
