@@ -65,6 +65,16 @@ def reset(node, heartbeats, simulation_objects):
     return node
 
 
+def assert_no_block_transfer(node, device_name):
+    """A manual that documents expedited and segmented SDO only: a block upload is refused with
+    "command specifier not valid", a segmented upload of the same entry (1008h) works."""
+    with pytest.raises(canopen.SdoAbortedError) as error:
+        with node.sdo.open(0x1008, 0, "rb", block_transfer=True) as f:
+            f.read()
+    assert error.value.code == 0x05040001
+    assert node.sdo[0x1008].raw == device_name
+
+
 def abort_code(action):
     with pytest.raises(canopen.SdoAbortedError) as error:
         action()

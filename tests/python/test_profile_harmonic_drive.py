@@ -19,7 +19,8 @@ import pytest
 from canopen.objectdictionary import datatypes as dt
 
 from conftest import NODE_ID, DriveProcess, Recorder, binary_path
-from profile_support import abort_code, assert_matches_manual, reset, statusword, wait_until
+from profile_support import (abort_code, assert_matches_manual, assert_no_block_transfer, reset, statusword,
+                             wait_until)
 
 PROFILE = "harmonic-drive"
 
@@ -638,10 +639,4 @@ def test_velocities_are_motor_rpm_and_accelerations_rpm_per_second(actuator):
 
 
 def test_sdo_block_transfer_is_not_offered(actuator):
-    # The manual documents expedited and segmented SDO only: a block upload is refused with
-    # "command specifier not valid", a segmented upload of the same entry works.
-    with pytest.raises(canopen.SdoAbortedError) as error:
-        with actuator.sdo.open(0x1008, 0, "rb", block_transfer=True) as f:
-            f.read()
-    assert error.value.code == 0x05040001
-    assert actuator.sdo[0x1008].raw == "RSF-5B-30"
+    assert_no_block_transfer(actuator, "RSF-5B-30")

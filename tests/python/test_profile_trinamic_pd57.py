@@ -19,7 +19,8 @@ import pytest
 from canopen.objectdictionary import datatypes as dt
 
 from conftest import NODE_ID, DriveProcess, Recorder, binary_path
-from profile_support import abort_code, assert_matches_manual, reset, statusword, wait_until
+from profile_support import (abort_code, assert_matches_manual, assert_no_block_transfer, reset, statusword,
+                             wait_until)
 
 PROFILE = "trinamic-pd57"
 
@@ -762,10 +763,4 @@ def test_cst_target_torque_in_milliamps(pd57, network):
 
 
 def test_sdo_block_transfer_is_not_offered(pd57):
-    # The manual documents expedited and segmented SDO only: a block upload is refused with
-    # "command specifier not valid", a segmented upload of the same entry works.
-    with pytest.raises(canopen.SdoAbortedError) as error:
-        with pd57.sdo.open(0x1008, 0, "rb", block_transfer=True) as f:
-            f.read()
-    assert error.value.code == 0x05040001
-    assert pd57.sdo[0x1008].raw == "PD57/60-1378"
+    assert_no_block_transfer(pd57, "PD57/60-1378")

@@ -340,6 +340,22 @@ pub(crate) const fn pdo_mapping(first: u32, second: u32) -> [(u8, Var); 4] {
     ]
 }
 
+/// The CiA 402 pre-defined mapping of PDOs 1–4 in three-entry mapping records (RPDOs:
+/// controlword, then mode / pp target / pv target; TPDOs: statusword, then the displays).
+pub(crate) static CIA402_RPDO_MAPPING: [[(u8, Var); 4]; 4] = [
+    pdo_mapping(0x6040_0010, 0),
+    pdo_mapping(0x6040_0010, 0x6060_0008),
+    pdo_mapping(0x6040_0010, 0x607A_0020),
+    pdo_mapping(0x6040_0010, 0x60FF_0020),
+];
+/// See [`CIA402_RPDO_MAPPING`].
+pub(crate) static CIA402_TPDO_MAPPING: [[(u8, Var); 4]; 4] = [
+    pdo_mapping(0x6041_0010, 0),
+    pdo_mapping(0x6041_0010, 0x6061_0008),
+    pdo_mapping(0x6041_0010, 0x6064_0020),
+    pdo_mapping(0x6041_0010, 0x606C_0020),
+];
+
 /// The PDO records 1400h–1403h, 1600h–1603h, 1800h–1803h and 1A00h–1A03h (lay them out with
 /// [`canopen_drive::od::layout`]).
 pub(crate) const fn pdo_records(

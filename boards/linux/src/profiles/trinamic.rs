@@ -81,9 +81,9 @@ use canopen_drive::wire::lss::BitTiming;
 use canopen_drive_sim::motor::{MotorParams, Zone};
 
 use super::{
-    bit_timing_index, communication_entry, default_of, highest, pdo_mapping, pdo_records, profile_entry, ro,
+    bit_timing_index, communication_entry, default_of, highest, pdo_records, profile_entry, ro,
     rpdo_communication, rw, tpdo_communication, u, value_of, var, BoardDictionary, BoardProfile, Environment,
-    Firmware, ProfileName, Update,
+    Firmware, ProfileName, Update, CIA402_RPDO_MAPPING, CIA402_TPDO_MAPPING,
 };
 use crate::board_objects::{
     simulated_faults, simulated_inputs, simulated_load, ValueRule, PROFILE_SIMULATION,
@@ -263,28 +263,16 @@ static RPDO_COMMUNICATION: [[(u8, Var); 3]; 4] = [
     rpdo_communication(0x400, 0xFF),
     rpdo_communication(0x500, 0xFE),
 ];
-static RPDO_MAPPING: [[(u8, Var); 4]; 4] = [
-    pdo_mapping(0x6040_0010, 0),
-    pdo_mapping(0x6040_0010, 0x6060_0008),
-    pdo_mapping(0x6040_0010, 0x607A_0020),
-    pdo_mapping(0x6040_0010, 0x60FF_0020),
-];
 static TPDO_COMMUNICATION: [[(u8, Var); 6]; 4] = [
     tpdo_communication(0x180, 0xFF),
     tpdo_communication(0x280, 0xFF),
     tpdo_communication(0x380, 0x01),
     tpdo_communication(0x480, 0x01),
 ];
-static TPDO_MAPPING: [[(u8, Var); 4]; 4] = [
-    pdo_mapping(0x6041_0010, 0),
-    pdo_mapping(0x6041_0010, 0x6061_0008),
-    pdo_mapping(0x6041_0010, 0x6064_0020),
-    pdo_mapping(0x6041_0010, 0x606C_0020),
-];
 
 /// The PDO records: 1400h–1403h, 1600h–1603h, 1800h–1803h, 1A00h–1A03h.
 pub static PDOS: [Object; 16] =
-    layout(pdo_records(&RPDO_COMMUNICATION, &RPDO_MAPPING, &TPDO_COMMUNICATION, &TPDO_MAPPING));
+    layout(pdo_records(&RPDO_COMMUNICATION, &CIA402_RPDO_MAPPING, &TPDO_COMMUNICATION, &CIA402_TPDO_MAPPING));
 
 // --- Value rules, defaults, configuration -----------------------------------------------
 

@@ -226,13 +226,12 @@ impl ProfilePosition {
             let period = i64::from(max) - i64::from(min) + 1;
             user = i64::from(min) + (user - i64::from(min)).rem_euclid(period);
         }
-        let offset = i64::from(od.load(input.slots.home_offset));
-        let low = i64::from(od.load(input.slots.software_position_limit_min)) - offset;
-        let high = i64::from(od.load(input.slots.software_position_limit_max)) - offset;
         let mut limited = false;
-        if low <= high && !(low..=high).contains(&user) {
-            user = user.clamp(low, high);
-            limited = true;
+        if let Some((low, high)) = super::slots::software_limits(od, input.slots) {
+            if !(low..=high).contains(&user) {
+                user = user.clamp(low, high);
+                limited = true;
+            }
         }
         let internal = input.factors.to_internal(user * sign).saturating_add(input.origin);
         SetPoint { user, internal, limited, blend: input.controlword & 0x0200 != 0 }

@@ -122,9 +122,8 @@ pub struct Profile {
     cascade: Option<Cascade>,
     active_mode: i8,
     /// The mode 6061h shows: [`Self::active_mode`], or the manufacturer-specific value whose
-    /// direct mode runs as it (then [`Self::direct`]).
+    /// direct mode runs as it (the two differ only then).
     display_mode: i8,
-    direct: bool,
     /// Velocity demand (increments/s) of the velocity ramps (pv, stops outside pp).
     velocity: Ramp,
     /// Torque demand (‰).
@@ -219,7 +218,6 @@ impl Profile {
             cascade: None,
             active_mode: 0,
             display_mode: 0,
-            direct: false,
             velocity: Ramp::default(),
             torque: Ramp::default(),
             pp: ProfilePosition::new(&config, 0),
@@ -540,7 +538,6 @@ impl Profile {
             let direct = self.config.manufacturer_mode(requested);
             self.display_mode = requested;
             self.active_mode = direct.map_or(requested, DirectMode::cyclic_mode);
-            self.direct = direct.is_some();
             self.mode_changed = true;
             self.pp.reset(actual, actual_user);
             self.homing.reset(actual);
@@ -913,12 +910,9 @@ impl Profile {
                 return Some(TravelLimit::NegativeSwitch);
             }
         }
-        let offset = i64::from(od.load(self.slots.home_offset));
-        let low = i64::from(od.load(self.slots.software_position_limit_min)) - offset;
-        let high = i64::from(od.load(self.slots.software_position_limit_max)) - offset;
-        match low <= high {
-            true if actual_user > high => Some(TravelLimit::PositiveSoftware),
-            true if actual_user < low => Some(TravelLimit::NegativeSoftware),
+        match super::slots::software_limits(od, &self.slots) {
+            Some((_, high)) if actual_user > high => Some(TravelLimit::PositiveSoftware),
+            Some((low, _)) if actual_user < low => Some(TravelLimit::NegativeSoftware),
             _ => None,
         }
     }
@@ -1049,7 +1043,9 @@ impl Profile {
         let (period_ticks, tolerance_ticks) = self.cycle_timing(od);
         let cycle = match self.config.cyclic.cycle_start {
             // A direct mode: the target at every tick.
-            _ if self.direct => Cycle { sync: true, fresh: true, period_ticks: 1, tolerance_ticks: u32::MAX },
+            _ if self.display_mode != self.active_mode => {
+                Cycle { sync: true, fresh: true, period_ticks: 1, tolerance_ticks: u32::MAX }
+            }
             CycleStart::Sync => {
                 Cycle { sync: input.cycle.sync, fresh: input.cycle.fresh, period_ticks, tolerance_ticks }
             }
