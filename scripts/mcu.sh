@@ -54,15 +54,17 @@ for target in thumbv7em-none-eabihf thumbv6m-none-eabi; do
 done
 
 if [ -f boards/b-g431b-esc1/Cargo.toml ]; then
-    step "boards/b-g431b-esc1: firmware for thumbv7em (embassy-stm32): STM32G474CE variant linked, STM32G431CB checked"
-    # The board's own STM32G431CB (128 KiB) cannot hold the full drive yet (docs/footprint.md):
-    # it is compiled and linted; the pin-compatible STM32G474CE variant is built and linked.
-    (cd boards/b-g431b-esc1 && CARGO_TARGET_DIR="$firmware_target/b-g431b-esc1" \
-        cargo clippy --release -- -D warnings)
-    (cd boards/b-g431b-esc1 && CARGO_TARGET_DIR="$firmware_target/b-g431b-esc1" \
-        cargo clippy --release --no-default-features --features stm32g474ce -- -D warnings)
-    (cd boards/b-g431b-esc1 && CARGO_TARGET_DIR="$firmware_target/b-g431b-esc1" \
-        cargo build --release --no-default-features --features stm32g474ce)
+    step "boards/b-g431b-esc1: firmware for thumbv7em (embassy-stm32): the STM32G431CB (csp, csv, cst, pv, tq) and the STM32G474CE variant (every mode)"
+    # The board's own STM32G431CB (128 KiB) holds the drive without pp, hm, ip, vl and the touch
+    # probe (boards/b-g431b-esc1/README.md); the pin-compatible STM32G474CE runs every mode.
+    for features in "" "--no-default-features --features stm32g474ce"; do
+        # shellcheck disable=SC2086 # two words of cargo arguments
+        (cd boards/b-g431b-esc1 && CARGO_TARGET_DIR="$firmware_target/b-g431b-esc1" \
+            cargo clippy --release $features -- -D warnings)
+        # shellcheck disable=SC2086
+        (cd boards/b-g431b-esc1 && CARGO_TARGET_DIR="$firmware_target/b-g431b-esc1" \
+            cargo build --release $features)
+    done
 fi
 
 step "python-canopen against the firmware in QEMU (embassy on mps2-an386, then the bare-interrupt firmware and the thumbv6m build)"

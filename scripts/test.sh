@@ -30,6 +30,13 @@ cargo clippy --workspace --all-targets -- -D warnings
 step "cargo test"
 cargo test --workspace
 
+step "the optional modes (features pp, hm, ip, vl, touch-probe): the core without them, and with each alone"
+cargo clippy -p canopen-drive --no-default-features --all-targets -- -D warnings
+cargo test -p canopen-drive --no-default-features --test modes
+for feature in pp hm ip vl touch-probe; do
+    cargo test -p canopen-drive --no-default-features --features "$feature" --test modes
+done
+
 step "robustness: fault injection, 24 h simulated soak, hostile configuration (docs/robustness.md)"
 SOAK_HOURS=24 CARGO_PROFILE_DEV_OPT_LEVEL=2 \
     cargo test -p canopen-drive-tests --test robustness -- --nocapture
@@ -41,6 +48,7 @@ step "no_std builds of the core"
 for target in thumbv6m-none-eabi thumbv7em-none-eabihf riscv32imac-unknown-none-elf; do
     cargo build -p canopen-drive --target "$target"
     cargo build -p canopen-drive --target "$target" --features eds-object
+    cargo build -p canopen-drive --target "$target" --no-default-features
     cargo clippy -p canopen-drive --target "$target" -- -D warnings
 done
 

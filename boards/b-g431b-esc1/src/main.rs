@@ -15,11 +15,10 @@
 //! current loop, the encoder/hall decoding and the hardware fault inputs. Flash with
 //! `cargo run --release` (probe-rs over the on-board ST-LINK).
 //!
-//! Known limit: the full drive needs about 210 KiB of flash with this firmware, and
-//! constructing a `Drive` tens of KiB of stack (docs/footprint.md): more than the
-//! STM32G431CB's 128 KiB / 32 KiB. The default build (feature `stm32g431cb`) compiles but does
-//! not link until the core shrinks; the feature `stm32g474ce` builds the same firmware for the
-//! pin-compatible STM32G474CE (512 KiB / 128 KiB), which CI links.
+//! Modes: the STM32G431CB's 128 KiB hold the drive with csp, csv, cst, pv and tq (the
+//! default build, about 108 KiB; 6502h lists those); the trajectory planner of pp and hm does
+//! not fit besides. The feature `stm32g474ce` builds the same firmware for the pin-compatible
+//! STM32G474CE (512 KiB / 128 KiB) with every mode. README.md has the numbers.
 #![no_std]
 #![no_main]
 
@@ -67,7 +66,11 @@ unsafe fn UART4() {
 fn device_info() -> DeviceInfo {
     DeviceInfo {
         device_name: "canopen-drive B-G431B-ESC1",
-        hardware_version: "B-G431B-ESC1 (STM32G431CB)",
+        hardware_version: if cfg!(feature = "stm32g474ce") {
+            "B-G431B-ESC1 (STM32G474CE)"
+        } else {
+            "B-G431B-ESC1 (STM32G431CB)"
+        },
         vendor_name: "canopen-drive project",
         ..DeviceInfo::servo_drive()
     }

@@ -15,6 +15,7 @@ use heapless::Deque;
 
 use crate::cia402::cyclic::CycleStart;
 use crate::cia402::fsa::State;
+use crate::cia402::objects::{IMPLEMENTED_MODES, STANDARD_MODES};
 use crate::cia402::profile::Profile;
 use crate::cia402::ProfileConfig;
 use crate::comm::emcy::{code, EmcyProducer, ErrorRegister};
@@ -413,6 +414,10 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
         }
         if pdo::count(config.pdo_objects) != (RPDOS, TPDOS) {
             return Err(ConfigError::PdoCount);
+        }
+        let missing = config.device.drive_modes & STANDARD_MODES & !IMPLEMENTED_MODES;
+        if missing != 0 {
+            return Err(ConfigError::ModesNotBuilt { modes: missing });
         }
         Ok(())
     }

@@ -190,7 +190,8 @@ impl HomingConfig {
     pub fn supports(&self, method: i8) -> bool {
         let offered = (1..=63).contains(&method) && self.standard_methods & (1u64 << method) != 0;
         method == 0
-            || (matches!(method, 1..=14 | 17..=30 | 33..=36) && offered)
+            || (matches!(method, 1..=14 | 17..=30 | 33..=35) && offered)
+            || (method == 36 && super::PROBE && offered)
             || (method == 37 && self.method_37 && offered)
             || (method < 0 && self.vendor(method).is_some())
     }

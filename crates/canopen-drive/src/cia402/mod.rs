@@ -12,6 +12,11 @@
 //! - [`objects`]: the profile objects with their defaults and value rules.
 //! - [`profile`]: the run-time of one axis: FSA, option-code stops, modes (pv, tq), statusword,
 //!   actual values and the demand for the power stage.
+//!
+//! pv, tq, csp, csv and cst are in every build; pp, hm, ip, vl and the touch probe are cargo
+//! features (all on by default, see [`PP`] …): a mode left out is missing from
+//! [`objects::IMPLEMENTED_MODES`], its objects from [`objects::PROFILE`] and its code from the
+//! image (its run-time calls sit behind these constants and fold away).
 
 pub mod config;
 pub mod cyclic;
@@ -25,6 +30,17 @@ pub mod probe;
 pub mod profile;
 mod slots;
 pub mod vl;
+
+/// Whether this build runs profile position mode (cargo feature `pp`).
+pub const PP: bool = cfg!(feature = "pp");
+/// Whether this build runs homing mode (cargo feature `hm`).
+pub const HM: bool = cfg!(feature = "hm");
+/// Whether this build runs interpolated position mode (cargo feature `ip`).
+pub const IP: bool = cfg!(feature = "ip");
+/// Whether this build runs velocity mode (cargo feature `vl`).
+pub const VL: bool = cfg!(feature = "vl");
+/// Whether this build has the touch probe function (cargo feature `touch-probe`).
+pub const PROBE: bool = cfg!(feature = "touch-probe");
 
 pub use config::{
     DirectMode, MotorSpeedUnit, OptionCodes, ProfileConfig, StatusFlag, TorqueUnit, TravelLimit, Units,

@@ -202,17 +202,22 @@ pub mod mode_bit {
     pub const CYCLIC_TORQUE: u32 = 1 << 9;
 }
 
-/// The modes this crate runs: all of CiA 402's: pp, vl, pv, tq, hm, ip, csp, csv, cst (the default of
-/// [`crate::od::DeviceInfo::drive_modes`]).
-pub const IMPLEMENTED_MODES: u32 = mode_bit::PROFILE_POSITION
-    | super::vl::MODE_BIT
-    | mode_bit::PROFILE_VELOCITY
+/// The modes this build runs (the default of [`crate::od::DeviceInfo::drive_modes`], and the
+/// most it may list): pv, tq, csp, csv and cst always; pp, vl, hm and ip with their cargo
+/// features (all of CiA 402's modes by default).
+pub const IMPLEMENTED_MODES: u32 = mode_bit::PROFILE_VELOCITY
     | mode_bit::PROFILE_TORQUE
-    | mode_bit::HOMING
-    | mode_bit::INTERPOLATED_POSITION
     | mode_bit::CYCLIC_POSITION
     | mode_bit::CYCLIC_VELOCITY
-    | mode_bit::CYCLIC_TORQUE;
+    | mode_bit::CYCLIC_TORQUE
+    | if super::PP { mode_bit::PROFILE_POSITION } else { 0 }
+    | if super::VL { super::vl::MODE_BIT } else { 0 }
+    | if super::HM { mode_bit::HOMING } else { 0 }
+    | if super::IP { mode_bit::INTERPOLATED_POSITION } else { 0 };
+
+/// The mode bits of 6502h that CiA 402 assigns (bits 0–9; the others are reserved or the
+/// manufacturer's).
+pub const STANDARD_MODES: u32 = 0x03FF;
 
 /// A value the master commands (rw, RPDO-mappable).
 const fn command(index: u16, name: &'static str, data_type: DataType) -> Object {
@@ -276,6 +281,7 @@ const POSITION_RANGE_SUBS: [(u8, Var); 3] = [
     (2, bound("Max position range limit", i32::MAX)),
 ];
 /// 6099h.
+#[cfg(feature = "hm")]
 const HOMING_SPEED_SUBS: [(u8, Var); 3] = [
     (0, highest_sub(2)),
     (
@@ -311,20 +317,39 @@ const DIGITAL_OUTPUT_SUBS: [(u8, Var); 3] = [
     (2, Var::new("Bit mask", DataType::Unsigned32).access(Access::ReadWrite)),
 ];
 
-/// The profile objects, ascending.
-pub static PROFILE: [Object; 104] = layout([
+/// How many objects [`PROFILE`] has in this build (104 with every mode, 72 with none of the
+/// optional ones).
+pub const PROFILE_LEN: usize = 72
+    + if super::PP { 6 } else { 0 }
+    + if super::HM { 4 } else { 0 }
+    + if super::IP { 3 } else { 0 }
+    + if super::VL { 9 } else { 0 }
+    + if super::PROBE { 10 } else { 0 };
+
+/// The profile objects, ascending: those of the modes this build runs (cargo features `pp`,
+/// `hm`, `ip`, `vl`, `touch-probe`).
+pub static PROFILE: [Object; PROFILE_LEN] = layout([
     option_code(ABORT_CONNECTION_OPTION_CODE, "Abort connection option code", 1),
     actual(ERROR_CODE, "Error code", DataType::Unsigned16),
     command(CONTROLWORD, "Controlword", DataType::Unsigned16),
     actual(STATUSWORD, "Statusword", DataType::Unsigned16),
+    #[cfg(feature = "vl")]
     super::vl::VL_TARGET_VELOCITY_OBJECT,
+    #[cfg(feature = "vl")]
     super::vl::VL_VELOCITY_DEMAND_OBJECT,
+    #[cfg(feature = "vl")]
     super::vl::VL_VELOCITY_ACTUAL_VALUE_OBJECT,
+    #[cfg(feature = "vl")]
     super::vl::VL_VELOCITY_MIN_MAX_AMOUNT_OBJECT,
+    #[cfg(feature = "vl")]
     super::vl::VL_VELOCITY_ACCELERATION_OBJECT,
+    #[cfg(feature = "vl")]
     super::vl::VL_VELOCITY_DECELERATION_OBJECT,
+    #[cfg(feature = "vl")]
     super::vl::VL_VELOCITY_QUICK_STOP_OBJECT,
+    #[cfg(feature = "vl")]
     super::vl::VL_SET_POINT_FACTOR_OBJECT,
+    #[cfg(feature = "vl")]
     super::vl::VL_DIMENSION_FACTOR_OBJECT,
     option_code(QUICK_STOP_OPTION_CODE, "Quick stop option code", 2),
     option_code(SHUTDOWN_OPTION_CODE, "Shutdown option code", 0),
@@ -383,7 +408,9 @@ pub static PROFILE: [Object; 104] = layout([
         DataType::Unsigned32,
         DefaultValue::Unsigned(u32::MAX as u64),
     ),
+    #[cfg(feature = "pp")]
     setting(PROFILE_VELOCITY, "Profile velocity", DataType::Unsigned32, DefaultValue::Unsigned(10_000)),
+    #[cfg(feature = "pp")]
     setting(END_VELOCITY, "End velocity", DataType::Unsigned32, DefaultValue::Zero),
     setting(
         PROFILE_ACCELERATION,
@@ -403,6 +430,7 @@ pub static PROFILE: [Object; 104] = layout([
         DataType::Unsigned32,
         DefaultValue::Unsigned(50_000),
     ),
+    #[cfg(feature = "pp")]
     parameter(MOTION_PROFILE_TYPE, "Motion profile type", DataType::Integer16, DefaultValue::Zero),
     setting(TORQUE_SLOPE, "Torque slope", DataType::Unsigned32, DefaultValue::Unsigned(10_000)),
     parameter(TORQUE_PROFILE_TYPE, "Torque profile type", DataType::Integer16, DefaultValue::Zero),
@@ -418,15 +446,20 @@ pub static PROFILE: [Object; 104] = layout([
     ),
     ratio(GEAR_RATIO, "Gear ratio", &ratio_entry("Gear ratio")),
     ratio(FEED_CONSTANT, "Feed constant", &ratio_entry("Feed constant")),
+    #[cfg(feature = "hm")]
     setting(HOMING_METHOD, "Homing method", DataType::Integer8, DefaultValue::Zero),
+    #[cfg(feature = "hm")]
     Object::record(HOMING_SPEEDS, "Homing speeds", &HOMING_SPEED_SUBS),
+    #[cfg(feature = "hm")]
     setting(
         HOMING_ACCELERATION,
         "Homing acceleration",
         DataType::Unsigned32,
         DefaultValue::Unsigned(100_000),
     ),
+    #[cfg(feature = "pp")]
     parameter(PROFILE_JERK_USE, "Profile jerk use", DataType::Unsigned8, DefaultValue::Unsigned(1)),
+    #[cfg(feature = "pp")]
     Object::array(
         PROFILE_JERK,
         "Profile jerk",
@@ -438,22 +471,36 @@ pub static PROFILE: [Object; 104] = layout([
     command(0x60B0, "Position offset", DataType::Integer32),
     command(0x60B1, "Velocity offset", DataType::Integer32),
     command(0x60B2, "Torque offset", DataType::Integer16),
+    #[cfg(feature = "touch-probe")]
     parameter(TOUCH_PROBE_FUNCTION, "Touch probe function", DataType::Unsigned16, DefaultValue::Zero),
+    #[cfg(feature = "touch-probe")]
     actual(TOUCH_PROBE_STATUS, "Touch probe status", DataType::Unsigned16),
+    #[cfg(feature = "touch-probe")]
     actual(TOUCH_PROBE_1_POSITIVE_EDGE, "Touch probe 1 positive edge", DataType::Integer32),
+    #[cfg(feature = "touch-probe")]
     actual(TOUCH_PROBE_1_NEGATIVE_EDGE, "Touch probe 1 negative edge", DataType::Integer32),
+    #[cfg(feature = "touch-probe")]
     actual(TOUCH_PROBE_2_POSITIVE_EDGE, "Touch probe 2 positive edge", DataType::Integer32),
+    #[cfg(feature = "touch-probe")]
     actual(TOUCH_PROBE_2_NEGATIVE_EDGE, "Touch probe 2 negative edge", DataType::Integer32),
+    #[cfg(feature = "ip")]
     super::ip::SUB_MODE_SELECT_OBJECT,
+    #[cfg(feature = "ip")]
     super::ip::DATA_RECORD_OBJECT,
     super::ip::TIME_PERIOD_OBJECT,
+    #[cfg(feature = "ip")]
     super::ip::DATA_CONFIGURATION_OBJECT,
     setting(MAX_ACCELERATION, "Max acceleration", DataType::Unsigned32, DefaultValue::Unsigned(100_000)),
     setting(MAX_DECELERATION, "Max deceleration", DataType::Unsigned32, DefaultValue::Unsigned(100_000)),
+    #[cfg(feature = "touch-probe")]
     actual(TOUCH_PROBE_1_POSITIVE_EDGE_COUNTER, "Touch probe 1 positive edge counter", DataType::Unsigned16),
+    #[cfg(feature = "touch-probe")]
     actual(TOUCH_PROBE_1_NEGATIVE_EDGE_COUNTER, "Touch probe 1 negative edge counter", DataType::Unsigned16),
+    #[cfg(feature = "touch-probe")]
     actual(TOUCH_PROBE_2_POSITIVE_EDGE_COUNTER, "Touch probe 2 positive edge counter", DataType::Unsigned16),
+    #[cfg(feature = "touch-probe")]
     actual(TOUCH_PROBE_2_NEGATIVE_EDGE_COUNTER, "Touch probe 2 negative edge counter", DataType::Unsigned16),
+    #[cfg(feature = "hm")]
     Object::array_with_sub0(
         SUPPORTED_HOMING_METHODS,
         "Supported homing methods",
@@ -465,6 +512,7 @@ pub static PROFILE: [Object; 104] = layout([
             .access(Access::Const)
             .default(DefaultValue::Device(DeviceField::HomingMethods)),
     ),
+    #[cfg(feature = "pp")]
     parameter(POSITIONING_OPTION_CODE, "Positioning option code", DataType::Unsigned16, DefaultValue::Zero),
     actual(FOLLOWING_ERROR_ACTUAL_VALUE, "Following error actual value", DataType::Integer32),
     parameter(MAX_SLIPPAGE, "Max slippage", DataType::Integer32, DefaultValue::Zero),
@@ -515,7 +563,7 @@ pub fn check_write<const B: usize>(
             let mode = raw as u8 as i8;
             let supported = od.get::<u32>(SUPPORTED_DRIVE_MODES, 0).unwrap_or(0);
             mode == 0
-                || (1..=10).contains(&mode) && supported & (1 << (mode - 1)) != 0
+                || (1..=10).contains(&mode) && supported & IMPLEMENTED_MODES & (1 << (mode - 1)) != 0
                 || config.manufacturer_mode(mode).is_some()
         }
         // Trapezoidal and jerk-limited profiles (motion::ProfileType).
@@ -527,7 +575,7 @@ pub fn check_write<const B: usize>(
         // Relative option 00/01/10 only; change-immediately and request-response options are not
         // implemented (testable item 100).
         POSITIONING_OPTION_CODE => raw & !0x0003 == 0 && raw & 0x0003 != 0x0003,
-        0x6042..=0x604C => return super::vl::check_write(index, sub, data),
+        0x6042..=0x604C if super::VL => return super::vl::check_write(index, sub, data),
         _ => return super::factor::check_write(index, sub, raw),
     };
     if valid {

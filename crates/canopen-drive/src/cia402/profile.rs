@@ -364,6 +364,9 @@ impl Profile {
 
     /// A 60C1h/60C4h entry was written (SDO or RPDO): the ip buffer takes it.
     pub fn ip_written<const B: usize>(&mut self, od: &mut Dictionary<B>, index: u16, sub: u8) {
+        if !super::IP {
+            return;
+        }
         match self.ip.written(od, index, sub) {
             Written::Overflow(_) => self.ip_overflow = true,
             Written::Cleared | Written::Reorganised => self.ip_overflow = false,
@@ -374,7 +377,9 @@ impl Profile {
     /// Stored parameters were loaded: the ip buffer takes its configuration again.
     pub fn parameters_loaded<const B: usize>(&mut self, od: &Dictionary<B>) {
         self.factors = None;
-        self.ip.reload(od);
+        if super::IP {
+            self.ip.reload(od);
+        }
     }
 
     /// Whether a homing run has completed (statusword bit 12 in hm).
@@ -424,45 +429,9 @@ impl Profile {
             }
         }
 
-        // Touch probe (digest §10.6): latched in increments, reported in user units.
-        let probe = self.probe.tick(
-            od.load(self.slots.touch_probe_function),
-            sample.inputs,
-            sample.position,
-            &sample.captures,
-        );
-        od.store(self.slots.touch_probe_status, probe.status);
-        let to_user = |p: i32| saturate(factors.to_user(i64::from(p) - self.origin) * position_sign);
-        let latched = [
-            (Changed::PROBE_1_POSITIVE, TOUCH_PROBE_1_POSITIVE_EDGE, probe.positive[0]),
-            (Changed::PROBE_1_NEGATIVE, TOUCH_PROBE_1_NEGATIVE_EDGE, probe.negative[0]),
-            (Changed::PROBE_2_POSITIVE, TOUCH_PROBE_2_POSITIVE_EDGE, probe.positive[1]),
-            (Changed::PROBE_2_NEGATIVE, TOUCH_PROBE_2_NEGATIVE_EDGE, probe.negative[1]),
-        ];
-        for (flag, index, position) in latched {
-            if probe.changed.contains(flag) {
-                let _ = od.set::<i32>(index, 0, to_user(position));
-            }
-        }
-        if probe.changed.contains(Changed::COUNTERS) {
-            let counters = [
-                TOUCH_PROBE_1_POSITIVE_EDGE_COUNTER,
-                TOUCH_PROBE_1_NEGATIVE_EDGE_COUNTER,
-                TOUCH_PROBE_2_POSITIVE_EDGE_COUNTER,
-                TOUCH_PROBE_2_NEGATIVE_EDGE_COUNTER,
-            ];
-            for (index, count) in counters.into_iter().zip(self.probe.counts()) {
-                let _ = od.set::<u16>(index, 0, count);
-            }
-        }
-        // Probe 1's latch of this tick, for touch-probe homing (method 36).
-        let probe_1 = if probe.changed.contains(Changed::PROBE_1_POSITIVE) {
-            Some(i64::from(probe.positive[0]))
-        } else if probe.changed.contains(Changed::PROBE_1_NEGATIVE) {
-            Some(i64::from(probe.negative[0]))
-        } else {
-            None
-        };
+        // Touch probe (digest §10.6): latched in increments, reported in user units. Probe 1's
+        // latch of this tick is for touch-probe homing (method 36).
+        let probe_1 = if super::PROBE { self.tick_probe(od, sample, &factors, position_sign) } else { None };
 
         // Faults: a new one is latched and reported; it stays until a fault reset succeeds.
         let hardware = fault_code(sample.faults);
@@ -592,13 +561,13 @@ impl Profile {
         let vmax = velocity_limit(od, &self.slots, &factors);
         let max_acceleration = factors.limit_to_internal(od.load(self.slots.max_acceleration));
         if let Some(kind) = stop.filter(|_| !self.stopping) {
-            if self.active_mode == vl::MODE {
+            if super::VL && self.active_mode == vl::MODE {
                 self.vl.stop(kind);
             } else if matches!(self.active_mode, mode::CYCLIC_POSITION | mode::INTERPOLATED_POSITION) {
                 self.limiter.stop(&TickLimits::new(vmax, max_acceleration, stop_deceleration(kind), hz));
-            } else if self.active_mode == mode::HOMING {
+            } else if super::HM && self.active_mode == mode::HOMING {
                 self.homing.stop(stop_deceleration(kind), &pp::limits(od, &self.slots, &factors));
-            } else if self.position_mode() {
+            } else if super::PP && self.position_mode() {
                 self.pp.stop(stop_deceleration(kind), &pp::limits(od, &self.slots, &factors));
             } else {
                 self.velocity = Ramp { value: i64::from(sample.velocity), remainder: 0 };
@@ -650,16 +619,20 @@ impl Profile {
                 self.limiter.tick(0, &TickLimits::new(vmax, max_acceleration, max_deceleration, hz));
                 Setpoint::Position(self.limiter.position() as i32)
             }
-            Some(_) if self.active_mode == vl::MODE => self.run_vl(od, &factors, controlword, sample, dt),
-            Some(_) if self.active_mode == mode::HOMING => {
+            Some(_) if super::VL && self.active_mode == vl::MODE => {
+                self.run_vl(od, &factors, controlword, sample, dt)
+            }
+            Some(_) if super::HM && self.active_mode == mode::HOMING => {
                 Setpoint::Position(self.homing.step_stop().position_demand())
             }
-            Some(_) if self.position_mode() => Setpoint::Position(self.pp.step_stop().position_demand()),
+            Some(_) if super::PP && self.position_mode() => {
+                Setpoint::Position(self.pp.step_stop().position_demand())
+            }
             Some(kind) => {
                 self.velocity.toward(0, stop_deceleration(kind), dt);
                 Setpoint::Velocity(self.velocity.value as i32)
             }
-            None if self.active_mode == mode::HOMING => {
+            None if super::HM && self.active_mode == mode::HOMING => {
                 // 607Fh/6080h and 60C5h/60C6h limit homing as every mode (digest §9.5).
                 let speeds = (
                     factors.limit_to_internal(od.load(self.slots.homing_speed_switch)).min(vmax),
@@ -716,10 +689,10 @@ impl Profile {
                     Setpoint::None
                 }
             }
-            None if drive_enabled && self.active_mode == vl::MODE => {
+            None if super::VL && drive_enabled && self.active_mode == vl::MODE => {
                 self.run_vl(od, &factors, controlword, sample, dt)
             }
-            None if drive_enabled && self.active_mode == mode::INTERPOLATED_POSITION => {
+            None if super::IP && drive_enabled && self.active_mode == mode::INTERPOLATED_POSITION => {
                 let halt_kind =
                     StopKind::halt_or_fault(od.load(self.slots.halt_option)).unwrap_or(StopKind::SlowDown);
                 let limits = TickLimits::new(vmax, max_acceleration, max_deceleration, hz);
@@ -744,7 +717,7 @@ impl Profile {
                 let input = CyclicInput { cycle, halt, factors: &factors, dt, limits, halt_limits };
                 self.run_cyclic(od, &input, &mut report)
             }
-            None if drive_enabled && self.position_mode() => {
+            None if super::PP && drive_enabled && self.position_mode() => {
                 let inputs = pp::Inputs {
                     od,
                     factors: &factors,
@@ -950,6 +923,54 @@ impl Profile {
         let effort = factors.velocity_to_user(i64::from(output.velocity)) * factors.velocity_sign();
         od.store(self.slots.control_effort, saturate(effort));
         Setpoint::Torque(output.torque)
+    }
+
+    /// One tick of the touch probe: latches, 60B9h, the edge positions and counters. Returns
+    /// probe 1's latch of this tick (increments).
+    fn tick_probe<const B: usize>(
+        &mut self,
+        od: &mut Dictionary<B>,
+        sample: &Sample,
+        factors: &Factors,
+        position_sign: i64,
+    ) -> Option<i64> {
+        let probe = self.probe.tick(
+            od.load(self.slots.touch_probe_function),
+            sample.inputs,
+            sample.position,
+            &sample.captures,
+        );
+        od.store(self.slots.touch_probe_status, probe.status);
+        let to_user = |p: i32| saturate(factors.to_user(i64::from(p) - self.origin) * position_sign);
+        let latched = [
+            (Changed::PROBE_1_POSITIVE, TOUCH_PROBE_1_POSITIVE_EDGE, probe.positive[0]),
+            (Changed::PROBE_1_NEGATIVE, TOUCH_PROBE_1_NEGATIVE_EDGE, probe.negative[0]),
+            (Changed::PROBE_2_POSITIVE, TOUCH_PROBE_2_POSITIVE_EDGE, probe.positive[1]),
+            (Changed::PROBE_2_NEGATIVE, TOUCH_PROBE_2_NEGATIVE_EDGE, probe.negative[1]),
+        ];
+        for (flag, index, position) in latched {
+            if probe.changed.contains(flag) {
+                let _ = od.set::<i32>(index, 0, to_user(position));
+            }
+        }
+        if probe.changed.contains(Changed::COUNTERS) {
+            let counters = [
+                TOUCH_PROBE_1_POSITIVE_EDGE_COUNTER,
+                TOUCH_PROBE_1_NEGATIVE_EDGE_COUNTER,
+                TOUCH_PROBE_2_POSITIVE_EDGE_COUNTER,
+                TOUCH_PROBE_2_NEGATIVE_EDGE_COUNTER,
+            ];
+            for (index, count) in counters.into_iter().zip(self.probe.counts()) {
+                let _ = od.set::<u16>(index, 0, count);
+            }
+        }
+        if probe.changed.contains(Changed::PROBE_1_POSITIVE) {
+            Some(i64::from(probe.positive[0]))
+        } else if probe.changed.contains(Changed::PROBE_1_NEGATIVE) {
+            Some(i64::from(probe.negative[0]))
+        } else {
+            None
+        }
     }
 
     /// One tick of velocity mode (digest §15; [`vl`]), also while a stop ramps it down.

@@ -171,6 +171,12 @@ pub enum ConfigError {
         /// Index of the entry.
         index: u16,
     },
+    /// 6502h ([`DeviceInfo::drive_modes`]) lists CiA 402 modes this build does not run (their
+    /// cargo features are off, [`crate::cia402::objects::IMPLEMENTED_MODES`]).
+    ModesNotBuilt {
+        /// The 6502h bits of the missing modes.
+        modes: u32,
+    },
     /// An [`EntryOverride`] that changes the size or the storage of its entry.
     EntrySize {
         /// Index of the entry.
