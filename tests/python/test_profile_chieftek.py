@@ -122,12 +122,6 @@ DEVIATIONS = {
     ((0x607D, 0), "type"): "CiA 301: UNSIGNED8",
     ((0x6099, 0), "type"): "CiA 301: UNSIGNED8",
     ((0x60FE, 0), "type"): "CiA 301: UNSIGNED8",
-    # Zero defaults that would stop the simulated drive at once: the core's stay.
-    ((0x6065, 0), "default"): "a window of 0 would be a following error (a fault) at the first move",
-    ((0x6066, 0), "default"): "see 6065h",
-    ((0x6067, 0), "default"): "a window of 0 needs the exact position",
-    ((0x6068, 0), "default"): "see 6067h",
-    ((0x6073, 0), "default"): "a peak current of 0 would forbid any torque",
     # The core decides what can be mapped.
     **{((index, 0), "pdo"): "not mappable in the core" for index in
        (0x6065, 0x6066, 0x6067, 0x6068, 0x606D, 0x606E, 0x606F, 0x6070, 0x607C, 0x6080, 0x60B8, 0x6502)},
@@ -144,10 +138,24 @@ def test_eds_imports_and_matches_the_manuals_object_list(eds_file):
 
 # --- Helpers ----------------------------------------------------------------------------------
 
+# What commissioning sets before the drive moves: the manual's defaults of these are 0
+# (following error window and time-out, position window and time, peak current in 0.1 %).
+COMMISSIONING = ((0x6065, 10_000), (0x6066, 100), (0x6067, 100), (0x6068, 10), (0x6073, 3000))
+
+
 @pytest.fixture
-def cpc(node, heartbeats):
-    """The drive after NMT reset node (every parameter at its default), simulation cleared."""
+def factory(node, heartbeats):
+    """The drive after NMT reset node (every parameter at the manual's default), simulation
+    cleared."""
     return reset(node, heartbeats, (SIM_FAULTS, SIM_INPUTS, SIM_LOAD))
+
+
+@pytest.fixture
+def cpc(factory):
+    """The drive at its defaults, then commissioned (COMMISSIONING)."""
+    for index, value in COMMISSIONING:
+        factory.sdo[index].raw = value
+    return factory
 
 
 def wait_until(predicate, timeout=5.0):
@@ -166,6 +174,28 @@ def slow_motion(node):
     node.sdo[0x6081].raw = 100_000
     node.sdo[0x6083].raw = 400_000
     node.sdo[0x6084].raw = 400_000
+
+
+# --- §2.3 defaults -------------------------------------------------------------------------------
+
+def test_zero_defaults_until_commissioned(factory):
+    for index, _ in COMMISSIONING:
+        assert factory.sdo[index].raw == 0, hex(index)
+    # Peak current 0: a torque command reaches nothing.
+    enable(factory, 4)
+    factory.sdo[0x6071].raw = 100
+    time.sleep(0.1)
+    assert factory.sdo[0x6074].raw == 0
+    factory.sdo[0x6071].raw = 0
+    # Following error window 0 (time-out 0): the first move is a following error, a fault.
+    factory.sdo[0x6040].raw = 0
+    enable(factory, 1)
+    factory.sdo[0x607A].raw = 10_000
+    factory.sdo[0x6040].raw = 0x1F
+    wait_until(lambda: statusword(factory) & 0x4F == 0x08, timeout=1)
+    assert factory.sdo[0x603F].raw == 0x8611
+    factory.sdo[0x6040].raw = 0x80  # fault reset
+    wait_until(lambda: statusword(factory) & 0x4F == 0x40, timeout=1)
 
 
 # --- §3.2, §4.3, §5 -------------------------------------------------------------------------------

@@ -175,9 +175,6 @@ MANUAL = COMMUNICATION + MANUFACTURER + PROFILE_AREA
 
 DEVIATIONS = {
     ((0x1016, 0), "access"): "the core's number of consumer entries is constant",
-    ((0x6071, 0), "type"): "CiA 402: INTEGER16",
-    ((0x6077, 0), "type"): "CiA 402: INTEGER16",
-    ((0x60B2, 0), "type"): "CiA 402: INTEGER16",
     ((0x6061, 0), "access"): "read-only (CiA 402); the manual's table says rw",
     ((0x6041, 0), "access"): "read-only (CiA 402); the manual's table says rw",
     ((0x608F, 2), "access"): "the core's factor group lets 608Fh sub 2 be written",

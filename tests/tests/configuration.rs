@@ -115,12 +115,25 @@ fn standard_entries_may_be_described_as_the_device_documents() {
 
 #[test]
 fn a_description_override_must_keep_the_entrys_size() {
+    // 6072h reserves no wider storage; 6071h does (4 bytes), but not for another signedness
+    // or beyond its reserve.
     static WIDER: [EntryOverride; 1] =
-        [EntryOverride::of(&PROFILE, 0x6071, 0).data_type(DataType::Integer32)];
+        [EntryOverride::of(&PROFILE, 0x6072, 0).data_type(DataType::Unsigned32)];
+    static UNSIGNED_WIDER: [EntryOverride; 1] =
+        [EntryOverride::of(&PROFILE, 0x6071, 0).data_type(DataType::Unsigned32)];
+    static BEYOND_RESERVE: [EntryOverride; 1] =
+        [EntryOverride::of(&PROFILE, 0x6071, 0).data_type(DataType::Integer64)];
     static CONSTANT: [EntryOverride; 1] = [EntryOverride::of(&PROFILE, 0x6084, 0).access(Access::Const)];
     static NARROWER: [EntryOverride; 1] =
         [EntryOverride::new(0x6081, 0, Var::new("Profile velocity", DataType::Unsigned16))];
-    for (overrides, index) in [(&WIDER, 0x6071), (&CONSTANT, 0x6084), (&NARROWER, 0x6081)] {
+    let refused = [
+        (&WIDER, 0x6072),
+        (&UNSIGNED_WIDER, 0x6071),
+        (&BEYOND_RESERVE, 0x6071),
+        (&CONSTANT, 0x6084),
+        (&NARROWER, 0x6081),
+    ];
+    for (overrides, index) in refused {
         let config = Config { entry_overrides: overrides, ..Config::new(NODE) };
         assert_eq!(Drive::new(config).err(), Some(ConfigError::EntrySize { index, sub: 0 }));
     }

@@ -8,8 +8,11 @@ mod common;
 use common::profile::*;
 use common::*;
 
+use canopen_drive::cia402::objects::PROFILE;
 use canopen_drive::cia402::{TorqueUnit, Units, VelocityUnit};
 use canopen_drive::hal::Setpoint;
+use canopen_drive::od::eds::EdsInfo;
+use canopen_drive::od::{DataType, EntryOverride};
 use canopen_drive::Duration;
 
 fn torque_bench(torque: TorqueUnit) -> Bench {
@@ -69,6 +72,62 @@ fn torque_in_milliamps_converts_through_the_rated_current() {
     bench.advance(Duration::from_millis(20));
     assert_eq!(node(&mut bench).demand.setpoint, Setpoint::Torque(-350));
     assert_ne!(sw(&mut bench) & 0x0400, 0);
+}
+
+/// The torque values as INTEGER32 (drives with torques in mA, e.g. the Harmonic Drive
+/// actuators): an entry override widens them into the 4 bytes the table reserves.
+static WIDE_TORQUES: [EntryOverride; 5] = [
+    EntryOverride::of(&PROFILE, 0x6071, 0).data_type(DataType::Integer32),
+    EntryOverride::of(&PROFILE, 0x6074, 0).data_type(DataType::Integer32),
+    EntryOverride::of(&PROFILE, 0x6077, 0).data_type(DataType::Integer32),
+    EntryOverride::of(&PROFILE, 0x6078, 0).data_type(DataType::Integer32),
+    EntryOverride::of(&PROFILE, 0x60B2, 0).data_type(DataType::Integer32),
+];
+
+#[test]
+fn torque_objects_widened_to_integer32_carry_values_beyond_16_bits() {
+    let mut bench = Bench::with_config(|mut config| {
+        config.profile.units = Units { torque: TorqueUnit::MilliAmps, ..Units::CIA_402 };
+        config.entry_overrides = &WIDE_TORQUES;
+        config
+    });
+    write(&mut bench, 0x6075, &100_000u32.to_le_bytes()); // 100 A rated
+    write(&mut bench, 0x6087, &1_000_000u32.to_le_bytes());
+    enable(&mut bench, 4);
+    // 40 A = 400 ‰: a value INTEGER16 cannot hold, written and read as four bytes.
+    write(&mut bench, 0x6071, &40_000i32.to_le_bytes());
+    bench.advance(Duration::from_millis(50));
+    assert_eq!(node(&mut bench).demand.setpoint, Setpoint::Torque(400));
+    assert_eq!(read_i32(&mut bench, 0x6071), 40_000);
+    assert_eq!(read_i32(&mut bench, 0x6074), 40_000);
+    let sample = node(&mut bench).motor.sample().torque;
+    bench.advance(Duration::from_millis(1));
+    let actual = read_i32(&mut bench, 0x6077);
+    assert!((actual - 100 * i32::from(sample)).abs() <= 2000, "6077h {actual} mA, motor {sample} ‰");
+    assert_eq!(read_i32(&mut bench, 0x6078), actual);
+    let r = bench.sdo1(&req(0x40, 0x6077, 0, [0; 4]));
+    assert_eq!(r[0], 0x43, "a four-byte upload");
+    write(&mut bench, 0x6071, &(-40_000i32).to_le_bytes());
+    bench.advance(Duration::from_millis(50));
+    assert_eq!(node(&mut bench).demand.setpoint, Setpoint::Torque(-400));
+    assert_eq!(read_i32(&mut bench, 0x6074), -40_000);
+    // Two bytes are now too few (0607 0013h); the limits still hold in ‰ (6072h = 300 ‰).
+    let r = bench.sdo1(&req(0x2B, 0x6071, 0, [0x10, 0x27, 0, 0]));
+    assert_eq!(r, abort(0x6071, 0, 0x0607_0013));
+    write(&mut bench, 0x6072, &300u16.to_le_bytes());
+    bench.advance(Duration::from_millis(20));
+    assert_eq!(node(&mut bench).demand.setpoint, Setpoint::Torque(-300));
+    assert_eq!(read_i32(&mut bench, 0x6074), -30_000);
+    // PDO mapping and the EDS see 32 bits.
+    write_sub(&mut bench, 0x1800, 1, &0xC000_0185u32.to_le_bytes());
+    write_sub(&mut bench, 0x1A00, 0, &[0]);
+    let r = bench.sdo1(&req(0x23, 0x1A00, 1, 0x6077_0010u32.to_le_bytes()));
+    assert_eq!(r, abort(0x1A00, 1, 0x0604_0041));
+    write_sub(&mut bench, 0x1A00, 1, &0x6077_0020u32.to_le_bytes());
+    let mut eds = String::new();
+    node(&mut bench).drive.write_eds(&EdsInfo::default(), &mut eds).unwrap();
+    let section = &eds[eds.find("\n[6071]\n").unwrap()..];
+    assert!(section[..section[1..].find("\n[").unwrap()].contains("DataType=0x0004\n"), "{section}");
 }
 
 #[test]

@@ -12,7 +12,10 @@
 //! a quick stop runs (§4.3.2.1); a following error is a fault (§7.2, 6066h); one buffered
 //! set-point (§6.3.3). The manual's defaults of the motion objects (607Fh/6080h 1 500 000,
 //! 6081h 2 000 000, 6083h/6084h 1 000 000, 6085h 100 000 000, 6087h 100 000, 6098h 35,
-//! 6099h 20 000, 609Ah 20 000, 60B8h 1). Units: counts, counts/s, 0.1 % (the core's).
+//! 6099h 20 000, 609Ah 20 000, 60B8h 1), and its zeros of 6065h–6068h and 6073h: until a
+//! master commissions those (following error and position windows, peak current), a move
+//! faults with a following error and no torque reaches the motor, as on the real drive. Units:
+//! counts, counts/s, 0.1 % (the core's).
 //!
 //! The touch probe edge counters 60D5h–60D8h (§9.2) and the supported homing methods 60E3h
 //! (§8.3: the 44 methods below, cpc methods first) are the core's.
@@ -40,9 +43,7 @@
 //! # Not reproduced
 //!
 //! The manufacturer modes −1 (direct voltage: the power stage's) and −5/−6 ("for cpc internal
-//! use only"), and the manual's zero defaults of
-//! 6065h/6066h/6067h/6068h/6073h (the drive would fault at the first move, or not move: the
-//! core's defaults stay).
+//! use only").
 //!
 //! The option codes take −1, dynamic brake (`OptionCodes::DYNAMIC_BRAKE`: the windings are
 //! shorted until the shaft is at rest, `Demand::dynamic_brake`), and 605Dh 0 (the drive function
@@ -121,7 +122,7 @@ pub const STANDARD_METHODS: [i8; 32] = [
 ];
 
 /// The manual's defaults (§2.3) where they differ from the core's.
-pub static DEFAULTS: [DefaultOverride; 19] = [
+pub static DEFAULTS: [DefaultOverride; 24] = [
     default_of(0x6007, 0, s(0)),
     default_of(0x605C, 0, s(0)),
     default_of(0x605E, 0, s(0)),
@@ -143,6 +144,14 @@ pub static DEFAULTS: [DefaultOverride; 19] = [
     // The drive has no max acceleration/deceleration objects: the core's are set high.
     default_of(0x60C5, 0, u(100_000_000)),
     default_of(0x60C6, 0, u(100_000_000)),
+    // Zero until the drive is commissioned: a following error window of 0 faults at the first
+    // move (FFFF FFFFh switches it off), a position window of 0 needs the exact position, a
+    // peak current of 0 allows no torque. A master sets them first, as on the real drive.
+    default_of(0x6065, 0, u(0)),
+    default_of(0x6066, 0, u(0)),
+    default_of(0x6067, 0, u(0)),
+    default_of(0x6068, 0, u(0)),
+    default_of(0x6073, 0, u(0)),
 ];
 
 /// The manual's types of standard entries where they differ from CiA 301/402's (same sizes):

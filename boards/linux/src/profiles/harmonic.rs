@@ -57,14 +57,12 @@
 //! # Not reproduced
 //!
 //! 2050h sub 8 position scaler (−5/−6 and teach mode 3 do not compute it: the manual gives no
-//! formula), 1016h sub 0 writable (the manual does not say what a write does; the core's count
-//! is a constant), and the manual's INTEGER32 of 6071h/6077h/60B2h (a wider type than CiA
-//! 402's INTEGER16: an entry's size is fixed by the table's layout at compile time, so a
-//! description override must keep it; a drive with 32-bit torques needs the core's torque
-//! objects declared 32-bit). Saving after homing stores the whole "all" group, so values the
+//! formula) and 1016h sub 0 writable (the manual does not say what a write does; the core's
+//! count is a constant). Saving after homing stores the whole "all" group, so values the
 //! master changed without storing are kept too; the actuator saves the homing parameters only.
 //!
-//! The manual's types of 605Bh–605Eh (UNSIGNED16) and 6082h (INTEGER32), 6084h read-only (kept
+//! The manual's types of 605Bh–605Eh (UNSIGNED16), 6082h and the torques 6071h, 6077h, 60B2h
+//! (INTEGER32: the core's torque entries reserve four bytes for this), 6084h read-only (kept
 //! equal to 6083h by the firmware), 1016h with one entry and 1018h without sub 4 are the core's
 //! entry descriptions overridden ([`DESCRIPTIONS`]).
 
@@ -342,7 +340,7 @@ pub static DEFAULTS: [DefaultOverride; 16] = [
 /// codes 605Bh–605Eh UNSIGNED16 (§5.1.2–5.1.5), the end velocity 6082h INTEGER32 (§6.1.12; a
 /// magnitude for the core, so negative values are refused), and the profile deceleration 6084h
 /// read-only (§6.1.14: the firmware keeps it equal to the profile acceleration 6083h).
-pub static DESCRIPTIONS: [EntryOverride; 8] = [
+pub static DESCRIPTIONS: [EntryOverride; 11] = [
     // One heartbeat consumer entry (§3.1.11), an identity without a serial number (§3.1.13).
     communication_entry(0x1016, 0).default(u(1)),
     communication_entry(0x1018, 0).default(u(3)),
@@ -352,6 +350,10 @@ pub static DESCRIPTIONS: [EntryOverride; 8] = [
     profile_entry(0x605E, 0).data_type(Unsigned16),
     profile_entry(0x6082, 0).data_type(Integer32).limits_signed(0, i32::MAX as i64),
     profile_entry(0x6084, 0).access(Access::ReadOnly),
+    // Torques in mA as INTEGER32 (§11.1.3–11.1.5): widened into the 4 bytes the core reserves.
+    profile_entry(0x6071, 0).data_type(Integer32),
+    profile_entry(0x6077, 0).data_type(Integer32),
+    profile_entry(0x60B2, 0).data_type(Integer32),
 ];
 
 /// 1029h sub 1: 0 = Stopped, 1 = stay (§3.1.14).

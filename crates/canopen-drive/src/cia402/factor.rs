@@ -201,13 +201,13 @@ impl Factors {
         u32::try_from(self.velocity_to_internal(i64::from(user))).unwrap_or(u32::MAX)
     }
 
-    /// A torque (or current) in ‰ of rated to the torque unit, saturated to INTEGER16.
-    pub fn torque_to_user(&self, permille: i64) -> i16 {
-        let user = match self.torque_unit {
+    /// A torque (or current) in ‰ of rated to the torque unit (the entry it is stored in
+    /// saturates it to its width: INTEGER16, or what a firmware widened it to).
+    pub fn torque_to_user(&self, permille: i64) -> i64 {
+        match self.torque_unit {
             TorqueUnit::PerMilleOfRated => permille,
             TorqueUnit::MilliAmps => scale(permille, u128::from(self.rated_current), 1000),
-        };
-        user.clamp(i64::from(i16::MIN), i64::from(i16::MAX)) as i16
+        }
     }
 
     /// A torque (or current) in the torque unit to ‰ of rated (0 in mA while 6075h is 0).
@@ -413,7 +413,8 @@ mod tests {
         assert_eq!(ma.torque_to_internal(1000), 500);
         assert_eq!(ma.torque_to_user(500), 1000);
         assert_eq!(ma.torque_to_internal(-3), -2); // −1.5 ‰ rounds away from zero
-        assert_eq!(ma.torque_to_user(i64::from(i16::MAX)), i16::MAX);
+                                                   // Beyond INTEGER16: the entry saturates (or holds it, widened to INTEGER32).
+        assert_eq!(ma.torque_to_user(i64::from(i16::MAX)), 65_534);
         let unknown = Factors { rated_current: 0, ..ma };
         assert_eq!((unknown.torque_to_internal(1000), unknown.torque_to_user(700)), (0, 0));
         let permille = Factors::default();

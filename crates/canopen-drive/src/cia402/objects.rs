@@ -229,6 +229,17 @@ const fn actual(index: u16, name: &'static str, data_type: DataType) -> Object {
     Object::var(index, name, Var::new(name, data_type).pdo(PdoMapping::Tpdo))
 }
 
+/// A torque value (INTEGER16, ‰ of rated or the torque unit) that a firmware may widen to
+/// INTEGER32 ([`Var::capacity`](crate::od::Var#structfield.capacity): 4 bytes of storage), as
+/// drives with torques in mA do: a set-point the master commands (rw, RPDO-mappable) or a
+/// value the drive reports (ro, TPDO-mappable).
+const fn torque(index: u16, name: &'static str, command: bool) -> Object {
+    let var = Var::new(name, DataType::Integer16).capacity(4);
+    let var =
+        if command { var.access(Access::ReadWrite).pdo(PdoMapping::Rpdo) } else { var.pdo(PdoMapping::Tpdo) };
+    Object::var(index, name, var)
+}
+
 /// A parameter the master may also map into an RPDO (rw), with its default.
 const fn setting(index: u16, name: &'static str, data_type: DataType, default: DefaultValue) -> Object {
     Object::var(
@@ -382,14 +393,14 @@ pub static PROFILE: [Object; PROFILE_LEN] = layout([
     parameter(VELOCITY_WINDOW_TIME, "Velocity window time", DataType::Unsigned16, DefaultValue::Zero),
     parameter(VELOCITY_THRESHOLD, "Velocity threshold", DataType::Unsigned16, DefaultValue::Zero),
     parameter(VELOCITY_THRESHOLD_TIME, "Velocity threshold time", DataType::Unsigned16, DefaultValue::Zero),
-    command(TARGET_TORQUE, "Target torque", DataType::Integer16),
+    torque(TARGET_TORQUE, "Target torque", true),
     setting(MAX_TORQUE, "Max torque", DataType::Unsigned16, DefaultValue::Unsigned(3000)),
     setting(MAX_CURRENT, "Max current", DataType::Unsigned16, DefaultValue::Unsigned(3000)),
-    actual(TORQUE_DEMAND, "Torque demand", DataType::Integer16),
+    torque(TORQUE_DEMAND, "Torque demand", false),
     parameter(0x6075, "Motor rated current", DataType::Unsigned32, DefaultValue::Zero),
     parameter(0x6076, "Motor rated torque", DataType::Unsigned32, DefaultValue::Zero),
-    actual(TORQUE_ACTUAL_VALUE, "Torque actual value", DataType::Integer16),
-    actual(CURRENT_ACTUAL_VALUE, "Current actual value", DataType::Integer16),
+    torque(TORQUE_ACTUAL_VALUE, "Torque actual value", false),
+    torque(CURRENT_ACTUAL_VALUE, "Current actual value", false),
     actual(DC_LINK_VOLTAGE, "DC link circuit voltage", DataType::Unsigned32),
     command(TARGET_POSITION, "Target position", DataType::Integer32),
     Object::record(POSITION_RANGE_LIMIT, "Position range limit", &POSITION_RANGE_SUBS),
@@ -470,7 +481,7 @@ pub static PROFILE: [Object; PROFILE_LEN] = layout([
     ),
     command(0x60B0, "Position offset", DataType::Integer32),
     command(0x60B1, "Velocity offset", DataType::Integer32),
-    command(0x60B2, "Torque offset", DataType::Integer16),
+    torque(TORQUE_OFFSET, "Torque offset", true),
     #[cfg(feature = "touch-probe")]
     parameter(TOUCH_PROBE_FUNCTION, "Touch probe function", DataType::Unsigned16, DefaultValue::Zero),
     #[cfg(feature = "touch-probe")]

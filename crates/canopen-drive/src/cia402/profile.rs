@@ -416,8 +416,8 @@ impl Profile {
         let velocity_user = factors.velocity_to_user(i64::from(sample.velocity)) * velocity_sign;
         od.store(self.slots.velocity_actual, saturate(velocity_user));
         let torque_user = factors.torque_to_user(i64::from(sample.torque));
-        od.store(self.slots.torque_actual, torque_user);
-        od.store(self.slots.current_actual, torque_user);
+        od.store_int(self.slots.torque_actual, torque_user);
+        od.store_int(self.slots.current_actual, torque_user);
         od.store(self.slots.dc_link_voltage, sample.dc_link_millivolts);
         // 60FDh bits 0..3: negative/positive limit, home, interlock (the hal uses the same bits).
         od.store(self.slots.digital_inputs, sample.inputs.bits() & 0x0F);
@@ -760,7 +760,7 @@ impl Profile {
         od.store(self.slots.following_error_actual, saturate(following_error));
         let velocity_demand = factors.velocity_to_user(self.velocity_demand()) * velocity_sign;
         od.store(self.slots.velocity_demand, saturate(velocity_demand));
-        od.store(self.slots.torque_demand, factors.torque_to_user(self.torque.value));
+        od.store_int(self.slots.torque_demand, factors.torque_to_user(self.torque.value));
         let following =
             self.position_mode() && drive_enabled && self.following_error(od, following_error, now);
         if following && self.config.following_error_fault && self.fault.is_none() {
@@ -1076,7 +1076,7 @@ impl Profile {
             }
         };
         let velocity_offset = factors.velocity_to_internal(i64::from(od.load(self.slots.velocity_offset)));
-        let torque_offset = factors.torque_to_internal(i64::from(od.load(self.slots.torque_offset)));
+        let torque_offset = factors.torque_to_internal(od.load_int(self.slots.torque_offset));
         // The offsets reach the power stage as feed-forward: within the limits of the demand
         // (DESIGN invariant 2), as the set-point is.
         let max_torque = i64::from(od.load(self.slots.max_torque).min(od.load(self.slots.max_current)));
@@ -1091,7 +1091,7 @@ impl Profile {
             mode::CYCLIC_VELOCITY => factors.velocity_to_internal(
                 i64::from(od.load(self.slots.target_velocity)) * factors.velocity_sign(),
             ),
-            _ => factors.torque_to_internal(i64::from(od.load(self.slots.target_torque))),
+            _ => factors.torque_to_internal(od.load_int(self.slots.target_torque)),
         };
         let stream = self.interpolator.tick(&cycle, target, bridge);
         let lost = stream.missed > u32::from(self.config.cyclic.max_missed_cycles);
@@ -1203,7 +1203,7 @@ impl Profile {
                 let target = if halt {
                     0
                 } else {
-                    factors.torque_to_internal(i64::from(od.load(self.slots.target_torque))).clamp(-max, max)
+                    factors.torque_to_internal(od.load_int(self.slots.target_torque)).clamp(-max, max)
                 };
                 self.torque.toward(target, od.load(self.slots.torque_slope), dt);
                 // The slope (6087h) shapes changes of the target; a limit lowered below the
@@ -1299,7 +1299,7 @@ impl Profile {
                 let target = self
                     .factors
                     .unwrap_or_default()
-                    .torque_to_internal(i64::from(od.load(self.slots.target_torque)));
+                    .torque_to_internal(od.load_int(self.slots.target_torque));
                 self.torque.value == target.clamp(-max, max)
             }
             _ => false,

@@ -8,23 +8,48 @@
 //! the same either way.
 
 use super::objects::*;
-use crate::od::{Dictionary, Slot};
+use crate::od::{Dictionary, IntSlot, Slot};
+
+/// The slot type of an entry: `int` for a signed integer of the entry's own width (an entry a
+/// firmware may widen), a scalar type otherwise.
+macro_rules! slot_type {
+    (int) => { IntSlot };
+    ($t:ty) => { Slot<$t> };
+}
+
+macro_rules! slot_lookup {
+    (int, $index:expr, $sub:expr) => {
+        IntSlot::lookup($index, $sub)
+    };
+    ($t:ty, $index:expr, $sub:expr) => {
+        Slot::<$t>::lookup($index, $sub)
+    };
+}
+
+macro_rules! slot_resolve {
+    (int, $od:expr, $index:expr, $sub:expr) => {
+        $od.int_slot($index, $sub)
+    };
+    ($t:ty, $od:expr, $index:expr, $sub:expr) => {
+        $od.slot::<$t>($index, $sub)
+    };
+}
 
 macro_rules! slots {
-    ($($field:ident: $t:ty = $index:expr, $sub:expr;)*) => {
+    ($($field:ident: $t:tt = $index:expr, $sub:expr;)*) => {
         /// The per-tick entries (name: type = index, sub-index).
         #[derive(Clone, Copy, Debug)]
         pub(crate) struct Slots {
-            $(pub $field: Slot<$t>,)*
+            $(pub $field: slot_type!($t),)*
         }
 
         impl Slots {
             /// Slots that look their entry up on every access.
-            pub const UNRESOLVED: Slots = Slots { $($field: Slot::lookup($index, $sub),)* };
+            pub const UNRESOLVED: Slots = Slots { $($field: slot_lookup!($t, $index, $sub),)* };
 
             /// Every slot resolved in `od`.
             pub fn resolve<const B: usize>(od: &Dictionary<B>) -> Slots {
-                Slots { $($field: od.slot($index, $sub),)* }
+                Slots { $($field: slot_resolve!($t, od, $index, $sub),)* }
             }
 
             /// Whether every slot resolved to a stored value of its type (a test of the
@@ -43,10 +68,10 @@ slots! {
     modes_of_operation: i8 = MODES_OF_OPERATION, 0;
     target_position: i32 = TARGET_POSITION, 0;
     target_velocity: i32 = TARGET_VELOCITY, 0;
-    target_torque: i16 = TARGET_TORQUE, 0;
+    target_torque: int = TARGET_TORQUE, 0;
     position_offset: i32 = POSITION_OFFSET, 0;
     velocity_offset: i32 = VELOCITY_OFFSET, 0;
-    torque_offset: i16 = TORQUE_OFFSET, 0;
+    torque_offset: int = TORQUE_OFFSET, 0;
     touch_probe_function: u16 = TOUCH_PROBE_FUNCTION, 0;
     digital_outputs_physical: u32 = DIGITAL_OUTPUTS, 1;
     digital_outputs_mask: u32 = DIGITAL_OUTPUTS, 2;
@@ -105,15 +130,15 @@ slots! {
     position_actual_internal: i32 = POSITION_ACTUAL_INTERNAL_VALUE, 0;
     position_actual: i32 = POSITION_ACTUAL_VALUE, 0;
     velocity_actual: i32 = VELOCITY_ACTUAL_VALUE, 0;
-    torque_actual: i16 = TORQUE_ACTUAL_VALUE, 0;
-    current_actual: i16 = CURRENT_ACTUAL_VALUE, 0;
+    torque_actual: int = TORQUE_ACTUAL_VALUE, 0;
+    current_actual: int = CURRENT_ACTUAL_VALUE, 0;
     dc_link_voltage: u32 = DC_LINK_VOLTAGE, 0;
     digital_inputs: u32 = DIGITAL_INPUTS, 0;
     touch_probe_status: u16 = TOUCH_PROBE_STATUS, 0;
     position_demand: i32 = POSITION_DEMAND_VALUE, 0;
     position_demand_internal: i32 = POSITION_DEMAND_INTERNAL_VALUE, 0;
     velocity_demand: i32 = VELOCITY_DEMAND_VALUE, 0;
-    torque_demand: i16 = TORQUE_DEMAND, 0;
+    torque_demand: int = TORQUE_DEMAND, 0;
     following_error_actual: i32 = FOLLOWING_ERROR_ACTUAL_VALUE, 0;
     control_effort: i32 = CONTROL_EFFORT, 0;
 }

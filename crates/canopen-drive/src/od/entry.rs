@@ -272,7 +272,10 @@ pub struct Var {
     pub high: Bound,
     /// Power-on value.
     pub default: DefaultValue,
-    /// Storage in bytes for VISIBLE_STRING, OCTET_STRING, UNICODE_STRING and DOMAIN.
+    /// Storage in bytes for VISIBLE_STRING, OCTET_STRING, UNICODE_STRING and DOMAIN. For a
+    /// numeric type: the bytes its value may take when a firmware widens the entry (an
+    /// [`EntryOverride`](super::EntryOverride) to a larger integer type of the same
+    /// signedness, e.g. a torque as INTEGER32); 0 or its size: not widenable.
     pub capacity: u16,
     /// NMT states in which SDO writes are accepted.
     pub rule: WriteRule,
@@ -320,7 +323,8 @@ impl Var {
         self.high = Bound::Signed(high);
         self
     }
-    /// Sets the storage size of a string or DOMAIN entry.
+    /// Sets the storage size of a string or DOMAIN entry, or the bytes a numeric entry may be
+    /// widened to ([`Var::capacity`](Var#structfield.capacity)).
     pub const fn capacity(mut self, bytes: u16) -> Self {
         self.capacity = bytes;
         self
@@ -343,9 +347,19 @@ impl Var {
             return 0;
         }
         match self.data_type.fixed_size() {
+            Some(n) if n < self.capacity as usize => self.capacity as usize,
             Some(n) => n,
             // A two-byte length prefix, then the capacity.
             None => 2 + self.capacity as usize,
+        }
+    }
+
+    /// Whether the entry may be widened: a numeric entry whose storage is larger than its
+    /// type ([`Var::capacity`](Var#structfield.capacity)).
+    pub const fn is_widenable(&self) -> bool {
+        match self.data_type.fixed_size() {
+            Some(n) => n < self.capacity as usize,
+            None => false,
         }
     }
 }

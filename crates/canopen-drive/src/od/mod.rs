@@ -288,6 +288,32 @@ impl<T: Scalar> Slot<T> {
     }
 }
 
+/// A signed integer entry resolved once, read and written at the width its description has
+/// (an entry a firmware may widen, [`Var::is_widenable`]): [`Dictionary::load_int`] sign-extends,
+/// [`Dictionary::store_int`] saturates to the width. An entry that is not a stored integer
+/// reads 0 and is not written.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct IntSlot {
+    index: u16,
+    /// Store offset, or [`NOT_STORED`] (resolved by lookup).
+    offset: u16,
+    sub: u8,
+    /// Bytes of the value (1–8) when stored.
+    len: u8,
+}
+
+impl IntSlot {
+    /// A slot that resolves `index`/`sub` on every access.
+    pub const fn lookup(index: u16, sub: u8) -> Self {
+        IntSlot { index, sub, offset: NOT_STORED, len: 0 }
+    }
+
+    /// Whether the slot reaches a stored value directly (no lookup per access).
+    pub fn is_stored(&self) -> bool {
+        self.offset != NOT_STORED
+    }
+}
+
 /// The place of a stored numeric value of up to 8 bytes ([`Dictionary::span`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Span {
@@ -747,6 +773,93 @@ impl<const BYTES: usize> Dictionary<BYTES> {
         }
     }
 
+    /// Resolves a signed integer entry for [`load_int`](Self::load_int) /
+    /// [`store_int`](Self::store_int).
+    pub fn int_slot(&self, index: u16, sub: u8) -> IntSlot {
+        let resolved = self.entry(index, sub).ok().and_then(|e| Some((e.offset, self.int_width(&e)?)));
+        match resolved {
+            Some((offset, len)) => IntSlot { index, sub, offset, len },
+            None => IntSlot::lookup(index, sub),
+        }
+    }
+
+    /// The bytes of a stored integer entry (read as signed whatever its description says: a
+    /// firmware's UNSIGNED description of a signed value changes only what the bus sees).
+    fn int_width(&self, entry: &Entry) -> Option<u8> {
+        let n = entry.var.data_type.fixed_size().filter(|n| *n <= 8)?;
+        let integer = entry.var.data_type.is_signed() || entry.var.data_type.is_unsigned();
+        (integer && !entry.var.is_fixed()).then_some(n as u8)
+    }
+
+    /// The value behind `slot`, sign-extended (0 when the entry is not a stored integer).
+    #[inline]
+    pub fn load_int(&self, slot: IntSlot) -> i64 {
+        let start = usize::from(slot.offset);
+        match (slot.offset, slot.len) {
+            (NOT_STORED, _) => self.load_int_other(slot),
+            (_, 2) => self.store.get(start..start + 2).map_or(0, |b| i64::from(<i16 as Scalar>::from_le(b))),
+            (_, 4) => self.store.get(start..start + 4).map_or(0, |b| i64::from(<i32 as Scalar>::from_le(b))),
+            _ => self.load_int_other(slot),
+        }
+    }
+
+    /// [`load_int`](Self::load_int) of a slot to look up, or of a width other than 2 or 4.
+    #[inline(never)]
+    fn load_int_other(&self, slot: IntSlot) -> i64 {
+        let Some((start, n)) = self.int_place(slot) else { return 0 };
+        self.store.get(start..start + usize::from(n)).map_or(0, |bytes| {
+            let raw = bytes.iter().rev().fold(0u64, |value, byte| value << 8 | u64::from(*byte));
+            let shift = 64 - 8 * u32::from(n);
+            ((raw << shift) as i64) >> shift
+        })
+    }
+
+    /// Writes `value` behind `slot`, saturated to the signed range of the entry's width (an
+    /// entry that is not a stored integer is left alone).
+    #[inline]
+    pub fn store_int(&mut self, slot: IntSlot, value: i64) {
+        let start = usize::from(slot.offset);
+        // The common widths as fixed-size copies in place.
+        match (slot.offset, slot.len) {
+            (NOT_STORED, _) => self.store_int_other(slot, value),
+            (_, 2) => {
+                let v = value.clamp(i64::from(i16::MIN), i64::from(i16::MAX)) as i16;
+                if let Some(dst) = self.store.get_mut(start..start + 2) {
+                    Scalar::to_le(v, dst);
+                }
+            }
+            (_, 4) => {
+                let v = value.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32;
+                if let Some(dst) = self.store.get_mut(start..start + 4) {
+                    Scalar::to_le(v, dst);
+                }
+            }
+            _ => self.store_int_other(slot, value),
+        }
+    }
+
+    /// [`store_int`](Self::store_int) of a slot to look up, or of a width other than 2 or 4.
+    #[inline(never)]
+    fn store_int_other(&mut self, slot: IntSlot, value: i64) {
+        let Some((start, n)) = self.int_place(slot) else { return };
+        let max = i64::MAX >> (64 - 8 * u32::from(n));
+        let bytes = value.clamp(-max - 1, max).to_le_bytes();
+        if let Some(dst) = self.store.get_mut(start..start + usize::from(n)) {
+            for (d, s) in dst.iter_mut().zip(bytes) {
+                *d = s;
+            }
+        }
+    }
+
+    /// Where the value behind an [`IntSlot`] lives: its store offset and width.
+    fn int_place(&self, slot: IntSlot) -> Option<(usize, u8)> {
+        if slot.offset != NOT_STORED {
+            return Some((usize::from(slot.offset), slot.len));
+        }
+        let entry = self.entry(slot.index, slot.sub).ok()?;
+        Some((usize::from(entry.offset), self.int_width(&entry)?))
+    }
+
     /// Sets every stored value of the objects in `range` back to its default.
     pub fn reset(&mut self, range: RangeInclusive<u16>) {
         let tables = self.tables;
@@ -914,6 +1027,31 @@ mod tests {
         assert_eq!(od.get::<u8>(0x2001, 0), Ok(3));
         od.reset(0x2001..=0x2001);
         assert_eq!(od.get::<u16>(0x2001, 2), Ok(0xBEEF));
+    }
+
+    #[test]
+    fn int_slots_read_and_write_at_the_entrys_width() {
+        let mut od = dict();
+        // INTEGER24, default −7: sign-extended from three bytes.
+        let s24 = od.int_slot(0x2002, 1);
+        assert!(s24.is_stored());
+        assert_eq!(od.load_int(s24), -7);
+        od.store_int(s24, -8_388_609);
+        assert_eq!(od.load_int(s24), -8_388_608, "saturated to the width");
+        od.store_int(s24, 123_456);
+        assert_eq!(od.get::<u32>(0x2002, 1).ok(), None, "three bytes, not four");
+        assert_eq!(od.load_int(IntSlot::lookup(0x2002, 1)), 123_456, "the lookup answers alike");
+        // An unsigned description of the bytes reads them as signed (the core's meaning).
+        let u16_slot = od.int_slot(0x2001, 1);
+        assert_eq!(od.load_int(u16_slot), -16_657); // 0xBEEF
+        od.store_int(u16_slot, 40_000);
+        assert_eq!(od.get::<u16>(0x2001, 1), Ok(0x7FFF));
+        // Not an integer, or missing: 0, and nothing written.
+        let real = od.int_slot(0x2002, 2);
+        assert!(!real.is_stored());
+        od.store_int(real, 5);
+        assert_eq!((od.load_int(real), od.get::<f32>(0x2002, 2)), (0, Ok(1.5)));
+        assert_eq!(od.load_int(od.int_slot(0x2100, 0)), 0);
     }
 
     #[test]

@@ -10,8 +10,11 @@
 //!
 //! The layout of the value store and the core's own per-tick reads of an entry depend on its
 //! size, so an override must keep it: same fixed size (or the same capacity for a string),
-//! same storage (a constant stays a constant). [`Dictionary::set_entry_overrides`] refuses
-//! anything else with [`ConfigError::EntrySize`]. The bytes of a value are the same under the
+//! same storage (a constant stays a constant). The exception are entries whose table reserves
+//! wider storage ([`Var::is_widenable`]; the core's torque values 6071h, 6074h, 6077h, 6078h and
+//! 60B2h reserve 4 bytes): an integer of the same signedness up to that size, which the core
+//! reads and writes at whatever width the entry has ([`Dictionary::int_slot`]).
+//! [`Dictionary::set_entry_overrides`] refuses anything else with [`ConfigError::EntrySize`]. The bytes of a value are the same under the
 //! old and the new type; only their meaning on the bus changes (an INTEGER16 −1 read through an
 //! UNSIGNED16 description is 65 535).
 //!
@@ -233,7 +236,14 @@ impl<const BYTES: usize> Dictionary<BYTES> {
             let var = o.var.as_ref().ok_or(bad)?;
             let (object, _) = self.object(o.index).ok_or(bad)?;
             let (table, _) = object.sub(o.sub).ok_or(bad)?;
-            if var.data_type.fixed_size() != table.data_type.fixed_size()
+            // Another size only where the table reserved the storage, to an integer of the same
+            // signedness (the core reads such entries whatever their width).
+            let resized = var.data_type.fixed_size() != table.data_type.fixed_size();
+            let widenable = table.is_widenable()
+                && var.data_type.is_signed() == table.data_type.is_signed()
+                && var.data_type.is_unsigned() == table.data_type.is_unsigned()
+                && (var.data_type.is_signed() || var.data_type.is_unsigned());
+            if (resized && !widenable)
                 || var.storage_size() != table.storage_size()
                 || var.is_fixed() != table.is_fixed()
             {
