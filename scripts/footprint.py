@@ -123,8 +123,8 @@ def write_budgets(results):
     lines = [
         "# Footprint budgets checked by scripts/footprint.py (bytes): target image flash static-ram.",
         "# Set from the measured values + 3 % (scripts/footprint.py --update); the issue's goals",
-        "# (thumbv7em: full drive 48 KiB / 8 KiB, 301-only node 13 KiB / 2 KiB) are not reached yet:",
-        "# see docs/footprint.md.",
+        "# (thumbv7em: full drive 48 KiB / 8 KiB, 301-only node 13 KiB / 2 KiB) are met for the full",
+        "# drive's RAM only: see docs/footprint.md.",
     ]
     for (target, image), r in sorted(results.items()):
         if image == "baseline":
@@ -186,10 +186,11 @@ def main():
     table = "\n".join(rows)
     print(table)
 
-    goal_rows = ["| target | image | goal flash / RAM | measured flash / RAM | reached |", "|---|---|---|---|---|"]
+    goal_rows = ["| target | image | goal flash / RAM | measured flash / RAM | reached: flash / RAM |",
+                 "|---|---|---|---|---|"]
     for (target, image), (gf, gr) in GOALS.items():
         r = results[(target, image)]
-        reached = "yes" if r["flash"] <= gf and r["ram"] <= gr else "no"
+        reached = f"{'yes' if r['flash'] <= gf else 'no'} / {'yes' if r['ram'] <= gr else 'no'}"
         goal_rows.append(f"| {target} | {image} | {kib(gf)} / {kib(gr)} | {kib(r['flash'])} / {kib(r['ram'])} | {reached} |")
     goals = "\n".join(goal_rows)
     print()
@@ -219,8 +220,9 @@ tables: a firmware that does not write its EDS leaves them out, some 4 KiB):
 - `node301`: a CiA 301-only node composed from the crate's services (NMT, SDO server with
   expedited / segmented / block transfer, heartbeat, EMCY, SYNC consumer, 4 + 4 PDOs, the
   standard 1xxxh objects; see `benches/footprint/src/node301.rs`);
-- `drive-full`: `Drive::build_in` with `Config::new(5)`, every CiA 402 mode, 4 + 4 PDOs, the default
-  3 KiB dictionary store;
+- `drive-full`: `Drive::build_in` with `Config::new(5)`, every CiA 402 mode, 4 + 4 PDOs, the
+  dictionary store sized to the standard tables (`drive::STANDARD_OD_BYTES`, about 1 KiB; the
+  default `DEFAULT_OD_BYTES` of 3 KiB leaves room for a firmware's own objects);
 - `drive-cyclic`: the same drive built without the crate's optional modes (cargo features
   `pp`, `hm`, `ip`, `vl`, `touch-probe` off): csp, csv, cst, pv and tq, as a drive under a
   motion controller runs them. The session's profile position move is refused there.
@@ -241,7 +243,9 @@ with a granularity of a few dozen bytes.
 
 {goals}
 
-The goals are not reached. Without the optional modes (`drive-cyclic`: cargo features `pp`,
+The flash goals are not reached; the full drive's static RAM is within its goal since the
+dictionary store is sized to the tables (`drive::STANDARD_OD_BYTES` instead of the 3 KiB
+default, −2 KiB) and pp and homing share one trajectory planner (−1.3 KiB). Without the optional modes (`drive-cyclic`: cargo features `pp`,
 `hm`, `ip`, `vl`, `touch-probe` off) the drive takes a little over half the full image's
 flash — the exact trajectory planner of pp and hm and the code of those modes are the
 difference — but the same static RAM (the state of every mode stays in the profile). The

@@ -189,6 +189,8 @@ def test_zero_defaults_until_commissioned(factory):
     factory.sdo[0x6071].raw = 0
     # Following error window 0 (time-out 0): the first move is a following error, a fault.
     factory.sdo[0x6040].raw = 0
+    # (the mode changes only outside Operation enabled: wait for the state first)
+    wait_until(lambda: statusword(factory) & 0x4F == 0x40, timeout=1)
     enable(factory, 1)
     factory.sdo[0x607A].raw = 10_000
     factory.sdo[0x6040].raw = 0x1F

@@ -29,8 +29,8 @@ use canopen_drive::{CanFrame, Duration, Instant};
 use core::mem::MaybeUninit;
 use heapless::Deque;
 
-/// Bytes of the value store (the communication objects and the PDO records need about 1 KiB).
-pub const OD_BYTES: usize = 1024;
+/// Bytes of the value store: exactly what the communication objects and the PDO records need.
+pub const OD_BYTES: usize = canopen_drive::od::storage_bytes(&[&COMMUNICATION, &pdo::DEFAULT_OBJECTS]);
 /// Download staging buffer of the SDO server.
 pub const SDO_BUFFER: usize = 64;
 /// Frames waiting for the CAN controller.

@@ -42,8 +42,9 @@ bind_interrupts!(struct Irqs {
     FDCAN1_IT1 => embassy_stm32::can::IT1InterruptHandler<peripherals::FDCAN1>;
 });
 
-/// The drive of this board: no manufacturer objects yet, 4 + 4 PDOs, parameters in flash.
-pub type BoardDrive = Drive<(), { canopen_drive::drive::DEFAULT_OD_BYTES }, 4, 4, storage::ParameterStore>;
+/// The drive of this board: no manufacturer objects yet (a dictionary store sized to the
+/// standard tables), 4 + 4 PDOs, parameters in flash.
+pub type BoardDrive = Drive<(), { canopen_drive::drive::STANDARD_OD_BYTES }, 4, 4, storage::ParameterStore>;
 
 /// Node-ID until LSS or a stored configuration says otherwise.
 const NODE_ID: u8 = 5;

@@ -61,8 +61,18 @@ const ERROR_CONTROL_LAST: u16 = ERROR_CONTROL_BASE + 127;
 pub const TX_QUEUE: usize = 16;
 /// Bytes the SDO server can stage for one download.
 pub const SDO_BUFFER: usize = 256;
-/// Default size of the dictionary's value store in bytes.
+/// Default size of the dictionary's value store in bytes: room for the standard objects
+/// ([`STANDARD_OD_BYTES`]) and some 2 KiB of the firmware's own.
 pub const DEFAULT_OD_BYTES: usize = 3072;
+/// The value store the standard tables take in this build (communication objects, the default
+/// 4 + 4 PDO records, the CiA 402 objects of the modes built): the dictionary size of a drive
+/// without manufacturer objects. A firmware with its own tables adds theirs
+/// ([`od::storage_bytes`](crate::od::storage_bytes)).
+pub const STANDARD_OD_BYTES: usize = crate::od::storage_bytes(&[
+    &standard::COMMUNICATION,
+    &pdo::DEFAULT_OBJECTS,
+    &crate::cia402::objects::PROFILE,
+]);
 
 /// Events that break the connection to the master; the CiA 402 layer reacts to them as the
 /// abort connection option code 6007h says (digest 402 §6.1).

@@ -9,6 +9,7 @@
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::indexing_slicing, clippy::panic)]
 
 use canopen_drive::cia402::objects::{mode_bit, IMPLEMENTED_MODES};
+use canopen_drive::drive::STANDARD_OD_BYTES;
 use canopen_drive::hal::{Sample, Setpoint};
 use canopen_drive::od::{ConfigError, DeviceInfo};
 use canopen_drive::{CanFrame, Config, Drive, Instant};
@@ -211,4 +212,14 @@ fn csp_runs_in_every_build() {
         }
     }
     assert_eq!(last, 200, "the demand reaches the target");
+}
+
+#[test]
+fn a_dictionary_sized_to_the_standard_tables_holds_them() {
+    type Exact = Drive<(), STANDARD_OD_BYTES>;
+    let drive = Exact::build(Config::new(NODE), (), ()).unwrap();
+    assert_eq!(drive.od().used_bytes(), STANDARD_OD_BYTES);
+    type Short = Drive<(), { STANDARD_OD_BYTES - 1 }>;
+    let refused = Short::build(Config::new(NODE), (), ()).err();
+    assert_eq!(refused, Some(ConfigError::StorageTooSmall { needed: STANDARD_OD_BYTES }));
 }

@@ -56,7 +56,7 @@
 
 use super::objects::HOMING_METHOD;
 use crate::hal::DigitalInputs;
-use crate::motion::{Limits, PositionPlanner, TickRate};
+use crate::motion::{Limits, PositionPlanner};
 use crate::od::{Access, DataType, DefaultValue, Dictionary, Object, Var};
 use crate::time::{Duration, Instant};
 
@@ -602,7 +602,6 @@ pub struct Outcome {
 #[derive(Clone, Debug)]
 pub struct Homing {
     config: HomingConfig,
-    planner: PositionPlanner,
     phase: Phase,
     program: Program,
     /// The direction of the present search, after a reversal.
@@ -623,10 +622,9 @@ const SEARCH_SECONDS: i64 = 600;
 
 impl Homing {
     /// Idle at `position`.
-    pub fn new(config: HomingConfig, rate: TickRate, position: i64) -> Self {
+    pub fn new(config: HomingConfig) -> Self {
         Homing {
             config,
-            planner: PositionPlanner::new(rate, position),
             phase: Phase::Idle,
             program: Program::default(),
             positive: true,
@@ -643,8 +641,8 @@ impl Homing {
 
     /// The demand holds `position`; a run in progress is interrupted (mode switch, the drive
     /// function disabled). Whether the axis is homed is kept.
-    pub fn reset(&mut self, position: i64) {
-        self.planner.reset(position);
+    pub fn reset(&mut self, planner: &mut PositionPlanner, position: i64) {
+        planner.reset(position);
         if !matches!(self.phase, Phase::Done | Phase::Failed | Phase::Idle) {
             self.phase = Phase::Idle;
         }
@@ -661,26 +659,26 @@ impl Homing {
     }
 
     /// The demand state (increments, encoder count).
-    pub fn state(&self) -> crate::motion::MotionState {
-        self.planner.state()
+    pub fn state(&self, planner: &PositionPlanner) -> crate::motion::MotionState {
+        planner.state()
     }
 
     /// Stops with `deceleration` (quick stop, fault reaction): the run is interrupted.
-    pub fn stop(&mut self, deceleration: u32, limits: &Limits) {
-        let _ = self.planner.stop(deceleration.max(1), limits);
+    pub fn stop(&mut self, planner: &mut PositionPlanner, deceleration: u32, limits: &Limits) {
+        let _ = planner.stop(deceleration.max(1), limits);
         if matches!(self.phase, Phase::Running(_) | Phase::Finishing) {
             self.phase = Phase::Stopping { error: false };
         }
     }
 
     /// One tick of a stop started by [`Self::stop`].
-    pub fn step_stop(&mut self) -> crate::motion::MotionState {
-        self.planner.step()
+    pub fn step_stop(&mut self, planner: &mut PositionPlanner) -> crate::motion::MotionState {
+        planner.step()
     }
 
     /// The statusword bits 10/12/13 now.
-    pub fn status(&self) -> Status {
-        let moving = self.planner.state().velocity != 0;
+    pub fn status(&self, planner: &PositionPlanner) -> Status {
+        let moving = planner.state().velocity != 0;
         match self.phase {
             Phase::Running(_) => Status::InProgress,
             Phase::Finishing => Status::Attained,
@@ -699,46 +697,62 @@ impl Homing {
         Limits::new(speed.max(1), acceleration.max(1), acceleration.max(1))
     }
 
-    fn search(&mut self, positive: bool, speed: u32, acceleration: u32) -> bool {
-        let here = self.planner.state().position;
+    fn search(
+        &mut self,
+        planner: &mut PositionPlanner,
+        positive: bool,
+        speed: u32,
+        acceleration: u32,
+    ) -> bool {
+        let here = planner.state().position;
         let reach = i64::from(speed).saturating_mul(SEARCH_SECONDS);
         let target = if positive { here.saturating_add(reach) } else { here.saturating_sub(reach) };
         self.positive = positive;
-        self.planner.plan(target, 0, &self.limits(speed, acceleration)).is_ok()
+        planner.plan(target, 0, &self.limits(speed, acceleration)).is_ok()
     }
 
     /// Starts step `n` (or finishes when the program is done).
-    fn begin<const B: usize>(&mut self, n: usize, input: &Inputs<'_, B>) -> bool {
+    fn begin<const B: usize>(
+        &mut self,
+        planner: &mut PositionPlanner,
+        n: usize,
+        input: &Inputs<'_, B>,
+    ) -> bool {
         let (fast, slow, acceleration) = input.speeds;
         self.above_threshold_since = None;
         match self.program.get(n) {
             Some(Step::Search { positive, fast: quick, .. }) => {
                 self.phase = Phase::Running(n);
                 self.reversed = false;
-                self.search(positive, if quick { fast } else { slow }, acceleration)
+                self.search(planner, positive, if quick { fast } else { slow }, acceleration)
             }
             Some(Step::BackOff { distance, .. }) => {
                 self.phase = Phase::Running(n);
-                let target = self.planner.state().position.saturating_add(distance);
-                self.planner.plan(target, 0, &self.limits(slow, acceleration)).is_ok()
+                let target = planner.state().position.saturating_add(distance);
+                planner.plan(target, 0, &self.limits(slow, acceleration)).is_ok()
             }
             None => {
                 self.phase = Phase::Finishing;
                 let rest = self.home.unwrap_or(input.actual).saturating_add(self.program.rest_offset);
-                self.planner.plan(rest, 0, &self.limits(slow, acceleration)).is_ok()
+                planner.plan(rest, 0, &self.limits(slow, acceleration)).is_ok()
             }
         }
     }
 
-    fn fail(&mut self, acceleration: u32, outcome: &mut Outcome) {
+    fn fail(&mut self, planner: &mut PositionPlanner, acceleration: u32, outcome: &mut Outcome) {
         let limits = self.limits(u32::MAX, acceleration);
-        let _ = self.planner.stop(acceleration.max(1), &limits);
+        let _ = planner.stop(acceleration.max(1), &limits);
         self.phase = Phase::Stopping { error: true };
         outcome.error = true;
     }
 
     /// One tick of homing; returns the demand position (increments) and what happened.
-    pub fn tick<const B: usize>(&mut self, input: &Inputs<'_, B>, halt_deceleration: u32) -> (i64, Outcome) {
+    pub fn tick<const B: usize>(
+        &mut self,
+        planner: &mut PositionPlanner,
+        input: &Inputs<'_, B>,
+        halt_deceleration: u32,
+    ) -> (i64, Outcome) {
         let mut outcome = Outcome::default();
         let (_, _, acceleration) = input.speeds;
         let bit4 = input.controlword & 0x0010 != 0;
@@ -747,11 +761,11 @@ impl Homing {
         let previous = core::mem::replace(&mut self.previous_inputs, inputs);
 
         if input.start && !halt {
-            self.start(input, &mut outcome);
+            self.start(planner, input, &mut outcome);
         }
         if !input.enabled {
             // Only method 35 completes outside Operation enabled; nothing moves here.
-            self.planner.reset(input.actual);
+            planner.reset(input.actual);
             if matches!(self.phase, Phase::Running(_) | Phase::Finishing | Phase::Stopping { .. }) {
                 self.phase = Phase::Idle;
             }
@@ -761,30 +775,30 @@ impl Homing {
         let running = matches!(self.phase, Phase::Running(_) | Phase::Finishing);
         if running && (halt || !bit4) {
             let limits = self.limits(u32::MAX, halt_deceleration);
-            let _ = self.planner.stop(halt_deceleration.max(1), &limits);
+            let _ = planner.stop(halt_deceleration.max(1), &limits);
             self.phase = Phase::Stopping { error: false };
         }
         if running && input.following_error {
-            self.fail(acceleration, &mut outcome);
+            self.fail(planner, acceleration, &mut outcome);
         }
         if let (Some(since), true) = (self.started_at, running) {
             if self.config.timeout != Duration::ZERO && input.now - since > self.config.timeout {
-                self.fail(acceleration, &mut outcome);
+                self.fail(planner, acceleration, &mut outcome);
             }
         }
         if matches!(self.phase, Phase::Running(_))
             && Signal::NegativeLimit.active(inputs)
             && Signal::PositiveLimit.active(inputs)
         {
-            self.fail(acceleration, &mut outcome);
+            self.fail(planner, acceleration, &mut outcome);
         }
 
         if let Phase::Running(n) = self.phase {
-            self.run_step(n, input, previous, &mut outcome);
+            self.run_step(planner, n, input, previous, &mut outcome);
         }
 
-        let state = self.planner.step();
-        if self.planner.is_finished() {
+        let state = planner.step();
+        if planner.is_finished() {
             match self.phase {
                 Phase::Finishing => {
                     self.phase = Phase::Done;
@@ -794,12 +808,12 @@ impl Homing {
                 Phase::Running(n) => match self.program.get(n) {
                     Some(Step::BackOff { mark, .. }) => {
                         self.mark(mark, state.position, &mut outcome);
-                        if !self.begin(n + 1, input) {
-                            self.fail(acceleration, &mut outcome);
+                        if !self.begin(planner, n + 1, input) {
+                            self.fail(planner, acceleration, &mut outcome);
                         }
                     }
                     // A search that ran out of road: its event never came.
-                    _ => self.fail(acceleration, &mut outcome),
+                    _ => self.fail(planner, acceleration, &mut outcome),
                 },
                 _ => {}
             }
@@ -807,7 +821,12 @@ impl Homing {
         (state.position, outcome)
     }
 
-    fn start<const B: usize>(&mut self, input: &Inputs<'_, B>, outcome: &mut Outcome) {
+    fn start<const B: usize>(
+        &mut self,
+        planner: &mut PositionPlanner,
+        input: &Inputs<'_, B>,
+        outcome: &mut Outcome,
+    ) {
         let method: i8 = input.od.get(HOMING_METHOD, 0).unwrap_or(0);
         self.homed = false;
         self.home = None;
@@ -816,7 +835,7 @@ impl Homing {
         self.started_at = Some(input.now);
         if matches!(method, 35) || (method == 37 && self.config.method_37) {
             // The current position is home: no motion, also outside Operation enabled.
-            self.planner.reset(input.actual);
+            planner.reset(input.actual);
             self.home = Some(input.actual);
             outcome.home = self.home;
             self.homed = true;
@@ -831,17 +850,18 @@ impl Homing {
         match Program::of(method, input.inputs, self.config.vendor(method), back_off) {
             Some(program) if method != 0 => {
                 self.program = program;
-                self.planner.reset(input.actual);
-                if !self.begin(0, input) {
-                    self.fail(input.speeds.2, outcome);
+                planner.reset(input.actual);
+                if !self.begin(planner, 0, input) {
+                    self.fail(planner, input.speeds.2, outcome);
                 }
             }
-            _ => self.fail(input.speeds.2, outcome),
+            _ => self.fail(planner, input.speeds.2, outcome),
         }
     }
 
     fn run_step<const B: usize>(
         &mut self,
+        planner: &mut PositionPlanner,
         n: usize,
         input: &Inputs<'_, B>,
         previous: DigitalInputs,
@@ -868,24 +888,24 @@ impl Homing {
             self.mark(mark, at, outcome);
             if matches!(until, Until::HardStop) {
                 // Stop pushing: the demand jumps back to where the shaft is.
-                self.planner.reset(input.actual);
+                planner.reset(input.actual);
             }
-            if !self.begin(n + 1, input) {
-                self.fail(acceleration, outcome);
+            if !self.begin(planner, n + 1, input) {
+                self.fail(planner, acceleration, outcome);
             }
             return;
         }
-        let turn = |this: &mut Self, outcome: &mut Outcome| {
+        let turn = |this: &mut Self, planner: &mut PositionPlanner, outcome: &mut Outcome| {
             let (fast, _, _) = input.speeds;
             this.reversed = true;
-            if !this.search(!this.positive, fast, acceleration) {
-                this.fail(acceleration, outcome);
+            if !this.search(planner, !this.positive, fast, acceleration) {
+                this.fail(planner, acceleration, outcome);
             }
         };
         if reverse == Reverse::OnHardStop && !self.reversed && self.hard_stop(input) {
             // Stop pushing, as at a sought stop, and turn around.
-            self.planner.reset(input.actual);
-            turn(self, outcome);
+            planner.reset(input.actual);
+            turn(self, planner, outcome);
             return;
         }
         // A limit switch ahead that the search does not look for.
@@ -895,9 +915,9 @@ impl Homing {
             || (towards_stop && self.config.hard_stop_passes_limit_switches);
         if rose(ahead) && !sought {
             if reverse == Reverse::OnLimitSwitch && !self.reversed {
-                turn(self, outcome);
+                turn(self, planner, outcome);
             } else {
-                self.fail(acceleration, outcome);
+                self.fail(planner, acceleration, outcome);
             }
         }
     }

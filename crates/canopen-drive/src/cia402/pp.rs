@@ -166,6 +166,17 @@ impl ProfilePosition {
         self.planner.state()
     }
 
+    /// The trajectory planner of the position modes: pp's, lent to homing (the two never run
+    /// at once, and every mode switch resets it), so a drive holds one.
+    pub fn planner(&self) -> &PositionPlanner {
+        &self.planner
+    }
+
+    /// The planner, to move (see [`planner`](Self::planner)).
+    pub fn planner_mut(&mut self) -> &mut PositionPlanner {
+        &mut self.planner
+    }
+
     /// Stops with `deceleration` (increments/s²) under `limits`, dropping the set-points
     /// (quick stop, fault reaction, disable operation / shutdown ramps). Steps are then made by
     /// [`Self::step_stop`].

@@ -221,7 +221,7 @@ impl Profile {
             velocity: Ramp::default(),
             torque: Ramp::default(),
             pp: ProfilePosition::new(&config, 0),
-            homing: Homing::new(config.homing, config.tick_rate, 0),
+            homing: Homing::new(config.homing),
             probe: TouchProbe::new(),
             interpolator: Interpolator::default(),
             limiter: Limiter::default(),
@@ -326,7 +326,7 @@ impl Profile {
     /// The trajectory state of the position modes.
     fn trajectory(&self) -> crate::motion::MotionState {
         match self.active_mode {
-            mode::HOMING => self.homing.state(),
+            mode::HOMING => self.homing.state(self.pp.planner()),
             mode::CYCLIC_POSITION | mode::INTERPOLATED_POSITION => crate::motion::MotionState {
                 position: self.limiter.position(),
                 velocity: self.limiter.velocity(self.config.tick_rate.hz()),
@@ -509,7 +509,7 @@ impl Profile {
             self.active_mode = direct.map_or(requested, DirectMode::cyclic_mode);
             self.mode_changed = true;
             self.pp.reset(actual, actual_user);
-            self.homing.reset(actual);
+            self.homing.reset(self.pp.planner_mut(), actual);
             self.velocity = Ramp { value: i64::from(sample.velocity), remainder: 0 };
             self.reset_cyclic(actual, i64::from(sample.velocity));
             self.vl.reset(i64::from(sample.velocity));
@@ -522,7 +522,7 @@ impl Profile {
             self.velocity = Ramp { value: i64::from(sample.velocity), remainder: 0 };
             self.torque = Ramp::default();
             self.pp.reset(actual, actual_user);
-            self.homing.reset(actual);
+            self.homing.reset(self.pp.planner_mut(), actual);
             self.reset_cyclic(actual, i64::from(sample.velocity));
             self.vl.reset(i64::from(sample.velocity));
         }
@@ -566,7 +566,11 @@ impl Profile {
             } else if matches!(self.active_mode, mode::CYCLIC_POSITION | mode::INTERPOLATED_POSITION) {
                 self.limiter.stop(&TickLimits::new(vmax, max_acceleration, stop_deceleration(kind), hz));
             } else if super::HM && self.active_mode == mode::HOMING {
-                self.homing.stop(stop_deceleration(kind), &pp::limits(od, &self.slots, &factors));
+                self.homing.stop(
+                    self.pp.planner_mut(),
+                    stop_deceleration(kind),
+                    &pp::limits(od, &self.slots, &factors),
+                );
             } else if super::PP && self.position_mode() {
                 self.pp.stop(stop_deceleration(kind), &pp::limits(od, &self.slots, &factors));
             } else {
@@ -611,7 +615,7 @@ impl Profile {
                 self.dynamic_braking |= kind == StopKind::DynamicBrake;
                 self.velocity = Ramp::default();
                 self.pp.reset(actual, actual_user);
-                self.homing.reset(actual);
+                self.homing.reset(self.pp.planner_mut(), actual);
                 self.reset_cyclic(actual, 0);
                 Setpoint::None
             }
@@ -623,7 +627,7 @@ impl Profile {
                 self.run_vl(od, &factors, controlword, sample, dt)
             }
             Some(_) if super::HM && self.active_mode == mode::HOMING => {
-                Setpoint::Position(self.homing.step_stop().position_demand())
+                Setpoint::Position(self.homing.step_stop(self.pp.planner_mut()).position_demand())
             }
             Some(_) if super::PP && self.position_mode() => {
                 Setpoint::Position(self.pp.step_stop().position_demand())
@@ -662,7 +666,8 @@ impl Profile {
                 };
                 let halt_kind =
                     StopKind::halt_or_fault(od.load(self.slots.halt_option)).unwrap_or(StopKind::SlowDown);
-                let (position, outcome) = self.homing.tick(&inputs, stop_deceleration(halt_kind));
+                let (position, outcome) =
+                    self.homing.tick(self.pp.planner_mut(), &inputs, stop_deceleration(halt_kind));
                 if let Some(home) = outcome.home {
                     // 6064h reads −607Ch at home.
                     let offset = i64::from(od.load(self.slots.home_offset)) * position_sign;
@@ -792,7 +797,7 @@ impl Profile {
         }
         if self.active_mode == mode::HOMING {
             // Bits 10, 12, 13 are the homing status in every state (digest §10.4).
-            statusword = (statusword & !0x3400) | self.homing.status().bits();
+            statusword = (statusword & !0x3400) | self.homing.status(self.pp.planner()).bits();
         }
         // The manufacturer-specific bits 14 and 15, as the configuration defines them.
         let transition = opening || (matches!(step.state, State::QuickStopActive) && !at_rest);

@@ -32,6 +32,25 @@ use core::ops::RangeInclusive;
 /// firmware's further device-profile objects).
 pub const MAX_TABLES: usize = 5;
 
+/// Bytes of value store that `tables` need (what [`Dictionary::used_bytes`] reports once they are
+/// attached), at compile time: a firmware sizes its dictionary with it instead of a guess, e.g.
+/// `Drive<H, { STANDARD_OD_BYTES + od::storage_bytes(&[&VENDOR]) }>` (see
+/// [`crate::drive::STANDARD_OD_BYTES`]).
+#[allow(clippy::indexing_slicing)] // `while` bounds (no iterators in a const fn)
+pub const fn storage_bytes(tables: &[&[Object]]) -> usize {
+    let mut total = 0;
+    let mut t = 0;
+    while t < tables.len() {
+        let mut o = 0;
+        while o < tables[t].len() {
+            total += tables[t][o].storage_size();
+            o += 1;
+        }
+        t += 1;
+    }
+    total
+}
+
 /// Identity and descriptive data of the device, given by the firmware at start-up.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct DeviceInfo {
