@@ -548,7 +548,7 @@ def stored_drive(tmp_path):
 
 
 def test_homing_parameters_are_saved_after_homing(stored_drive):
-    # §8.1.10: the new homing parameters go to flash after each homing run.
+    # §8.1.10: the new homing parameters (and only they) go to flash after each homing run.
     process = stored_drive()
     network, node = connect(process)
     try:
@@ -570,6 +570,8 @@ def test_homing_parameters_are_saved_after_homing(stored_drive):
     network, node = connect(process)
     try:
         assert node.sdo[0x607D][2].raw == 0, "kept from the homing run"
+        # What the master set for the run but did not store is back at the defaults.
+        assert (node.sdo[0x6099][1].raw, node.sdo[0x6099][2].raw, node.sdo[0x609A].raw) == (1000, 500, 2000)
     finally:
         network.disconnect()
 

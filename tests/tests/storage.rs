@@ -192,3 +192,30 @@ fn the_firmware_may_store_a_group_itself() {
     let mut bench = Bench::new();
     assert_eq!(bench.drive().store_parameters(Group::All), Err(canopen_drive::AbortCode::CannotStore));
 }
+
+#[test]
+fn the_firmware_may_store_single_parameters_and_keep_the_rest() {
+    let (mut drive, _) = power_on(blank());
+    // Stored by the master: 1017h = 0x1234.
+    assert_eq!(sdo(&mut drive, req(0x2B, 0x1017, 0, [0x34, 0x12, 0, 0])), req(0x60, 0x1017, 0, [0; 4]));
+    assert_eq!(sdo(&mut drive, req(0x23, 0x1010, 1, *b"save")), req(0x60, 0x1010, 1, [0; 4]));
+    // Changed by the master, not stored: 1017h again and 6081h; 607Dh sub 2 is what the
+    // firmware saves itself (a homing result).
+    assert_eq!(sdo(&mut drive, req(0x2B, 0x1017, 0, [0x78, 0x56, 0, 0])), req(0x60, 0x1017, 0, [0; 4]));
+    assert_eq!(sdo(&mut drive, req(0x23, 0x6081, 0, 777u32.to_le_bytes())), req(0x60, 0x6081, 0, [0; 4]));
+    assert_eq!(sdo(&mut drive, req(0x23, 0x607D, 2, 5000u32.to_le_bytes())), req(0x60, 0x607D, 2, [0; 4]));
+    assert_eq!(drive.store_entries(&[(0x607D, 2)]), Ok(()));
+    let (mut restarted, _) = power_on(flash_of(&mut drive));
+    assert_eq!(
+        sdo(&mut restarted, req(0x40, 0x607D, 2, [0; 4])),
+        req(0x43, 0x607D, 2, 5000u32.to_le_bytes())
+    );
+    assert_eq!(sdo(&mut restarted, req(0x40, 0x1017, 0, [0; 4])), req(0x4B, 0x1017, 0, [0x34, 0x12, 0, 0]));
+    assert_eq!(
+        sdo(&mut restarted, req(0x40, 0x6081, 0, [0; 4])),
+        req(0x43, 0x6081, 0, 10_000u32.to_le_bytes())
+    );
+    // Without storage: refused.
+    let mut bench = Bench::new();
+    assert_eq!(bench.drive().store_entries(&[(0x607D, 2)]), Err(canopen_drive::AbortCode::CannotStore));
+}

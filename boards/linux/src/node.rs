@@ -160,9 +160,9 @@ fn take_actions<S: Persistence>(drive: &mut BoardDrive<S>, firmware: &mut dyn Fi
     for action in firmware.take_actions() {
         match action {
             Action::PresetPosition(position) => drive.preset_position(position),
-            Action::Store(group) => {
-                if let Err(e) = drive.store_parameters(group) {
-                    log!("the firmware's store of {group:?} failed: {e:?}");
+            Action::StoreEntries(entries) => {
+                if let Err(e) = drive.store_entries(entries) {
+                    log!("the firmware's store of {entries:x?} failed: {e:?}");
                 }
             }
         }

@@ -549,6 +549,20 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
         Ok(())
     }
 
+    /// Stores the current values of single parameters (index, sub-index) and keeps the rest of
+    /// the stored set as it is: the firmware's own saving of a few values, e.g. the results of
+    /// a homing run, without storing what the master changed but did not store. Refused without
+    /// storage; a failed store answers as 1010h would. Entries that are not parameters are left
+    /// out.
+    pub fn store_entries(&mut self, entries: &[(u16, u8)]) -> Result<(), AbortCode> {
+        if !self.storage.available() {
+            return Err(AbortCode::CannotStore);
+        }
+        self.storage.store_entries(&self.od, entries)?;
+        self.clear_error(code::DATA_SET);
+        Ok(())
+    }
+
     /// The parameter storage.
     pub fn storage_mut(&mut self) -> &mut S {
         &mut self.storage

@@ -51,15 +51,14 @@
 //!
 //! Teach mode (§8.1.9, 2025h sub 5: 1 presets the position to 0 and 607Dh sub 1 to 0 —
 //! `Drive::preset_position` —, 2 sets 607Dh sub 2 to the position, 3 sets it to 65 535) and the
-//! saving after each homing run (§8.1.10: the firmware stores the "all" group —
-//! `Drive::store_parameters` — which holds 607Dh, 2025h and 2050h) work.
+//! saving after each homing run (§8.1.10: the firmware stores 607Dh, 2025h sub 2/3 and 2050h
+//! sub 8 and keeps the rest of the stored set — `Drive::store_entries`) work.
 //!
 //! # Not reproduced
 //!
 //! 2050h sub 8 position scaler (−5/−6 and teach mode 3 do not compute it: the manual gives no
 //! formula) and 1016h sub 0 writable (the manual does not say what a write does; the core's
-//! count is a constant). Saving after homing stores the whole "all" group, so values the
-//! master changed without storing are kept too; the actuator saves the homing parameters only.
+//! count is a constant).
 //!
 //! The manual's types of 605Bh–605Eh (UNSIGNED16), 6082h and the torques 6071h, 6077h, 60B2h
 //! (INTEGER32: the core's torque entries reserve four bytes for this), 6084h read-only (kept
@@ -356,6 +355,11 @@ pub static DESCRIPTIONS: [EntryOverride; 11] = [
     profile_entry(0x60B2, 0).data_type(Integer32),
 ];
 
+/// What the actuator saves after each homing run (§8.1.10): the position scaler 2050h sub 8,
+/// the software limits 607Dh, the position offsets 2025h sub 2/3.
+pub static HOMING_PARAMETERS: [(u16, u8); 5] =
+    [(0x2025, 2), (0x2025, 3), (0x2050, 8), (0x607D, 1), (0x607D, 2)];
+
 /// 1029h sub 1: 0 = Stopped, 1 = stay (§3.1.14).
 pub static ERROR_BEHAVIOUR: [(u8, ErrorBehaviour); 2] =
     [(0, ErrorBehaviour::Stopped), (1, ErrorBehaviour::NoChange)];
@@ -639,9 +643,9 @@ impl Firmware for Actuator {
         let homing = mode == 6;
         if homing && statusword & 0x1000 != 0 {
             if !self.homed {
-                // §8.1.10: the new homing parameters (607Dh, 2025h, 2050h) go to flash after
-                // each homing run; they are in the "all" group here.
-                self.actions.push(Action::Store(Group::All));
+                // §8.1.10: the new homing parameters go to flash after each homing run, and
+                // only they.
+                self.actions.push(Action::StoreEntries(&HOMING_PARAMETERS));
             }
             self.homed = true;
         } else if homing && statusword & 0x3400 == 0 && state.drive_function_enabled() {

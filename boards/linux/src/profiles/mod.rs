@@ -148,8 +148,9 @@ pub trait Firmware: Send {
 pub enum Action {
     /// 6064h reads this value at the present position ([`canopen_drive::Drive::preset_position`]).
     PresetPosition(i32),
-    /// Store a parameter group as 1010h would ([`canopen_drive::Drive::store_parameters`]).
-    Store(Group),
+    /// Store these parameters (index, sub-index), keeping the rest of the stored set
+    /// ([`canopen_drive::Drive::store_entries`]).
+    StoreEntries(&'static [(u16, u8)]),
 }
 
 /// A drive without manufacturer behaviour.

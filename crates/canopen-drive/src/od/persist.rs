@@ -170,11 +170,22 @@ impl<const BYTES: usize> Dictionary<BYTES> {
     pub fn emit_records<E>(
         &self,
         range: RangeInclusive<u16>,
+        sink: impl FnMut(&[u8]) -> Result<(), E>,
+    ) -> Result<usize, E> {
+        self.emit_records_where(range, |_, _| true, sink)
+    }
+
+    /// [`emit_records`](Self::emit_records) of the parameters in `range` that `keep` (index,
+    /// sub-index) selects.
+    pub fn emit_records_where<E>(
+        &self,
+        range: RangeInclusive<u16>,
+        keep: impl Fn(u16, u8) -> bool,
         mut sink: impl FnMut(&[u8]) -> Result<(), E>,
     ) -> Result<usize, E> {
         let mut total = 0usize;
         let mut piece = [0u8; 32];
-        for entry in self.parameters(range) {
+        for entry in self.parameters(range).filter(|e| keep(e.index(), e.sub)) {
             let header = self.record_header(&entry);
             sink(&header.encode())?;
             let len = usize::from(header.len);
@@ -203,7 +214,15 @@ impl<const BYTES: usize> Dictionary<BYTES> {
 
     /// Bytes [`emit_records`](Self::emit_records) would write for `range`.
     pub fn records_len(&self, range: RangeInclusive<u16>) -> usize {
-        self.parameters(range).map(|entry| self.record_header(&entry).record_len()).sum()
+        self.records_len_where(range, |_, _| true)
+    }
+
+    /// Bytes [`emit_records_where`](Self::emit_records_where) would write.
+    pub fn records_len_where(&self, range: RangeInclusive<u16>, keep: impl Fn(u16, u8) -> bool) -> usize {
+        self.parameters(range)
+            .filter(|e| keep(e.index(), e.sub))
+            .map(|entry| self.record_header(&entry).record_len())
+            .sum()
     }
 
     /// Applies the records of `payload` whose index lies in `range`; see [`RecordLoader`].

@@ -14,7 +14,8 @@
 //! current values and the other groups' records copied from the previous image;
 //! [`Storage::restore_defaults`] of a group writes a new image without that group's records,
 //! so that its defaults apply after the next reset (the RAM values do not change, as §11
-//! says). The command objects themselves (their read values, the "save"/"load" signatures,
+//! says). [`Storage::store_entries`] does the same for single entries a firmware saves itself
+//! (a [`Selection`]). The command objects themselves (their read values, the "save"/"load" signatures,
 //! the SDO answers) are the caller's.
 //!
 //! ## Area layout
@@ -452,7 +453,7 @@ impl<A: NonVolatile> Storage<A> {
         let fresh = od.records_len(group.range());
         let kept = match (group, scan.newest()) {
             (Group::All, _) | (_, None) => 0,
-            (_, Some((bank, old))) => self.kept_len(bank, &old, group)?,
+            (_, Some((bank, old))) => self.kept_len(bank, &old, Selection::Group(group))?,
         };
         Ok(fresh + kept)
     }
@@ -516,7 +517,19 @@ impl<A: NonVolatile> Storage<A> {
         od: &Dictionary<BYTES>,
         group: Group,
     ) -> Result<(), StorageError> {
-        self.write_image(Some(od), group)
+        self.write_image(Some(od), Selection::Group(group))
+    }
+
+    /// Stores the current values of single parameters (`entries`: index, sub-index) and keeps
+    /// every other record of the previous image: a firmware's own saving of a few values (a
+    /// drive that saves its homing results after each run). Entries that are not parameters
+    /// are left out. Safe against power loss as [`store`](Self::store).
+    pub fn store_entries<const BYTES: usize>(
+        &mut self,
+        od: &Dictionary<BYTES>,
+        entries: &[(u16, u8)],
+    ) -> Result<(), StorageError> {
+        self.write_image(Some(od), Selection::Entries(entries))
     }
 
     /// Restores the defaults of `group` (1011h sub `group.sub()`): writes a new image without
@@ -524,7 +537,7 @@ impl<A: NonVolatile> Storage<A> {
     /// The dictionary's current values are not touched. On any error the previous image is
     /// still the one a load takes.
     pub fn restore_defaults(&mut self, group: Group) -> Result<(), StorageError> {
-        self.write_image::<0>(None, group)
+        self.write_image::<0>(None, Selection::Group(group))
     }
 
     fn bank_start(&self, bank: usize) -> u32 {
@@ -591,13 +604,13 @@ impl<A: NonVolatile> Storage<A> {
         Ok(())
     }
 
-    /// Streams the records of the image in `bank` that do not belong to `group`, as they are
-    /// stored, to `sink`; checks on the way that the payload still has its CRC.
+    /// Streams the records of the image in `bank` that do not belong to `selection`, as they
+    /// are stored, to `sink`; checks on the way that the payload still has its CRC.
     fn copy_kept(
         &mut self,
         bank: usize,
         old: &Header,
-        group: Group,
+        selection: Selection<'_>,
         mut sink: impl FnMut(&mut A, &[u8]) -> Result<(), StorageError>,
     ) -> Result<(), StorageError> {
         let mut parser = RecordParser::new(old.len as usize);
@@ -615,7 +628,7 @@ impl<A: NonVolatile> Storage<A> {
             while let Some(event) = parser.next(&mut input) {
                 match event {
                     RecordEvent::Start(header) => {
-                        keep = !group.contains(header.index);
+                        keep = !selection.contains(header.index, header.sub);
                         if keep {
                             sink(&mut self.area, &header.encode())?;
                         }
@@ -634,26 +647,31 @@ impl<A: NonVolatile> Storage<A> {
         Ok(())
     }
 
-    fn kept_len(&mut self, bank: usize, old: &Header, group: Group) -> Result<usize, StorageError> {
+    fn kept_len(
+        &mut self,
+        bank: usize,
+        old: &Header,
+        selection: Selection<'_>,
+    ) -> Result<usize, StorageError> {
         let mut len = 0usize;
-        self.copy_kept(bank, old, group, |_, bytes| {
+        self.copy_kept(bank, old, selection, |_, bytes| {
             len += bytes.len();
             Ok(())
         })?;
         Ok(len)
     }
 
-    /// Writes a new image: the records of `group` from `fresh` (none without a dictionary) and
-    /// the other groups' records of the newest valid image.
+    /// Writes a new image: the records of `selection` from `fresh` (none without a dictionary)
+    /// and the other records of the newest valid image.
     fn write_image<const BYTES: usize>(
         &mut self,
         fresh: Option<&Dictionary<BYTES>>,
-        group: Group,
+        selection: Selection<'_>,
     ) -> Result<(), StorageError> {
         let scan = self.scan()?;
-        let old = match group {
-            // Nothing of another group to keep.
-            Group::All => None,
+        let old = match selection {
+            // Nothing outside the selection to keep.
+            Selection::Group(Group::All) => None,
             _ => scan.newest(),
         };
         let (target, sequence) = match scan.newest() {
@@ -662,9 +680,10 @@ impl<A: NonVolatile> Storage<A> {
         };
 
         // How much to erase.
-        let fresh_len = fresh.map_or(0, |od| od.records_len(group.range()));
+        let keep = |index, sub| selection.contains(index, sub);
+        let fresh_len = fresh.map_or(0, |od| od.records_len_where(selection.range(), keep));
         let kept_len = match &old {
-            Some((bank, header)) => self.kept_len(*bank, header, group)?,
+            Some((bank, header)) => self.kept_len(*bank, header, selection)?,
             None => 0,
         };
         let len = fresh_len + kept_len;
@@ -681,10 +700,10 @@ impl<A: NonVolatile> Storage<A> {
         let mut program = Programmer::new(start + self.header_len, end, self.write_size);
         if let Some(od) = fresh {
             let area = &mut self.area;
-            od.emit_records(group.range(), |bytes| program.push(area, bytes))?;
+            od.emit_records_where(selection.range(), keep, |bytes| program.push(area, bytes))?;
         }
         if let Some((bank, header)) = &old {
-            self.copy_kept(*bank, header, group, |area, bytes| program.push(area, bytes))?;
+            self.copy_kept(*bank, header, selection, |area, bytes| program.push(area, bytes))?;
         }
         let (len, crc) = program.finish(&mut self.area)?;
 
@@ -712,6 +731,35 @@ impl<A: NonVolatile> Storage<A> {
 #[cfg(test)]
 mod tests;
 
+/// What a store takes from the dictionary: a group (1010h), or single entries (a firmware's own
+/// saving of a few parameters, e.g. after a homing run). The records of everything else are
+/// copied from the previous image.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Selection<'a> {
+    /// Every parameter of the group ([`Group::All`]: nothing is copied).
+    Group(Group),
+    /// These entries (index, sub-index); parameters only, others are ignored.
+    Entries(&'a [(u16, u8)]),
+}
+
+impl Selection<'_> {
+    /// Whether the entry belongs to the selection.
+    pub fn contains(&self, index: u16, sub: u8) -> bool {
+        match self {
+            Selection::Group(group) => group.contains(index),
+            Selection::Entries(entries) => entries.contains(&(index, sub)),
+        }
+    }
+
+    /// The indices the selection lies in.
+    fn range(&self) -> RangeInclusive<u16> {
+        match self {
+            Selection::Group(group) => group.range(),
+            Selection::Entries(_) => 0x0000..=0xFFFF,
+        }
+    }
+}
+
 /// What the drive needs from parameter storage: implemented by [`Storage`] over any
 /// [`NonVolatile`] area, and by `()` for a drive without storage (1010h/1011h then read 0 and
 /// refuse their commands with 0x0800_0020).
@@ -726,6 +774,13 @@ pub trait Persistence {
     ) -> Result<LoadReport, StorageError>;
     /// Stores the current values of `group`.
     fn store<const B: usize>(&mut self, od: &Dictionary<B>, group: Group) -> Result<(), StorageError>;
+    /// Stores the current values of single parameters, keeping the rest of the stored set
+    /// ([`Storage::store_entries`]).
+    fn store_entries<const B: usize>(
+        &mut self,
+        od: &Dictionary<B>,
+        entries: &[(u16, u8)],
+    ) -> Result<(), StorageError>;
     /// Removes `group` from the stored set (its defaults apply after the next reset).
     fn restore_defaults(&mut self, group: Group) -> Result<(), StorageError>;
 }
@@ -743,6 +798,13 @@ impl Persistence for () {
         Ok(LoadReport { image: ImageState::Empty, applied: 0, skipped: 0 })
     }
     fn store<const B: usize>(&mut self, _od: &Dictionary<B>, _group: Group) -> Result<(), StorageError> {
+        Err(StorageError::NoSpace)
+    }
+    fn store_entries<const B: usize>(
+        &mut self,
+        _od: &Dictionary<B>,
+        _entries: &[(u16, u8)],
+    ) -> Result<(), StorageError> {
         Err(StorageError::NoSpace)
     }
     fn restore_defaults(&mut self, _group: Group) -> Result<(), StorageError> {
@@ -763,6 +825,13 @@ impl<A: NonVolatile> Persistence for Storage<A> {
     }
     fn store<const B: usize>(&mut self, od: &Dictionary<B>, group: Group) -> Result<(), StorageError> {
         Storage::store(self, od, group)
+    }
+    fn store_entries<const B: usize>(
+        &mut self,
+        od: &Dictionary<B>,
+        entries: &[(u16, u8)],
+    ) -> Result<(), StorageError> {
+        Storage::store_entries(self, od, entries)
     }
     fn restore_defaults(&mut self, group: Group) -> Result<(), StorageError> {
         Storage::restore_defaults(self, group)

@@ -377,15 +377,21 @@ fn sequence_numbers_wrap() {
     assert_eq!(storage.area().bytes[12], 0);
 }
 
-#[test]
-fn storing_one_group_keeps_the_others_from_the_image() {
+/// A storage holding the values of seed 1 (returned as the first dictionary) and a dictionary
+/// changed to seed 2 since.
+fn stored_then_changed() -> (Storage<TestFlash>, Od, Od) {
     let mut storage = storage(TestFlash::new(2048, 256, 4));
     let mut od = dict();
     set_all(&mut od, 1);
     storage.store(&od, Group::All).unwrap();
-    let a = od_clone(&od);
-
+    let stored = od_clone(&od);
     set_all(&mut od, 2);
+    (storage, stored, od)
+}
+
+#[test]
+fn storing_one_group_keeps_the_others_from_the_image() {
+    let (mut storage, a, od) = stored_then_changed();
     let b = od_clone(&od);
     storage.store(&od, Group::Manufacturer).unwrap();
     let (fresh, _) = loaded(&mut storage);
@@ -398,6 +404,31 @@ fn storing_one_group_keeps_the_others_from_the_image() {
     let (fresh, report) = loaded(&mut storage);
     assert_eq!(report.image, ImageState::Found { sequence: 4 });
     assert_eq!(values(&fresh), values(&b));
+}
+
+#[test]
+fn storing_single_entries_keeps_every_other_record() {
+    let (mut nv, a, od) = stored_then_changed();
+    let mut empty = storage(TestFlash::new(2048, 256, 4));
+    // Two entries of a record and one of an array; 1000h (not a parameter) is left out.
+    let entries = [(0x2001, 1), (0x2002, 3), (0x6065, 0), (0x1000, 0)];
+    nv.store_entries(&od, &entries).unwrap();
+    let (fresh, report) = loaded(&mut nv);
+    assert_eq!(report.image, ImageState::Found { sequence: 2 });
+    // `base` with the selected entries' values from `od`.
+    let merged = |base: &Od| -> Vec<_> {
+        let pick =
+            |(old, new): ((u16, u8, Vec<u8>), _)| if entries.contains(&(old.0, old.1)) { new } else { old };
+        values(base).into_iter().zip(values(&od)).map(pick).collect()
+    };
+    assert_eq!(values(&fresh), merged(&a));
+    assert_ne!(values(&fresh), values(&a));
+
+    // Without an image: only the entries, every other parameter at its default.
+    empty.store_entries(&od, &entries).unwrap();
+    let (fresh, report) = loaded(&mut empty);
+    assert_eq!(report.applied, 3);
+    assert_eq!(values(&fresh), merged(&dict()));
 }
 
 #[test]
