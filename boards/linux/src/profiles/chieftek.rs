@@ -59,21 +59,19 @@ use canopen_drive::cia402::fsa::State;
 use canopen_drive::cia402::hm::{hard_stop_object, HomingConfig, VendorMethod};
 use canopen_drive::cia402::objects::mode_bit;
 use canopen_drive::cia402::{DirectMode, MotorSpeedUnit, OptionCodes, ProfileConfig, StatusFlag};
-use canopen_drive::comm::error_control::ErrorBehaviour;
-use canopen_drive::comm::pdo;
 use canopen_drive::hal::Sample;
 use canopen_drive::od::eds::EdsInfo;
 use canopen_drive::od::{
     layout, Access, Bound, DataType, DefaultOverride, DefaultValue, DeviceInfo, EntryOverride, Object, Var,
 };
-use canopen_drive::storage::Group;
 
 use super::trinamic::method_mask;
 use super::{
     default_of, profile_entry, rw, s, u, value_of, var, BoardDictionary, BoardProfile, Environment, Firmware,
-    ProfileName, Update,
+    ProfileName, Update, TEMPLATE_NODE_ID,
 };
 use crate::board_objects::{simulated_faults, simulated_inputs, simulated_load, PROFILE_SIMULATION};
+use canopen_drive::Config;
 
 /// 3293h hard stop current (fraction of the peak current).
 pub const HARD_STOP_CURRENT: u16 = 0x3293;
@@ -232,7 +230,15 @@ pub fn device_info() -> DeviceInfo {
 pub fn profile() -> BoardProfile {
     BoardProfile {
         name: ProfileName::Chieftek,
-        device: device_info(),
+        config: Config {
+            device: device_info(),
+            manufacturer_objects: &OBJECTS,
+            profile: profile_config(),
+            default_overrides: &DEFAULTS,
+            entry_overrides: &DESCRIPTIONS,
+            extra_profile_objects: &PROFILE_OBJECTS,
+            ..Config::new(TEMPLATE_NODE_ID)
+        },
         eds: EdsInfo {
             file_name: "chieftek.eds",
             description: "cpc DS402 servo drive interface rebuilt on canopen-drive (simulated)",
@@ -240,16 +246,6 @@ pub fn profile() -> BoardProfile {
             tpdo_count: 4,
             ..EdsInfo::default()
         },
-        manufacturer_objects: &OBJECTS,
-        pdo_objects: &pdo::DEFAULT_OBJECTS,
-        profile: profile_config(),
-        default_overrides: &DEFAULTS,
-        entry_overrides: &DESCRIPTIONS,
-        extra_profile_objects: &PROFILE_OBJECTS,
-        error_behaviour_values: &ErrorBehaviour::CIA_301,
-        sdo_block_transfer: true,
-        tpdo_inhibit_unit: pdo::INHIBIT_UNIT,
-        store_groups: &Group::ALL,
         simulation: PROFILE_SIMULATION,
         rules: &[],
         axis: super::generic::axis(),

@@ -2,16 +2,13 @@
 //! 2100h–2102h, and the simulated axis of the README (10 000 increments per revolution, limit
 //! switches beyond ±100 000, home switch 20 000..30 000, hard stops at ±120 000).
 
-use canopen_drive::cia402::ProfileConfig;
-use canopen_drive::comm::error_control::ErrorBehaviour;
-use canopen_drive::comm::pdo;
 use canopen_drive::od::eds::EdsInfo;
 use canopen_drive::od::DeviceInfo;
-use canopen_drive::storage::Group;
 use canopen_drive_sim::motor::{MotorParams, Zone};
 
-use super::{BoardProfile, NoFirmware, ProfileName};
+use super::{BoardProfile, NoFirmware, ProfileName, TEMPLATE_NODE_ID};
 use crate::board_objects::{BOARD_OBJECTS, GENERIC_SIMULATION};
+use canopen_drive::Config;
 
 /// Identity of the generic drive (1008h–100Ah, EDS `VendorName`).
 pub fn device_info() -> DeviceInfo {
@@ -51,18 +48,12 @@ pub fn axis() -> MotorParams {
 pub fn profile() -> BoardProfile {
     BoardProfile {
         name: ProfileName::Generic,
-        device: device_info(),
+        config: Config {
+            device: device_info(),
+            manufacturer_objects: &BOARD_OBJECTS,
+            ..Config::new(TEMPLATE_NODE_ID)
+        },
         eds: eds_info(),
-        manufacturer_objects: &BOARD_OBJECTS,
-        pdo_objects: &pdo::DEFAULT_OBJECTS,
-        profile: ProfileConfig::new(),
-        default_overrides: &[],
-        entry_overrides: &[],
-        extra_profile_objects: &[],
-        error_behaviour_values: &ErrorBehaviour::CIA_301,
-        sdo_block_transfer: true,
-        tpdo_inhibit_unit: pdo::INHIBIT_UNIT,
-        store_groups: &Group::ALL,
         simulation: GENERIC_SIMULATION,
         rules: &[],
         axis: axis(),

@@ -86,11 +86,12 @@ use super::trinamic::method_mask;
 use super::{
     bit_timing_index, communication_entry, default_of, highest, pdo_records, profile_entry, ro,
     rpdo_communication, rw, tpdo_communication, u, value_of, var, Action, BoardDictionary, BoardProfile,
-    Environment, Firmware, ProfileName, Update, CIA402_RPDO_MAPPING, CIA402_TPDO_MAPPING,
+    Environment, Firmware, ProfileName, Update, CIA402_RPDO_MAPPING, CIA402_TPDO_MAPPING, TEMPLATE_NODE_ID,
 };
 use crate::board_objects::{
     simulated_faults, simulated_inputs, simulated_load, ValueRule, PROFILE_SIMULATION,
 };
+use canopen_drive::Config;
 
 use DataType::{Integer16, Integer32, Unsigned16, Unsigned32, Unsigned8};
 
@@ -453,7 +454,19 @@ pub fn axis() -> MotorParams {
 pub fn profile() -> BoardProfile {
     BoardProfile {
         name: ProfileName::HarmonicDrive,
-        device: device_info(),
+        config: Config {
+            device: device_info(),
+            manufacturer_objects: &OBJECTS,
+            pdo_objects: &PDOS,
+            profile: profile_config(),
+            default_overrides: &DEFAULTS,
+            entry_overrides: &DESCRIPTIONS,
+            error_behaviour_values: &ERROR_BEHAVIOUR,
+            sdo_block_transfer: false,
+            // §3.1.7/§3.1.8: sub 3 (actuator profile parameters) is not used: it reads 0.
+            store_groups: &[Group::All, Group::Communication, Group::Manufacturer],
+            ..Config::new(TEMPLATE_NODE_ID)
+        },
         eds: EdsInfo {
             file_name: "harmonic-drive.eds",
             description: "Harmonic Drive CANopen actuator interface rebuilt on canopen-drive (simulated)",
@@ -462,17 +475,6 @@ pub fn profile() -> BoardProfile {
             tpdo_count: 4,
             ..EdsInfo::default()
         },
-        manufacturer_objects: &OBJECTS,
-        pdo_objects: &PDOS,
-        profile: profile_config(),
-        default_overrides: &DEFAULTS,
-        entry_overrides: &DESCRIPTIONS,
-        extra_profile_objects: &[],
-        error_behaviour_values: &ERROR_BEHAVIOUR,
-        sdo_block_transfer: false,
-        tpdo_inhibit_unit: canopen_drive::comm::pdo::INHIBIT_UNIT,
-        // §3.1.7/§3.1.8: sub 3 (actuator profile parameters) is not used: it reads 0.
-        store_groups: &[Group::All, Group::Communication, Group::Manufacturer],
         simulation: PROFILE_SIMULATION,
         rules: &RULES,
         axis: axis(),

@@ -23,15 +23,12 @@ pub mod trinamic;
 use std::path::Path;
 
 use canopen_drive::cia402::fsa::State;
-use canopen_drive::cia402::ProfileConfig;
-use canopen_drive::comm::error_control::ErrorBehaviour;
 use canopen_drive::hal::Sample;
 use canopen_drive::od::eds::EdsInfo;
 use canopen_drive::od::{
-    Access, DataType, DefaultOverride, DefaultValue, DeviceInfo, Dictionary, EntryOverride, Object, Var,
+    Access, DataType, DefaultOverride, DefaultValue, Dictionary, EntryOverride, Object, Var,
 };
-use canopen_drive::storage::Group;
-use canopen_drive::{Config, Duration};
+use canopen_drive::Config;
 use canopen_drive_sim::motor::MotorParams;
 
 use crate::board_objects::{BoardHooks, ValueRule};
@@ -159,35 +156,21 @@ pub struct NoFirmware;
 
 impl Firmware for NoFirmware {}
 
+/// The node-ID in a profile's configuration template: [`BoardProfile::config`] replaces it with
+/// the one the program runs at.
+pub const TEMPLATE_NODE_ID: u8 = 1;
+
 /// Everything that makes this program one drive or another.
 #[derive(Clone, Copy)]
 pub struct BoardProfile {
     /// Which profile.
     pub name: ProfileName,
-    /// Identity (1000h, 1008h–100Ah, 1018h) and the supported modes (6502h).
-    pub device: DeviceInfo,
+    /// The core's configuration of this drive (identity, tables, overrides, departures from
+    /// CiA 301/402; what a profile leaves out is `Config::new`'s); its node-ID is replaced by
+    /// the one the program runs at ([`BoardProfile::config`]).
+    pub config: Config,
     /// The facts of the EDS's `[FileInfo]` and `[DeviceInfo]`.
     pub eds: EdsInfo,
-    /// The manufacturer objects (2000h–5FFFh), including the simulation objects.
-    pub manufacturer_objects: &'static [Object],
-    /// The PDO records (4 RPDOs + 4 TPDOs).
-    pub pdo_objects: &'static [Object],
-    /// The core's drive-profile configuration.
-    pub profile: ProfileConfig,
-    /// The drive's own defaults of the core's standard objects.
-    pub default_overrides: &'static [DefaultOverride],
-    /// The drive's own descriptions (type, access) of the core's standard entries.
-    pub entry_overrides: &'static [EntryOverride],
-    /// The drive's objects of the profile area beyond the core's (e.g. 67FEh).
-    pub extra_profile_objects: &'static [Object],
-    /// The meaning of 1029h's values.
-    pub error_behaviour_values: &'static [(u8, ErrorBehaviour)],
-    /// SDO block transfers offered (a manual without them: refused with 0x0504_0001).
-    pub sdo_block_transfer: bool,
-    /// The unit of the TPDO inhibit times (100 µs in CiA 301).
-    pub tpdo_inhibit_unit: Duration,
-    /// The parameter groups of 1010h/1011h the drive stores (default all four).
-    pub store_groups: &'static [Group],
     /// Index of the first simulation object ([`crate::board_objects`]).
     pub simulation: u16,
     /// Value rules of the manufacturer objects (signatures, value lists).
@@ -211,20 +194,7 @@ impl BoardProfile {
 
     /// The core's configuration of this drive at `node_id`.
     pub fn config(&self, node_id: u8) -> Config {
-        Config {
-            device: self.device,
-            manufacturer_objects: self.manufacturer_objects,
-            pdo_objects: self.pdo_objects,
-            profile: self.profile,
-            default_overrides: self.default_overrides,
-            entry_overrides: self.entry_overrides,
-            extra_profile_objects: self.extra_profile_objects,
-            error_behaviour_values: self.error_behaviour_values,
-            sdo_block_transfer: self.sdo_block_transfer,
-            tpdo_inhibit_unit: self.tpdo_inhibit_unit,
-            store_groups: self.store_groups,
-            ..Config::new(node_id)
-        }
+        Config { node_id, ..self.config }
     }
 
     /// The object hooks of this drive; `storage`: parameters are kept.

@@ -76,18 +76,18 @@ use canopen_drive::od::{
     layout, AbortCode, DataType, DefaultOverride, DefaultValue, DeviceInfo, EntryOverride, Object,
     PdoMapping, Var, WriteRule,
 };
-use canopen_drive::storage::Group;
 use canopen_drive::wire::lss::BitTiming;
 use canopen_drive_sim::motor::{MotorParams, Zone};
 
 use super::{
     bit_timing_index, communication_entry, default_of, highest, pdo_records, profile_entry, ro,
     rpdo_communication, rw, tpdo_communication, u, value_of, var, BoardDictionary, BoardProfile, Environment,
-    Firmware, ProfileName, Update, CIA402_RPDO_MAPPING, CIA402_TPDO_MAPPING,
+    Firmware, ProfileName, Update, CIA402_RPDO_MAPPING, CIA402_TPDO_MAPPING, TEMPLATE_NODE_ID,
 };
 use crate::board_objects::{
     simulated_faults, simulated_inputs, simulated_load, ValueRule, PROFILE_SIMULATION,
 };
+use canopen_drive::Config;
 
 use DataType::{Integer32, Integer8, Unsigned16, Unsigned32, Unsigned64, Unsigned8};
 
@@ -459,7 +459,19 @@ pub fn axis() -> MotorParams {
 pub fn profile() -> BoardProfile {
     BoardProfile {
         name: ProfileName::TrinamicPd57,
-        device: device_info(),
+        config: Config {
+            device: device_info(),
+            manufacturer_objects: &OBJECTS,
+            pdo_objects: &PDOS,
+            profile: profile_config(),
+            default_overrides: &DEFAULTS,
+            entry_overrides: &DESCRIPTIONS,
+            error_behaviour_values: &ERROR_BEHAVIOUR,
+            sdo_block_transfer: false,
+            // §3.2: the TPDO inhibit time is given in milliseconds.
+            tpdo_inhibit_unit: canopen_drive::Duration::from_millis(1),
+            ..Config::new(TEMPLATE_NODE_ID)
+        },
         eds: EdsInfo {
             file_name: "trinamic-pd57.eds",
             description: "PD57/60-1378 CANopen interface rebuilt on canopen-drive (simulated motor)",
@@ -468,17 +480,6 @@ pub fn profile() -> BoardProfile {
             tpdo_count: 4,
             ..EdsInfo::default()
         },
-        manufacturer_objects: &OBJECTS,
-        pdo_objects: &PDOS,
-        profile: profile_config(),
-        default_overrides: &DEFAULTS,
-        entry_overrides: &DESCRIPTIONS,
-        extra_profile_objects: &[],
-        error_behaviour_values: &ERROR_BEHAVIOUR,
-        sdo_block_transfer: false,
-        // §3.2: the TPDO inhibit time is given in milliseconds.
-        tpdo_inhibit_unit: canopen_drive::Duration::from_millis(1),
-        store_groups: &Group::ALL,
         simulation: PROFILE_SIMULATION,
         rules: &RULES,
         axis: axis(),
