@@ -122,12 +122,8 @@ DEVIATIONS = {
     ((0x607D, 0), "type"): "CiA 301: UNSIGNED8",
     ((0x6099, 0), "type"): "CiA 301: UNSIGNED8",
     ((0x60FE, 0), "type"): "CiA 301: UNSIGNED8",
-    # The core decides what can be mapped.
-    **{((index, 0), "pdo"): "not mappable in the core" for index in
-       (0x6065, 0x6066, 0x6067, 0x6068, 0x606D, 0x606E, 0x606F, 0x6070, 0x607C, 0x6080, 0x60B8, 0x6502)},
-    **{((index, 0), "pdo"): "mappable in the core" for index in (0x6079, 0x6083)},
-    **{((0x6099, sub), "pdo"): "mappable in the core" for sub in (1, 2)},
-    ((0x60FE, 1), "pdo"): "mappable in the core",
+    # A constant: the core maps no constants.
+    ((0x6502, 0), "pdo"): "a constant (the supported modes) is not mappable in the core",
 }
 
 

@@ -177,10 +177,6 @@ DEVIATIONS = {
     ((0x1016, 0), "access"): "the core's number of consumer entries is constant",
     ((0x6061, 0), "access"): "read-only (CiA 402); the manual's table says rw",
     ((0x6041, 0), "access"): "read-only (CiA 402); the manual's table says rw",
-    ((0x608F, 2), "access"): "the core's factor group lets 608Fh sub 2 be written",
-    **{((index, sub), "pdo"): "mappable in the core" for index, sub in
-       [(0x606B, 0), (0x6081, 0), (0x6082, 0), (0x6083, 0), (0x6084, 0), (0x6085, 0), (0x6098, 0), (0x6099, 1),
-        (0x6099, 2), (0x609A, 0), (0x60B2, 0), (0x1001, 0)]},
     ((0x2705, 0), "default"): "reads the active node-ID ($NODEID), the manual's example module has 1",
 }
 

@@ -226,7 +226,6 @@ DEVIATIONS = {
     ((0x6061, 0), "access"): "read-only (CiA 402); the manual's table says rw",
     ((0x6041, 0), "access"): "read-only (CiA 402); the manual's table says rw",
     ((0x60FD, 0), "access"): "read-only (CiA 402); the manual's table says rw",
-    ((0x608F, 2), "access"): "the core's factor group lets 608Fh sub 2 be written",
     ((0x2705, 0), "default"): "reads the active node-ID ($NODEID), the manual's example module has 1",
 }
 

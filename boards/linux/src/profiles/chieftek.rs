@@ -40,6 +40,9 @@
 //! position, velocity, torque) run as the core's direct set-point modes
 //! (`ProfileConfig::manufacturer_modes`).
 //!
+//! The manual's PDO mappability of the standard entries (its table in §2.3) is the core's
+//! descriptions overridden ([`DESCRIPTIONS`]); 6502h, a constant, stays unmappable.
+//!
 //! # Not reproduced
 //!
 //! The manufacturer modes −1 (direct voltage: the power stage's) and −5/−6 ("for cpc internal
@@ -62,7 +65,8 @@ use canopen_drive::cia402::{DirectMode, MotorSpeedUnit, OptionCodes, ProfileConf
 use canopen_drive::hal::Sample;
 use canopen_drive::od::eds::EdsInfo;
 use canopen_drive::od::{
-    layout, Access, Bound, DataType, DefaultOverride, DefaultValue, DeviceInfo, EntryOverride, Object, Var,
+    layout, Access, Bound, DataType, DefaultOverride, DefaultValue, DeviceInfo, EntryOverride, Object,
+    PdoMapping, Var,
 };
 
 use super::trinamic::method_mask;
@@ -152,14 +156,33 @@ pub static DEFAULTS: [DefaultOverride; 24] = [
     default_of(0x6073, 0, u(0)),
 ];
 
-/// The manual's types of standard entries where they differ from CiA 301/402's (same sizes):
-/// the target torque 6071h UNSIGNED16 (§11.3) and the count of supported homing methods, 60E3h
-/// sub 0, INTEGER8 (§8.3).
-pub static DESCRIPTIONS: [EntryOverride; 3] = [
+/// The manual's descriptions of standard entries where they differ from CiA 301/402's (same
+/// sizes): the target torque 6071h UNSIGNED16 (§11.3), the count of supported homing methods,
+/// 60E3h sub 0, INTEGER8 (§8.3), and the PDO mappability of its table in §2.3.
+pub static DESCRIPTIONS: [EntryOverride; 19] = [
     // §15: 60FEh has the physical outputs only (sub 0 = 1): no bit mask.
     profile_entry(0x60FE, 0).default(u(1)),
     profile_entry(0x6071, 0).data_type(DataType::Unsigned16),
     profile_entry(0x60E3, 0).data_type(DataType::Integer8),
+    // Mappable in the manual: windows, times, thresholds, home offset, max motor speed, the
+    // touch probe function.
+    profile_entry(0x6065, 0).pdo(PdoMapping::Both),
+    profile_entry(0x6066, 0).pdo(PdoMapping::Both),
+    profile_entry(0x6067, 0).pdo(PdoMapping::Both),
+    profile_entry(0x6068, 0).pdo(PdoMapping::Both),
+    profile_entry(0x606D, 0).pdo(PdoMapping::Both),
+    profile_entry(0x606E, 0).pdo(PdoMapping::Both),
+    profile_entry(0x606F, 0).pdo(PdoMapping::Both),
+    profile_entry(0x6070, 0).pdo(PdoMapping::Both),
+    profile_entry(0x607C, 0).pdo(PdoMapping::Both),
+    profile_entry(0x6080, 0).pdo(PdoMapping::Both),
+    profile_entry(0x60B8, 0).pdo(PdoMapping::Both),
+    // Not mappable in the manual.
+    profile_entry(0x6079, 0).pdo(PdoMapping::No),
+    profile_entry(0x6083, 0).pdo(PdoMapping::No),
+    profile_entry(0x6099, 1).pdo(PdoMapping::No),
+    profile_entry(0x6099, 2).pdo(PdoMapping::No),
+    profile_entry(0x60FE, 1).pdo(PdoMapping::No),
 ];
 
 /// 67FEh version number (§16): the CiA 402 version the drive implements. The value is the

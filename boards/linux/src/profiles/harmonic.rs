@@ -60,8 +60,9 @@
 //! formula) and 1016h sub 0 writable (the manual does not say what a write does; the core's
 //! count is a constant).
 //!
-//! The manual's types of 605Bh–605Eh (UNSIGNED16), 6082h and the torques 6071h, 6077h, 60B2h
-//! (INTEGER32: the core's torque entries reserve four bytes for this), 6084h read-only (kept
+//! The manual's PDO mappability of its entries, 608Fh sub 2 read-only, its types of 605Bh–605Eh
+//! (UNSIGNED16), 6082h and the torques 6071h, 6077h, 60B2h (INTEGER32: the core's torque
+//! entries reserve four bytes for this), 6084h read-only (kept
 //! equal to 6083h by the firmware), 1016h with one entry and 1018h without sub 4 are the core's
 //! entry descriptions overridden ([`DESCRIPTIONS`]).
 
@@ -340,20 +341,32 @@ pub static DEFAULTS: [DefaultOverride; 16] = [
 /// codes 605Bh–605Eh UNSIGNED16 (§5.1.2–5.1.5), the end velocity 6082h INTEGER32 (§6.1.12; a
 /// magnitude for the core, so negative values are refused), and the profile deceleration 6084h
 /// read-only (§6.1.14: the firmware keeps it equal to the profile acceleration 6083h).
-pub static DESCRIPTIONS: [EntryOverride; 11] = [
+pub static DESCRIPTIONS: [EntryOverride; 21] = [
     // One heartbeat consumer entry (§3.1.11), an identity without a serial number (§3.1.13).
     communication_entry(0x1016, 0).default(u(1)),
     communication_entry(0x1018, 0).default(u(3)),
+    // Not mappable in the manual's tables.
+    communication_entry(0x1001, 0).pdo(PdoMapping::No),
+    profile_entry(0x606B, 0).pdo(PdoMapping::No),
+    profile_entry(0x6081, 0).pdo(PdoMapping::No),
+    profile_entry(0x6083, 0).pdo(PdoMapping::No),
+    profile_entry(0x6085, 0).pdo(PdoMapping::No),
+    profile_entry(0x6098, 0).pdo(PdoMapping::No),
+    profile_entry(0x6099, 1).pdo(PdoMapping::No),
+    profile_entry(0x6099, 2).pdo(PdoMapping::No),
+    profile_entry(0x609A, 0).pdo(PdoMapping::No),
+    // 608Fh sub 2 (motor revolutions) is read-only in the manual (§5.1.8).
+    profile_entry(0x608F, 2).access(Access::ReadOnly),
     profile_entry(0x605B, 0).data_type(Unsigned16),
     profile_entry(0x605C, 0).data_type(Unsigned16),
     profile_entry(0x605D, 0).data_type(Unsigned16),
     profile_entry(0x605E, 0).data_type(Unsigned16),
-    profile_entry(0x6082, 0).data_type(Integer32).limits_signed(0, i32::MAX as i64),
-    profile_entry(0x6084, 0).access(Access::ReadOnly),
+    profile_entry(0x6082, 0).data_type(Integer32).limits_signed(0, i32::MAX as i64).pdo(PdoMapping::No),
+    profile_entry(0x6084, 0).access(Access::ReadOnly).pdo(PdoMapping::No),
     // Torques in mA as INTEGER32 (§11.1.3–11.1.5): widened into the 4 bytes the core reserves.
     profile_entry(0x6071, 0).data_type(Integer32),
     profile_entry(0x6077, 0).data_type(Integer32),
-    profile_entry(0x60B2, 0).data_type(Integer32),
+    profile_entry(0x60B2, 0).data_type(Integer32).pdo(PdoMapping::No),
 ];
 
 /// What the actuator saves after each homing run (§8.1.10): the position scaler 2050h sub 8,

@@ -9,11 +9,12 @@
 //! | `harmonic-drive` | Harmonic Drive LLC CANopen firmware manual (servo actuators) | [`harmonic`] |
 //! | `chieftek` | Chieftek DS402 manual (servo drive, profile objects only) | [`chieftek`] |
 //!
-//! A profile is data ([`BoardProfile`]): the identity, the manufacturer and PDO tables, the
-//! core's [`ProfileConfig`] (modes, option codes, homing methods, the documented deviations),
-//! the drive's own defaults of standard objects, the meaning of 1029h, the simulated axis, and
-//! a [`Firmware`] that gives manufacturer objects their meaning (live values, switch
-//! configuration, store commands). Nothing in the core knows which drive it is.
+//! A profile is data ([`BoardProfile`]): the core's `Config` of the drive (identity,
+//! manufacturer and PDO tables, the drive-profile configuration with modes, option codes,
+//! homing methods and the documented deviations, the drive's own defaults and descriptions of
+//! standard objects, the meaning of 1029h), the simulated axis, and a [`Firmware`] that gives
+//! manufacturer objects their meaning (live values, switch configuration, store commands).
+//! Nothing in the core knows which drive it is.
 
 pub mod chieftek;
 pub mod generic;

@@ -73,7 +73,7 @@ use canopen_drive::comm::error_control::ErrorBehaviour;
 use canopen_drive::hal::{DigitalInputs, HardwareFaults, Sample};
 use canopen_drive::od::eds::EdsInfo;
 use canopen_drive::od::{
-    layout, AbortCode, DataType, DefaultOverride, DefaultValue, DeviceInfo, EntryOverride, Object,
+    layout, AbortCode, Access, DataType, DefaultOverride, DefaultValue, DeviceInfo, EntryOverride, Object,
     PdoMapping, Var, WriteRule,
 };
 use canopen_drive::wire::lss::BitTiming;
@@ -338,7 +338,7 @@ pub static DEFAULTS: [DefaultOverride; 19] = [
 /// accelerations 6081h–6084h SIGNED32 (§6.1.12–6.1.15; the core takes them as magnitudes, so
 /// negative values are refused), 6086h UNSIGNED16 (§6.1.17); and the PDO mappability the manual
 /// denies: 1001h and the motion settings 6081h–6085h, 6098h–609Ah (SDO only).
-pub static DESCRIPTIONS: [EntryOverride; 18] = [
+pub static DESCRIPTIONS: [EntryOverride; 19] = [
     // One heartbeat consumer entry (§3.1.13), an identity without a serial number (§3.1.15).
     communication_entry(0x1016, 0).default(u(1)),
     communication_entry(0x1018, 0).default(u(3)),
@@ -357,6 +357,8 @@ pub static DESCRIPTIONS: [EntryOverride; 18] = [
     profile_entry(0x6099, 1).pdo(PdoMapping::No),
     profile_entry(0x6099, 2).pdo(PdoMapping::No),
     profile_entry(0x609A, 0).pdo(PdoMapping::No),
+    // 608Fh sub 2 (motor revolutions) is read-only in the manual (§5.1.9).
+    profile_entry(0x608F, 2).access(Access::ReadOnly),
     // §5.1.8: 0 encoder used, −1 no encoder (the default).
     profile_entry(0x606A, 0).limits_signed(-1, 0).default(DefaultValue::Signed(-1)),
 ];
