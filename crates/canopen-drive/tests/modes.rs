@@ -94,7 +94,7 @@ fn optional_modes() -> [(i8, u32, bool, &'static [u16]); 4] {
         ),
         (
             2,
-            1 << 1,
+            canopen_drive::cia402::vl::MODE_BIT,
             cfg!(feature = "vl"),
             &[0x6042, 0x6043, 0x6044, 0x6046, 0x6048, 0x6049, 0x604A, 0x604B, 0x604C],
         ),

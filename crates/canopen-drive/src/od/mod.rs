@@ -792,7 +792,7 @@ impl<const BYTES: usize> Dictionary<BYTES> {
         }
     }
 
-    /// Resolves a signed integer entry for [`load_int`](Self::load_int) /
+    /// Resolves an integer entry for [`load_int`](Self::load_int) /
     /// [`store_int`](Self::store_int).
     pub fn int_slot(&self, index: u16, sub: u8) -> IntSlot {
         let resolved = self.entry(index, sub).ok().and_then(|e| Some((e.offset, self.int_width(&e)?)));
@@ -828,8 +828,7 @@ impl<const BYTES: usize> Dictionary<BYTES> {
         let Some((start, n)) = self.int_place(slot) else { return 0 };
         self.store.get(start..start + usize::from(n)).map_or(0, |bytes| {
             let raw = bytes.iter().rev().fold(0u64, |value, byte| value << 8 | u64::from(*byte));
-            let shift = 64 - 8 * u32::from(n);
-            ((raw << shift) as i64) >> shift
+            sign_extend(raw, bytes.len())
         })
     }
 
@@ -916,6 +915,12 @@ fn check_object(object: &Object) -> Result<(), ConfigError> {
     Ok(())
 }
 
+/// The two's-complement number in the low `bytes` (1–8) bytes of `raw`, sign-extended.
+fn sign_extend(raw: u64, bytes: usize) -> i64 {
+    let shift = 64 - 8 * bytes.clamp(1, 8) as u32;
+    ((raw << shift) as i64) >> shift
+}
+
 /// Value range check of a numeric write (limits of the entry and of BOOLEAN).
 fn check_limits(var: &Var, data: &[u8]) -> Result<(), AbortCode> {
     let ty = var.data_type;
@@ -929,8 +934,7 @@ fn check_limits(var: &Var, data: &[u8]) -> Result<(), AbortCode> {
     }
     let unsigned = u64::from_le_bytes(raw);
     if ty.is_signed() {
-        let shift = 64 - 8 * n as u32;
-        let value = ((unsigned << shift) as i64) >> shift;
+        let value = sign_extend(unsigned, n);
         if let Bound::Signed(low) = var.low {
             if value < low {
                 return Err(AbortCode::ValueTooLow);
