@@ -163,6 +163,16 @@ pub struct Config {
     /// What each value of 1029h sub 1 means (default [`ErrorBehaviour::CIA_301`]: 0
     /// Pre-operational, 1 no change, 2 Stopped); other values below 80h are refused.
     pub error_behaviour_values: &'static [(u8, ErrorBehaviour)],
+    /// Standard objects of the crate's tables this drive does not have (default none): the
+    /// bus gets 0x0602_0000 for them, PDOs cannot map them and the EDS leaves them out; the
+    /// behaviour they carry keeps their defaults ([`crate::od::Dictionary::set_absent`]).
+    pub absent_objects: &'static [u16],
+    /// The manufacturer-specific field (bytes 3–7) of the EMCYs of these error codes, as the
+    /// drive's documentation gives them (default none: the crate's, zero but for the
+    /// node-ID of a heartbeat timeout, the PDO number of an RPDO timeout and the limit of a
+    /// travel-limit EMCY). The codes are the reported ones
+    /// ([`crate::cia402::ProfileConfig::error_codes`]).
+    pub emcy_additional_bytes: &'static [(u16, [u8; 5])],
 }
 
 impl Config {
@@ -184,6 +194,8 @@ impl Config {
             entry_overrides: &[],
             extra_profile_objects: &[],
             error_behaviour_values: &ErrorBehaviour::CIA_301,
+            absent_objects: &[],
+            emcy_additional_bytes: &[],
         }
     }
 }
@@ -252,6 +264,10 @@ pub struct Drive<
     error_behaviour: &'static [(u8, ErrorBehaviour)],
     /// [`Config::store_groups`].
     store_groups: &'static [Group],
+    /// [`Config::emcy_additional_bytes`].
+    emcy_bytes: &'static [(u16, [u8; 5])],
+    /// PDO mappings may be changed while the PDO is valid ([`Drive::set_remap_while_valid`]).
+    remap_while_valid: bool,
     tx: TxQueue,
     hooks: H,
     storage: S,
@@ -463,6 +479,8 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
             profile: Profile::new(config.profile),
             error_behaviour: config.error_behaviour_values,
             store_groups: config.store_groups,
+            emcy_bytes: config.emcy_additional_bytes,
+            remap_while_valid: false,
             tx: TxQueue { frames: Deque::new(), dropped: 0 },
             hooks,
             storage,
@@ -494,6 +512,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
         self.od.set_homing_methods(config.profile.homing);
         self.od.set_entry_overrides(config.entry_overrides)?;
         self.od.set_default_overrides(config.default_overrides)?;
+        self.od.set_absent(config.absent_objects);
         self.slots = CommSlots::resolve(&self.od);
         self.pdos.long_rpdo = config.long_rpdo;
         self.pdos.inhibit_unit = config.tpdo_inhibit_unit;
@@ -644,6 +663,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
             Access::new(&mut self.od, &mut self.hooks, &mut self.storage, self.nmt, &self.profile);
         access.error_behaviour = self.error_behaviour;
         access.store_groups = self.store_groups;
+        access.remap_while_valid = self.remap_while_valid;
         let response = self.sdo.on_request(data, now, &mut access);
         let written = access.written;
         let stored = access.stored;
@@ -746,6 +766,14 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
         }
     }
 
+    /// Lets a master change PDO mappings while the PDO is valid (no need to invalidate it
+    /// first: a vendor's "manufacturer-specific mode", e.g. Trinamic's 2701h), or restores the
+    /// CiA 301 rule (the default: 0x0601_0000 while valid). The new mapping takes effect when
+    /// its sub-index 0 is written.
+    pub fn set_remap_while_valid(&mut self, on: bool) {
+        self.remap_while_valid = on;
+    }
+
     /// The last event that broke the connection to the master, taken (for the 6007h reaction).
     pub fn take_connection_event(&mut self) -> Option<ConnectionEvent> {
         self.connection_event.take()
@@ -783,6 +811,9 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
     /// A communication error: its EMCY, the 1029h reaction and the connection event.
     fn communication_error(&mut self, code: u16, info: [u8; 5], event: ConnectionEvent, now: Instant) {
         self.raise_error(code, ErrorRegister::COMMUNICATION, info);
+        // The error happened in the present NMT state: its EMCY goes out before a 1029h
+        // reaction into Stopped silences the node.
+        self.send_emcy(now);
         self.communication_reaction(event, now);
     }
 
@@ -815,6 +846,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
     /// [`crate::cia402::ProfileConfig::error_codes`] is reported as the drive's own code.
     pub fn raise_error(&mut self, code: u16, register: ErrorRegister, info: [u8; 5]) {
         let code = self.profile.config().reported_code(code);
+        let info = self.emcy_bytes.iter().find(|(c, _)| *c == code).map_or(info, |(_, bytes)| *bytes);
         if self.emcy.raise(code, register, info).is_some() {
             self.record_history(code, info);
             self.sync_error_register();
@@ -1205,6 +1237,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
                 Access::new(&mut self.od, &mut self.hooks, &mut self.storage, self.nmt, &self.profile);
             access.error_behaviour = self.error_behaviour;
             access.store_groups = self.store_groups;
+            access.remap_while_valid = self.remap_while_valid;
             match self.sdo.poll(now, &mut access) {
                 Some(frame) => self.send(SDO_TX_BASE + u16::from(node_id), &frame),
                 None => break,
@@ -1230,6 +1263,8 @@ struct Access<'a, H, S, const B: usize> {
     profile: &'a Profile,
     error_behaviour: &'static [(u8, ErrorBehaviour)],
     store_groups: &'static [Group],
+    /// [`Drive::set_remap_while_valid`].
+    remap_while_valid: bool,
     written: Option<Mux>,
     /// A store on command succeeded.
     stored: bool,
@@ -1254,6 +1289,7 @@ impl<'a, H: ObjectHooks, S: Persistence, const B: usize> Access<'a, H, S, B> {
             profile,
             error_behaviour: &ErrorBehaviour::CIA_301,
             store_groups: &Group::ALL,
+            remap_while_valid: false,
             written: None,
             stored: false,
             resolved: None,
@@ -1291,7 +1327,7 @@ impl<'a, H: ObjectHooks, S: Persistence, const B: usize> Access<'a, H, S, B> {
         if let Some(entry) = self.resolved.filter(|e| e.index() == mux.index && e.sub == mux.sub) {
             return Ok(entry);
         }
-        let entry = self.od.entry(mux.index, mux.sub)?;
+        let entry = self.od.bus_entry(mux.index, mux.sub)?;
         self.resolved = Some(entry);
         Ok(entry)
     }
@@ -1365,7 +1401,11 @@ impl<H: ObjectHooks, S: Persistence, const B: usize> ObjectAccess for Access<'_,
         if self.command_capability(mux).is_some() {
             return self.storage_command(mux, data);
         }
-        check_communication(self.od, self.profile, self.error_behaviour, mux, data)?;
+        let rules = CommunicationRules {
+            error_behaviour: self.error_behaviour,
+            remap_while_valid: self.remap_while_valid,
+        };
+        check_communication(self.od, self.profile, rules, mux, data)?;
         self.hooks.validate(mux.index, mux.sub, data)?;
         self.od.commit(&entry, data);
         self.hooks.written(mux.index, mux.sub, data);
@@ -1378,10 +1418,11 @@ impl<H: ObjectHooks, S: Persistence, const B: usize> ObjectAccess for Access<'_,
 fn check_communication<const B: usize>(
     od: &Dictionary<B>,
     profile: &Profile,
-    error_behaviour: &[(u8, ErrorBehaviour)],
+    rules: CommunicationRules,
     mux: Mux,
     data: &[u8],
 ) -> Result<(), AbortCode> {
+    let error_behaviour = rules.error_behaviour;
     let raw = u32_le(data);
     match mux.index {
         // Only 0 may be written to the number of errors: it clears the history.
@@ -1397,7 +1438,9 @@ fn check_communication<const B: usize>(
         {
             Err(AbortCode::CannotStoreDeviceState)
         }
-        index if PdoRecord::of(index).is_some() => pdo::check_write(od, index, mux.sub, data),
+        index if PdoRecord::of(index).is_some() => {
+            pdo::check_write(od, index, mux.sub, data, rules.remap_while_valid)
+        }
         0x60C0..=0x60C4 => crate::cia402::ip::check_write(od, profile.ip_buffer(), mux.index, mux.sub, data),
         0x6000..=0x67FF => {
             crate::cia402::objects::check_write(od, profile.config(), mux.index, mux.sub, data)
@@ -1467,14 +1510,24 @@ fn check_communication<const B: usize>(
 fn rpdo_rules<const B: usize>(
     od: &Dictionary<B>,
     profile: &Profile,
-    error_behaviour: &[(u8, ErrorBehaviour)],
+    error_behaviour: &'static [(u8, ErrorBehaviour)],
     entry: &Entry,
     data: &[u8],
 ) -> Result<(), AbortCode> {
     if entry.index() == crate::cia402::ip::INTERPOLATION_DATA_RECORD {
         return Ok(());
     }
-    check_communication(od, profile, error_behaviour, Mux { index: entry.index(), sub: entry.sub }, data)
+    let rules = CommunicationRules { error_behaviour, remap_while_valid: false };
+    check_communication(od, profile, rules, Mux { index: entry.index(), sub: entry.sub }, data)
+}
+
+/// The run-time settings [`check_communication`] needs besides the dictionary.
+#[derive(Clone, Copy)]
+struct CommunicationRules {
+    /// [`Config::error_behaviour_values`].
+    error_behaviour: &'static [(u8, ErrorBehaviour)],
+    /// [`Drive::set_remap_while_valid`].
+    remap_while_valid: bool,
 }
 
 /// Up to four little-endian bytes as a number (missing bytes read as 0).

@@ -219,6 +219,19 @@ pub struct ProfileConfig {
     /// Statusword bit 7 shows warnings (the board's, an ip buffer overflow): CiA 402, the
     /// default. False for a drive that documents the bit as reserved (always 0).
     pub warning_bit: bool,
+    /// The software position limits 607Dh act only once the axis is homed (a drive whose
+    /// documentation says homing validates them). Default false: they act from power-on.
+    pub software_limits_after_homing: bool,
+    /// An active limit switch stops motion towards it outside homing: pp clamps its target to
+    /// the present position (statusword bit 11) and stops a move running into the switch,
+    /// the velocity and cyclic modes hold velocity towards it at 0. Motion away from the
+    /// switch stays possible. Default false: CiA 402 leaves the reaction to a limit switch
+    /// to the manufacturer.
+    pub limit_switches_stop: bool,
+    /// Under halt, statusword bit 10 waits until the shaft rests (|606Ch| ≤ 606Fh) as well as
+    /// the demand: "decelerated to zero velocity" read as the axis's velocity. Default false:
+    /// bit 10 follows the velocity demand reaching 0.
+    pub halt_reached_at_standstill: bool,
 }
 
 /// A direct set-point mode: the target object goes to the loops at every tick, within the
@@ -290,6 +303,9 @@ impl ProfileConfig {
             travel_limit_emcy: None,
             manufacturer_modes: &[],
             warning_bit: true,
+            software_limits_after_homing: false,
+            limit_switches_stop: false,
+            halt_reached_at_standstill: false,
         }
     }
 

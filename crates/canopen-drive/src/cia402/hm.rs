@@ -149,6 +149,26 @@ pub struct HomingConfig {
     pub hard_stop_passes_limit_switches: bool,
     /// A run that takes longer fails (0 = no limit).
     pub timeout: Duration,
+    /// What 607Ch means at home (default [`HomeOffset::ZeroBeforeHome`], CiA 402).
+    pub home_offset: HomeOffset,
+    /// A completed run also moves the zero of the internal position 6063h (and 60FCh) to the
+    /// user zero, so 6063h reads what 6064h reads in increments. Default false: 6063h keeps
+    /// the encoder count (CiA 402 leaves the internal value unreferenced).
+    pub rebase_internal_position: bool,
+}
+
+/// The meaning of the home offset 607Ch.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum HomeOffset {
+    /// CiA 402: the zero position is the home position plus 607Ch, so 6064h reads −607Ch at
+    /// home; the software position limits 607Dh count from home (607Dh − 607Ch in 6064h's
+    /// terms).
+    #[default]
+    ZeroBeforeHome,
+    /// 607Ch is the position value the home position gets: 6064h reads +607Ch at home; the
+    /// software position limits 607Dh are position values as 6064h reads them.
+    HomeValue,
 }
 
 impl HomingConfig {
@@ -162,6 +182,8 @@ impl HomingConfig {
             hard_stop_entries: None,
             hard_stop_passes_limit_switches: false,
             timeout: Duration::ZERO,
+            home_offset: HomeOffset::ZeroBeforeHome,
+            rebase_internal_position: false,
         }
     }
 
@@ -615,6 +637,8 @@ pub struct Homing {
     homed: bool,
     started_at: Option<Instant>,
     above_threshold_since: Option<Instant>,
+    /// The run found home without motion (method 35/37).
+    motionless: bool,
 }
 
 /// A search runs at most this long at its speed before it counts as "the switch never came".
@@ -636,6 +660,7 @@ impl Homing {
             homed: false,
             started_at: None,
             above_threshold_since: None,
+            motionless: false,
         }
     }
 
@@ -658,6 +683,11 @@ impl Homing {
         self.homed
     }
 
+    /// Whether the last run found home where the axis stood, without motion (method 35).
+    pub fn was_motionless(&self) -> bool {
+        self.motionless
+    }
+
     /// The demand state (increments, encoder count).
     pub fn state(&self, planner: &PositionPlanner) -> crate::motion::MotionState {
         planner.state()
@@ -676,8 +706,9 @@ impl Homing {
         planner.step()
     }
 
-    /// The statusword bits 10/12/13 now.
-    pub fn status(&self, planner: &PositionPlanner) -> Status {
+    /// The statusword bits 10/12/13 now; `on_home`: the shaft rests on the position the
+    /// run ended at (a run is complete only then, digest §10.4).
+    pub fn status(&self, planner: &PositionPlanner, on_home: bool) -> Status {
         let moving = planner.state().velocity != 0;
         match self.phase {
             Phase::Running(_) => Status::InProgress,
@@ -686,7 +717,7 @@ impl Homing {
             Phase::Stopping { error: false } => Status::InProgress,
             Phase::Failed if moving => Status::ErrorMoving,
             Phase::Failed => Status::ErrorAtRest,
-            Phase::Done if moving => Status::Attained,
+            Phase::Done if moving || !on_home => Status::Attained,
             Phase::Done if self.homed => Status::Completed,
             Phase::Done | Phase::Idle if self.homed => Status::Completed,
             Phase::Done | Phase::Idle => Status::Interrupted,
@@ -833,7 +864,8 @@ impl Homing {
         self.first_mark = None;
         self.limits = (None, None);
         self.started_at = Some(input.now);
-        if matches!(method, 35) || (method == 37 && self.config.method_37) {
+        self.motionless = matches!(method, 35) || (method == 37 && self.config.method_37);
+        if self.motionless {
             // The current position is home: no motion, also outside Operation enabled.
             planner.reset(input.actual);
             self.home = Some(input.actual);

@@ -32,7 +32,8 @@
 //!   executed target.
 //! - **Target reached** (bit 10): with halt = 0, when no set-point is executed or waiting and
 //!   `|target − 6064h| ≤ 6067h` has held for 6068h ms (6067h = FFFF FFFFh: as soon as the
-//!   trajectory has arrived); with halt = 1, at standstill.
+//!   trajectory has arrived); with halt = 1, once the demand has stopped (and the shaft rests,
+//!   |606Ch| ≤ 606Fh, with [`ProfileConfig::halt_reached_at_standstill`]).
 
 use super::config::ProfileConfig;
 use super::factor::Factors;
@@ -73,6 +74,12 @@ pub struct Inputs<'a, const B: usize> {
     pub actual: i64,
     /// The encoder count at the user zero (moved by homing).
     pub origin: i64,
+    /// The range a target is clamped to (user units): the software position limits 607Dh,
+    /// narrowed by an active limit switch; `None`: unlimited.
+    pub target_range: Option<(i64, i64)>,
+    /// The shaft is at rest as halt needs it: |606Ch| within the velocity threshold 606Fh
+    /// ([`ProfileConfig::halt_reached_at_standstill`]; always true without it).
+    pub standstill: bool,
     /// Now.
     pub now: Instant,
 }
@@ -238,7 +245,7 @@ impl ProfilePosition {
             user = i64::from(min) + (user - i64::from(min)).rem_euclid(period);
         }
         let mut limited = false;
-        if let Some((low, high)) = super::slots::software_limits(od, input.slots) {
+        if let Some((low, high)) = input.target_range {
             if !(low..=high).contains(&user) {
                 user = user.clamp(low, high);
                 limited = true;
@@ -350,7 +357,8 @@ impl ProfilePosition {
         let halt = input.controlword & 0x0100 != 0;
         let idle = self.active.is_none() && self.queued() == 0;
         let target_reached = if halt {
-            self.planner.state().velocity == 0
+            // Decelerated to zero velocity: the demand and the shaft.
+            self.planner.state().velocity == 0 && input.standstill
         } else if !idle {
             self.in_window_since = None;
             false

@@ -38,7 +38,7 @@ use super::config::{DirectMode, ProfileConfig, StatusFlag, TravelLimit};
 use super::cyclic::{Bridge, Cycle, CycleStart, Interpolator, Limiter, TickLimits, STREAM_LOST};
 use super::factor::Factors;
 use super::fsa::{Fsa, Options, State, StopKind};
-use super::hm::{self, Homing};
+use super::hm::{self, HomeOffset, Homing};
 use super::ip::{IpBuffer, Written};
 use super::objects::*;
 use super::pp::{self, ProfilePosition};
@@ -175,6 +175,18 @@ pub struct Profile {
     /// A stop of option code −1 shorts the windings until the shaft is at rest (or the drive
     /// function is enabled again), whatever state the FSA moved on to.
     dynamic_braking: bool,
+    /// A fault latched outside the tick (a connection loss, 6007h) whose EMCY the next tick
+    /// raises.
+    fault_unreported: bool,
+    /// The encoder count of the last tick.
+    actual: i64,
+    /// Since when the shaft has rested (|606Ch| ≤ 606Fh without a break).
+    resting_since: Option<Instant>,
+    /// An active limit switch holds motion towards it ([`ProfileConfig::limit_switches_stop`]).
+    at_limit_switch: bool,
+    /// A set-point arrived while the cyclic mode was not running ([`CycleStart::SetPoint`]):
+    /// it is the target once the mode runs.
+    held_set_point: bool,
 }
 
 fn fault_code(faults: HardwareFaults) -> Option<(u16, ErrorRegister)> {
@@ -193,6 +205,9 @@ fn fault_code(faults: HardwareFaults) -> Option<(u16, ErrorRegister)> {
 
 /// Following error (digest §2.1 table, 8611h).
 const FOLLOWING_ERROR: u16 = 0x8611;
+/// Communication error (8100h): the fault of a connection loss (6007h = 1, or NMT Stopped
+/// with [`ProfileConfig::nmt_stopped_fault`]).
+const COMMUNICATION_FAULT: u16 = 0x8100;
 /// Parameter error (6320h): a controlword function this configuration does not have.
 const PARAMETER_ERROR: u16 = 0x6320;
 
@@ -251,6 +266,11 @@ impl Profile {
             pending_edge: false,
             travel_limit: None,
             dynamic_braking: false,
+            fault_unreported: false,
+            actual: 0,
+            resting_since: None,
+            at_limit_switch: false,
+            held_set_point: false,
         }
     }
 
@@ -277,7 +297,7 @@ impl Profile {
             Some(factors) => factors,
             None => self.refresh(od),
         };
-        let actual = i64::from(od.load(self.slots.position_actual_internal));
+        let actual = self.actual;
         self.origin = actual.saturating_sub(factors.to_internal(i64::from(user) * factors.position_sign()));
         self.pp.reset(actual, i64::from(user));
     }
@@ -295,19 +315,106 @@ impl Profile {
         if !self.fsa.state().drive_function_enabled() {
             return;
         }
-        if event == ConnectionEvent::NmtStopped
+        let fault = if event == ConnectionEvent::NmtStopped
             && self.config.nmt_stopped_fault
             && matches!(self.fsa.state(), State::OperationEnabled { .. })
         {
-            self.fault = self.fault.or(Some(0x8100));
-            return;
+            true
+        } else {
+            match od.load(self.slots.abort_connection) {
+                1 => true,
+                2 => {
+                    self.forced = Some(0x0000);
+                    false
+                }
+                3 => {
+                    self.forced = Some(0x0002);
+                    false
+                }
+                _ => false,
+            }
+        };
+        if fault && self.fault.is_none() {
+            // Reported (EMCY, 1003h) at the next tick, so its fault reset sends 0000h.
+            self.fault = Some(COMMUNICATION_FAULT);
+            self.fault_unreported = true;
         }
-        match od.load(self.slots.abort_connection) {
-            1 => self.fault = self.fault.or(Some(0x8100)),
-            2 => self.forced = Some(0x0000),
-            3 => self.forced = Some(0x0002),
-            _ => {}
+    }
+
+    /// The software position limits 607Dh in user units as 6064h reads them (digest §9.5),
+    /// `None` while they are off: min above max, or not yet valid
+    /// ([`ProfileConfig::software_limits_after_homing`]).
+    fn software_limits<const B: usize>(&self, od: &Dictionary<B>) -> Option<(i64, i64)> {
+        if self.config.software_limits_after_homing && !self.homing.is_homed() {
+            return None;
         }
+        let offset = match self.config.homing.home_offset {
+            HomeOffset::ZeroBeforeHome => i64::from(od.load(self.slots.home_offset)),
+            HomeOffset::HomeValue => 0,
+        };
+        let low = i64::from(od.load(self.slots.software_position_limit_min)) - offset;
+        let high = i64::from(od.load(self.slots.software_position_limit_max)) - offset;
+        (low <= high).then_some((low, high))
+    }
+
+    /// The range a pp target may take (user units): the software limits, narrowed to the
+    /// present position on the side of an active limit switch
+    /// ([`ProfileConfig::limit_switches_stop`]).
+    fn target_range<const B: usize>(
+        &self,
+        od: &Dictionary<B>,
+        actual_user: i64,
+        inputs: DigitalInputs,
+        position_sign: i64,
+    ) -> Option<(i64, i64)> {
+        let limits = self.software_limits(od);
+        let (positive, negative) = self.blocked_directions(inputs);
+        // The switches are on the encoder's sides; the user's are mirrored by polarity.
+        let (above, below) = if position_sign < 0 { (negative, positive) } else { (positive, negative) };
+        if !above && !below {
+            return limits;
+        }
+        let (mut low, mut high) = limits.unwrap_or((i64::MIN, i64::MAX));
+        if above {
+            high = high.min(actual_user);
+        }
+        if below {
+            low = low.max(actual_user);
+        }
+        Some((low.min(high), high))
+    }
+
+    /// The encoder directions (positive, negative) an active limit switch blocks outside
+    /// homing ([`ProfileConfig::limit_switches_stop`]).
+    fn blocked_directions(&self, inputs: DigitalInputs) -> (bool, bool) {
+        if !self.config.limit_switches_stop || self.active_mode == mode::HOMING {
+            return (false, false);
+        }
+        (inputs.contains(DigitalInputs::POSITIVE_LIMIT), inputs.contains(DigitalInputs::NEGATIVE_LIMIT))
+    }
+
+    /// Homing is complete only at rest on home (digest §10.4, Table 106): 6064h within the
+    /// position window 6067h of the home position, the shaft resting (606Ch within the
+    /// velocity threshold 606Fh) for the position window time 6068h; after a run without
+    /// motion (method 35) a resting shaft is on home at once.
+    fn rests_on_home<const B: usize>(
+        &self,
+        od: &Dictionary<B>,
+        factors: &Factors,
+        actual: i64,
+        now: Instant,
+    ) -> bool {
+        let home = self.pp.planner().state().position;
+        let window = od.load(self.slots.position_window);
+        let in_window =
+            window == u32::MAX || factors.to_user(actual - home).unsigned_abs() <= u64::from(window);
+        // Without motion (method 35) there is nothing to settle: resting now is enough.
+        let time = if self.homing.was_motionless() {
+            Duration::ZERO
+        } else {
+            Duration::from_millis(u64::from(od.load(self.slots.position_window_time)))
+        };
+        in_window && self.resting_since.is_some_and(|since| now - since >= time)
     }
 
     /// The modes whose demand is a trajectory of positions (pp, hm).
@@ -410,11 +517,29 @@ impl Profile {
         if sample.faults.contains(HardwareFaults::ENCODER) {
             self.homing.forget();
         }
+        self.actual = actual;
         let actual_user = factors.to_user(actual - self.origin) * position_sign;
-        od.store(self.slots.position_actual_internal, sample.position);
+        // 6063h: the encoder count, or referenced as 6064h is where homing re-bases it.
+        let internal = if self.config.homing.rebase_internal_position {
+            (actual - self.origin) as i32
+        } else {
+            sample.position
+        };
+        od.store(self.slots.position_actual_internal, internal);
         od.store(self.slots.position_actual, saturate(actual_user));
         let velocity_user = factors.velocity_to_user(i64::from(sample.velocity)) * velocity_sign;
         od.store(self.slots.velocity_actual, saturate(velocity_user));
+        // The shaft rests: |606Ch| within the velocity threshold 606Fh.
+        let resting = velocity_user.unsigned_abs() <= u64::from(od.load(self.slots.velocity_threshold));
+        if !resting {
+            self.resting_since = None;
+        } else if self.resting_since.is_none() {
+            self.resting_since = Some(now);
+        }
+        // (Asked for by halt only when the configuration says so.)
+        let standstill = resting || !self.config.halt_reached_at_standstill;
+        let (positive_blocked, negative_blocked) = self.blocked_directions(sample.inputs);
+        self.at_limit_switch = positive_blocked || negative_blocked;
         let torque_user = factors.torque_to_user(i64::from(sample.torque));
         od.store_int(self.slots.torque_actual, torque_user);
         od.store_int(self.slots.current_actual, torque_user);
@@ -439,6 +564,12 @@ impl Profile {
             if let Some((code, register)) = hardware {
                 self.fault = Some(code);
                 report.raise = Some((code, register));
+            }
+        }
+        if core::mem::take(&mut self.fault_unreported) {
+            if let Some(code) = self.fault {
+                let register = ErrorRegister::COMMUNICATION | ErrorRegister::DEVICE_PROFILE;
+                report.raise = report.raise.or(Some((code, register)));
             }
         }
 
@@ -513,6 +644,7 @@ impl Profile {
             self.velocity = Ramp { value: i64::from(sample.velocity), remainder: 0 };
             self.reset_cyclic(actual, i64::from(sample.velocity));
             self.vl.reset(i64::from(sample.velocity));
+            self.held_set_point = false;
         }
         od.store(self.slots.modes_of_operation_display, self.display_mode);
 
@@ -668,10 +800,19 @@ impl Profile {
                     StopKind::halt_or_fault(od.load(self.slots.halt_option)).unwrap_or(StopKind::SlowDown);
                 let (position, outcome) =
                     self.homing.tick(self.pp.planner_mut(), &inputs, stop_deceleration(halt_kind));
+                let home_offset = i64::from(od.load(self.slots.home_offset));
+                // What 607Ch adds to a position value read as 6064h (a limit found at home).
+                let limit_offset = match self.config.homing.home_offset {
+                    HomeOffset::ZeroBeforeHome => home_offset,
+                    HomeOffset::HomeValue => 0,
+                };
                 if let Some(home) = outcome.home {
-                    // 6064h reads −607Ch at home.
-                    let offset = i64::from(od.load(self.slots.home_offset)) * position_sign;
-                    self.origin = home.saturating_add(factors.to_internal(offset));
+                    // 6064h reads −607Ch at home (CiA 402), or +607Ch ([`HomeOffset::HomeValue`]).
+                    let offset = factors.to_internal(home_offset * position_sign);
+                    self.origin = match self.config.homing.home_offset {
+                        HomeOffset::ZeroBeforeHome => home.saturating_add(offset),
+                        HomeOffset::HomeValue => home.saturating_sub(offset),
+                    };
                 }
                 if outcome.error != self.homing_error || (inputs.start && self.homing_error) {
                     self.homing_error = outcome.error;
@@ -679,10 +820,9 @@ impl Profile {
                 }
                 if outcome.home.is_some() {
                     // Limits a method found become 607Dh (compared after the 607Ch correction).
-                    let home_offset = i64::from(od.load(self.slots.home_offset));
                     for (count, sub) in [(outcome.limits.0, 1u8), (outcome.limits.1, 2u8)] {
                         if let Some(count) = count {
-                            let user = factors.to_user(count - self.origin) * position_sign + home_offset;
+                            let user = factors.to_user(count - self.origin) * position_sign + limit_offset;
                             let sub = if position_sign < 0 { 3 - sub } else { sub };
                             let _ = od.set::<i32>(SOFTWARE_POSITION_LIMIT, sub, saturate(user));
                         }
@@ -723,6 +863,12 @@ impl Profile {
                 self.run_cyclic(od, &input, &mut report)
             }
             None if super::PP && drive_enabled && self.position_mode() => {
+                let moving = self.pp.state().velocity;
+                if (positive_blocked && moving > 0) || (negative_blocked && moving < 0) {
+                    // Running into an active limit switch: stopped on the quick-stop ramp.
+                    let deceleration = stop_deceleration(StopKind::QuickStopRamp);
+                    self.pp.stop(deceleration, &pp::limits(od, &self.slots, &factors));
+                }
                 let inputs = pp::Inputs {
                     od,
                     factors: &factors,
@@ -731,6 +877,8 @@ impl Profile {
                     new_setpoint: bit4_rose && operation && !step.entered_operation && !self.mode_changed,
                     actual,
                     origin: self.origin,
+                    target_range: self.target_range(od, actual_user, sample.inputs, position_sign),
+                    standstill,
                     now,
                 };
                 let halt_kind =
@@ -739,7 +887,7 @@ impl Profile {
                 status = self.pp.status(&inputs);
                 Setpoint::Position(state.position_demand())
             }
-            None if drive_enabled => self.run_mode(od, &factors, dt, halt),
+            None if drive_enabled => self.run_mode(od, &factors, dt, halt, sample.inputs),
             None => {
                 self.velocity = Ramp::default();
                 self.torque = Ramp::default();
@@ -748,6 +896,10 @@ impl Profile {
             }
         };
 
+        if cycle.set_point && !(drive_enabled && stop.is_none() && !opening && self.cyclic_mode()) {
+            // Written before Operation enabled (an SDO-driven cycle): kept for the mode.
+            self.held_set_point = true;
+        }
         if matches!(self.active_mode, mode::PROFILE_POSITION | mode::HOMING) && drive_enabled {
             self.feed_forward.velocity = saturate(self.trajectory().velocity);
         }
@@ -773,7 +925,7 @@ impl Profile {
             report.raise = report.raise.or(Some((FOLLOWING_ERROR, ErrorRegister::DEVICE_PROFILE)));
         }
 
-        let mut statusword = self.statusword(step.state, sample, od, now, halt, options, status);
+        let mut statusword = self.statusword(step.state, sample, od, now, halt, standstill, options, status);
         let following_bit = following
             && matches!(
                 self.active_mode,
@@ -797,7 +949,8 @@ impl Profile {
         }
         if self.active_mode == mode::HOMING {
             // Bits 10, 12, 13 are the homing status in every state (digest §10.4).
-            statusword = (statusword & !0x3400) | self.homing.status(self.pp.planner()).bits();
+            let on_home = self.rests_on_home(od, &factors, actual, now);
+            statusword = (statusword & !0x3400) | self.homing.status(self.pp.planner(), on_home).bits();
         }
         // The manufacturer-specific bits 14 and 15, as the configuration defines them.
         let transition = opening || (matches!(step.state, State::QuickStopActive) && !at_rest);
@@ -888,7 +1041,7 @@ impl Profile {
                 return Some(TravelLimit::NegativeSwitch);
             }
         }
-        match super::slots::software_limits(od, &self.slots) {
+        match self.software_limits(od) {
             Some((_, high)) if actual_user > high => Some(TravelLimit::PositiveSoftware),
             Some((low, _)) if actual_user < low => Some(TravelLimit::NegativeSoftware),
             _ => None,
@@ -1076,8 +1229,10 @@ impl Profile {
                 Cycle { sync: input.cycle.sync, fresh: input.cycle.fresh, period_ticks, tolerance_ticks }
             }
             // Never late: without a new set-point the last one holds.
+            // A set-point written before the mode ran counts as arriving now.
             CycleStart::SetPoint => {
-                Cycle { sync: input.cycle.set_point, fresh: true, period_ticks, tolerance_ticks: u32::MAX }
+                let sync = input.cycle.set_point || core::mem::take(&mut self.held_set_point);
+                Cycle { sync, fresh: true, period_ticks, tolerance_ticks: u32::MAX }
             }
         };
         let velocity_offset = factors.velocity_to_internal(i64::from(od.load(self.slots.velocity_offset)));
@@ -1186,12 +1341,18 @@ impl Profile {
         factors: &Factors,
         dt: Duration,
         halt: bool,
+        sample_inputs: DigitalInputs,
     ) -> Setpoint {
         match self.active_mode {
             mode::PROFILE_VELOCITY => {
                 let limit = i64::from(velocity_limit(od, &self.slots, factors));
                 let target_user = i64::from(od.load(self.slots.target_velocity)) * factors.velocity_sign();
-                let target = factors.velocity_to_internal(target_user).clamp(-limit, limit);
+                let mut target = factors.velocity_to_internal(target_user).clamp(-limit, limit);
+                let (positive_blocked, negative_blocked) = self.blocked_directions(sample_inputs);
+                if (positive_blocked && target > 0) || (negative_blocked && target < 0) {
+                    // No velocity towards an active limit switch.
+                    target = 0;
+                }
                 let current = self.velocity.value;
                 // Accelerating away from zero uses 6083h, approaching zero 6084h.
                 let accelerating = (target - current).signum() == current.signum() || current == 0;
@@ -1234,6 +1395,7 @@ impl Profile {
         od: &Dictionary<B>,
         now: Instant,
         halt: bool,
+        standstill: bool,
         options: Options,
         pp: pp::Status,
     ) -> u16 {
@@ -1259,14 +1421,16 @@ impl Profile {
             State::OperationEnabled { .. } if halt && self.active_mode == mode::PROFILE_TORQUE => {
                 self.torque.value == 0
             }
-            State::OperationEnabled { .. } if halt => at_rest,
+            State::OperationEnabled { .. } if halt => at_rest && standstill,
             State::OperationEnabled { .. } => self.mode_target_reached(od, now),
             _ => false,
         };
         if target_reached || core::mem::take(&mut self.mode_changed) {
             sw |= 1 << 10;
         }
-        if pp.internal_limit || (self.active_mode == vl::MODE && self.vl_bits.1) {
+        let limit_switch = self.at_limit_switch
+            && matches!(self.active_mode, mode::PROFILE_POSITION | mode::PROFILE_VELOCITY);
+        if pp.internal_limit || limit_switch || (self.active_mode == vl::MODE && self.vl_bits.1) {
             sw |= 1 << 11;
         }
         let bit12 = match self.active_mode {

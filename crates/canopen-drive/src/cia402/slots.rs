@@ -143,15 +143,6 @@ slots! {
     control_effort: i32 = CONTROL_EFFORT, 0;
 }
 
-/// The software position limits 607Dh corrected by the home offset 607Ch (digest §9.5), in
-/// user units; `None` while they are off (min above max).
-pub(crate) fn software_limits<const B: usize>(od: &Dictionary<B>, slots: &Slots) -> Option<(i64, i64)> {
-    let offset = i64::from(od.load(slots.home_offset));
-    let low = i64::from(od.load(slots.software_position_limit_min)) - offset;
-    let high = i64::from(od.load(slots.software_position_limit_max)) - offset;
-    (low <= high).then_some((low, high))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

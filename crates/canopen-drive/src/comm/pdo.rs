@@ -295,7 +295,7 @@ fn resolve<const B: usize>(od: &Dictionary<B>, raw: u32, direction: Direction) -
             Err(AbortCode::ObjectNotMappable)
         };
     }
-    let entry = od.entry(index, sub)?;
+    let entry = od.bus_entry(index, sub)?;
     let var = entry.var;
     let direction_ok = match direction {
         Direction::Rpdo => matches!(var.pdo, PdoMapping::Rpdo | PdoMapping::Both) && var.access.writable(),
@@ -338,14 +338,16 @@ pub fn check_write<const B: usize>(
     index: u16,
     sub: u8,
     data: &[u8],
+    remap_while_valid: bool,
 ) -> Result<(), AbortCode> {
     let Some(record) = PdoRecord::of(index) else { return Ok(()) };
     let raw = data.iter().rev().fold(0u32, |acc, b| (acc << 8) | u32::from(*b));
     let current = cob_id_of(od, record);
     let valid = current.is_some_and(|c| c.valid);
     if !record.communication {
-        // Mapping: only while the PDO is invalid, entries only while sub0 = 0.
-        if valid {
+        // Mapping: only while the PDO is invalid (unless the drive lets mappings change while
+        // it is valid), entries only while sub0 = 0.
+        if valid && !remap_while_valid {
             return Err(AbortCode::UnsupportedAccess);
         }
         if sub == 0 {

@@ -88,13 +88,14 @@ pub fn write<const B: usize>(od: &Dictionary<B>, info: &EdsInfo, w: &mut impl Wr
 
     for list in [List::Mandatory, List::Optional, List::Manufacturer] {
         writeln!(w, "\n[{}]", list.section())?;
-        writeln!(w, "SupportedObjects={}", od.objects().filter(|o| List::of(o) == list).count())?;
-        for (n, object) in od.objects().filter(|o| List::of(o) == list).enumerate() {
+        let listed = |o: &&Object| List::of(o) == list && !od.is_absent(o.index);
+        writeln!(w, "SupportedObjects={}", od.objects().filter(listed).count())?;
+        for (n, object) in od.objects().filter(listed).enumerate() {
             writeln!(w, "{}=0x{:04X}", n + 1, object.index)?;
         }
     }
 
-    for object in od.objects() {
+    for object in od.objects().filter(|o| !od.is_absent(o.index)) {
         write_object(od, object, w)?;
     }
     Ok(())

@@ -353,6 +353,8 @@ pub struct Dictionary<const BYTES: usize> {
     entry_overrides: &'static [EntryOverride],
     /// The homing methods 60E3h lists ([`DeviceField::HomingMethods`]).
     homing: crate::cia402::hm::HomingConfig,
+    /// Objects of the tables the device does not show on the bus ([`Self::set_absent`]).
+    absent: &'static [u16],
 }
 
 /// A default value resolved to bytes.
@@ -393,7 +395,29 @@ impl<const BYTES: usize> Dictionary<BYTES> {
             overrides: &[],
             entry_overrides: &[],
             homing: crate::cia402::hm::HomingConfig::new(),
+            absent: &[],
         }
+    }
+
+    /// Objects of the tables that the device does not have as far as the bus can tell: SDO
+    /// and PDO mapping answer "object does not exist" (0x0602_0000) and the EDS leaves them
+    /// out, while the device side keeps reading their (default) values, so the behaviour they
+    /// carry stays at its defaults.
+    pub fn set_absent(&mut self, indices: &'static [u16]) {
+        self.absent = indices;
+    }
+
+    /// Whether the object at `index` is hidden from the bus ([`Self::set_absent`]).
+    pub fn is_absent(&self, index: u16) -> bool {
+        self.absent.contains(&index)
+    }
+
+    /// [`Self::entry`] as the bus sees the dictionary: an absent object does not exist.
+    pub fn bus_entry(&self, index: u16, sub: u8) -> Result<Entry, AbortCode> {
+        if self.is_absent(index) {
+            return Err(AbortCode::ObjectDoesNotExist);
+        }
+        self.entry(index, sub)
     }
 
     /// Replaces the tables with `tables` (see [`new`](Self::new)) and sets every value to its
