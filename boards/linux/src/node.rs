@@ -21,6 +21,7 @@ use std::io::Write;
 use std::path::Path;
 
 use canopen_drive::storage::Persistence;
+use canopen_drive::drive::ConnectionEvent;
 use canopen_drive::{CanFrame, Config, Drive, Duration, Instant};
 use canopen_drive_sim::motor::SimMotor;
 
@@ -108,6 +109,9 @@ pub fn run<S: Persistence>(
             Ok(frame) => {
                 drive.on_frame(&frame, clock.now());
                 transmit(&mut drive, bus);
+                if drive.take_connection_event() == Some(ConnectionEvent::ResetApplication) {
+                    firmware.reset(drive.od(), &env, &mut updates);
+                }
             }
             Err(RecvTimeoutError::Timeout) => {}
             // The bus keeps a sender as long as it exists; without it nothing can arrive.
@@ -165,6 +169,12 @@ fn take_actions<S: Persistence>(drive: &mut BoardDrive<S>, firmware: &mut dyn Fi
                     log!("the firmware's store of {entries:x?} failed: {e:?}");
                 }
             }
+            Action::ConfigureNodeId(node_id) => {
+                if let Err(e) = drive.configure_node_id(node_id) {
+                    log!("the firmware's node-ID {node_id} was refused: {e:?}");
+                }
+            }
+            Action::RemapWhileValid(on) => drive.set_remap_while_valid(on),
         }
     }
 }

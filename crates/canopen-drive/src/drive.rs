@@ -766,6 +766,17 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
         }
     }
 
+    /// The node-ID the drive takes at its next NMT reset (node or communication), as one an LSS
+    /// master configured: for a firmware whose own objects configure the node-ID. Refuses
+    /// anything but 1..=127 with [`ConfigError::InvalidNodeId`].
+    pub fn configure_node_id(&mut self, node_id: u8) -> Result<(), ConfigError> {
+        if self.lss.set_pending_node_id(node_id) {
+            Ok(())
+        } else {
+            Err(ConfigError::InvalidNodeId)
+        }
+    }
+
     /// Lets a master change PDO mappings while the PDO is valid (no need to invalidate it
     /// first: a vendor's "manufacturer-specific mode", e.g. Trinamic's 2701h), or restores the
     /// CiA 301 rule (the default: 0x0601_0000 while valid). The new mapping takes effect when
@@ -1152,6 +1163,10 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
                 // The application restarts as at power-on: its fault and every active error
                 // are forgotten (a condition still present is raised again when detected).
                 self.emcy.reset();
+                // A node-ID configured since (LSS, [`Self::configure_node_id`]) is the one the
+                // application's `$NODEID` defaults restart with.
+                let node_id = self.lss.activate_pending();
+                self.od.set_node_id(node_id);
                 self.od.reset(0x2000..=0xFFFF);
                 self.load_stored(Group::Manufacturer);
                 self.load_stored(Group::Application);

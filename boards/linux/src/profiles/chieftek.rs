@@ -17,6 +17,13 @@
 //! faults with a following error and no torque reaches the motor, as on the real drive. Units:
 //! counts, counts/s, 0.1 % (the core's).
 //!
+//! Also configuration of the core: 607Ch is the position value of the home position (§8.3:
+//! 6064h reads +607Ch at home, `HomeOffset::HomeValue`; the software limits 607Dh are then
+//! position values as 6064h reads them); the software limits act only once the axis is homed
+//! (§6.4, `ProfileConfig::software_limits_after_homing`); with halt, target reached waits
+//! until the shaft rests (§6.2.2, `ProfileConfig::halt_reached_at_standstill`); 6072h, 6086h,
+//! 608Fh, 6091h, 60C1h and 60C5h, which the manual does not list, do not exist ([`ABSENT`]).
+//!
 //! The touch probe edge counters 60D5h–60D8h (§9.2) and the supported homing methods 60E3h
 //! (§8.3: the 44 methods below, cpc methods first) are the core's.
 //!
@@ -59,7 +66,7 @@
 //! profile after the core's profile objects ([`PROFILE_OBJECTS`]).
 
 use canopen_drive::cia402::fsa::State;
-use canopen_drive::cia402::hm::{hard_stop_object, HomingConfig, VendorMethod};
+use canopen_drive::cia402::hm::{hard_stop_object, HomeOffset, HomingConfig, VendorMethod};
 use canopen_drive::cia402::objects::mode_bit;
 use canopen_drive::cia402::{DirectMode, MotorSpeedUnit, OptionCodes, ProfileConfig, StatusFlag};
 use canopen_drive::hal::Sample;
@@ -216,8 +223,14 @@ pub fn profile_config() -> ProfileConfig {
         hard_stop_object: Some(HARD_STOP_RECORD),
         // "Unconditionally until the hard stop is found" (§8.6.1).
         hard_stop_passes_limit_switches: true,
+        // §8.3: 607Ch is set as the position value of the home position.
+        home_offset: HomeOffset::HomeValue,
         ..HomingConfig::new()
     };
+    // §6.4 (607Dh): homing is required to validate the software position limits.
+    config.software_limits_after_homing = true;
+    // §6.2.2: with halt, target reached means decelerated to zero velocity.
+    config.halt_reached_at_standstill = true;
     config.mode_change_in_operation = false;
     config.following_error_fault = true;
     config.statusword_bit_14 = StatusFlag::Transition;
@@ -249,6 +262,12 @@ pub fn device_info() -> DeviceInfo {
     }
 }
 
+/// The core's CiA 402 objects the manual's object list (§2.3) does not have: the bus gets
+/// 0602 0000h for them, as from the real drive, and the behaviour they carry keeps its defaults
+/// (trapezoidal profiles, no torque or acceleration limit beyond the defaults, a 1:1 factor
+/// group, no interpolated position data).
+pub static ABSENT: [u16; 6] = [0x6072, 0x6086, 0x608F, 0x6091, 0x60C1, 0x60C5];
+
 /// The profile.
 pub fn profile() -> BoardProfile {
     BoardProfile {
@@ -260,6 +279,7 @@ pub fn profile() -> BoardProfile {
             default_overrides: &DEFAULTS,
             entry_overrides: &DESCRIPTIONS,
             extra_profile_objects: &PROFILE_OBJECTS,
+            absent_objects: &ABSENT,
             ..Config::new(TEMPLATE_NODE_ID)
         },
         eds: EdsInfo {

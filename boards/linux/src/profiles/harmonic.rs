@@ -72,6 +72,7 @@ use canopen_drive::cia402::fsa::State;
 use canopen_drive::cia402::hm::{HardStopEntries, HomingConfig, VendorMethod};
 use canopen_drive::cia402::objects::mode_bit;
 use canopen_drive::cia402::{OptionCodes, ProfileConfig, StatusFlag, TorqueUnit, Units, VelocityUnit};
+use canopen_drive::comm::pdo::LongRpdo;
 use canopen_drive::comm::error_control::ErrorBehaviour;
 use canopen_drive::hal::{DigitalInputs, HardwareFaults, Sample};
 use canopen_drive::od::eds::EdsInfo;
@@ -86,7 +87,7 @@ use canopen_drive_sim::motor::MotorParams;
 use super::trinamic::method_mask;
 use super::{
     bit_timing_index, communication_entry, default_of, highest, pdo_records, profile_entry, ro,
-    rpdo_communication, rw, tpdo_communication, u, value_of, var, Action, BoardDictionary, BoardProfile,
+    rpdo_communication, rw, stored_node_settings, tpdo_communication, u, value_of, var, Action, BoardDictionary, BoardProfile,
     Environment, Firmware, ProfileName, Update, CIA402_RPDO_MAPPING, CIA402_TPDO_MAPPING, TEMPLATE_NODE_ID,
 };
 use crate::board_objects::{
@@ -410,6 +411,8 @@ pub fn profile_config() -> ProfileConfig {
         }),
         // The methods drive into the stops; the limit switches do not end them (§8.1.3–8.1.6).
         hard_stop_passes_limit_switches: true,
+        // §8.1 method 35: 6062h, 6063h and 6064h are all set to zero (6063h = 6064h, §6.1.5).
+        rebase_internal_position: true,
         ..HomingConfig::new()
     };
     config.change_on_setpoint = false;
@@ -426,6 +429,26 @@ pub fn profile_config() -> ProfileConfig {
         Units { torque: TorqueUnit::MilliAmps, velocity: VelocityUnit::MotorRpm, ..Units::CIA_402 };
     config
 }
+
+/// The manufacturer-specific bytes of the manual's EMCY table (§13.2) for the codes the core
+/// raises (8611h 1: the position window following error).
+pub static EMCY_BYTES: [(u16, [u8; 5]); 9] = [
+    (0x6320, [0, 255, 0, 0, 0]),
+    (0x8100, [0, 255, 0, 0, 0]),
+    (0x8110, [1, 255, 0, 0, 0]),
+    (0x8120, [0, 255, 0, 0, 0]),
+    (0x8130, [0, 255, 0, 0, 0]),
+    (0x8140, [0, 255, 0, 0, 0]),
+    (0x8210, [0, 255, 0, 0, 0]),
+    (0x8220, [0, 255, 0, 0, 0]),
+    (0x8611, [1, 0, 0, 0, 0]),
+];
+
+/// The core's standard objects the manual's object list does not have (guarding is listed as
+/// removed): 0602 0000h from the bus, not in the EDS; the behaviour they carry keeps its
+/// defaults (the firmware still sets 6065h from 2096h sub 1 and 6080h from 2020h sub 2).
+pub static ABSENT: [u16; 12] =
+    [0x1003, 0x100C, 0x100D, 0x603F, 0x6065, 0x6066, 0x6068, 0x606D, 0x6072, 0x6080, 0x6086, 0x60F4];
 
 /// Identity (§3.1.1, §3.1.4–3.1.6, §3.1.13) and modes (§5.1.10).
 pub fn device_info() -> DeviceInfo {
@@ -478,6 +501,10 @@ pub fn profile() -> BoardProfile {
             sdo_block_transfer: false,
             // §3.1.7/§3.1.8: sub 3 (actuator profile parameters) is not used: it reads 0.
             store_groups: &[Group::All, Group::Communication, Group::Manufacturer],
+            // §13.2 8220h: a PDO with too many bytes "could not be processed".
+            long_rpdo: LongRpdo::DiscardAndReport,
+            emcy_additional_bytes: &EMCY_BYTES,
+            absent_objects: &ABSENT,
             ..Config::new(TEMPLATE_NODE_ID)
         },
         eds: EdsInfo {
@@ -526,6 +553,13 @@ fn signed_value(od: &BoardDictionary, index: u16, sub: u8, bits: u32) -> i64 {
 }
 
 impl Actuator {
+    /// The values derived from others, after a start or a reset loaded them: 6084h follows
+    /// 6083h (§6.1.14), 2100h shows 607Ch (a write of either updates them at once).
+    fn derived(od: &BoardDictionary, updates: &mut Vec<Update>) {
+        updates.push(Update { index: 0x6084, sub: 0, value: value_of(od, 0x6083, 0) });
+        updates.push(Update { index: 0x2100, sub: 0, value: value_of(od, 0x607C, 0) });
+    }
+
     /// 2005h: bits 0/1 switch the left/right limit switch off, 2/3 invert them.
     pub fn configured_inputs(config: u64, inputs: DigitalInputs) -> DigitalInputs {
         let mut out = inputs - (DigitalInputs::NEGATIVE_LIMIT | DigitalInputs::POSITIVE_LIMIT);
@@ -611,6 +645,9 @@ impl Firmware for Actuator {
                 3 => updates.push(Update { index: 0x607D, sub: 2, value: 65_535 }),
                 _ => {}
             },
+            // 6084h is read-only (§6.1.14) and follows 6083h; 2100h shows 607Ch: at once.
+            (0x6083, 0) => updates.push(Update { index: 0x6084, sub: 0, value }),
+            (0x607C, 0) => updates.push(Update { index: 0x2100, sub: 0, value }),
             // Error flags are cleared by any write; the sub-index reads 0 again.
             (0x2090, 7) | (0x2095, 2) | (0x2096, 2) => updates.push(Update { index, sub, value: 0 }),
             (0x5FFF, 0) => {
@@ -638,13 +675,27 @@ impl Firmware for Actuator {
                 log!("1010h: cannot store node-ID and bit rate in {}: {e}", path.display());
             }
         }
+        // Active after the next reset of the actuator (NMT reset node too).
+        self.actions.push(Action::ConfigureNodeId(node_id));
+    }
+
+    fn start(&mut self, od: &BoardDictionary, env: &Environment<'_>, updates: &mut Vec<Update>) {
+        Actuator::derived(od, updates);
+        // 2704h shows the bit rate of the next start, at start-up the one it runs at.
+        updates.push(Update { index: CAN_BIT_RATE, sub: 0, value: u64::from(env.bit_rate_kbit) });
+    }
+
+    fn reset(&mut self, od: &BoardDictionary, env: &Environment<'_>, updates: &mut Vec<Update>) {
+        Actuator::derived(od, updates);
+        // The actuator was reset: the stored bit rate is the one it runs at (the node-ID took
+        // effect in the core).
+        let rate = stored_node_settings(env).and_then(|(_, rate)| rate).unwrap_or(env.bit_rate_kbit);
+        updates.push(Update { index: CAN_BIT_RATE, sub: 0, value: u64::from(rate) });
     }
 
     fn after_tick(&mut self, od: &BoardDictionary, sample: &Sample, state: State, updates: &mut Vec<Update>) {
         let mut put = |index: u16, sub: u8, value: u64| updates.push(Update { index, sub, value });
         put(0x200D, 0, Actuator::status_flags(od, sample, state));
-        // 6084h is read-only (§6.1.14): the deceleration follows the acceleration.
-        put(0x6084, 0, value_of(od, 0x6083, 0));
         put(0x200E, 0, u64::from(sample.dc_link_millivolts / 100));
         let temperature: i64 =
             if sample.faults.contains(HardwareFaults::OVER_TEMPERATURE) { 120 } else { 25 };
@@ -709,7 +760,7 @@ impl Firmware for Actuator {
         put(0x2060, 1, u64::from(angle as u16));
         put(0x2080, 1, u64::from(angle as u16));
         // 2100h: the home offset.
-        put(0x2100, 0, value_of(od, 0x607C, 0));
+
         // 2702h: the limit switch inputs on bits 0/1 while 2005h uses them (§12.2).
         let config = value_of(od, LIMIT_SWITCHES, 0);
         let mut inputs = 0;

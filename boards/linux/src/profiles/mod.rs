@@ -130,6 +130,12 @@ pub trait Firmware: Send {
         let _ = (sub, od, env);
     }
 
+    /// After an NMT reset node: the application restarted with its stored parameters (or its
+    /// defaults), as at power-on but without [`Firmware::start`]'s knowledge of the program.
+    fn reset(&mut self, od: &BoardDictionary, env: &Environment<'_>, updates: &mut Vec<Update>) {
+        let _ = (od, env, updates);
+    }
+
     /// After each tick: the live values of the manufacturer objects.
     fn after_tick(&mut self, od: &BoardDictionary, sample: &Sample, state: State, updates: &mut Vec<Update>) {
         let _ = (od, sample, state, updates);
@@ -149,6 +155,18 @@ pub enum Action {
     /// Store these parameters (index, sub-index), keeping the rest of the stored set
     /// ([`canopen_drive::Drive::store_entries`]).
     StoreEntries(&'static [(u16, u8)]),
+    /// The node-ID the drive takes at its next reset ([`canopen_drive::Drive::configure_node_id`]).
+    ConfigureNodeId(u8),
+    /// PDO mappings may change while the PDO is valid, or not
+    /// ([`canopen_drive::Drive::set_remap_while_valid`]).
+    RemapWhileValid(bool),
+}
+
+/// The node-ID and bit rate (kbit/s) a vendor object stored for the next start, from the LSS
+/// file of `--storage`; `None` without one.
+pub(crate) fn stored_node_settings(env: &Environment<'_>) -> Option<(Option<u8>, Option<u16>)> {
+    let path = env.lss_file?;
+    Some((crate::lss_store::load(path), crate::lss_store::load_bit_rate(path)))
 }
 
 /// A drive without manufacturer behaviour.

@@ -69,6 +69,7 @@ use canopen_drive::cia402::fsa::State;
 use canopen_drive::cia402::hm::HomingConfig;
 use canopen_drive::cia402::objects::mode_bit;
 use canopen_drive::cia402::{OptionCodes, ProfileConfig, StatusFlag, TorqueUnit};
+use canopen_drive::comm::pdo::LongRpdo;
 use canopen_drive::comm::error_control::ErrorBehaviour;
 use canopen_drive::hal::{DigitalInputs, HardwareFaults, Sample};
 use canopen_drive::od::eds::EdsInfo;
@@ -81,8 +82,8 @@ use canopen_drive_sim::motor::{MotorParams, Zone};
 
 use super::{
     bit_timing_index, communication_entry, default_of, highest, pdo_records, profile_entry, ro,
-    rpdo_communication, rw, tpdo_communication, u, value_of, var, BoardDictionary, BoardProfile, Environment,
-    Firmware, ProfileName, Update, CIA402_RPDO_MAPPING, CIA402_TPDO_MAPPING, TEMPLATE_NODE_ID,
+    rpdo_communication, rw, stored_node_settings, tpdo_communication, u, value_of, var, Action, BoardDictionary,
+    BoardProfile, Environment, Firmware, ProfileName, Update, CIA402_RPDO_MAPPING, CIA402_TPDO_MAPPING, TEMPLATE_NODE_ID,
 };
 use crate::board_objects::{
     simulated_faults, simulated_inputs, simulated_load, ValueRule, PROFILE_SIMULATION,
@@ -401,7 +402,12 @@ pub fn profile_config() -> ProfileConfig {
         fault_reaction: 1 << 2,
         ..OptionCodes::ALL
     };
-    config.homing = HomingConfig { standard_methods: method_mask(&HOMING_METHODS), ..HomingConfig::new() };
+    config.homing = HomingConfig {
+        standard_methods: method_mask(&HOMING_METHODS),
+        // §8.2 method 35: 6062h, 6063h and 6064h are all set to zero (6063h = 6064h, §6.1.5).
+        rebase_internal_position: true,
+        ..HomingConfig::new()
+    };
     config.change_on_setpoint = false;
     config.following_error_fault = true;
     config.zero_following_error_window_off = true;
@@ -415,8 +421,29 @@ pub fn profile_config() -> ProfileConfig {
     // The same table: FF01h while at a software limit (byte 1 = 1/2) or a limit switch outside
     // homing (3/4).
     config.travel_limit_emcy = Some(0xFF01);
+    // FF01h/3-4: a limit switch touched outside homing stops the motor; moves further into it
+    // are not carried out (2005h: "if limit switches are not connected, deactivate them").
+    config.limit_switches_stop = true;
     config
 }
+
+/// The manufacturer-specific bytes of the manual's EMCY table (§12) for the codes the core
+/// raises.
+pub static EMCY_BYTES: [(u16, [u8; 5]); 9] = [
+    (0x4310, [2, 0, 0, 0, 0]),
+    (0x6320, [0, 255, 0, 0, 0]),
+    (0x8100, [0, 255, 0, 0, 0]),
+    (0x8110, [1, 255, 0, 0, 0]),
+    (0x8120, [0, 255, 0, 0, 0]),
+    (0x8130, [0, 255, 0, 0, 0]),
+    (0x8140, [0, 255, 0, 0, 0]),
+    (0x8210, [0, 255, 0, 0, 0]),
+    (0x8220, [0, 255, 0, 0, 0]),
+];
+
+/// The core's standard objects the manual's object list does not have: 0602 0000h from the
+/// bus, not in the EDS; the behaviour they carry keeps its defaults.
+pub static ABSENT: [u16; 8] = [0x1003, 0x603F, 0x6007, 0x6072, 0x607F, 0x6091, 0x60B8, 0x60F4];
 
 /// Identity (§3.1.1, §3.1.4–3.1.6, §3.1.15) and modes (§5.1.11).
 pub fn device_info() -> DeviceInfo {
@@ -472,6 +499,10 @@ pub fn profile() -> BoardProfile {
             sdo_block_transfer: false,
             // §3.2: the TPDO inhibit time is given in milliseconds.
             tpdo_inhibit_unit: canopen_drive::Duration::from_millis(1),
+            // §12 8220h: a PDO with too many bytes "could not be processed".
+            long_rpdo: LongRpdo::DiscardAndReport,
+            emcy_additional_bytes: &EMCY_BYTES,
+            absent_objects: &ABSENT,
             ..Config::new(TEMPLATE_NODE_ID)
         },
         eds: EdsInfo {
@@ -501,6 +532,8 @@ pub struct Pd57 {
     latch_armed: bool,
     /// How long the axis has been in Operation enabled with closed loop requested (ms ticks).
     closed_loop_ticks: u32,
+    /// What the firmware does to the drive (2701h, 2706h).
+    actions: Vec<Action>,
 }
 
 impl Pd57 {
@@ -527,6 +560,9 @@ impl Pd57 {
 impl Firmware for Pd57 {
     fn start(&mut self, od: &BoardDictionary, env: &Environment<'_>, updates: &mut Vec<Update>) {
         updates.push(Update { index: 0x2707, sub: 0, value: u64::from(env.bit_rate_kbit) });
+        // §4.2.65: 2704h shows the bit rate of the next start, at start-up the one it runs at.
+        updates.push(Update { index: CAN_BIT_RATE, sub: 0, value: u64::from(env.bit_rate_kbit) });
+        updates.push(Update { index: 0x2100, sub: 0, value: value_of(od, 0x607C, 0) });
         updates.push(Update { index: 0x2107, sub: 0, value: value_of(od, 0x2000, 0) });
         updates.push(Update { index: 0x6075, sub: 0, value: run_current_milliamps(value_of(od, 0x2003, 0)) });
         let velocity_units = value_of(od, 0x208C, 0);
@@ -559,9 +595,17 @@ impl Firmware for Pd57 {
                 log!("2700h: TMCL mode is not simulated; the drive stays a CANopen drive");
                 updates.push(Update { index, sub, value: 0 });
             }
-            (0x2701, 0) => updates.push(Update { index, sub, value: u64::from(value == MAKE) }),
+            (0x2701, 0) => {
+                updates.push(Update { index, sub, value: u64::from(value == MAKE) });
+                // §4.2.62: PDOs need not be disabled to change their mapping.
+                self.actions.push(Action::RemapWhileValid(value == MAKE));
+            }
+            // 2100h shows 607Ch at once.
+            (0x607C, 0) => updates.push(Update { index: 0x2100, sub: 0, value }),
             (STORE, 0) => {
                 let node_id = u8::try_from(value_of(od, NODE_ID, 0)).unwrap_or(1);
+                // §4.2.65/66: active after the next reset of the module (NMT reset node too).
+                self.actions.push(Action::ConfigureNodeId(node_id));
                 let timing = bit_timing_index(value_of(od, CAN_BIT_RATE, 0))
                     .map(|table_index| BitTiming { table_selector: 0, table_index });
                 if let Some(path) = env.lss_file {
@@ -579,9 +623,24 @@ impl Firmware for Pd57 {
         }
     }
 
-    fn after_tick(&mut self, od: &BoardDictionary, sample: &Sample, state: State, updates: &mut Vec<Update>) {
-        // 2100h: the home offset, in microsteps.
+    fn reset(&mut self, od: &BoardDictionary, env: &Environment<'_>, updates: &mut Vec<Update>) {
+        // The module was reset: the stored bit rate is now the active one (the node-ID took
+        // effect in the core, and 2705h/2708h show it).
+        let rate = stored_node_settings(env).and_then(|(_, rate)| rate).unwrap_or(env.bit_rate_kbit);
+        for index in [CAN_BIT_RATE, 0x2707] {
+            updates.push(Update { index, sub: 0, value: u64::from(rate) });
+        }
+        // The manufacturer-specific mode ends with the reset.
+        self.actions.push(Action::RemapWhileValid(false));
         updates.push(Update { index: 0x2100, sub: 0, value: value_of(od, 0x607C, 0) });
+        updates.push(Update { index: 0x2107, sub: 0, value: value_of(od, 0x2000, 0) });
+    }
+
+    fn take_actions(&mut self) -> Vec<Action> {
+        core::mem::take(&mut self.actions)
+    }
+
+    fn after_tick(&mut self, od: &BoardDictionary, sample: &Sample, state: State, updates: &mut Vec<Update>) {
         // 2101h: the load value falls from 1023 (no load) to 0 at the torque limit.
         let torque = u64::from(sample.torque.unsigned_abs());
         updates.push(Update {

@@ -151,8 +151,9 @@ pub struct HomingConfig {
     pub timeout: Duration,
     /// What 607Ch means at home (default [`HomeOffset::ZeroBeforeHome`], CiA 402).
     pub home_offset: HomeOffset,
-    /// A completed run also moves the zero of the internal position 6063h (and 60FCh) to the
-    /// user zero, so 6063h reads what 6064h reads in increments. Default false: 6063h keeps
+    /// Homing on the current position (method 35, or 37) also moves the zero of the internal
+    /// position 6063h to the user zero: 6062h, 6063h and 6064h all read 0 there (with 607Ch
+    /// = 0), and 6063h then reads what 6064h reads, in increments. Default false: 6063h keeps
     /// the encoder count (CiA 402 leaves the internal value unreferenced).
     pub rebase_internal_position: bool,
 }

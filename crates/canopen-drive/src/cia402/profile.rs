@@ -180,6 +180,8 @@ pub struct Profile {
     fault_unreported: bool,
     /// The encoder count of the last tick.
     actual: i64,
+    /// The encoder count at which 6063h reads 0 ([`hm::HomingConfig::rebase_internal_position`]).
+    internal_origin: i64,
     /// Since when the shaft has rested (|606Ch| ≤ 606Fh without a break).
     resting_since: Option<Instant>,
     /// An active limit switch holds motion towards it ([`ProfileConfig::limit_switches_stop`]).
@@ -268,6 +270,7 @@ impl Profile {
             dynamic_braking: false,
             fault_unreported: false,
             actual: 0,
+            internal_origin: 0,
             resting_since: None,
             at_limit_switch: false,
             held_set_point: false,
@@ -519,13 +522,8 @@ impl Profile {
         }
         self.actual = actual;
         let actual_user = factors.to_user(actual - self.origin) * position_sign;
-        // 6063h: the encoder count, or referenced as 6064h is where homing re-bases it.
-        let internal = if self.config.homing.rebase_internal_position {
-            (actual - self.origin) as i32
-        } else {
-            sample.position
-        };
-        od.store(self.slots.position_actual_internal, internal);
+        // 6063h: the encoder count, from the zero homing on the current position may have set.
+        od.store(self.slots.position_actual_internal, actual.wrapping_sub(self.internal_origin) as i32);
         od.store(self.slots.position_actual, saturate(actual_user));
         let velocity_user = factors.velocity_to_user(i64::from(sample.velocity)) * velocity_sign;
         od.store(self.slots.velocity_actual, saturate(velocity_user));
@@ -813,6 +811,9 @@ impl Profile {
                         HomeOffset::ZeroBeforeHome => home.saturating_add(offset),
                         HomeOffset::HomeValue => home.saturating_sub(offset),
                     };
+                    if self.config.homing.rebase_internal_position && self.homing.was_motionless() {
+                        self.internal_origin = self.origin;
+                    }
                 }
                 if outcome.error != self.homing_error || (inputs.start && self.homing_error) {
                     self.homing_error = outcome.error;

@@ -357,6 +357,17 @@ impl LssSlave {
         self.active_node_id == NODE_ID_UNCONFIGURED && self.pending_node_id == NODE_ID_UNCONFIGURED
     }
 
+    /// Sets the pending node-ID from the device side (a vendor object that configures the
+    /// node-ID, say), as configure node-ID would: active after the next
+    /// [`Self::activate_pending`]. Refuses (false) anything but 1..=127.
+    pub fn set_pending_node_id(&mut self, node_id: u8) -> bool {
+        if !(1..=127).contains(&node_id) {
+            return false;
+        }
+        self.pending_node_id = node_id;
+        true
+    }
+
     /// Makes the pending node-ID the active one; the drive calls it at NMT reset
     /// communication. Returns the active node-ID.
     pub fn activate_pending(&mut self) -> u8 {

@@ -32,11 +32,16 @@
 //! has a value of the right size and passes [`Dictionary::check_write`] (limits). Anything else
 //! is skipped and counted in [`LoadStats::skipped`], never applied. No input bytes can make a
 //! load panic or write outside the entry a record names.
+//!
+//! An entry whose default is `$NODEID + base` (the COB-IDs of the pre-defined connection set)
+//! and that holds that default is stored as `base`, and a stored `base` loads as `base` plus
+//! the node-ID of the time: a node-ID changed after the store (LSS, a vendor object) moves
+//! those COB-IDs with it, as their defaults would. Other values are stored as they are.
 
 use core::ops::RangeInclusive;
 
 use super::standard::PRE_DEFINED_ERROR_FIELD;
-use super::{Dictionary, Entry, Kind, Object, Var};
+use super::{DefaultValue, Dictionary, Entry, Kind, Object, Var};
 
 /// Objects whose writable entries are not parameters: 1003h (error history: sub 0 counts the
 /// errors held in RAM), 1010h (store parameters) and 1011h (restore default parameters).
@@ -188,6 +193,13 @@ impl<const BYTES: usize> Dictionary<BYTES> {
         for entry in self.parameters(range).filter(|e| keep(e.index(), e.sub)) {
             let header = self.record_header(&entry);
             sink(&header.encode())?;
+            if let Some(relative) = self.node_relative(&entry) {
+                // Stored without the node-ID, so it follows a node-ID changed before loading.
+                let bytes = relative.to_le_bytes();
+                sink(bytes.get(..usize::from(header.len)).unwrap_or(&[]))?;
+                total += header.record_len();
+                continue;
+            }
             let len = usize::from(header.len);
             let mut offset = 0usize;
             while offset < len {
@@ -249,6 +261,38 @@ impl<const BYTES: usize> Dictionary<BYTES> {
         let start = usize::from(entry.offset);
         if let Some(dst) = self.store.get_mut(start..start + 2) {
             dst.copy_from_slice(&len.min(entry.var.capacity).to_le_bytes());
+        }
+    }
+
+    /// The value to store for `entry` when it holds its `$NODEID + base` default: `base` (a
+    /// node-relative value; loading adds the node-ID of the time). `None` for every other
+    /// entry or value.
+    fn node_relative(&self, entry: &Entry) -> Option<u64> {
+        let DefaultValue::NodeIdPlus(base) = self.default_of(entry.index(), entry.sub, entry.var) else {
+            return None;
+        };
+        let size = entry.var.data_type.fixed_size().filter(|n| *n <= 8)?;
+        let mut raw = [0u8; 8];
+        let n = self.read(entry, 0, raw.get_mut(..size)?);
+        let value = u64::from_le_bytes(raw);
+        let current = u64::from(base.wrapping_add(u32::from(self.node_id)));
+        (n == size && value == current && base != 0).then_some(u64::from(base))
+    }
+
+    /// A loaded value of `entry`: a node-relative one ([`Self::node_relative`]) with the present
+    /// node-ID added.
+    fn node_absolute(&self, entry: &Entry, value: &mut [u8]) {
+        let DefaultValue::NodeIdPlus(base) = self.default_of(entry.index(), entry.sub, entry.var) else {
+            return;
+        };
+        let mut raw = [0u8; 8];
+        if let Some(dst) = raw.get_mut(..value.len()) {
+            dst.copy_from_slice(value);
+        }
+        if u64::from_le_bytes(raw) == u64::from(base) && base != 0 {
+            let absolute = u64::from(base.wrapping_add(u32::from(self.node_id))).to_le_bytes();
+            let n = value.len();
+            value.copy_from_slice(absolute.get(..n).unwrap_or(&[]));
         }
     }
 
@@ -492,7 +536,10 @@ impl RecordLoader {
 
     fn end<const BYTES: usize>(&mut self, od: &mut Dictionary<BYTES>) {
         match self.current {
-            Current::Fixed { entry, raw, have } => {
+            Current::Fixed { entry, mut raw, have } => {
+                if let Some(value) = raw.get_mut(..have) {
+                    od.node_absolute(&entry, value);
+                }
                 let value = raw.get(..have).unwrap_or(&[]);
                 if od.check_write(&entry, value).is_ok() {
                     od.commit(&entry, value);
