@@ -186,6 +186,20 @@ def test_eds_imports_and_matches_the_manuals_object_list(eds_file):
     assert_matches_manual(od, MANUAL, DEVIATIONS, NODE_ID, {index for index, *_ in MANUFACTURER}, SIMULATION_OBJECTS)
 
 
+# Standard objects the manual's object lists (§3.1, §5.1–§11.1) do not have (§1.1: guarding removed).
+ABSENT = (0x1003, 0x100C, 0x100D, 0x603F, 0x6065, 0x6066, 0x6068, 0x606D, 0x6072, 0x6080, 0x6086, 0x60F4)
+
+
+def test_objects_the_actuator_does_not_have_do_not_exist(actuator, eds_file):
+    """Issue 18: the manual lists none of these objects; a master probing for them gets
+    0602 0000h (object does not exist), as from the real actuator, and the EDS does not list
+    them (before the fix they answered and were listed)."""
+    od = canopen.import_od(str(eds_file), NODE_ID)
+    for index in ABSENT:
+        assert abort_code(lambda: actuator.sdo.upload(index, 0)) == 0x06020000, hex(index)
+        assert index not in od, hex(index)
+
+
 # --- Helpers ----------------------------------------------------------------------------------
 
 @pytest.fixture
@@ -245,6 +259,20 @@ def test_identity_modes_option_codes_and_homing_methods(actuator):
         assert abort_code(lambda: setattr(actuator.sdo[0x6098], "raw", method)) == 0x06090030, method
     for mode in (2, 4, 5, 7):
         assert abort_code(lambda: setattr(actuator.sdo[0x6060], "raw", mode)) == 0x06090030, mode
+
+
+def test_6084h_equals_6083h_at_the_next_read(actuator):
+    """§6.1.14: the profile deceleration 6084h is the same as the profile acceleration 6083h, so
+    the SDO read right after a write of 6083h already sees the new value (before the fix it
+    lagged a tick behind in 178 of 300 tries)."""
+    stale = []
+    for n in range(300):
+        value = 1000 + 37 * n
+        actuator.sdo[0x6083].raw = value
+        read = actuator.sdo[0x6084].raw
+        if read != value:
+            stale.append((value, read))
+    assert not stale, f"6084h differed from the 6083h just written in {len(stale)} of 300 reads: {stale[:5]}"
 
 
 def test_live_objects_of_the_actuator(actuator):
@@ -356,6 +384,32 @@ def test_hard_stop_homing_example_and_the_double_ended_methods(actuator):
     assert abs(actuator.sdo[0x6063].raw + 180_000) < 1000
     assert actuator.sdo[0x607D][1].raw == 0
     assert abs(actuator.sdo[0x607D][2].raw - 340_000) < 1000
+    actuator.sdo[0x6040].raw = 0
+
+
+def test_method_35_sets_6062h_6063h_and_6064h_to_zero(actuator):
+    """§8.1 (Table 197) method 35: the actual position is home and all position values, 6062h,
+    6063h and 6064h, are set to zero without motion; §8.1.2: Operation enabled is not needed.
+    Read when the statusword first says homing completed (before the fix 6063h kept the encoder
+    count of the pp move before, e.g. 4080)."""
+    actuator.sdo[0x2005].raw = 3  # no limit switches connected
+    actuator.sdo[0x6081].raw = 360  # rpm
+    actuator.sdo[0x6060].raw = 1
+    to_state(actuator, READY, SWITCHED_ON, ENABLED)
+    actuator.sdo[0x607A].raw = actuator.sdo[0x6064].raw + 20_000
+    actuator.sdo[0x6040].raw = 31
+    wait_until(lambda: statusword(actuator) & 0x1000, timeout=1)
+    actuator.sdo[0x6040].raw = 15
+    wait_until(lambda: statusword(actuator) & 0x0400, timeout=5)
+    wait_until(lambda: actuator.sdo[0x606C].raw == 0, timeout=2)  # (the pp move is over)
+    assert actuator.sdo[0x6063].raw != 0
+    to_state(actuator, SWITCHED_ON)
+    actuator.sdo[0x6060].raw = 6
+    actuator.sdo[0x6098].raw = 35
+    actuator.sdo[0x6040].raw = 0x17  # bit 4: start homing
+    wait_until(lambda: statusword(actuator) & 0x3400 == 0x1400, timeout=2, period=0.001)
+    values = {hex(index): actuator.sdo[index].raw for index in (0x6062, 0x6063, 0x6064)}
+    assert values == {"0x6062": 0, "0x6063": 0, "0x6064": 0}
     actuator.sdo[0x6040].raw = 0
 
 
