@@ -132,6 +132,21 @@ def test_eds_imports_and_matches_the_manuals_object_list(eds_file):
     assert_matches_manual(od, MANUAL, DEVIATIONS, NODE_ID, {index for index, *_ in MANUAL if 0x2000 <= index <= 0x5FFF}, BOARD_OBJECTS)
 
 
+# Standard objects of the core that the manual's object list (§2.3) does not have.
+ABSENT = (0x6072, 0x6086, 0x608F, 0x6091, 0x60C1, 0x60C5)
+
+
+def test_objects_the_drive_does_not_have_do_not_exist(factory, eds_file):
+    """§2.3: the object list has none of these (max torque, motion profile type, encoder
+    resolution, gear ratio, ip data record, max acceleration): a master probing for them gets
+    0602 0000h (object does not exist), as from the real drive, and the EDS does not list them
+    (before the fix they answered and were listed)."""
+    od = canopen.import_od(str(eds_file), NODE_ID)
+    for index in ABSENT:
+        assert abort_code(lambda: factory.sdo.upload(index, 0)) == 0x06020000, hex(index)
+        assert index not in od, hex(index)
+
+
 # --- Helpers ----------------------------------------------------------------------------------
 
 # What commissioning sets before the drive moves: the manual's defaults of these are 0
@@ -271,6 +286,84 @@ def test_single_set_point_and_a_set_of_set_points_with_one_buffered(cpc):
     cpc.sdo[0x6040].raw = 0
 
 
+def toward_the_middle(node):
+    """+1 or −1: the direction of travel away from the nearer limit switch (encoder ±100 000)."""
+    return 1 if node.sdo[0x6063].raw <= 0 else -1
+
+
+def switch_on(node):
+    """Operation enabled → Switched on."""
+    node.sdo[0x6040].raw = 7
+    wait_until(lambda: statusword(node) & 0x6F == 0x23, timeout=1.0)
+
+
+def move_until_reached(node, target, timeout=5.0):
+    """A single set-point by the handshake of §6.3.1; returns the first statusword showing
+    target reached (bit 10) and 6064h read right after it."""
+    node.sdo[0x607A].raw = target
+    node.sdo[0x6040].raw = 0x1F
+    wait_until(lambda: statusword(node) & 0x1000)
+    node.sdo[0x6040].raw = 0x0F
+    status = wait_until(lambda: (sw := statusword(node)) & 0x0400 and sw, timeout=timeout)
+    return status, node.sdo[0x6064].raw
+
+
+def test_software_limits_act_only_once_the_axis_is_homed(cpc):
+    """§6.4, 607Dh note: homing is required to validate the software position limits. Before
+    any homing a move beyond 607Dh reaches its target; after homing (method 35, 607Ch = 0) the
+    same limit clamps the target (statusword bit 11, internal limit active). 607Dh holds
+    position values as 6064h reads them (§8.3). Before the fix the first move stopped at the
+    limit too."""
+    slow_motion(cpc)
+    direction = toward_the_middle(cpc)
+    limit_sub = 2 if direction > 0 else 1
+    enable(cpc, 1)
+    start = cpc.sdo[0x6064].raw
+    cpc.sdo[0x607D][limit_sub].raw = start + direction * 5_000
+    status, position = move_until_reached(cpc, start + direction * 10_000)
+    assert abs(position - (start + direction * 10_000)) <= 100, f"stopped at {position - start:+} before homing"
+    assert not status & 0x0800, "bit 11 before homing"
+    # Homing on the current position: 6064h reads 0 here, the limit 5 000 counts ahead.
+    cpc.sdo[0x607D][limit_sub].raw = direction * 5_000
+    switch_on(cpc)  # (the mode changes only outside Operation enabled, §5.1)
+    enable(cpc, 6)
+    cpc.sdo[0x607C].raw = 0
+    cpc.sdo[0x6098].raw = 35
+    cpc.sdo[0x6040].raw = 0x1F
+    wait_until(lambda: statusword(cpc) & 0x3400 == 0x1400, timeout=2)
+    assert abs(cpc.sdo[0x6064].raw) <= 2
+    switch_on(cpc)
+    enable(cpc, 1)
+    status, position = move_until_reached(cpc, direction * 10_000)
+    assert abs(position - direction * 5_000) <= 100, f"not clamped at the limit after homing: {position}"
+    assert status & 0x0800, "bit 11: the target was clamped"
+    cpc.sdo[0x6040].raw = 0
+
+
+def test_halt_reports_target_reached_only_once_the_shaft_rests(cpc):
+    """§6.2.2: with halt (controlword bit 8) bit 10 means "the motor decelerated to 0 velocity".
+    The first statusword with bit 10 must find the shaft at rest: 606Ch ~0 and 6064h no longer
+    moving (before the fix bit 10 came with the demand, 606Ch ≈ −2 000 counts/s)."""
+    direction = toward_the_middle(cpc)
+    cpc.sdo[0x6081].raw = 50_000
+    cpc.sdo[0x6083].raw = 400_000
+    cpc.sdo[0x6084].raw = 400_000
+    enable(cpc, 1)
+    start = cpc.sdo[0x6064].raw
+    cpc.sdo[0x607A].raw = start + direction * 80_000
+    cpc.sdo[0x6040].raw = 0x1F
+    wait_until(lambda: statusword(cpc) & 0x1000)
+    cpc.sdo[0x6040].raw = 0x0F
+    wait_until(lambda: abs(cpc.sdo[0x606C].raw) > 45_000, timeout=2)  # at speed
+    cpc.sdo[0x6040].raw = 0x010F  # halt
+    wait_until(lambda: statusword(cpc) & 0x0400, timeout=3)
+    velocity, position = cpc.sdo[0x606C].raw, cpc.sdo[0x6064].raw
+    assert abs(velocity) <= 5, f"606Ch = {velocity} when target reached was reported under halt"
+    time.sleep(0.3)
+    assert abs(cpc.sdo[0x6064].raw - position) <= 5, "the shaft moved on after target reached"
+    cpc.sdo[0x6040].raw = 0
+
+
 # --- §4.3.2, §10, §11 ------------------------------------------------------------------------------
 
 def test_statusword_bit_14_while_a_quick_stop_runs_and_pv_zero_speed(cpc):
@@ -363,6 +456,52 @@ def test_homing_methods(cpc):
     # 37 = 35.
     here = cpc.sdo[0x6063].raw
     assert abs(home(cpc, 37) - here) < 50
+    cpc.sdo[0x6040].raw = 0
+
+
+def home_until_complete(cpc, method, timeout=30):
+    """Starts homing with `method` (a rising edge of bit 4) and polls the statusword; returns
+    606Ch and 6064h read right after the first one that says "homing is completed, velocity is
+    0" (bits 13/12/10 = 0/1/1, §8.2.2)."""
+    cpc.sdo[0x6098].raw = method
+    cpc.sdo[0x6040].raw = 0x0F
+    time.sleep(0.01)
+    cpc.sdo[0x6040].raw = 0x1F
+    if method not in (35, 37):
+        wait_until(lambda: statusword(cpc) & 0x3400 == 0, timeout=1)  # in progress
+    wait_until(lambda: statusword(cpc) & 0x3400 == 0x1400, timeout=timeout)
+    return cpc.sdo[0x606C].raw, cpc.sdo[0x6064].raw
+
+
+def test_homing_reports_complete_only_at_rest_on_home(cpc):
+    """§8.2.2: bits 13/12/10 = 0/1/1 is "homing is completed, velocity is 0". The first
+    statusword that says so must already find the shaft resting on home: 606Ch ~0 and 6064h
+    no longer changing (before the fix method 17 reported it with 606Ch = −626)."""
+    cpc.sdo[0x6099][1].raw = 50_000
+    cpc.sdo[0x6099][2].raw = 10_000
+    cpc.sdo[0x609A].raw = 500_000
+    enable(cpc, 6)
+    velocity, position = home_until_complete(cpc, 17)  # the negative limit switch
+    assert abs(velocity) <= 5, f"606Ch = {velocity} when homing reported complete"
+    time.sleep(0.3)
+    assert abs(cpc.sdo[0x6064].raw - position) <= 5, "the axis moved on after 'complete'"
+    cpc.sdo[0x6040].raw = 0
+
+
+def test_home_offset_is_the_position_value_of_home(cpc):
+    """§8.3 (607Ch): the home offset is set as the position value of the home position: with
+    607Ch = 5, 6064h reads +5 at home when homing completes, on the current position (35) and
+    on a limit switch (18). Before the fix it read −5."""
+    cpc.sdo[0x6099][1].raw = 50_000
+    cpc.sdo[0x6099][2].raw = 10_000
+    cpc.sdo[0x609A].raw = 500_000
+    cpc.sdo[0x607C].raw = 5
+    enable(cpc, 6)
+    assert statusword(cpc) & 0x3400 != 0x1400, "not homed yet"
+    _, position = home_until_complete(cpc, 35)
+    assert position == 5, f"6064h = {position} at home (method 35)"
+    _, position = home_until_complete(cpc, 18)  # the positive limit switch
+    assert abs(position - 5) <= 3, f"6064h = {position} at home (method 18)"
     cpc.sdo[0x6040].raw = 0
 
 

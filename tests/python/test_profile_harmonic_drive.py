@@ -478,6 +478,35 @@ def test_csv_example(actuator, network):
     actuator.sdo[0x6040].raw = 0
 
 
+def test_cyclic_set_point_written_before_operation_enabled_is_the_target(actuator):
+    """§9.2/§10.2: the set-point written in Switched on (607Ah, 60FFh) is what "the motor now
+    accelerates to" when controlword 15 enables the operation, with no further write. Before
+    the fix it was dropped whenever a tick fell between the write and controlword 15: the
+    statusword showed bit 12 but 6064h stayed until 607Ah was written again."""
+    actuator.sdo[0x2005].raw = 3
+    actuator.sdo[0x60C2][1].raw = 10  # ms
+    actuator.sdo[0x60C2][2].raw = -3
+    start = actuator.sdo[0x6064].raw
+    actuator.sdo[0x6060].raw = 8  # csp
+    to_state(actuator, READY, SWITCHED_ON)
+    actuator.sdo[0x607A].raw = start + 512
+    time.sleep(0.05)  # ticks fall between the set-point and the enable
+    actuator.sdo[0x6040].raw = 15
+    wait_until(lambda: abs(actuator.sdo[0x6064].raw - (start + 512)) <= 10, timeout=1)
+    assert statusword(actuator) & 0x106F == 0x1027
+    actuator.sdo[0x6040].raw = 0
+    wait_until(lambda: statusword(actuator) & 0x4F == 0x40, timeout=1)
+    actuator.sdo[0x6060].raw = 9  # csv
+    to_state(actuator, READY, SWITCHED_ON)
+    actuator.sdo[0x60FF].raw = 37  # rpm
+    time.sleep(0.05)
+    actuator.sdo[0x6040].raw = 15
+    wait_until(lambda: abs(actuator.sdo[0x606C].raw - 37) <= 2, timeout=1)
+    actuator.sdo[0x60FF].raw = 0  # stop
+    wait_until(lambda: abs(actuator.sdo[0x606C].raw) <= 2, timeout=1)
+    actuator.sdo[0x6040].raw = 0
+
+
 def test_cst_example(actuator, network):
     actuator.sdo[0x2005].raw = 3
     actuator.sdo[0x60C2][1].raw = 10
@@ -511,6 +540,51 @@ def test_nmt_stopped_faults_an_enabled_axis_and_1029h_enters_stopped(actuator, n
     network.send_message(0x711, b"\x05")
     heartbeats.clear()
     heartbeats.wait_for(lambda d: d == b"\x04", timeout=1.0)
+
+
+EMCY_TABLE_BYTES = bytes([0, 255, 0, 0, 0])  # §13.2: the additional bytes of 81x0h, 8210h, 8220h
+
+
+def test_a_fault_of_nmt_stopped_is_signalled_and_its_reset_sends_0000h(actuator, network):
+    """§2.2: NMT Stopped switches an enabled axis into Fault. Stopped allows no EMCY, so the
+    fault's EMCY 8100h (communication error, 00 FF 00 00 00 by §13.2) goes out once the node is
+    Pre-operational again, and the fault reset sends 0000h (§13.2). Before the fix neither came."""
+    emcy = Recorder(network, 0x80 + NODE_ID)
+    actuator.nmt.send_command(0x01)  # Operational
+    actuator.sdo[0x6060].raw = 3
+    to_state(actuator, READY, SWITCHED_ON, ENABLED)
+    actuator.nmt.send_command(0x02)  # Stopped: the axis faults
+    time.sleep(0.1)
+    assert not any(d[:2] == b"\x00\x81" for _, d in emcy.frames), "an EMCY while Stopped"
+    actuator.nmt.send_command(0x80)  # Pre-operational
+    _, _, data = emcy.wait_for(lambda d: d[:2] == b"\x00\x81", timeout=1.0)
+    assert data[3:] == EMCY_TABLE_BYTES, data.hex()
+    assert statusword(actuator) & 0x4F == 0x08
+    emcy.clear()
+    actuator.sdo[0x6040].raw = 0x80  # fault reset
+    _, _, data = emcy.wait_for(lambda d: d[:2] == b"\x00\x00", timeout=1.0)
+    assert data[3:] == bytes(5), data.hex()
+    wait_until(lambda: statusword(actuator) & 0x4F == 0x40, timeout=1)
+
+
+def test_the_heartbeat_timeout_emcy_goes_out_before_the_node_stops(actuator, network, heartbeats):
+    """§3.1.11/§3.1.14/§13.2: a consumer heartbeat timeout in Operational is a communication
+    error: EMCY 8130h (00 FF 00 00 00), then 1029h sub 1 = 0 (the default) enters Stopped,
+    where the node sends no EMCY. So 8130h must come before the node is Stopped; before the fix
+    it came only after NMT Pre-operational."""
+    emcy = Recorder(network, 0x80 + NODE_ID)
+    actuator.sdo[0x1017].raw = 50  # ms
+    actuator.sdo[0x1016][1].raw = 0x0010012C  # node 10h, 300 ms
+    actuator.nmt.send_command(0x01)
+    for _ in range(3):
+        network.send_message(0x710, b"\x05")
+        time.sleep(0.1)
+    heartbeats.clear()
+    _, stopped_at, _ = heartbeats.wait_for(lambda d: d == b"\x04", timeout=2.0)  # no more heartbeats from 10h
+    _, sent_at, data = emcy.wait_for(lambda d: d[:2] == b"\x30\x81", timeout=0.5)
+    assert data[3:] == EMCY_TABLE_BYTES, data.hex()
+    assert sent_at <= stopped_at, "8130h came after the node reported Stopped"
+    actuator.nmt.send_command(0x80)
 
 
 # --- §4.1 limit switches, windows -----------------------------------------------------------------
@@ -578,6 +652,31 @@ def test_pdo_remapping_procedure(actuator, network):
     assert abs(int.from_bytes(data[:4], "little", signed=True) - actuator.sdo[0x6064].raw) < 50
     assert int.from_bytes(data[4:], "little") == actuator.sdo[0x2702].raw
     actuator.nmt.send_command(0x80)
+
+
+def test_rpdos_of_the_wrong_length(actuator, network):
+    """§13.2: 8210h "PDO not processed due to length error" (too few bytes) and 8220h "PDO
+    length exceeded" (too many: the PDO could not be processed), both with the additional bytes
+    00 FF 00 00 00. RPDO1 (§3.1.15/§3.1.16: 40000200h + node-ID, type FFh, 6040h 16 bits) in
+    Operational. Before the fix 8210h carried zeros and the 3-byte PDO's controlword was applied."""
+    emcy = Recorder(network, 0x80 + NODE_ID)
+    assert actuator.sdo[0x1400][1].raw == 0x40000200 + NODE_ID
+    assert actuator.sdo[0x1600][0].raw == 1 and actuator.sdo[0x1600][1].raw == 0x60400010
+    actuator.nmt.send_command(0x01)
+    time.sleep(0.05)
+    network.send_message(0x200 + NODE_ID, b"\x06")
+    _, _, data = emcy.wait_for(lambda d: d[:2] == b"\x10\x82", timeout=1.0)
+    assert data[3:] == EMCY_TABLE_BYTES, data.hex()
+    network.send_message(0x200 + NODE_ID, b"\x06\x00\x00")
+    _, _, data = emcy.wait_for(lambda d: d[:2] == b"\x20\x82", timeout=1.0)
+    assert data[3:] == EMCY_TABLE_BYTES, data.hex()
+    time.sleep(0.05)
+    assert actuator.sdo[0x6040].raw == 0, "the long PDO's controlword was applied"
+    assert statusword(actuator) & 0x6F == 0x40
+    network.send_message(0x200 + NODE_ID, b"\x06\x00")  # the right length is applied at once
+    wait_until(lambda: statusword(actuator) & 0x6F == 0x21, timeout=1)
+    actuator.nmt.send_command(0x80)
+    actuator.sdo[0x6040].raw = 0
 
 
 # --- §3.1.7/8 store/restore, §4.1.22/23 bit rate and node-ID ---------------------------------------
@@ -665,6 +764,41 @@ def test_node_id_and_bit_rate_through_2704h_2705h_and_1010h_sub_2(stored_drive):
         node.nmt.send_command(0x81)
         time.sleep(0.2)
         assert node.sdo[0x2025][2].raw == 40_000
+    finally:
+        network.disconnect()
+
+
+def test_node_id_and_bit_rate_take_effect_at_nmt_reset_node(stored_drive):
+    """§4.1.22/§4.1.23: node-ID and bit rate written to 2705h/2704h and saved with 1010h sub 2
+    become active when the module is reset, and NMT reset node resets it: the boot-up comes
+    from the new node-ID, 2705h/2704h show the saved values and the COB-IDs whose defaults are
+    node-relative follow (1014h 80h + node-ID §3.1.9, RPDO1 40000200h + node-ID §3.1.15, TPDO1
+    40000180h + node-ID §3.1.17); a power cycle keeps them. Before the fix the boot-up came from
+    the old node-ID, 2705h/2704h read back the old values and the COB-IDs kept the old node's."""
+    process = stored_drive()
+    network, node = connect(process)
+    try:
+        node.sdo[0x2705].raw = 7
+        node.sdo[0x2704].raw = 500
+        node.sdo[0x1010][2].raw = 0x65766173  # "save" the communication parameters
+        old_boot, new_boot = Recorder(network, 0x700 + NODE_ID), Recorder(network, 0x707)
+        node.nmt.send_command(0x81)  # reset node
+        new_boot.wait_for(lambda d: d == b"\x00", timeout=2.0)
+        assert old_boot.frames == [], "a boot-up from the old node-ID"
+        new = canopen.RemoteNode(7, canopen.import_od(str(process.log_path.parent / "harmonic.eds"), 7))
+        network.add_node(new)
+        assert (new.sdo[0x2705].raw, new.sdo[0x2704].raw) == (7, 500)
+        cob_ids = [new.sdo[0x1014].raw, new.sdo[0x1400][1].raw, new.sdo[0x1800][1].raw]
+        assert cob_ids == [0x87, 0x40000207, 0x40000187], [hex(c) for c in cob_ids]
+    finally:
+        network.disconnect()
+    process.stop()
+    process = stored_drive()  # power cycle
+    network, node = connect(process, node_id=7)
+    try:
+        assert (node.sdo[0x2705].raw, node.sdo[0x2704].raw) == (7, 500)
+        cob_ids = [node.sdo[0x1014].raw, node.sdo[0x1400][1].raw, node.sdo[0x1800][1].raw]
+        assert cob_ids == [0x87, 0x40000207, 0x40000187], [hex(c) for c in cob_ids]
     finally:
         network.disconnect()
 

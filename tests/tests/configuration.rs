@@ -1027,3 +1027,242 @@ fn the_firmware_may_preset_the_position() {
     assert!((od_i32(&mut bench, 0x6064) - 400).abs() <= 5, "{}", od_i32(&mut bench, 0x6064));
     assert!((od_i32(&mut bench, 0x6063) - 1734).abs() <= 5);
 }
+
+// --- Issue 18: departures the vendor profiles switch on ------------------------------------------
+
+#[test]
+fn a_set_point_written_before_operation_enabled_is_the_target_once_enabled() {
+    use canopen_drive::cia402::cyclic::CycleStart;
+    // An SDO-driven cycle (no SYNC): mode, controlword 6 and 7, the set-point, ticks pass, then
+    // controlword 15. The set-point written in Switched on must be reached, not dropped.
+    for mode in [8u8, 9] {
+        let mut bench = Bench::with_config(|mut c| {
+            c.profile.cyclic.sdo_set_points = true;
+            c.profile.cyclic.cycle_start = CycleStart::SetPoint;
+            c
+        });
+        write_sub(&mut bench, 0x60C2, 1, &[10]);
+        write(&mut bench, 0x60C5, &u32::MAX.to_le_bytes());
+        write(&mut bench, 0x60C6, &u32::MAX.to_le_bytes());
+        write(&mut bench, 0x6060, &[mode]);
+        cw(&mut bench, 0x0006, 2);
+        cw(&mut bench, 0x0007, 2);
+        let start = od_i32(&mut bench, 0x6064);
+        if mode == 8 {
+            write(&mut bench, 0x607A, &(start + 512).to_le_bytes());
+        } else {
+            write(&mut bench, 0x60FF, &2000i32.to_le_bytes());
+        }
+        bench.advance(Duration::from_millis(20)); // ticks between the steps
+        cw(&mut bench, 0x000F, 100);
+        if mode == 8 {
+            assert_eq!(od_i32(&mut bench, 0x6062) - start, 512, "csp demand");
+        } else {
+            assert_eq!(od_i32(&mut bench, 0x606B), 2000, "csv demand");
+        }
+    }
+}
+
+#[test]
+fn the_home_offset_may_be_the_value_of_the_home_position() {
+    use canopen_drive::cia402::hm::{HomeOffset, HomingConfig};
+    for (convention, expected) in [(HomeOffset::ZeroBeforeHome, -5), (HomeOffset::HomeValue, 5)] {
+        let mut bench = Bench::with_config(|mut c| {
+            c.profile.homing = HomingConfig { home_offset: convention, ..HomingConfig::new() };
+            c
+        });
+        write(&mut bench, 0x607C, &5i32.to_le_bytes());
+        write(&mut bench, 0x6098, &[35]);
+        enable(&mut bench, 6);
+        cw(&mut bench, 0x001F, 5);
+        assert_eq!(sw(&mut bench) & 0x3400, 0x1400);
+        assert_eq!(read_i32(&mut bench, 0x6064), expected, "{convention:?}");
+    }
+}
+
+#[test]
+fn method_35_may_zero_the_internal_position_too() {
+    use canopen_drive::cia402::hm::HomingConfig;
+    for rebase in [false, true] {
+        let mut bench = Bench::with_config(|mut c| {
+            c.profile.homing = HomingConfig { rebase_internal_position: rebase, ..HomingConfig::new() };
+            c
+        });
+        node(&mut bench).motor.set_position(4321);
+        bench.advance(Duration::from_millis(2));
+        write(&mut bench, 0x6098, &[35]);
+        enable(&mut bench, 6);
+        cw(&mut bench, 0x001F, 5);
+        assert_eq!(read_i32(&mut bench, 0x6064), 0);
+        assert_eq!(read_i32(&mut bench, 0x6063), if rebase { 0 } else { 4321 }, "rebase {rebase}");
+    }
+}
+
+/// pp to `target` from where the axis is; returns 6064h after a second.
+fn pp_move(bench: &mut Bench, target: i32) -> i32 {
+    write(bench, 0x607A, &target.to_le_bytes());
+    cw(bench, 0x001F, 2);
+    cw(bench, 0x000F, 1000);
+    read_i32(bench, 0x6064)
+}
+
+fn pp_bench(adjust: impl FnOnce(Config) -> Config) -> Bench {
+    let mut bench = Bench::with_config(adjust);
+    write(&mut bench, 0x6081, &20_000u32.to_le_bytes());
+    write(&mut bench, 0x6083, &200_000u32.to_le_bytes());
+    write(&mut bench, 0x6084, &200_000u32.to_le_bytes());
+    bench
+}
+
+#[test]
+fn software_limits_may_wait_for_homing() {
+    for after_homing in [false, true] {
+        let mut bench = pp_bench(|mut c| {
+            c.profile.software_limits_after_homing = after_homing;
+            c
+        });
+        write_sub(&mut bench, 0x607D, 2, &5000i32.to_le_bytes());
+        enable(&mut bench, 1);
+        let reached = pp_move(&mut bench, 10_000);
+        if after_homing {
+            assert!((reached - 10_000).abs() <= 100, "not homed: no limit ({reached})");
+        } else {
+            assert!((reached - 5000).abs() <= 100, "CiA 402: the limit holds at once ({reached})");
+        }
+        // Homed (method 35 here), the limit holds.
+        cw(&mut bench, 0x000F, 2);
+        write(&mut bench, 0x6060, &[6]);
+        write(&mut bench, 0x6098, &[35]);
+        bench.advance(Duration::from_millis(5));
+        cw(&mut bench, 0x001F, 5);
+        assert_eq!(sw(&mut bench) & 0x3400, 0x1400, "homed");
+        cw(&mut bench, 0x000F, 2);
+        write(&mut bench, 0x6060, &[1]);
+        bench.advance(Duration::from_millis(5));
+        let reached = pp_move(&mut bench, 8000);
+        assert!((reached - 5000).abs() <= 100, "homed: clamped ({reached})");
+        assert_ne!(sw(&mut bench) & 0x0800, 0, "bit 11: the target was clamped");
+    }
+}
+
+#[test]
+fn an_active_limit_switch_may_stop_motion_towards_it() {
+    use canopen_drive::hal::DigitalInputs;
+    for stop in [false, true] {
+        let mut bench = pp_bench(|mut c| {
+            c.profile.limit_switches_stop = stop;
+            c
+        });
+        node(&mut bench).motor.set_input(DigitalInputs::POSITIVE_LIMIT, true);
+        enable(&mut bench, 1);
+        let start = read_i32(&mut bench, 0x6064);
+        let reached = pp_move(&mut bench, start + 5000);
+        if stop {
+            assert!((reached - start).abs() <= 50, "no move into the switch ({reached})");
+            assert_ne!(sw(&mut bench) & 0x0800, 0, "bit 11");
+            let back = pp_move(&mut bench, start - 3000);
+            assert!((back - (start - 3000)).abs() <= 100, "away from it ({back})");
+        } else {
+            assert!((reached - start - 5000).abs() <= 100, "CiA 402 leaves it to the manufacturer");
+        }
+    }
+}
+
+#[test]
+fn halt_may_wait_for_the_shaft_to_rest() {
+    // With the option, bit 10 under halt comes only once 606Ch is 0, not with the demand.
+    for standstill in [false, true] {
+        let mut bench = pp_bench(|mut c| {
+            c.profile.halt_reached_at_standstill = standstill;
+            c
+        });
+        // A soft position loop: the shaft lags the demand.
+        node(&mut bench).motor =
+            canopen_drive_sim::motor::SimMotor::with_params(canopen_drive_sim::motor::MotorParams {
+                position_gain: 5.0,
+                velocity_proportional_gain: 200.0,
+                ..Default::default()
+            });
+        enable(&mut bench, 1);
+        write(&mut bench, 0x607A, &40_000i32.to_le_bytes());
+        cw(&mut bench, 0x001F, 2);
+        cw(&mut bench, 0x000F, 300);
+        cw(&mut bench, 0x010F, 0);
+        let mut moving_when_reached = false;
+        for _ in 0..500 {
+            bench.advance(Duration::from_millis(1));
+            if sw(&mut bench) & 0x0400 != 0 {
+                moving_when_reached = od_i32(&mut bench, 0x606C) != 0;
+                break;
+            }
+        }
+        assert_eq!(moving_when_reached, !standstill, "halt_reached_at_standstill {standstill}");
+    }
+}
+
+#[test]
+fn standard_objects_a_drive_lacks_do_not_exist_for_the_bus() {
+    static ABSENT: [u16; 3] = [0x1003, 0x603F, 0x6072];
+    let mut bench = Bench::with_config(|c| Config { absent_objects: &ABSENT, ..c });
+    for index in ABSENT {
+        assert_eq!(bench.sdo1(&req(0x40, index, 0, [0; 4])), abort(index, 0, 0x0602_0000));
+    }
+    // Not mappable either.
+    let r = bench.sdo1(&req(0x2F, 0x1A00, 0, [0; 4]));
+    assert_eq!(r, abort(0x1A00, 0, 0x0601_0000), "TPDO1 is valid");
+    assert_eq!(bench.sdo1(&req(0x23, 0x1800, 1, [0x81, 0x01, 0, 0x80])), req(0x60, 0x1800, 1, [0; 4]));
+    assert_eq!(bench.sdo1(&req(0x2F, 0x1A00, 0, [0, 0, 0, 0])), req(0x60, 0x1A00, 0, [0; 4]));
+    let r = bench.sdo1(&req(0x23, 0x1A00, 1, 0x603F_0010u32.to_le_bytes()));
+    assert_eq!(r, abort(0x1A00, 1, 0x0602_0000));
+    // Nor in the EDS; their behaviour stays: the fault code is still kept inside, a torque
+    // limit at its default still limits.
+    let mut eds = String::new();
+    bench.drive().write_eds(&EdsInfo::default(), &mut eds).unwrap();
+    for index in ABSENT {
+        assert!(!eds.contains(&format!("\n[{index:04X}]\n")), "{index:04X} in the EDS");
+        assert!(!eds.contains(&format!("=0x{index:04X}\n")), "{index:04X} listed");
+    }
+    assert_eq!(bench.drive().od().get::<u16>(0x6072, 0), Ok(3000));
+}
+
+#[test]
+fn emcy_bytes_may_be_the_drives_own() {
+    static BYTES: [(u16, [u8; 5]); 1] = [(0x8210, [0, 0xFF, 0, 0, 0])];
+    for table in [&[][..], &BYTES[..]] {
+        let mut bench = Bench::with_config(|c| Config { emcy_additional_bytes: table, ..c });
+        nmt(&mut bench, 0x01);
+        let frames = bench.send(frame(0x200 + u16::from(NODE), &[0x06]));
+        let expected = if table.is_empty() { [0u8; 5] } else { [0, 0xFF, 0, 0, 0] };
+        let mut data = vec![0x10, 0x82, 0x11];
+        data.extend_from_slice(&expected);
+        assert_eq!(emcys(&frames), vec![data]);
+    }
+}
+
+#[test]
+fn a_firmware_may_let_mappings_change_while_the_pdo_is_valid() {
+    let mut bench = Bench::new();
+    let refused = bench.sdo1(&req(0x2F, 0x1A00, 0, [0; 4]));
+    assert_eq!(refused, abort(0x1A00, 0, 0x0601_0000), "CiA 301: only while invalid");
+    bench.drive().set_remap_while_valid(true);
+    for (sub, value) in [(0u8, 0u32), (1, 0x6041_0010), (2, 0x6061_0008), (0, 2)] {
+        let command = if sub == 0 { 0x2F } else { 0x23 };
+        assert_eq!(
+            bench.sdo1(&req(command, 0x1A00, sub, value.to_le_bytes())),
+            req(0x60, 0x1A00, sub, [0; 4])
+        );
+    }
+    // The new mapping is in use at once: statusword and 6061h in TPDO1.
+    write(&mut bench, 0x6060, &[3]);
+    bench.advance(Duration::from_millis(2));
+    let mut frames = bench.send(frame(0x000, &[0x01, NODE]));
+    frames.extend(bench.advance(Duration::from_millis(5)));
+    let tpdo: Vec<_> = frames
+        .iter()
+        .filter(|f| f.standard_id() == Some(0x180 + u16::from(NODE)))
+        .map(|f| embedded_can::Frame::data(f).to_vec())
+        .collect();
+    assert!(tpdo.iter().any(|d| d.len() == 3 && d[2] == 3), "{tpdo:02X?}");
+    bench.drive().set_remap_while_valid(false);
+    assert_eq!(bench.sdo1(&req(0x2F, 0x1A00, 0, [0; 4])), abort(0x1A00, 0, 0x0601_0000));
+}

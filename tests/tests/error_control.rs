@@ -155,3 +155,60 @@ fn nmt_events_reach_the_connection_reaction() {
     bench.send(frame(0x000, &[0x81, 0]));
     assert_eq!(bench.drive().take_connection_event(), Some(ConnectionEvent::ResetApplication));
 }
+
+/// The frames of the node's EMCY identifier among `frames`, as data.
+fn emcy_data(frames: &[CanFrame]) -> Vec<Vec<u8>> {
+    frames
+        .iter()
+        .filter(|f| f.standard_id() == Some(EMCY))
+        .map(|f| embedded_can::Frame::data(f).to_vec())
+        .collect()
+}
+
+#[test]
+fn the_heartbeat_timeout_emcy_goes_out_before_a_reaction_into_stopped() {
+    // Issue 18 (11): the error happens while the node is Operational; its EMCY goes out before
+    // 1029h = 2 (Stopped) silences the node, not after the next NMT Pre-operational.
+    let mut bench = Bench::new();
+    assert_eq!(bench.sdo1(&req(0x2F, 0x1029, 1, [2, 0, 0, 0])), req(0x60, 0x1029, 1, [0; 4]));
+    consume_node_3(&mut bench, 100);
+    operational(&mut bench);
+    bench.send(frame(0x703, &[0x05]));
+    let frames = bench.advance(Duration::from_millis(100));
+    assert_eq!(emcy_data(&frames), vec![vec![0x30, 0x81, 0x11, 3, 0, 0, 0, 0]]);
+    assert_eq!(bench.drive().nmt_state(), NmtState::Stopped);
+    // Nothing is left over for the node's return.
+    bench.send(frame(0x000, &[0x80, NODE]));
+    assert!(emcy_data(&bench.advance(Duration::from_millis(5))).is_empty());
+}
+
+#[test]
+fn the_fault_of_a_lost_connection_is_reported_and_its_reset_sends_0000h() {
+    // Issue 18 (10): 6007h = 1 faults the axis; the fault has its EMCY (8100h, 1003h) and the
+    // fault reset its "error reset", as any fault. In Stopped the EMCY waits for the node to
+    // be allowed to send again.
+    use canopen_drive::cia402::fsa::State;
+    use common::profile::{cw, enable_pv};
+    let mut bench = Bench::new();
+    operational(&mut bench);
+    enable_pv(&mut bench);
+    bench.send(frame(0x000, &[0x02, NODE]));
+    let frames = bench.advance(Duration::from_millis(20));
+    assert_eq!(bench.drive().state(), State::Fault);
+    assert!(emcy_data(&frames).is_empty(), "Stopped: no EMCY yet");
+    let mut frames = bench.send(frame(0x000, &[0x80, NODE]));
+    frames.extend(bench.advance(Duration::from_millis(5)));
+    // Error register: generic, communication, device profile.
+    assert_eq!(emcy_data(&frames), vec![vec![0x00, 0x81, 0x31, 0, 0, 0, 0, 0]]);
+    assert_eq!(bench.sdo1(&req(0x40, 0x1003, 1, [0; 4])), req(0x43, 0x1003, 1, [0x00, 0x81, 0, 0]));
+    write_controlword_and_collect(&mut bench, &mut frames);
+    assert_eq!(emcy_data(&frames), vec![vec![0; 8]], "fault reset: 0000h");
+    cw(&mut bench, 0x0000, 2);
+}
+
+/// Fault reset (controlword 80h); the frames of the next ticks into `frames` (cleared first).
+fn write_controlword_and_collect(bench: &mut Bench, frames: &mut Vec<CanFrame>) {
+    frames.clear();
+    frames.extend(bench.send(frame(0x600 + u16::from(NODE), &req(0x2B, 0x6040, 0, [0x80, 0, 0, 0]))));
+    frames.extend(bench.advance(Duration::from_millis(5)));
+}

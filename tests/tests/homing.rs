@@ -560,3 +560,31 @@ fn the_homing_speeds_are_held_within_the_maximum_profile_velocity() {
     assert!(fastest >= 990, "searching at the capped speed, not slower ({fastest})");
     assert!(od_i32(&mut bench, 0x6064) < -900, "moving toward the negative limit switch");
 }
+
+#[test]
+fn complete_only_at_rest_on_home() {
+    // Issue 18 (1), digest §10.4: 0/1/1 means the axis rests on home. The first tick that
+    // reports it must see the shaft within the position window 6067h of home and still
+    // (606Ch within 606Fh); the demand arriving is "attained" (0/1/0) at most.
+    let mut bench = enabled_hm(axis(), 2000);
+    write(&mut bench, 0x6098, &[17]);
+    cw(&mut bench, 0x001F, 0);
+    let window = od_u32(&mut bench, 0x6067) as i32;
+    let mut attained_moving = false;
+    for _ in 0..20_000 {
+        bench.advance(Duration::from_millis(1));
+        let status = homing_status(sw(&mut bench));
+        let (position, velocity) = (od_i32(&mut bench, 0x6064), od_i32(&mut bench, 0x606C));
+        if status == (0, 1, 0) && velocity != 0 {
+            attained_moving = true;
+        }
+        if status == (0, 1, 1) {
+            // Home is the negative limit switch's release (−10 000): 6064h reads 0 there.
+            assert_eq!(velocity, 0, "606Ch when complete");
+            assert!(position.abs() <= window, "6064h = {position} when complete");
+            assert!(attained_moving, "the shaft's last motion was reported as attained, not complete");
+            return;
+        }
+    }
+    panic!("homing never completed");
+}

@@ -219,3 +219,37 @@ fn the_firmware_may_store_single_parameters_and_keep_the_rest() {
     let mut bench = Bench::new();
     assert_eq!(bench.drive().store_entries(&[(0x607D, 2)]), Err(canopen_drive::AbortCode::CannotStore));
 }
+
+#[test]
+fn stored_node_id_relative_cob_ids_follow_a_new_node_id() {
+    // Issue 18 (8): a communication set stored at node 5 and loaded at node 7 (an LSS or vendor
+    // node-ID change, then a restart or a reset) keeps the `$NODEID` COB-IDs relative; a COB-ID
+    // the master chose stays as it is.
+    let (mut drive, _) = power_on(blank());
+    assert_eq!(
+        sdo(&mut drive, req(0x23, 0x1801, 1, 0xC000_0299u32.to_le_bytes())),
+        req(0x60, 0x1801, 1, [0; 4])
+    );
+    assert_eq!(sdo(&mut drive, req(0x23, 0x1010, 2, SAVE)), req(0x60, 0x1010, 2, [0; 4]));
+    // At once (NMT reset node with a node-ID configured since) ...
+    drive.configure_node_id(7).unwrap();
+    drive.on_frame(&frame(0x000, &[0x81, NODE]), Instant::from_millis(2));
+    let boot: Vec<_> = std::iter::from_fn(|| drive.pop_tx()).collect();
+    assert!(boot.iter().any(|f| f.standard_id() == Some(0x707) && f.data() == [0]), "{boot:02X?}");
+    let read = |drive: &mut StoredDrive, index: u16, sub: u8| {
+        let request = req(0x40, index, sub, [0; 4]);
+        drive.on_frame(&frame(0x607, &request), Instant::from_millis(3));
+        let frames: Vec<_> =
+            std::iter::from_fn(|| drive.pop_tx()).filter(|f| f.standard_id() == Some(0x587)).collect();
+        u32::from_le_bytes(frames[0].data()[4..8].try_into().unwrap())
+    };
+    assert_eq!(read(&mut drive, 0x1014, 0), 0x87);
+    assert_eq!(read(&mut drive, 0x1800, 1), 0x4000_0187);
+    assert_eq!(read(&mut drive, 0x1400, 1), 0x207);
+    assert_eq!(read(&mut drive, 0x1801, 1), 0xC000_0299, "the master's own COB-ID");
+    // ... and after a power cycle at node 7.
+    let flash = flash_of(&mut drive);
+    let (mut drive, _) = power_on_with(flash, |c| Config { node_id: 7, ..c });
+    assert_eq!(read(&mut drive, 0x1800, 1), 0x4000_0187);
+    assert_eq!(read(&mut drive, 0x1801, 1), 0xC000_0299);
+}

@@ -20,8 +20,8 @@ use std::time::Duration as StdDuration;
 use std::io::Write;
 use std::path::Path;
 
-use canopen_drive::storage::Persistence;
 use canopen_drive::drive::ConnectionEvent;
+use canopen_drive::storage::Persistence;
 use canopen_drive::{CanFrame, Config, Drive, Duration, Instant};
 use canopen_drive_sim::motor::SimMotor;
 

@@ -72,8 +72,8 @@ use canopen_drive::cia402::fsa::State;
 use canopen_drive::cia402::hm::{HardStopEntries, HomingConfig, VendorMethod};
 use canopen_drive::cia402::objects::mode_bit;
 use canopen_drive::cia402::{OptionCodes, ProfileConfig, StatusFlag, TorqueUnit, Units, VelocityUnit};
-use canopen_drive::comm::pdo::LongRpdo;
 use canopen_drive::comm::error_control::ErrorBehaviour;
+use canopen_drive::comm::pdo::LongRpdo;
 use canopen_drive::hal::{DigitalInputs, HardwareFaults, Sample};
 use canopen_drive::od::eds::EdsInfo;
 use canopen_drive::od::{
@@ -87,8 +87,9 @@ use canopen_drive_sim::motor::MotorParams;
 use super::trinamic::method_mask;
 use super::{
     bit_timing_index, communication_entry, default_of, highest, pdo_records, profile_entry, ro,
-    rpdo_communication, rw, stored_node_settings, tpdo_communication, u, value_of, var, Action, BoardDictionary, BoardProfile,
-    Environment, Firmware, ProfileName, Update, CIA402_RPDO_MAPPING, CIA402_TPDO_MAPPING, TEMPLATE_NODE_ID,
+    rpdo_communication, rw, stored_node_settings, tpdo_communication, u, value_of, var, Action,
+    BoardDictionary, BoardProfile, Environment, Firmware, ProfileName, Update, CIA402_RPDO_MAPPING,
+    CIA402_TPDO_MAPPING, TEMPLATE_NODE_ID,
 };
 use crate::board_objects::{
     simulated_faults, simulated_inputs, simulated_load, ValueRule, PROFILE_SIMULATION,
