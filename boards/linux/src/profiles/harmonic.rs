@@ -35,8 +35,8 @@
 //! homing state, 2030h/2040h/2050h actual and target values, 2060h/2080h sub 1 the commutation
 //! angle, 2096h sub 1 the position window (→ following error window 6065h, a following error
 //! stops the axis with EMCY 8611h), 2100h home offset display, 2704h/2705h bit rate and
-//! node-ID (kept by 1010h sub 1 or 2 in the LSS file of `--storage`, active after a restart),
-//! 2706h user variables (address/data), 5FFFh bootloader (takes the magic number, reads 0).
+//! node-ID (kept by 1010h sub 1 or 2 in the LSS file of `--storage`, active after a restart
+//! or NMT reset node), 2706h user variables (address/data), 5FFFh bootloader (takes the magic number, reads 0).
 //!
 //! Present, readable and writable within their ranges, without effect on the simulated axis:
 //! 2010h, 2015h, the loop gains in 2030h/2040h/2050h, 2055h, 2056h, 2080h subs 2–7, 2090h,
@@ -48,6 +48,17 @@
 //! The cyclic modes run without SYNC, as in the manual's examples: each set-point written by
 //! SDO is reached over 60C2h (`CyclicConfig::{sdo_set_points, cycle_start}`). (SDO block
 //! transfer, which the manual does not list, is switched off: `Config::sdo_block_transfer`.)
+//!
+//! Also configuration of the core, from the manual: the manufacturer bytes of its EMCY table
+//! (§13.2, `Config::emcy_additional_bytes`); an RPDO with too many bytes is not processed
+//! (`LongRpdo::DiscardAndReport`); method 35 sets 6062h, 6063h and 6064h to zero
+//! (`HomingConfig::rebase_internal_position`); a node-ID and bit rate kept by 1010h take
+//! effect at the next reset, NMT reset node included, and the stored `$NODEID` COB-IDs (1014h,
+//! the PDOs) follow it; the standard objects the manual does not list (1003h, guarding
+//! 100Ch/100Dh, 603Fh, 6065h, 6066h, 6068h, 606Dh, 6072h, 6080h, 6086h, 60F4h) do not exist
+//! ([`ABSENT`]; the firmware still sets the hidden 6065h and 6080h from 2096h and 2020h); 6084h
+//! and 2100h follow a write of 6083h/607Ch at once. A set-point written before Operation
+//! enabled is the cyclic target once enabled (the core's `CycleStart::SetPoint`).
 //!
 //! Teach mode (§8.1.9, 2025h sub 5: 1 presets the position to 0 and 607Dh sub 1 to 0 —
 //! `Drive::preset_position` —, 2 sets 607Dh sub 2 to the position, 3 sets it to 65 535) and the

@@ -38,8 +38,8 @@
 //! flag, 2701h manufacturer-specific mode (make/kill signatures), 2702h inputs IN0–IN2 (this
 //! board wires the left limit, right limit and home switch to them), 2704h/2705h/2706h bit
 //! rate and node-ID with their store command (into the LSS file of `--storage`; active after a
-//! restart), 2707h/2708h the active bit rate and node-ID, 5FFFh bootloader (takes the magic
-//! number, reads 0).
+//! restart or NMT reset node), 2707h/2708h the active bit rate and node-ID, 5FFFh bootloader
+//! (takes the magic number, reads 0).
 //!
 //! Present, readable and writable within their ranges, without an effect on the simulated
 //! axis (they tune a real stepper power stage): 2001h–2004h, 200Ah–200Ch, 2010h–2015h,
@@ -58,6 +58,17 @@
 //! limits as its FF01h with bytes 1–4 (`ProfileConfig::travel_limit_emcy`), the TPDO inhibit
 //! time in ms (`Config::tpdo_inhibit_unit`). (SDO block
 //! transfer, which the manual does not list, is switched off: `Config::sdo_block_transfer`.)
+//!
+//! Also configuration of the core, from the manual: the manufacturer bytes of its EMCY table
+//! (§12: `00 FF 00 00 00` for the communication errors, `Config::emcy_additional_bytes`); an
+//! RPDO with too many bytes is not processed (`LongRpdo::DiscardAndReport`); a limit switch in
+//! use stops motion towards it and a move further into an active one is not made (§4.2.6,
+//! FF01h/3–4: `ProfileConfig::limit_switches_stop`); method 35 sets 6062h, 6063h and 6064h to
+//! zero (`HomingConfig::rebase_internal_position`); 2701h "make" lets a valid PDO's mapping
+//! change (§4.2.62, `Drive::set_remap_while_valid`); a node-ID and bit rate stored with 2706h
+//! take effect at the next reset of the module, NMT reset node included (§4.2.65/66); the
+//! standard objects the manual does not list (1003h, 603Fh, 6007h, 6072h, 607Fh, 6091h, 60B8h,
+//! 60F4h) do not exist ([`ABSENT`]); 2100h follows a write of 607Ch at once.
 //!
 //! The manual's types of 605Bh–605Eh (UNSIGNED16), 6081h–6084h (SIGNED32) and 6086h
 //! (UNSIGNED16), 1016h with one entry and 1018h without sub 4 are the core's entry descriptions
