@@ -408,6 +408,9 @@ def test_method_35_sets_6062h_6063h_and_6064h_to_zero(actuator):
     actuator.sdo[0x6098].raw = 35
     actuator.sdo[0x6040].raw = 0x17  # bit 4: start homing
     wait_until(lambda: statusword(actuator) & 0x3400 == 0x1400, timeout=2, period=0.001)
+    # (6063h/6064h show the result one tick after the statusword does: read them a few ticks
+    # later; method 35 does not move the motor, so nothing settles meanwhile.)
+    time.sleep(0.01)
     values = {hex(index): actuator.sdo[index].raw for index in (0x6062, 0x6063, 0x6064)}
     assert values == {"0x6062": 0, "0x6063": 0, "0x6064": 0}
     actuator.sdo[0x6040].raw = 0

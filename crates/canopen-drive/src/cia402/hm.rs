@@ -640,6 +640,8 @@ pub struct Homing {
     above_threshold_since: Option<Instant>,
     /// The run found home without motion (method 35/37).
     motionless: bool,
+    /// The shaft came to rest on home after the run ([`Self::status`] said complete).
+    rested: bool,
 }
 
 /// A search runs at most this long at its speed before it counts as "the switch never came".
@@ -662,6 +664,7 @@ impl Homing {
             started_at: None,
             above_threshold_since: None,
             motionless: false,
+            rested: false,
         }
     }
 
@@ -682,6 +685,12 @@ impl Homing {
     /// Whether a homing run has completed since the reference was last lost.
     pub fn is_homed(&self) -> bool {
         self.homed
+    }
+
+    /// Whether a run has ended and waits for the shaft to rest on home (the only phase whose
+    /// status [`Self::status`] asks `on_home` for).
+    pub fn run_ended(&self) -> bool {
+        self.phase == Phase::Done && !self.rested
     }
 
     /// Whether the last run found home where the axis stood, without motion (method 35).
@@ -708,9 +717,12 @@ impl Homing {
     }
 
     /// The statusword bits 10/12/13 now; `on_home`: the shaft rests on the position the
-    /// run ended at (a run is complete only then, digest §10.4).
-    pub fn status(&self, planner: &PositionPlanner, on_home: bool) -> Status {
+    /// run ended at (a run is complete only then, digest §10.4; once it was, it stays so).
+    pub fn status(&mut self, planner: &PositionPlanner, on_home: bool) -> Status {
         let moving = planner.state().velocity != 0;
+        if self.phase == Phase::Done && !moving && on_home {
+            self.rested = true;
+        }
         match self.phase {
             Phase::Running(_) => Status::InProgress,
             Phase::Finishing => Status::Attained,
@@ -718,7 +730,7 @@ impl Homing {
             Phase::Stopping { error: false } => Status::InProgress,
             Phase::Failed if moving => Status::ErrorMoving,
             Phase::Failed => Status::ErrorAtRest,
-            Phase::Done if moving || !on_home => Status::Attained,
+            Phase::Done if moving || !self.rested => Status::Attained,
             Phase::Done if self.homed => Status::Completed,
             Phase::Done | Phase::Idle if self.homed => Status::Completed,
             Phase::Done | Phase::Idle => Status::Interrupted,
@@ -866,6 +878,7 @@ impl Homing {
         self.limits = (None, None);
         self.started_at = Some(input.now);
         self.motionless = matches!(method, 35) || (method == 37 && self.config.method_37);
+        self.rested = false;
         if self.motionless {
             // The current position is home: no motion, also outside Operation enabled.
             planner.reset(input.actual);

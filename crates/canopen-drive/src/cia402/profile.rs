@@ -528,14 +528,20 @@ impl Profile {
         let velocity_user = factors.velocity_to_user(i64::from(sample.velocity)) * velocity_sign;
         od.store(self.slots.velocity_actual, saturate(velocity_user));
         // The shaft rests: |606Ch| within the velocity threshold 606Fh.
-        let resting = velocity_user.unsigned_abs() <= u64::from(od.load(self.slots.velocity_threshold));
-        if !resting {
+        // Read only where asked for: homing's completion, halt with the configuration's option.
+        let homing = self.active_mode == mode::HOMING;
+        let standstill = if homing || self.config.halt_reached_at_standstill {
+            let resting = velocity_user.unsigned_abs() <= u64::from(od.load(self.slots.velocity_threshold));
+            if !resting {
+                self.resting_since = None;
+            } else if self.resting_since.is_none() {
+                self.resting_since = Some(now);
+            }
+            resting || !self.config.halt_reached_at_standstill
+        } else {
             self.resting_since = None;
-        } else if self.resting_since.is_none() {
-            self.resting_since = Some(now);
-        }
-        // (Asked for by halt only when the configuration says so.)
-        let standstill = resting || !self.config.halt_reached_at_standstill;
+            true
+        };
         let (positive_blocked, negative_blocked) = self.blocked_directions(sample.inputs);
         self.at_limit_switch = positive_blocked || negative_blocked;
         let torque_user = factors.torque_to_user(i64::from(sample.torque));
@@ -798,13 +804,8 @@ impl Profile {
                     StopKind::halt_or_fault(od.load(self.slots.halt_option)).unwrap_or(StopKind::SlowDown);
                 let (position, outcome) =
                     self.homing.tick(self.pp.planner_mut(), &inputs, stop_deceleration(halt_kind));
-                let home_offset = i64::from(od.load(self.slots.home_offset));
-                // What 607Ch adds to a position value read as 6064h (a limit found at home).
-                let limit_offset = match self.config.homing.home_offset {
-                    HomeOffset::ZeroBeforeHome => home_offset,
-                    HomeOffset::HomeValue => 0,
-                };
                 if let Some(home) = outcome.home {
+                    let home_offset = i64::from(od.load(self.slots.home_offset));
                     // 6064h reads −607Ch at home (CiA 402), or +607Ch ([`HomeOffset::HomeValue`]).
                     let offset = factors.to_internal(home_offset * position_sign);
                     self.origin = match self.config.homing.home_offset {
@@ -820,7 +821,12 @@ impl Profile {
                     report.notices[1] = Some((hm::HOMING_ERROR, outcome.error));
                 }
                 if outcome.home.is_some() {
-                    // Limits a method found become 607Dh (compared after the 607Ch correction).
+                    // Limits a method found become 607Dh (compared after the 607Ch correction):
+                    // what 607Ch adds to a position value read as 6064h.
+                    let limit_offset = match self.config.homing.home_offset {
+                        HomeOffset::ZeroBeforeHome => i64::from(od.load(self.slots.home_offset)),
+                        HomeOffset::HomeValue => 0,
+                    };
                     for (count, sub) in [(outcome.limits.0, 1u8), (outcome.limits.1, 2u8)] {
                         if let Some(count) = count {
                             let user = factors.to_user(count - self.origin) * position_sign + limit_offset;
@@ -864,7 +870,7 @@ impl Profile {
                 self.run_cyclic(od, &input, &mut report)
             }
             None if super::PP && drive_enabled && self.position_mode() => {
-                let moving = self.pp.state().velocity;
+                let moving = if self.at_limit_switch { self.pp.state().velocity } else { 0 };
                 if (positive_blocked && moving > 0) || (negative_blocked && moving < 0) {
                     // Running into an active limit switch: stopped on the quick-stop ramp.
                     let deceleration = stop_deceleration(StopKind::QuickStopRamp);
@@ -878,7 +884,12 @@ impl Profile {
                     new_setpoint: bit4_rose && operation && !step.entered_operation && !self.mode_changed,
                     actual,
                     origin: self.origin,
-                    target_range: self.target_range(od, actual_user, sample.inputs, position_sign),
+                    // (Needed only by a new set-point.)
+                    target_range: if bit4_rose {
+                        self.target_range(od, actual_user, sample.inputs, position_sign)
+                    } else {
+                        None
+                    },
                     standstill,
                     now,
                 };
@@ -950,7 +961,7 @@ impl Profile {
         }
         if self.active_mode == mode::HOMING {
             // Bits 10, 12, 13 are the homing status in every state (digest §10.4).
-            let on_home = self.rests_on_home(od, &factors, actual, now);
+            let on_home = self.homing.run_ended() && self.rests_on_home(od, &factors, actual, now);
             statusword = (statusword & !0x3400) | self.homing.status(self.pp.planner(), on_home).bits();
         }
         // The manufacturer-specific bits 14 and 15, as the configuration defines them.
