@@ -499,9 +499,6 @@ def test_home_offset_is_the_position_value_of_home(cpc):
     enable(cpc, 6)
     assert statusword(cpc) & 0x3400 != 0x1400, "not homed yet"
     home_until_complete(cpc, 35)
-    # (6064h shows the result of a method 35 run one tick after the statusword does: read it a
-    # few ticks later; the method does not move the shaft, so nothing settles meanwhile.)
-    time.sleep(0.01)
     position = cpc.sdo[0x6064].raw
     assert position == 5, f"6064h = {position} at home (method 35)"
     _, position = home_until_complete(cpc, 18)  # the positive limit switch

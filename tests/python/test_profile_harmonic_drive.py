@@ -186,12 +186,13 @@ def test_eds_imports_and_matches_the_manuals_object_list(eds_file):
     assert_matches_manual(od, MANUAL, DEVIATIONS, NODE_ID, {index for index, *_ in MANUFACTURER}, SIMULATION_OBJECTS)
 
 
-# Standard objects the manual's object lists (§3.1, §5.1–§11.1) do not have (§1.1: guarding removed).
+# Standard objects the manual's object descriptions (§3.1, §5.1–§11.1) do not have (§17: 100Ch and
+# 100Dh removed, no node guarding).
 ABSENT = (0x1003, 0x100C, 0x100D, 0x603F, 0x6065, 0x6066, 0x6068, 0x606D, 0x6072, 0x6080, 0x6086, 0x60F4)
 
 
 def test_objects_the_actuator_does_not_have_do_not_exist(actuator, eds_file):
-    """Issue 18: the manual lists none of these objects; a master probing for them gets
+    """Issue 18: the manual describes none of these objects; a master probing for them gets
     0602 0000h (object does not exist), as from the real actuator, and the EDS does not list
     them (before the fix they answered and were listed)."""
     od = canopen.import_od(str(eds_file), NODE_ID)
@@ -390,7 +391,7 @@ def test_hard_stop_homing_example_and_the_double_ended_methods(actuator):
 def test_method_35_sets_6062h_6063h_and_6064h_to_zero(actuator):
     """§8.1 (Table 197) method 35: the actual position is home and all position values, 6062h,
     6063h and 6064h, are set to zero without motion; §8.1.2: Operation enabled is not needed.
-    Read when the statusword first says homing completed (before the fix 6063h kept the encoder
+    Read as soon as the statusword says homing completed (before the fix 6063h kept the encoder
     count of the pp move before, e.g. 4080)."""
     actuator.sdo[0x2005].raw = 3  # no limit switches connected
     actuator.sdo[0x6081].raw = 360  # rpm
@@ -408,9 +409,6 @@ def test_method_35_sets_6062h_6063h_and_6064h_to_zero(actuator):
     actuator.sdo[0x6098].raw = 35
     actuator.sdo[0x6040].raw = 0x17  # bit 4: start homing
     wait_until(lambda: statusword(actuator) & 0x3400 == 0x1400, timeout=2, period=0.001)
-    # (6063h/6064h show the result one tick after the statusword does: read them a few ticks
-    # later; method 35 does not move the motor, so nothing settles meanwhile.)
-    time.sleep(0.01)
     values = {hex(index): actuator.sdo[index].raw for index in (0x6062, 0x6063, 0x6064)}
     assert values == {"0x6062": 0, "0x6063": 0, "0x6064": 0}
     actuator.sdo[0x6040].raw = 0
@@ -545,7 +543,7 @@ def test_nmt_stopped_faults_an_enabled_axis_and_1029h_enters_stopped(actuator, n
     heartbeats.wait_for(lambda d: d == b"\x04", timeout=1.0)
 
 
-EMCY_TABLE_BYTES = bytes([0, 255, 0, 0, 0])  # §13.2: the additional bytes of 81x0h, 8210h, 8220h
+EMCY_TABLE_BYTES = bytes([0, 255, 0, 0, 0])  # §13.2: the additional bytes of 8100h, 8130h, 8210h, 8220h
 
 
 def test_a_fault_of_nmt_stopped_is_signalled_and_its_reset_sends_0000h(actuator, network):
@@ -576,6 +574,7 @@ def test_the_heartbeat_timeout_emcy_goes_out_before_the_node_stops(actuator, net
     where the node sends no EMCY. So 8130h must come before the node is Stopped; before the fix
     it came only after NMT Pre-operational."""
     emcy = Recorder(network, 0x80 + NODE_ID)
+    assert actuator.sdo[0x1029][1].raw == 0  # communication error: enter Stopped
     actuator.sdo[0x1017].raw = 50  # ms
     actuator.sdo[0x1016][1].raw = 0x0010012C  # node 10h, 300 ms
     actuator.nmt.send_command(0x01)

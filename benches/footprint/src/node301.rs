@@ -319,7 +319,7 @@ impl ObjectAccess for Access<'_> {
     fn write(&mut self, mux: Mux, data: &[u8]) -> Result<(), AbortCode> {
         let entry = self.writable(mux)?;
         self.od.check_write(&entry, data)?;
-        pdo::check_write(self.od, mux.index, mux.sub, data)?;
+        pdo::check_write(self.od, mux.index, mux.sub, data, false)?;
         self.od.commit(&entry, data);
         self.written = Some(mux);
         Ok(())

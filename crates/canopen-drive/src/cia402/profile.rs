@@ -521,7 +521,7 @@ impl Profile {
             self.homing.forget();
         }
         self.actual = actual;
-        let actual_user = factors.to_user(actual - self.origin) * position_sign;
+        let mut actual_user = factors.to_user(actual - self.origin) * position_sign;
         // 6063h: the encoder count, from the zero homing on the current position may have set.
         od.store(self.slots.position_actual_internal, actual.wrapping_sub(self.internal_origin) as i32);
         od.store(self.slots.position_actual, saturate(actual_user));
@@ -834,6 +834,12 @@ impl Profile {
                             let _ = od.set::<i32>(SOFTWARE_POSITION_LIMIT, sub, saturate(user));
                         }
                     }
+                    // The position values of this tick count from the new zero already: the
+                    // statusword that says "homed" must not come before them.
+                    actual_user = factors.to_user(actual - self.origin) * position_sign;
+                    od.store(self.slots.position_actual, saturate(actual_user));
+                    let internal = actual.wrapping_sub(self.internal_origin) as i32;
+                    od.store(self.slots.position_actual_internal, internal);
                 }
                 if drive_enabled {
                     Setpoint::Position(position as i32)
