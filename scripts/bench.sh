@@ -25,6 +25,13 @@
 # are repeated without copies. On the host only the function that repeats is counted
 # (callgrind --toggle-collect, one dump per call); in QEMU the whole run (four runs each).
 #
+# The peer (issue 17): when ../shared/peers/canopennode/ is beside the clone (CI), its run.sh
+# measures CANopenNode's Cortex-M4 counts and footprint in the same run (it needs
+# gcc-arm-none-eabi and libnewlib-arm-none-eabi, installed here), and the table gets its count
+# and the ratio for every scenario with a counterpart, plus the 301-only footprint next to
+# CANopenNode's. Without it those columns are left out with a note. The peer's code stays in
+# ../shared: nothing of it is copied into this repository.
+#
 # Needs qemu-system-arm and valgrind (installed here when missing, as root), gcc, python3 and
 # the thumbv7em target. Environment: CARGO_TARGET_DIR (default target/drive-bench; the callgrind
 # dumps stay in $CARGO_TARGET_DIR/results/callgrind for callgrind_annotate), REPETITIONS
@@ -72,9 +79,13 @@ install() {
         sudo apt-get update -qq && sudo apt-get install -y -qq "$@" >/dev/null
     fi
 }
+peer_run=${CANOPENNODE_PEER:-$root/../shared/peers/canopennode/run.sh}
 missing=()
 command -v qemu-system-arm >/dev/null || missing+=(qemu-system-arm)
 command -v valgrind >/dev/null || missing+=(valgrind)
+if [ -x "$peer_run" ]; then
+    command -v arm-none-eabi-gcc >/dev/null || missing+=(gcc-arm-none-eabi libnewlib-arm-none-eabi)
+fi
 if [ ${#missing[@]} -gt 0 ]; then
     install "${missing[@]}"
 fi
@@ -153,13 +164,28 @@ for name in "${order[@]}"; do
     echo "$row" >>"$out/x86.txt"
 done
 
+# --- The peer: CANopenNode's Cortex-M4 counts and footprint, same QEMU and plugin -------------
+peer_args=()
+if [ -x "$peer_run" ]; then
+    echo "measuring the peer: $peer_run" >&2
+    INSNCOUNT_SRC=$insncount_src "$peer_run" --m4-only --build-dir "$CARGO_TARGET_DIR/canopennode-peer" \
+        >"$out/peer.log" 2>&1 || { cat "$out/peer.log" >&2; exit 1; }
+    peer_args=(--peer-m4 "$CARGO_TARGET_DIR/canopennode-peer/results/m4.tsv"
+        --peer-results "$CARGO_TARGET_DIR/canopennode-peer/results/results.md")
+fi
+
 status=0
 python3 "$bench/report.py" --labels "$out/labels.tsv" --m4 "$out/m4.txt" --x86 "$out/x86.txt" \
-    --repetitions "$n" --budgets "$bench/budgets.txt" --out "$out/BENCHMARKS.md" "${update[@]}" || status=1
+    --repetitions "$n" --budgets "$bench/budgets.txt" --out "$out/BENCHMARKS.md" \
+    --footprint "$root/docs/footprint.md" "${peer_args[@]}" "${update[@]}" || status=1
 
 # The x86-64 column is not compared: the host binary's libc picks its memcpy by CPU features,
-# so that column may differ between machines; the Cortex-M4 counts (QEMU) may not.
-without_x86() { awk -F'|' 'BEGIN { OFS = "|" } /^\|/ && NF >= 7 { $4 = "" } { print }' "$1"; }
+# so that column may differ between machines; the Cortex-M4 counts (QEMU) may not. Nor is the
+# peer (columns 5 and 6 and the section "The peer"): a clone without ../shared has none.
+without_x86() {
+    awk -F'|' 'BEGIN { OFS = "|" } /^## The peer/ { peer = 1 } peer { next }
+        /^\|/ && NF >= 9 { $4 = ""; $5 = ""; $6 = "" } { print }' "$1"
+}
 if $check; then
     if ! diff -u <(without_x86 "$root/BENCHMARKS.md") <(without_x86 "$out/BENCHMARKS.md") >&2; then
         echo "BENCHMARKS.md differs from this run: run scripts/bench.sh and commit it" >&2

@@ -2,12 +2,20 @@
 """The table of scripts/bench.sh: instructions per call from the raw counts, budgets, goals.
 
     report.py --labels L --m4 M --x86 X --repetitions N --budgets B --out FILE [--update [--force]]
+              [--footprint F] [--peer-m4 P --peer-results R]
 
 L: `name<TAB>label` per measurement (the host binary's `list`). M, X: `name base(n) base(2n)
 measured(n) measured(2n)` per measurement (total instructions of the four runs). Writes the Markdown
 page to FILE and prints the table. With --update, rewrites the budgets of B to measured + 5 %
 (rounded up), lowering them only, unless --force. Exit status 1 when a Cortex-M4 count exceeds
 its budget, a measurement has no budget, or repetitions were not identical.
+
+F: docs/footprint.md (the 301-only node's library flash and static RAM). P, R: the results of
+the CANopenNode peer harness (../shared/peers/canopennode/run.sh): its `m4.tsv` (scenario,
+count, remainder, check) and `results.md` (the footprint table). With them, each measurement
+with a counterpart in PEER_SCENARIOS gets the peer's Cortex-M4 count and the ratio (project ÷
+CANopenNode), and the page compares the 301-only node with CANopenNode's 301-only node with
+block transfer.
 """
 
 import argparse
@@ -16,6 +24,57 @@ import re
 import sys
 
 MARGIN_PERCENT = 5
+
+# The CANopenNode scenario that does the same work as a measurement (README of the peer
+# harness): an expedited upload of a 2-byte entry, an expedited 4-byte download, RPDOs with 1, 4
+# and 8 mapped entries, a SYNC with 4 synchronous TPDOs of 4 entries (each: frame in, dispatch,
+# processing, frames out).
+PEER_SCENARIOS = {
+    "sdo-upload": "sdo-upload-1017",
+    "sdo-download": "sdo-download-2001",
+    "rpdo-1": "rpdo-1",
+    "rpdo-4": "rpdo-4",
+    "rpdo-8": "rpdo-8",
+    "sync-4-tpdos": "sync-4-tpdos",
+}
+
+
+def read_peer_counts(path):
+    """{scenario: count} of the peer's m4.tsv (only scenarios whose remainder is 0)."""
+    counts = {}
+    with open(path) as f:
+        for line in f:
+            fields = line.rstrip("\n").split("\t")
+            if len(fields) >= 3 and fields[1].isdigit() and fields[2] == "0":
+                counts[fields[0]] = int(fields[1])
+    return counts
+
+
+def read_peer_footprint(path):
+    """(flash − baseline, static RAM − baseline) of CANopenNode's 301-only node with block
+    transfer (cn301-blk) from the peer's results.md, or None."""
+    with open(path) as f:
+        for line in f:
+            cells = [c.strip() for c in line.strip().strip("|").split("|")]
+            if cells and cells[0].startswith("cn301-blk") and len(cells) >= 5:
+                try:
+                    return int(cells[3]), int(cells[4])
+                except ValueError:
+                    return None
+    return None
+
+
+def read_node301(path):
+    """(library flash, static RAM) of the 301-only node on thumbv7em from docs/footprint.md."""
+    with open(path) as f:
+        for line in f:
+            cells = [c.strip() for c in line.strip().strip("|").split("|")]
+            if len(cells) >= 5 and cells[0] == "thumbv7em-none-eabihf" and cells[1] == "node301":
+                try:
+                    return int(cells[4]), int(cells[3].split()[0])
+                except ValueError:
+                    return None
+    return None
 
 
 def per_call(raw, n):
@@ -81,6 +140,9 @@ def main():
     for option in ("--labels", "--m4", "--x86", "--budgets", "--out"):
         parser.add_argument(option, required=True)
     parser.add_argument("--repetitions", type=int, required=True)
+    parser.add_argument("--footprint")
+    parser.add_argument("--peer-m4")
+    parser.add_argument("--peer-results")
     parser.add_argument("--update", action="store_true")
     parser.add_argument("--force", action="store_true")
     args = parser.parse_args()
@@ -93,6 +155,7 @@ def main():
     m4 = read_counts(args.m4, args.repetitions)
     x86 = read_counts(args.x86, args.repetitions)
     budgets, header = read_budgets(args.budgets)
+    peer = read_peer_counts(args.peer_m4) if args.peer_m4 else {}
     failed = False
 
     for name in labels:
@@ -139,10 +202,13 @@ def main():
         if not status:
             status.append("within budget")
         goal_cell = "-" if goal is None else (f"{goal} (log)" if goal_text == "log" else str(goal))
+        peer_count = peer.get(PEER_SCENARIOS.get(name, ""))
         cells = [
             label,
             "?" if count is None else str(count),
             "?" if x86.get(name) is None else str(x86[name]),
+            "-" if peer_count is None else str(peer_count),
+            "-" if peer_count is None or count is None else f"{count / peer_count:.2f}",
             "-" if budget is None else str(budget),
             goal_cell,
             ", ".join(status),
@@ -150,8 +216,9 @@ def main():
         rows.append("| " + " | ".join(cells) + " |")
 
     table = [
-        "| measurement | Cortex-M4 instructions | x86-64 instructions | budget (M4) | goal (M4) | status |",
-        "|---|---:|---:|---:|---:|---|",
+        "| measurement | Cortex-M4 instructions | x86-64 instructions | peer (M4) | ratio (M4) "
+        "| budget (M4) | goal (M4) | status |",
+        "|---|---:|---:|---:|---:|---:|---:|---|",
         *rows,
     ]
     page = [
@@ -176,6 +243,27 @@ def main():
         "  at 2000 objects it costs at most the small dictionary's count × log₂(2000) / log₂(objects of",
         "  the small one).",
     ]
+    page += ["", "## The peer", ""]
+    if peer:
+        page += [
+            "- peer (M4): CANopenNode (../shared/peers/canopennode, its default configuration), the",
+            "  same operation counted in the same run with the same QEMU machine and plugin",
+            "  (arm-none-eabi-gcc -Os); ratio = canopen-drive ÷ CANopenNode, below 1 is fewer",
+            "  instructions. Counterparts: " + ", ".join(f"{k} ↔ {v}" for k, v in PEER_SCENARIOS.items()) + ".",
+        ]
+    else:
+        page.append("- CANopenNode columns left out: ../shared/peers/canopennode is not beside this clone.")
+    node301 = read_node301(args.footprint) if args.footprint else None
+    peer_fp = read_peer_footprint(args.peer_results) if args.peer_results else None
+    if node301 and peer_fp:
+        page += [
+            "",
+            "| 301-only node (thumbv7em, block transfer in both) | library flash | static RAM |",
+            "|---|---:|---:|",
+            f"| canopen-drive node301 (docs/footprint.md) | {node301[0]} | {node301[1]} |",
+            f"| CANopenNode cn301-blk (image − baseline) | {peer_fp[0]} | {peer_fp[1]} |",
+            f"| ratio (CANopenNode = 1) | {node301[0] / peer_fp[0]:.2f} | {node301[1] / peer_fp[1]:.2f} |",
+        ]
     with open(args.out, "w") as f:
         f.write("\n".join(page) + "\n")
     print("\n".join(table))
