@@ -97,9 +97,9 @@ use canopen_drive_sim::motor::MotorParams;
 
 use super::trinamic::method_mask;
 use super::{
-    bit_timing_index, communication_entry, default_of, highest, pdo_records, profile_entry, ro,
-    rpdo_communication, rw, stored_node_settings, tpdo_communication, u, value_of, var, Action,
-    BoardDictionary, BoardProfile, Environment, Firmware, ProfileName, Update, CIA402_RPDO_MAPPING,
+    bit_timing_index, communication_emcy_bytes, communication_entry, default_of, highest, pdo_records,
+    profile_entry, ro, rpdo_communication, rw, stored_node_settings, tpdo_communication, u, value_of, var,
+    Action, BoardDictionary, BoardProfile, Environment, Firmware, ProfileName, Update, CIA402_RPDO_MAPPING,
     CIA402_TPDO_MAPPING, TEMPLATE_NODE_ID,
 };
 use crate::board_objects::{
@@ -444,17 +444,7 @@ pub fn profile_config() -> ProfileConfig {
 
 /// The manufacturer-specific bytes of the manual's EMCY table (§13.2) for the codes the core
 /// raises (8611h 1: the position window following error).
-pub static EMCY_BYTES: [(u16, [u8; 5]); 9] = [
-    (0x6320, [0, 255, 0, 0, 0]),
-    (0x8100, [0, 255, 0, 0, 0]),
-    (0x8110, [1, 255, 0, 0, 0]),
-    (0x8120, [0, 255, 0, 0, 0]),
-    (0x8130, [0, 255, 0, 0, 0]),
-    (0x8140, [0, 255, 0, 0, 0]),
-    (0x8210, [0, 255, 0, 0, 0]),
-    (0x8220, [0, 255, 0, 0, 0]),
-    (0x8611, [1, 0, 0, 0, 0]),
-];
+pub static EMCY_BYTES: [(u16, [u8; 5]); 9] = communication_emcy_bytes((0x8611, [1, 0, 0, 0, 0]));
 
 /// The core's standard objects the manual's object list does not have (guarding is listed as
 /// removed): 0602 0000h from the bus, not in the EDS; the behaviour they carry keeps its

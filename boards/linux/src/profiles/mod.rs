@@ -162,6 +162,24 @@ pub enum Action {
     RemapWhileValid(bool),
 }
 
+/// The manufacturer-specific bytes of the communication EMCYs in the EMCY tables of the Trinamic
+/// and Harmonic Drive manuals (the same firmware family: byte 2 is FFh), plus one code of the
+/// drive's own.
+pub(crate) const fn communication_emcy_bytes(own: (u16, [u8; 5])) -> [(u16, [u8; 5]); 9] {
+    const FF: [u8; 5] = [0, 255, 0, 0, 0];
+    [
+        own,
+        (0x6320, FF),
+        (0x8100, FF),
+        (0x8110, [1, 255, 0, 0, 0]),
+        (0x8120, FF),
+        (0x8130, FF),
+        (0x8140, FF),
+        (0x8210, FF),
+        (0x8220, FF),
+    ]
+}
+
 /// The node-ID and bit rate (kbit/s) a vendor object stored for the next start, from the LSS
 /// file of `--storage`; `None` without one.
 pub(crate) fn stored_node_settings(env: &Environment<'_>) -> Option<(Option<u8>, Option<u16>)> {

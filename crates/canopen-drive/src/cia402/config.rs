@@ -222,11 +222,12 @@ pub struct ProfileConfig {
     /// The software position limits 607Dh act only once the axis is homed (a drive whose
     /// documentation says homing validates them). Default false: they act from power-on.
     pub software_limits_after_homing: bool,
-    /// An active limit switch stops motion towards it outside homing: pp clamps its target to
-    /// the present position (statusword bit 11) and stops a move running into the switch,
-    /// the velocity and cyclic modes hold velocity towards it at 0. Motion away from the
-    /// switch stays possible. Default false: CiA 402 leaves the reaction to a limit switch
-    /// to the manufacturer.
+    /// An active limit switch stops motion towards it outside homing: pp clamps a new target
+    /// to the present position and stops a move running into the switch (quick-stop ramp), pv
+    /// holds a target velocity towards it at 0; statusword bit 11 (internal limit) is 1 in pp
+    /// and pv while a switch is active. Motion away from the switch stays possible. The cyclic
+    /// modes follow the master's stream as before (the master sees the switch in 60FDh).
+    /// Default false: CiA 402 leaves the reaction to a limit switch to the manufacturer.
     pub limit_switches_stop: bool,
     /// Under halt, statusword bit 10 waits until the shaft rests (|606Ch| ≤ 606Fh) as well as
     /// the demand: "decelerated to zero velocity" read as the axis's velocity. Default false:
