@@ -9,8 +9,8 @@
 #   No sanitizer (-s none: the core has no unsafe code, so ASan adds cost, not findings); debug
 #   assertions on (-a: an integer overflow is a crash).
 # - The whole-drive targets (drive_frames, pdo_mapping, lss) copy a prepared drive per
-#   execution (fuzz/src/rig.rs, `Start`) and run short programs from it: -max_len=64 (lss: 128)
-#   keeps them above 10 000 executions/s. They are built without comparison tracing
+#   execution (fuzz/src/rig.rs, `Start`) and run short programs from it (-max_len=64), so that
+#   an execution takes a fraction of a millisecond (docs/robustness.md has the rates). They are built without comparison tracing
 #   (--no-trace-compares; their own target directory): the dictionary's binary searches compare
 #   on every access, and tracing them halves the speed. sdo_server keeps the defaults.
 # - Seeds fuzz/corpus/<target>/ with the built-in scenarios of fuzz/src/bin/seeds.rs and the
@@ -48,6 +48,7 @@ if [ "${FUZZ_TRACES:-1}" != 0 ] && ! compgen -G "$traces/*.trace" >/dev/null; th
 fi
 
 step "seed corpora"
+mkdir -p "$traces"  # empty with FUZZ_TRACES=0
 cargo run -q --manifest-path fuzz/Cargo.toml --target-dir "$target_dir/fuzz-tools" --release --features tools --bin seeds \
     -- "$traces"
 
@@ -58,8 +59,10 @@ for t in $targets; do
     mkdir -p "fuzz/corpus/$t"
     status=0
     case $t in
-        drive_frames | pdo_mapping) build=(--no-trace-compares --target-dir "$target_dir/cargo-fuzz-drive"); run=(-max_len=64) ;;
-        lss) build=(--no-trace-compares --target-dir "$target_dir/cargo-fuzz-drive"); run=(-max_len=128) ;;
+        drive_frames | pdo_mapping | lss)
+            build=(--no-trace-compares --target-dir "$target_dir/cargo-fuzz-drive")
+            run=(-max_len=64)
+            ;;
         *) build=(--target-dir "$target_dir/cargo-fuzz"); run=() ;;
     esac
     cargo fuzz run -s none -a "${build[@]}" "$t" "fuzz/corpus/$t" -- \
