@@ -273,14 +273,19 @@ impl Server {
                 self.accept_retry = None;
                 self.accept();
             }
-            for slot in 0..self.clients.len() {
-                let end = match self.clients.get_mut(slot) {
-                    Some(Some(client)) => serve(client, &self.bus, self.limits.idle_timeout, now),
-                    _ => None,
-                };
-                if let Some(end) = end {
-                    self.close(slot, &end);
-                }
+            self.serve_all(now);
+        }
+    }
+
+    /// One turn of every client; closes those whose connection ended.
+    fn serve_all(&mut self, now: Instant) {
+        for slot in 0..self.clients.len() {
+            let end = match self.clients.get_mut(slot) {
+                Some(Some(client)) => serve(client, &self.bus, self.limits.idle_timeout, now),
+                _ => None,
+            };
+            if let Some(end) = end {
+                self.close(slot, &end);
             }
         }
     }
@@ -304,19 +309,21 @@ impl Server {
                 Err(e) if e.kind() == ErrorKind::WouldBlock => return,
                 Err(e) if e.kind() == ErrorKind::Interrupted => {}
                 Err(e) if matches!(e.raw_os_error(), Some(libc::EMFILE | libc::ENFILE)) => {
-                    // Give up the spare descriptor to take the connection and refuse it.
+                    // Give up the spare descriptor to take the connection and refuse it (its
+                    // descriptor is free again before the spare is taken back).
                     self.spare = None;
                     let refused = self.listener.accept();
-                    self.spare = File::open("/dev/null").ok();
                     if let Some(count) = self.no_descriptors.occur(Instant::now()) {
                         log!("out of file descriptors ({e}): refusing new clients ({count} since the last report)");
                     }
-                    match refused {
-                        Ok((stream, _)) => refuse(stream, "out of file descriptors"),
-                        Err(_) => {
-                            self.accept_retry = Some(Instant::now() + ACCEPT_RETRY);
-                            return;
-                        }
+                    let taken = refused.is_ok();
+                    if let Ok((stream, _)) = refused {
+                        refuse(stream, "out of file descriptors");
+                    }
+                    self.spare = File::open("/dev/null").ok();
+                    if !taken || self.spare.is_none() {
+                        self.accept_retry = Some(Instant::now() + ACCEPT_RETRY);
+                        return;
                     }
                 }
                 Err(e) => {
@@ -330,7 +337,15 @@ impl Server {
 
     /// Serves a new connection, or refuses it beyond the limit.
     fn admit(&mut self, mut stream: TcpStream, peer: SocketAddr) {
-        let served = self.clients.iter().flatten().count();
+        let mut served = self.clients.iter().flatten().count();
+        if served >= self.limits.max_clients {
+            // Clients that left and are not noticed yet do not count.
+            for client in self.clients.iter_mut().flatten() {
+                client.unread = true;
+            }
+            self.serve_all(Instant::now());
+            served = self.clients.iter().flatten().count();
+        }
         if served >= self.limits.max_clients {
             if let Some(count) = self.refused.occur(Instant::now()) {
                 log!(
