@@ -99,6 +99,19 @@ def served(sock):
     return received.startswith(b"V1013\r") or b"V1013\r" in received
 
 
+def connect_many(program, count):
+    """Opens `count` connections; returns the served ones (left open) and how many were refused."""
+    clients, refused = [], 0
+    for _ in range(count):
+        sock = raw_client(program)
+        if served(sock):
+            clients.append(sock)
+        else:
+            refused += 1
+            sock.close()
+    return clients, refused
+
+
 def read_until(sock, marker, timeout):
     """Reads until `marker` arrives; returns the time it did, None on timeout or EOF."""
     deadline = time.monotonic() + timeout
@@ -278,17 +291,11 @@ def test_a_flooding_client_neither_starves_the_others_nor_grows_memory():
 
 def test_clients_beyond_the_limit_are_refused_and_resources_return():
     program = Program()  # the default limit: 32
-    clients, refused = [], 0
+    clients = []
     try:
         threads_before = program.status("Threads")
         rss_before = program.status("VmRSS")
-        for _ in range(100):
-            sock = raw_client(program)
-            if served(sock):
-                clients.append(sock)
-            else:
-                refused += 1
-                sock.close()
+        clients, refused = connect_many(program, 100)
         threads_with = program.status("Threads")
         rss_with = program.status("VmRSS")
         for sock in clients:
@@ -365,15 +372,9 @@ def test_the_open_file_limit_refuses_clients_without_a_log_storm():
         resource.setrlimit(resource.RLIMIT_NOFILE, (24, 24))
 
     program = Program("--max-clients", "1000", preexec_fn=low_limit)
-    clients, refused = [], 0
+    clients = []
     try:
-        for _ in range(60):
-            sock = raw_client(program)
-            if served(sock):
-                clients.append(sock)
-            else:
-                refused += 1
-                sock.close()
+        clients, refused = connect_many(program, 60)
         time.sleep(1.0)  # a storm would be 20 lines in this second
         for sock in clients:
             sock.close()

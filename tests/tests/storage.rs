@@ -147,8 +147,8 @@ fn restore_defaults_takes_effect_after_the_next_reset() {
     assert_eq!(drive.od().get::<u16>(0x1017, 0), Ok(0));
 }
 
-#[test]
-fn a_corrupt_image_is_ignored_with_an_emcy() {
+/// A drive powered on over an image (1017h = 100) whose payload is damaged.
+fn power_on_damaged() -> (StoredDrive, Vec<canopen_drive::CanFrame>) {
     let (mut drive, _) = power_on(blank());
     sdo(&mut drive, req(0x2B, 0x1017, 0, [100, 0, 0, 0]));
     sdo(&mut drive, req(0x23, 0x1010, 1, SAVE));
@@ -156,7 +156,12 @@ fn a_corrupt_image_is_ignored_with_an_emcy() {
     // Damage the payload of the only image.
     let byte = flash.bytes()[40];
     flash.bytes_mut()[40] = byte ^ 0x01;
-    let (mut drive, boot) = power_on(flash);
+    power_on(flash)
+}
+
+#[test]
+fn a_corrupt_image_is_ignored_with_an_emcy() {
+    let (mut drive, boot) = power_on_damaged();
     assert_eq!(drive.od().get::<u16>(0x1017, 0), Ok(0), "defaults, never the damaged set");
     assert_eq!(boot[0], frame(0x700 + u16::from(NODE), &[0]));
     assert_eq!(boot[1].standard_id(), Some(EMCY));
@@ -172,13 +177,7 @@ fn a_corrupt_image_is_ignored_with_an_emcy() {
 /// which forgets the errors as a power-on would, finds it again and sends its EMCY again.
 #[test]
 fn a_damaged_image_stays_reported_across_a_reset_node() {
-    let (mut drive, _) = power_on(blank());
-    sdo(&mut drive, req(0x2B, 0x1017, 0, [100, 0, 0, 0]));
-    sdo(&mut drive, req(0x23, 0x1010, 1, SAVE));
-    let mut flash = flash_of(&mut drive);
-    let byte = flash.bytes()[40];
-    flash.bytes_mut()[40] = byte ^ 0x01;
-    let (mut drive, boot) = power_on(flash);
+    let (mut drive, boot) = power_on_damaged();
     let emcys = |frames: &[canopen_drive::CanFrame]| -> Vec<Vec<u8>> {
         frames.iter().filter(|f| f.standard_id() == Some(EMCY)).map(|f| f.data().to_vec()).collect()
     };

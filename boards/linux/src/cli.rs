@@ -28,7 +28,10 @@ OPTIONS:
     --socketcan IFACE         Join the SocketCAN interface IFACE (e.g. can0, vcan0)
     --storage PATH            File of the stored parameters (1010h \"save\" / 1011h \"load\"),
                               created if missing (a 16 KiB two-bank journal); the LSS
-                              configuration (node-ID, bit timing) goes to PATH.lss
+                              configuration (node-ID, bit timing) goes to PATH.lss. A
+                              damaged, wrong-size or foreign file is reported, the drive
+                              runs on its defaults (EMCY 6300h) and the file is left as it
+                              is until a master stores parameters
     --max-clients N           SLCAN clients served at once (default 32); one more is sent
                               a line saying so and disconnected
     --idle-timeout SECONDS    Disconnect an SLCAN client that sends nothing for SECONDS
