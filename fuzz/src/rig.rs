@@ -32,10 +32,15 @@ pub const EXTENDED: u16 = 0x8000;
 pub const NODE: u8 = 5;
 /// The control-loop period.
 pub const TICK: Duration = Duration::from_millis(1);
-/// Ticks an `Advance` runs at most before the rest of the span passes in one jump.
+/// Ticks an `Advance` runs at most before the rest of the span passes in one jump (an
+/// `Advance` spans at most 65 ms: never reached).
 const MAX_TICKS_PER_STEP: u32 = 1000;
 /// Ticks a `Jump` runs before the jump.
 const TICKS_BEFORE_JUMP: u32 = 8;
+/// The shortest time between two polls for a deadline within a span of time: a board polls
+/// from its loop, not at every microsecond a drive asks for (a SYNC producer or an event timer
+/// of a few microseconds would otherwise make one op thousands of polls).
+const MIN_POLL_INTERVAL: Duration = Duration::from_micros(100);
 /// Polls at one instant before the rig calls it a livelock.
 const MAX_POLLS_PER_INSTANT: u32 = 64;
 
@@ -244,6 +249,8 @@ pub struct Rig {
     now: Instant,
     next_tick: Instant,
     deadline: Option<Instant>,
+    /// When the drive was last polled.
+    polled: Instant,
     demand: Demand,
     sdo: SdoWatch,
     demands: DemandWatch,
@@ -285,6 +292,7 @@ impl Rig {
             now: Instant::ZERO,
             next_tick: Instant::ZERO,
             deadline: None,
+            polled: Instant::ZERO,
             demand: Demand::OFF,
             sdo: SdoWatch::default(),
             demands: DemandWatch::default(),
@@ -338,6 +346,7 @@ impl Rig {
             now: self.now,
             next_tick: self.next_tick,
             deadline: self.deadline,
+            polled: self.polled,
             demand: self.demand,
             sdo: self.sdo,
             demands: self.demands,
@@ -550,6 +559,7 @@ impl Rig {
 
     /// Polls the drive at the current instant (again while it asks for it).
     fn poll(&mut self) -> Checked {
+        self.polled = self.now;
         let mut polls = 0;
         loop {
             self.deadline = self.drive.poll(self.now);
@@ -566,14 +576,15 @@ impl Rig {
         }
     }
 
-    /// Lets `span` pass: ticks every [`TICK`] (at most `max_ticks`, then one jump to the end)
-    /// and polls at every deadline.
+    /// Lets `span` pass: ticks every [`TICK`] and polls at every deadline (at most every
+    /// [`MIN_POLL_INTERVAL`]); after `max_ticks` ticks the board stalls for the rest of the
+    /// span (nothing runs until its end), then ticks and polls once at its end.
     fn advance(&mut self, span: Duration, max_ticks: u32) -> Checked {
         let end = self.now + span;
         let mut ticks = 0u32;
         loop {
             let next = match self.deadline {
-                Some(d) => d.min(self.next_tick),
+                Some(d) => d.max(self.polled + MIN_POLL_INTERVAL).min(self.next_tick),
                 None => self.next_tick,
             };
             if next > end {
@@ -583,7 +594,12 @@ impl Rig {
             if self.now >= self.next_tick {
                 self.tick()?;
                 ticks += 1;
-                self.next_tick = if ticks >= max_ticks { end.max(self.now + TICK) } else { self.now + TICK };
+                self.next_tick = self.now + TICK;
+                if ticks >= max_ticks && self.now < end {
+                    self.now = end;
+                    self.next_tick = end;
+                    continue;
+                }
             }
             self.poll()?;
         }
