@@ -8,13 +8,18 @@
 # - Uses the pinned stable toolchain: cargo-fuzz's -Z flags are allowed with RUSTC_BOOTSTRAP=1.
 #   No sanitizer (-s none: the core has no unsafe code, so ASan adds cost, not findings); debug
 #   assertions on (-a: an integer overflow is a crash).
+# - The whole-drive targets (drive_frames, pdo_mapping, lss) copy a prepared drive per
+#   execution (fuzz/src/rig.rs, `Start`) and run short programs from it (-max_len=64), so that
+#   an execution takes a fraction of a millisecond (docs/robustness.md has the rates). They are built without comparison tracing
+#   (--no-trace-compares; their own target directory): the dictionary's binary searches compare
+#   on every access, and tracing them halves the speed. sdo_server keeps the defaults.
 # - Seeds fuzz/corpus/<target>/ with the built-in scenarios of fuzz/src/bin/seeds.rs and the
 #   frame traces of the integration tests (collected here by running them with
 #   CANOPEN_DRIVE_TRACE_DIR, unless FUZZ_TRACES=0 or the directory already has traces).
 # - Prints, per target: executions, executions/s, coverage (cov = edges, ft = features) and
 #   corpus size; writes them to target/fuzz-report.txt.
 # - A crash leaves its input in fuzz/artifacts/<target>/; reproduce it on stable without
-#   libFuzzer: cargo run --manifest-path fuzz/Cargo.toml --release --bin replay -- <target> <file>
+#   libFuzzer: cargo run --manifest-path fuzz/Cargo.toml --release --features tools --bin replay -- <target> <file>
 set -euo pipefail
 cd "$(dirname "$0")/.."
 root=$(pwd)
@@ -43,7 +48,8 @@ if [ "${FUZZ_TRACES:-1}" != 0 ] && ! compgen -G "$traces/*.trace" >/dev/null; th
 fi
 
 step "seed corpora"
-cargo run -q --manifest-path fuzz/Cargo.toml --target-dir "$target_dir/fuzz-tools" --release --bin seeds \
+mkdir -p "$traces"  # empty with FUZZ_TRACES=0
+cargo run -q --manifest-path fuzz/Cargo.toml --target-dir "$target_dir/fuzz-tools" --release --features tools --bin seeds \
     -- "$traces"
 
 : > "$report"
@@ -52,8 +58,15 @@ for t in $targets; do
     log=$target_dir/fuzz-$t.log
     mkdir -p "fuzz/corpus/$t"
     status=0
-    cargo fuzz run -s none -a --target-dir "$target_dir/cargo-fuzz" "$t" "fuzz/corpus/$t" -- \
-        -max_total_time="$seconds" -timeout=30 -rss_limit_mb=2048 -print_final_stats=1 \
+    case $t in
+        drive_frames | pdo_mapping | lss)
+            build=(--no-trace-compares --target-dir "$target_dir/cargo-fuzz-drive")
+            run=(-max_len=64)
+            ;;
+        *) build=(--target-dir "$target_dir/cargo-fuzz"); run=() ;;
+    esac
+    cargo fuzz run -s none -a "${build[@]}" "$t" "fuzz/corpus/$t" -- \
+        -max_total_time="$seconds" -timeout=30 -rss_limit_mb=2048 -print_final_stats=1 "${run[@]}" \
         >"$log" 2>&1 || status=$?
     execs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log" | tail -1)
     rate=$(sed -n 's/^stat::average_exec_per_sec: *//p' "$log" | tail -1)

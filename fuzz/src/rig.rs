@@ -14,12 +14,15 @@ use canopen_drive::comm::NmtState;
 use canopen_drive::drive::CanState;
 use canopen_drive::hal::{Demand, DigitalInputs, HardwareFaults};
 use canopen_drive::od::{
-    layout, AbortCode, Access, DataType, DefaultValue, Object, ObjectHooks, PdoMapping, Var,
+    layout, AbortCode, Access, DataType, DefaultValue, Entry, Object, ObjectHooks, PdoMapping, Span, Var,
 };
 use canopen_drive::{CanFrame, Config, Drive, Duration, Instant};
 use canopen_drive_sim::invariants::{self, DemandLimits, DemandWatch, SdoWatch};
 use canopen_drive_sim::SimMotor;
 use embedded_can::Frame;
+
+use std::cell::RefCell;
+use std::rc::Rc;
 
 use crate::ops::Op;
 
@@ -29,10 +32,15 @@ pub const EXTENDED: u16 = 0x8000;
 pub const NODE: u8 = 5;
 /// The control-loop period.
 pub const TICK: Duration = Duration::from_millis(1);
-/// Ticks an `Advance` runs at most before the rest of the span passes in one jump.
+/// Ticks an `Advance` runs at most before the rest of the span passes in one jump (an
+/// `Advance` spans at most 65 ms: never reached).
 const MAX_TICKS_PER_STEP: u32 = 1000;
 /// Ticks a `Jump` runs before the jump.
 const TICKS_BEFORE_JUMP: u32 = 8;
+/// The shortest time between two polls for a deadline within a span of time: a board polls
+/// from its loop, not at every microsecond a drive asks for (a SYNC producer or an event timer
+/// of a few microseconds would otherwise make one op thousands of polls).
+const MIN_POLL_INTERVAL: Duration = Duration::from_micros(100);
 /// Polls at one instant before the rig calls it a livelock.
 const MAX_POLLS_PER_INSTANT: u32 = 64;
 
@@ -156,6 +164,70 @@ impl Variant {
     }
 }
 
+/// Where a run starts: the booted drive, or the drive a master has already brought into a state
+/// worth exploring from (so that a short input starts deep: libFuzzer's throughput falls with
+/// the length of its inputs).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Start {
+    /// Just booted: Pre-operational, Switch on disabled.
+    Booted,
+    /// Operational, Operation enabled in profile position, moving to 50 000 increments.
+    PpMoving,
+    /// Operational, Operation enabled in profile velocity, turning at 20 000 increments/s.
+    PvTurning,
+    /// Operational, Operation enabled in cyclic synchronous position, waiting for its stream.
+    CspEnabled,
+    /// Operational, homing method 17 (negative limit switch) running.
+    Homing,
+}
+
+impl Start {
+    /// Every start, in selector order.
+    pub const ALL: [Start; 5] =
+        [Start::Booted, Start::PpMoving, Start::PvTurning, Start::CspEnabled, Start::Homing];
+
+    /// The start a selector picks (the value 0 picks [`Start::Booted`]).
+    pub fn from_byte(byte: u8) -> Self {
+        Start::ALL[usize::from(byte) % Start::ALL.len()]
+    }
+
+    /// What the master sends (and how long it waits) to bring a booted drive there.
+    fn program(self) -> Vec<Op> {
+        let write = |index: u16, size: u8, value: u32| Op::SdoWrite { index, sub: 0, size, value };
+        let enable = |mode: i8| {
+            vec![
+                Op::Nmt { command: 0, node: 0 },
+                write(0x6060, 1, u32::from(mode as u8)),
+                Op::Controlword(0x06),
+                Op::Advance(2000),
+                Op::Controlword(0x07),
+                Op::Advance(2000),
+                Op::Controlword(0x0F),
+                Op::Advance(5000),
+            ]
+        };
+        let mut ops = match self {
+            Start::Booted => return Vec::new(),
+            Start::PpMoving => enable(1),
+            Start::PvTurning => enable(3),
+            Start::CspEnabled => enable(8),
+            Start::Homing => enable(6),
+        };
+        match self {
+            Start::PpMoving => ops.extend([
+                write(0x607A, 4, 50_000),
+                write(0x6081, 4, 20_000),
+                Op::Controlword(0x1F),
+                Op::Advance(20_000),
+            ]),
+            Start::PvTurning => ops.extend([write(0x60FF, 4, 20_000), Op::Advance(50_000)]),
+            Start::Homing => ops.extend([write(0x6098, 1, 17), Op::Controlword(0x1F), Op::Advance(20_000)]),
+            Start::Booted | Start::CspEnabled => {}
+        }
+        ops
+    }
+}
+
 /// Counters of one run.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Stats {
@@ -177,14 +249,25 @@ pub struct Rig {
     now: Instant,
     next_tick: Instant,
     deadline: Option<Instant>,
+    /// When the drive was last polled.
+    polled: Instant,
     demand: Demand,
     sdo: SdoWatch,
     demands: DemandWatch,
+    /// The limits the parameters configure, computed at the first tick of an op (only a
+    /// master's op changes a parameter).
+    limits: Option<DemandLimits>,
     stats: Stats,
-    /// Every entry of the dictionary, resolved once.
-    entries: Vec<canopen_drive::od::Entry>,
+    /// Every entry of the dictionary that can change, resolved once (shared by the copies of a
+    /// rig). Constants (`Access::Const`: computed from the configuration, no RAM) are checked
+    /// once, when the rig is built.
+    entries: Rc<[Entry]>,
+    /// Where each of `entries` is stored, if it is a number (shared by the copies).
+    spans: Rc<[Option<Span>]>,
+    /// The numbers of `entries` as last checked (0 for the others).
+    checked: Vec<u64>,
     /// Mappable entries (index << 16 | sub << 8 | bits) for RPDOs and TPDOs.
-    mappable: (Vec<u32>, Vec<u32>),
+    mappable: Rc<(Vec<u32>, Vec<u32>)>,
     /// Frames the drive sent during the last op.
     pub sent: Vec<CanFrame>,
 }
@@ -196,8 +279,12 @@ impl Rig {
     pub fn new(variant: Variant) -> Result<Rig, String> {
         let config = variant.config();
         let drive = Drive::with_hooks(config, RigHooks).map_err(|e| format!("{e:?}"))?;
-        let mappable = mappable_entries(&drive);
-        let entries = invariants::entries(drive.od());
+        let mappable = Rc::new(mappable_entries(&drive));
+        let all = invariants::entries(drive.od());
+        invariants::check_entries(drive.od(), &all, &config.profile)?;
+        let entries: Rc<[Entry]> = all.into_iter().filter(|e| e.var.access != Access::Const).collect();
+        let spans: Rc<[Option<Span>]> = entries.iter().map(|e| drive.od().span(e)).collect();
+        let checked = vec![0; entries.len()];
         let mut rig = Rig {
             drive,
             motor: SimMotor::new(),
@@ -205,17 +292,72 @@ impl Rig {
             now: Instant::ZERO,
             next_tick: Instant::ZERO,
             deadline: None,
+            polled: Instant::ZERO,
             demand: Demand::OFF,
             sdo: SdoWatch::default(),
             demands: DemandWatch::default(),
+            limits: None,
             stats: Stats::default(),
             entries,
+            spans,
+            checked,
             mappable,
             sent: Vec::new(),
         };
         rig.poll()?;
-        rig.check_dictionary()?;
+        rig.check_dictionary_fully()?;
         Ok(rig)
+    }
+
+    /// The drive of `variant` in state `start` (at the time its preparation took; an
+    /// unconfigured drive only ever starts booted), copied from one prepared once per thread:
+    /// a fuzz target runs thousands of inputs a second, and building a drive, resolving its
+    /// dictionary and bringing it into a state would be most of each run.
+    pub fn prepared(variant: Variant, start: Start) -> Result<Rig, String> {
+        thread_local! {
+            static PREPARED: RefCell<Vec<(Variant, Start, Rig)>> = const { RefCell::new(Vec::new()) };
+        }
+        let start = if variant == Variant::Unconfigured { Start::Booted } else { start };
+        PREPARED.with(|prepared| {
+            let mut prepared = prepared.borrow_mut();
+            if let Some((_, _, rig)) = prepared.iter().find(|(v, s, _)| (*v, *s) == (variant, start)) {
+                return Ok(rig.copy());
+            }
+            let mut rig = Rig::new(variant)?;
+            for op in start.program() {
+                rig.run(&op).map_err(|e| format!("preparing {start:?}: {e}"))?;
+            }
+            let enabled = matches!(rig.drive.state(), State::OperationEnabled { .. });
+            if enabled != (start != Start::Booted) {
+                return Err(format!("preparing {start:?} of {variant:?} ended in {:?}", rig.drive.state()));
+            }
+            let copy = rig.copy();
+            prepared.push((variant, start, rig));
+            Ok(copy)
+        })
+    }
+
+    /// An independent copy of the rig: the same drive, motor, clock and watchers.
+    pub fn copy(&self) -> Rig {
+        Rig {
+            drive: copy_drive(&self.drive),
+            motor: self.motor,
+            profile: self.profile,
+            now: self.now,
+            next_tick: self.next_tick,
+            deadline: self.deadline,
+            polled: self.polled,
+            demand: self.demand,
+            sdo: self.sdo,
+            demands: self.demands,
+            limits: self.limits,
+            stats: self.stats,
+            entries: Rc::clone(&self.entries),
+            spans: Rc::clone(&self.spans),
+            checked: self.checked.clone(),
+            mappable: Rc::clone(&self.mappable),
+            sent: Vec::new(),
+        }
     }
 
     /// The virtual time.
@@ -233,14 +375,58 @@ impl Rig {
         Stats { sdo: self.sdo.counts(), ..self.stats }
     }
 
-    /// Invariant 3 now.
-    pub fn check_dictionary(&self) -> Checked {
-        invariants::check_entries(self.drive.od(), &self.entries, &self.profile)
+    /// Invariant 3 now, every entry.
+    pub fn check_dictionary_fully(&mut self) -> Checked {
+        let od = self.drive.od();
+        for (value, span) in self.checked.iter_mut().zip(self.spans.iter()) {
+            *value = span.map_or(0, |span| od.load_span(span));
+        }
+        invariants::check_entries(od, &self.entries, &self.profile)
+    }
+
+    /// Invariant 3 now, as far as it can have changed since the last check: the entries whose
+    /// number changed and those that are not numbers (strings, domains), and the rules across
+    /// entries when an entry they read changed (PDO records, 1016h; 6060h when 6502h changed).
+    /// The value rules of the other entries read only the entry itself and the configuration,
+    /// so an entry that was valid at the last check and has not changed still is.
+    pub fn check_dictionary(&mut self) -> Checked {
+        let od = self.drive.od();
+        let mut recheck = Vec::new();
+        let (mut pdos, mut consumers, mut modes) = (false, false, false);
+        for (i, (entry, span)) in self.entries.iter().zip(self.spans.iter()).enumerate() {
+            let Some(span) = span else {
+                recheck.push(*entry);
+                continue;
+            };
+            let value = od.load_span(*span);
+            if value != self.checked[i] {
+                self.checked[i] = value;
+                recheck.push(*entry);
+                match entry.index() {
+                    0x1400..=0x1BFF => pdos = true,
+                    0x1016 => consumers = true,
+                    0x6502 => modes = true,
+                    _ => {}
+                }
+            }
+        }
+        if modes {
+            recheck.extend(self.entries.iter().filter(|e| e.index() == 0x6060));
+        }
+        invariants::check_values(od, &recheck, &self.profile)?;
+        if pdos {
+            invariants::check_pdos(od)?;
+        }
+        if consumers {
+            invariants::check_heartbeat_consumers(od)?;
+        }
+        Ok(())
     }
 
     /// Runs one op; then checks the dictionary.
     pub fn run(&mut self, op: &Op) -> Checked {
         self.sent.clear();
+        self.limits = None;
         self.apply(op)?;
         self.check_dictionary().map_err(|e| format!("after {op:?}: {e}"))
     }
@@ -373,6 +559,7 @@ impl Rig {
 
     /// Polls the drive at the current instant (again while it asks for it).
     fn poll(&mut self) -> Checked {
+        self.polled = self.now;
         let mut polls = 0;
         loop {
             self.deadline = self.drive.poll(self.now);
@@ -389,14 +576,15 @@ impl Rig {
         }
     }
 
-    /// Lets `span` pass: ticks every [`TICK`] (at most `max_ticks`, then one jump to the end)
-    /// and polls at every deadline.
+    /// Lets `span` pass: ticks every [`TICK`] and polls at every deadline (at most every
+    /// [`MIN_POLL_INTERVAL`]); after `max_ticks` ticks the board stalls for the rest of the
+    /// span (nothing runs until its end), then ticks and polls once at its end.
     fn advance(&mut self, span: Duration, max_ticks: u32) -> Checked {
         let end = self.now + span;
         let mut ticks = 0u32;
         loop {
             let next = match self.deadline {
-                Some(d) => d.min(self.next_tick),
+                Some(d) => d.max(self.polled + MIN_POLL_INTERVAL).min(self.next_tick),
                 None => self.next_tick,
             };
             if next > end {
@@ -406,7 +594,12 @@ impl Rig {
             if self.now >= self.next_tick {
                 self.tick()?;
                 ticks += 1;
-                self.next_tick = if ticks >= max_ticks { end.max(self.now + TICK) } else { self.now + TICK };
+                self.next_tick = self.now + TICK;
+                if ticks >= max_ticks && self.now < end {
+                    self.now = end;
+                    self.next_tick = end;
+                    continue;
+                }
             }
             self.poll()?;
         }
@@ -422,9 +615,10 @@ impl Rig {
         self.motor.step(&self.demand, TICK);
         let state: State = self.drive.state();
         let od = self.drive.od();
+        let limits = self.limits.get_or_insert_with(|| DemandLimits::configured(od)).at(od);
         let demands = &mut self.demands;
         invariants::check_energy(state, &self.demand)
-            .and_then(|()| demands.check(&self.demand, DemandLimits::of(od), &sample))
+            .and_then(|()| demands.check(&self.demand, limits, &sample))
             .and_then(|()| invariants::check_statusword(od, state))
             .map_err(|e| format!("tick at {:?}: {e}", self.now))?;
         self.drain(Origin::Tick)
@@ -482,6 +676,22 @@ enum Origin {
     Timer,
     /// `tick`.
     Tick,
+}
+
+/// A second drive with the state of `drive`.
+///
+/// `Drive` is not `Clone`. A `Drive<RigHooks>` holds its values inline (arrays, integers,
+/// heapless queues of `Copy` frames; `RigHooks` and the storage `()` are empty) and shared
+/// `&'static` tables: no heap, no `&mut`, no pointer into itself (the copy technique of
+/// `benches/drive-bench`). Its bytes are therefore a second, independent drive, and dropping
+/// both releases nothing twice: the destructors of heapless containers drop their elements,
+/// and frames own nothing.
+#[allow(unsafe_code)]
+fn copy_drive(drive: &Drive<RigHooks>) -> Drive<RigHooks> {
+    // SAFETY: `drive` is a valid, initialised value, read once; the bytes of this plain-data
+    // type are a valid value of it, and neither value owns a resource the other could free
+    // (see above).
+    unsafe { core::ptr::read(drive) }
 }
 
 /// Every entry the dictionary lets map into an RPDO and a TPDO, as mapping values.

@@ -5,16 +5,17 @@ use canopen_drive::comm::sdo_server::SdoServer;
 use canopen_drive::{Duration, Instant};
 
 use crate::ops::{Op, ALL, LSS, PDO};
-use crate::rig::{run_program, Rig, Variant};
+use crate::rig::{run_program, Rig, Start, Variant};
 use crate::sdo_model::{Model, BUFFER, MUXES};
 use crate::Reader;
 
 /// (a) Arbitrary frame sequences with arbitrary time steps into a whole drive with the
 /// simulated motor (tick + on_frame + poll), every op of the language, in one of four drive
-/// configurations (first byte). Invariants after every step: see `canopen_drive_fuzz::rig`.
+/// configurations (first byte % 4), booted or prepared in a mode (first byte / 4 % 5, see
+/// [`Start`]). Invariants after every step: see `canopen_drive_fuzz::rig`.
 pub fn drive_frames(data: &[u8]) {
-    let Some((&variant, program)) = data.split_first() else { return };
-    let mut rig = match Rig::new(Variant::from_byte(variant)) {
+    let Some((&selector, program)) = data.split_first() else { return };
+    let mut rig = match Rig::prepared(Variant::from_byte(selector), Start::from_byte(selector / 4)) {
         Ok(rig) => rig,
         Err(e) => panic!("the rig does not start: {e}"),
     };
@@ -24,11 +25,14 @@ pub fn drive_frames(data: &[u8]) {
 /// (c) PDO mapping writes followed by PDO traffic: writes to the communication and mapping
 /// records (values drawn from the dictionary's own mappable entries, dummy entries and raw
 /// values), NMT, RPDOs on whatever COB-IDs are configured, SYNCs and remote frames, in a
-/// drive with the CiA defaults or a narrowed vendor configuration (first byte).
+/// drive with the CiA defaults or a narrowed vendor configuration (first byte, bit 0), booted
+/// or Operational and moving in pp (bit 1).
 pub fn pdo_mapping(data: &[u8]) {
-    let Some((&variant, program)) = data.split_first() else { return };
-    let variant = if variant & 1 == 0 { Variant::Standard } else { Variant::Narrow };
-    let mut rig = match Rig::new(variant) {
+    let Some((&selector, program)) = data.split_first() else { return };
+    let variant = if selector & 1 == 0 { Variant::Standard } else { Variant::Narrow };
+    // Booted (Pre-operational) or started, moving in pp.
+    let start = if selector & 2 == 0 { Start::Booted } else { Start::PpMoving };
+    let mut rig = match Rig::prepared(variant, start) {
         Ok(rig) => rig,
         Err(e) => panic!("the rig does not start: {e}"),
     };
@@ -43,7 +47,7 @@ pub fn pdo_mapping(data: &[u8]) {
 pub fn lss(data: &[u8]) {
     let Some((&variant, program)) = data.split_first() else { return };
     let variant = if variant & 1 == 0 { Variant::Unconfigured } else { Variant::Standard };
-    let mut rig = match Rig::new(variant) {
+    let mut rig = match Rig::prepared(variant, Start::Booted) {
         Ok(rig) => rig,
         Err(e) => panic!("the rig does not start: {e}"),
     };

@@ -147,8 +147,8 @@ fn restore_defaults_takes_effect_after_the_next_reset() {
     assert_eq!(drive.od().get::<u16>(0x1017, 0), Ok(0));
 }
 
-#[test]
-fn a_corrupt_image_is_ignored_with_an_emcy() {
+/// A drive powered on over an image (1017h = 100) whose payload is damaged.
+fn power_on_damaged() -> (StoredDrive, Vec<canopen_drive::CanFrame>) {
     let (mut drive, _) = power_on(blank());
     sdo(&mut drive, req(0x2B, 0x1017, 0, [100, 0, 0, 0]));
     sdo(&mut drive, req(0x23, 0x1010, 1, SAVE));
@@ -156,7 +156,12 @@ fn a_corrupt_image_is_ignored_with_an_emcy() {
     // Damage the payload of the only image.
     let byte = flash.bytes()[40];
     flash.bytes_mut()[40] = byte ^ 0x01;
-    let (mut drive, boot) = power_on(flash);
+    power_on(flash)
+}
+
+#[test]
+fn a_corrupt_image_is_ignored_with_an_emcy() {
+    let (mut drive, boot) = power_on_damaged();
     assert_eq!(drive.od().get::<u16>(0x1017, 0), Ok(0), "defaults, never the damaged set");
     assert_eq!(boot[0], frame(0x700 + u16::from(NODE), &[0]));
     assert_eq!(boot[1].standard_id(), Some(EMCY));
@@ -166,6 +171,32 @@ fn a_corrupt_image_is_ignored_with_an_emcy() {
     drive.poll(Instant::from_millis(5));
     let frames: Vec<_> = std::iter::from_fn(|| drive.pop_tx()).collect();
     assert_eq!(frames, vec![frame(EMCY, &[0; 8])]);
+}
+
+/// Damage is an active error (CiA 301 §7.2.7): it stays in 1001h and 1003h and a reset node,
+/// which forgets the errors as a power-on would, finds it again and sends its EMCY again.
+#[test]
+fn a_damaged_image_stays_reported_across_a_reset_node() {
+    let (mut drive, boot) = power_on_damaged();
+    let emcys = |frames: &[canopen_drive::CanFrame]| -> Vec<Vec<u8>> {
+        frames.iter().filter(|f| f.standard_id() == Some(EMCY)).map(|f| f.data().to_vec()).collect()
+    };
+    assert_eq!(emcys(&boot).len(), 1);
+    for when in ["after boot", "after a reset node"] {
+        let register = sdo(&mut drive, req(0x40, 0x1001, 0, [0; 4]));
+        assert_ne!(register[4], 0, "1001h {when}");
+        assert_eq!(sdo(&mut drive, req(0x40, 0x1003, 0, [0; 4]))[4], 1, "1003h count {when}");
+        assert_eq!(sdo(&mut drive, req(0x40, 0x1003, 1, [0; 4]))[4..6], [0x00, 0x63], "1003h {when}");
+        if when == "after boot" {
+            drive.on_frame(&frame(0x000, &[0x81, NODE]), Instant::from_millis(2));
+            drive.poll(Instant::from_millis(3));
+            let frames: Vec<_> = std::iter::from_fn(|| drive.pop_tx()).collect();
+            assert_eq!(frames[0], frame(0x700 + u16::from(NODE), &[0]), "boot-up first");
+            let sent = emcys(&frames);
+            assert_eq!(sent.len(), 1, "one EMCY after the reset node: {sent:02X?}");
+            assert_eq!(sent[0][..2], [0x00, 0x63]);
+        }
+    }
 }
 
 #[test]

@@ -5,6 +5,7 @@ use std::fmt;
 use std::path::PathBuf;
 
 use crate::profiles::ProfileName;
+use crate::slcan_server::Limits;
 
 /// The text of `--help`.
 pub const USAGE: &str = "\
@@ -27,7 +28,15 @@ OPTIONS:
     --socketcan IFACE         Join the SocketCAN interface IFACE (e.g. can0, vcan0)
     --storage PATH            File of the stored parameters (1010h \"save\" / 1011h \"load\"),
                               created if missing (a 16 KiB two-bank journal); the LSS
-                              configuration (node-ID, bit timing) goes to PATH.lss
+                              configuration (node-ID, bit timing) goes to PATH.lss. A
+                              damaged, wrong-size or foreign file is reported, the drive
+                              runs on its defaults (EMCY 6300h) and the file is left as it
+                              is until a master stores parameters
+    --max-clients N           SLCAN clients served at once (default 32); one more is sent
+                              a line saying so and disconnected
+    --idle-timeout SECONDS    Disconnect an SLCAN client that sends nothing for SECONDS
+                              (default: never; TCP keepalive notices vanished peers anyway)
+    --quiet                   No log lines on stderr (errors that end the program still)
     --write-eds PATH          Write the profile's EDS to PATH and exit
     -h, --help                Print this help and exit
 
@@ -69,6 +78,10 @@ pub struct RunArgs {
     pub socketcan: Option<String>,
     /// Parameter storage file.
     pub storage: Option<PathBuf>,
+    /// Limits of the SLCAN server.
+    pub limits: Limits,
+    /// No log lines.
+    pub quiet: bool,
 }
 
 /// A refused command line.
@@ -92,6 +105,8 @@ pub enum CliError {
     InvalidAddress(String),
     /// An empty interface name.
     InvalidInterface,
+    /// A count or a time that is not a positive whole number.
+    InvalidNumber(&'static str, String),
     /// Neither `--slcan-listen` nor `--socketcan` (nor `--write-eds`).
     NoBus,
 }
@@ -115,6 +130,9 @@ impl fmt::Display for CliError {
                 write!(f, "invalid address '{v}': expected HOST:PORT, e.g. 127.0.0.1:5000")
             }
             CliError::InvalidInterface => f.write_str("the interface name of '--socketcan' is empty"),
+            CliError::InvalidNumber(o, v) => {
+                write!(f, "invalid value '{v}' of '{o}': expected a whole number from 1")
+            }
             CliError::NoBus => {
                 f.write_str("nothing to connect to: give --slcan-listen HOST:PORT and/or --socketcan IFACE")
             }
@@ -132,6 +150,9 @@ pub fn parse(args: impl IntoIterator<Item = OsString>) -> Result<Action, CliErro
     let mut socketcan: Option<String> = None;
     let mut storage: Option<PathBuf> = None;
     let mut write_eds: Option<PathBuf> = None;
+    let mut max_clients: Option<usize> = None;
+    let mut idle_timeout: Option<u64> = None;
+    let mut quiet = false;
 
     let mut args = args.into_iter();
     while let Some(arg) = args.next() {
@@ -170,6 +191,20 @@ pub fn parse(args: impl IntoIterator<Item = OsString>) -> Result<Action, CliErro
                 set_once(&mut socketcan, v, "--socketcan")?;
             }
             "--storage" => set_once(&mut storage, PathBuf::from(value("--storage")?), "--storage")?,
+            "--max-clients" => {
+                let v = utf8(value("--max-clients")?, "--max-clients")?;
+                set_once(&mut max_clients, positive(&v, "--max-clients")?, "--max-clients")?;
+            }
+            "--idle-timeout" => {
+                let v = utf8(value("--idle-timeout")?, "--idle-timeout")?;
+                set_once(&mut idle_timeout, positive(&v, "--idle-timeout")?, "--idle-timeout")?;
+            }
+            "--quiet" if inline.is_none() => {
+                if quiet {
+                    return Err(CliError::Repeated("--quiet"));
+                }
+                quiet = true;
+            }
             "--write-eds" => set_once(&mut write_eds, PathBuf::from(value("--write-eds")?), "--write-eds")?,
             other if other.starts_with('-') => return Err(CliError::UnknownOption(other.to_string())),
             other => return Err(CliError::UnexpectedArgument(other.to_string())),
@@ -184,7 +219,23 @@ pub fn parse(args: impl IntoIterator<Item = OsString>) -> Result<Action, CliErro
     if slcan_listen.is_none() && socketcan.is_none() {
         return Err(CliError::NoBus);
     }
-    Ok(Action::Run(RunArgs { profile, node_id, slcan_listen, socketcan, storage }))
+    let defaults = Limits::default();
+    let limits = Limits {
+        max_clients: max_clients.unwrap_or(defaults.max_clients),
+        idle_timeout: idle_timeout.map(std::time::Duration::from_secs).or(defaults.idle_timeout),
+    };
+    Ok(Action::Run(RunArgs { profile, node_id, slcan_listen, socketcan, storage, limits, quiet }))
+}
+
+/// A whole number from 1 (a count or seconds).
+fn positive<T: std::str::FromStr + Default + PartialOrd>(
+    text: &str,
+    option: &'static str,
+) -> Result<T, CliError> {
+    match text.parse::<T>() {
+        Ok(n) if n > T::default() => Ok(n),
+        _ => Err(CliError::InvalidNumber(option, text.to_string())),
+    }
 }
 
 fn utf8(value: OsString, option: &'static str) -> Result<String, CliError> {
@@ -237,7 +288,9 @@ mod tests {
                 node_id: 1,
                 slcan_listen: Some("127.0.0.1:5000".into()),
                 socketcan: None,
-                storage: None
+                storage: None,
+                limits: Limits::default(),
+                quiet: false,
             }))
         );
     }
@@ -252,7 +305,11 @@ mod tests {
                 "--socketcan",
                 "can0",
                 "--storage",
-                "/tmp/p.bin"
+                "/tmp/p.bin",
+                "--max-clients=4",
+                "--idle-timeout",
+                "30",
+                "--quiet",
             ]),
             Ok(Action::Run(RunArgs {
                 profile: ProfileName::Generic,
@@ -260,6 +317,8 @@ mod tests {
                 slcan_listen: Some("localhost:0".into()),
                 socketcan: Some("can0".into()),
                 storage: Some("/tmp/p.bin".into()),
+                limits: Limits { max_clients: 4, idle_timeout: Some(std::time::Duration::from_secs(30)) },
+                quiet: true,
             }))
         );
         assert_eq!(
@@ -286,7 +345,20 @@ mod tests {
 
     #[test]
     fn bad_arguments_are_refused() {
-        let cases: [(&[&str], CliError); 17] = [
+        let cases: [(&[&str], CliError); 21] = [
+            (
+                &["--max-clients", "0", "--socketcan", "c"],
+                CliError::InvalidNumber("--max-clients", "0".into()),
+            ),
+            (
+                &["--max-clients", "x", "--socketcan", "c"],
+                CliError::InvalidNumber("--max-clients", "x".into()),
+            ),
+            (
+                &["--idle-timeout", "-5", "--socketcan", "c"],
+                CliError::InvalidNumber("--idle-timeout", "-5".into()),
+            ),
+            (&["--quiet", "--quiet"], CliError::Repeated("--quiet")),
             (&["--profile", "ds402", "--socketcan", "can0"], CliError::UnknownProfile("ds402".into())),
             (&["--profile"], CliError::MissingValue("--profile")),
             (&["--profile", "chieftek", "--profile", "chieftek"], CliError::Repeated("--profile")),

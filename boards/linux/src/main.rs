@@ -15,10 +15,12 @@
 //! as NOR flash under the core's two-bank journal, and the LSS configuration in `PATH.lss`.
 
 /// The one place the program reports to its operator: a line on stderr, prefixed with the
-/// program's name. (stdout carries only the `ready` line, which tests and scripts wait for.)
+/// program's name, written by [`output`] (never blocking, never failing; dropped with
+/// `--quiet`). stdout carries the `ready` line, which tests and scripts wait for, and the
+/// bit-rate changes.
 macro_rules! log {
     ($($arg:tt)*) => {
-        eprintln!("canopen-drive-linux: {}", format_args!($($arg)*))
+        $crate::output::log(format_args!($($arg)*))
     };
 }
 
@@ -27,19 +29,20 @@ mod bus;
 mod cli;
 mod lss_store;
 mod node;
+mod output;
 mod profiles;
 mod slcan;
 mod slcan_server;
 mod socketcan_port;
 
-use std::io::Write;
 use std::process::ExitCode;
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
+use std::time::Duration;
 
 use std::path::Path;
 
-use canopen_drive::storage::{device_signature, Persistence, Storage};
+use canopen_drive::storage::{device_signature, ImageState, Persistence, Storage};
 use canopen_drive_sim::flash::FileFlash;
 use signal_hook::consts::{SIGINT, SIGTERM};
 
@@ -50,29 +53,37 @@ use crate::slcan_server::SlcanServer;
 
 const NAME: &str = "canopen-drive-linux";
 
+/// How long the program waits at exit for its last output to be written.
+const OUTPUT_FLUSH: Duration = Duration::from_secs(1);
+
 fn main() -> ExitCode {
-    let action = match cli::parse(std::env::args_os().skip(1)) {
-        Ok(action) => action,
+    let action = cli::parse(std::env::args_os().skip(1));
+    output::init(matches!(&action, Ok(Action::Run(RunArgs { quiet: true, .. }))));
+    let status = match action {
         Err(e) => {
-            eprintln!("{NAME}: error: {e}\nTry '{NAME} --help'.");
-            return ExitCode::from(2);
+            output::error(format_args!("{e}\nTry '{NAME} --help'."));
+            ExitCode::from(2)
+        }
+        Ok(action) => {
+            let result = match action {
+                Action::Help => {
+                    output::text(cli::USAGE);
+                    Ok(())
+                }
+                Action::WriteEds { profile, node_id, path } => write_eds(profile, node_id, &path),
+                Action::Run(args) => run(&args),
+            };
+            match result {
+                Ok(()) => ExitCode::SUCCESS,
+                Err(message) => {
+                    output::error(format_args!("{message}"));
+                    ExitCode::FAILURE
+                }
+            }
         }
     };
-    let result = match action {
-        Action::Help => {
-            print!("{}", cli::USAGE);
-            Ok(())
-        }
-        Action::WriteEds { profile, node_id, path } => write_eds(profile, node_id, &path),
-        Action::Run(args) => run(&args),
-    };
-    match result {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(message) => {
-            eprintln!("{NAME}: error: {message}");
-            ExitCode::FAILURE
-        }
-    }
+    output::flush(OUTPUT_FLUSH);
+    status
 }
 
 fn write_eds(profile: ProfileName, node_id: u8, path: &std::path::Path) -> Result<(), String> {
@@ -100,11 +111,12 @@ fn run(args: &RunArgs) -> Result<(), String> {
     let hooks = profile.hooks(args.storage.is_some());
     match &args.storage {
         Some(path) => {
-            let flash =
-                FileFlash::open_default(path).map_err(|e| format!("cannot open {}: {e}", path.display()))?;
+            let (flash, wrong_size) = FileFlash::open_default_tolerant(path)
+                .map_err(|e| format!("cannot open {}: {e}", path.display()))?;
             let signature = device_signature(&config.device, node::STORAGE_LAYOUT);
-            let storage =
+            let mut storage =
                 Storage::new(flash, signature).map_err(|e| format!("storage {}: {e:?}", path.display()))?;
+            report_damage(path, wrong_size, &mut storage);
             let drive = node::BoardDrive::build(config, hooks, storage)
                 .map_err(|e| format!("invalid drive configuration: {e:?}"))?;
             serve(args, node_id, drive, &board)
@@ -115,6 +127,27 @@ fn run(args: &RunArgs) -> Result<(), String> {
             serve(args, node_id, drive, &board)
         }
     }
+}
+
+/// Says on stderr, before the drive starts, when the stored parameters cannot be used: a file
+/// of the wrong size, damaged contents, an image of another drive. The rule is the same for
+/// all: the drive runs on its defaults and reports the image lost (EMCY 6300h, 1001h, 1003h),
+/// and the file is left as it is until a master stores parameters (1010h).
+fn report_damage(path: &Path, wrong_size: Option<String>, storage: &mut Storage<FileFlash>) {
+    let what = match (wrong_size, storage.status()) {
+        (Some(why), _) => why,
+        (None, Ok(ImageState::Corrupt)) => "the contents are damaged".to_string(),
+        (None, Ok(ImageState::Foreign)) => {
+            "it holds the parameters of another drive (identity 1018h or format)".to_string()
+        }
+        (None, Ok(ImageState::Found { .. } | ImageState::Empty)) => return,
+        (None, Err(e)) => format!("it cannot be read ({e:?})"),
+    };
+    output::warning(format_args!(
+        "stored parameters in {} not used: {what}; running on the defaults (EMCY 6300h); the file \
+         is rewritten only when a master stores parameters (1010h)",
+        path.display()
+    ));
 }
 
 fn serve<S: Persistence>(
@@ -129,9 +162,9 @@ fn serve<S: Persistence>(
             .map_err(|e| format!("cannot install the handler of signal {signal}: {e}"))?;
     }
 
-    let (bus, frames) = Bus::new();
+    let bus = Bus::new();
     if let Some(addr) = &args.slcan_listen {
-        let server = SlcanServer::start(addr.as_str(), bus.clone())
+        let server = SlcanServer::start(addr.as_str(), bus.clone(), args.limits)
             .map_err(|e| format!("cannot listen on {addr}: {e}"))?;
         log!("node {node_id} serving SLCAN on {}", server.local_addr());
     }
@@ -141,13 +174,10 @@ fn serve<S: Persistence>(
         log!("node {node_id} on SocketCAN {iface}");
     }
 
-    let mut stdout = std::io::stdout().lock();
-    writeln!(stdout, "ready")
-        .and_then(|()| stdout.flush())
-        .map_err(|e| format!("cannot write to stdout: {e}"))?;
-    drop(stdout);
+    // Whoever started the program may stop reading it after this line (see `output`).
+    output::line(format_args!("ready"));
 
     log!("profile {}", board.profile.name.name());
-    node::run(drive, board, &bus, &frames, &stop);
+    node::run(drive, board, &bus, &stop);
     Ok(())
 }

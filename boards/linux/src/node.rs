@@ -2,9 +2,9 @@
 //!
 //! ## The loop
 //!
-//! One thread owns the [`Drive`] and the simulated motor. It sleeps on the channel of received
-//! frames until the earliest of: a frame arrives, the drive's own deadline (`poll`), the next
-//! control tick. So an SDO request is answered as soon as it arrives, not at the next tick.
+//! One thread owns the [`Drive`] and the simulated motor. It waits on the bus ([`Bus::receive`])
+//! until the earliest of: a frame arrives, the drive's own deadline (`poll`), the next control
+//! tick. So an SDO request is answered as soon as it arrives, not at the next tick.
 //!
 //! - every received frame goes to `on_frame`, and the frames it causes go out at once;
 //! - `poll` runs after every wake-up and whenever its deadline has come;
@@ -14,15 +14,13 @@
 //! Time is a monotonic clock in µs since the start of the process.
 
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::mpsc::{Receiver, RecvTimeoutError};
 use std::time::Duration as StdDuration;
 
-use std::io::Write;
 use std::path::Path;
 
 use canopen_drive::drive::ConnectionEvent;
 use canopen_drive::storage::Persistence;
-use canopen_drive::{CanFrame, Config, Drive, Duration, Instant};
+use canopen_drive::{Config, Drive, Duration, Instant};
 use canopen_drive_sim::motor::SimMotor;
 
 use crate::board_objects::{BoardHooks, Change};
@@ -76,15 +74,8 @@ pub struct Board<'a> {
     pub bit_rate_kbit: u16,
 }
 
-/// Runs `drive` on `bus` until `stop` is set. `frames` are the frames the bus addresses to
-/// the drive.
-pub fn run<S: Persistence>(
-    mut drive: BoardDrive<S>,
-    board: &Board<'_>,
-    bus: &Bus,
-    frames: &Receiver<CanFrame>,
-    stop: &AtomicBool,
-) {
+/// Runs `drive` on `bus` until `stop` is set.
+pub fn run<S: Persistence>(mut drive: BoardDrive<S>, board: &Board<'_>, bus: &Bus, stop: &AtomicBool) {
     let clock = Clock(std::time::Instant::now());
     let mut motor = SimMotor::with_params(board.profile.axis);
     let mut firmware = (board.profile.firmware)();
@@ -102,20 +93,15 @@ pub fn run<S: Persistence>(
         let now = clock.now();
         let wake = deadline.map_or(next_tick, |d| d.min(next_tick));
         let timeout = StdDuration::from_micros(wake.saturating_since(now).as_micros());
-        match frames.recv_timeout(timeout) {
-            // One frame per turn: the firmware's reaction to a write (below) lands before the
-            // next request is served, however fast the master asks again (recv_timeout returns
-            // at once while frames are queued, so a burst is still taken without sleeping).
-            Ok(frame) => {
-                drive.on_frame(&frame, clock.now());
-                transmit(&mut drive, bus);
-                if drive.take_connection_event() == Some(ConnectionEvent::ResetApplication) {
-                    firmware.reset(drive.od(), &env, &mut updates);
-                }
+        // One frame per turn: the firmware's reaction to a write (below) lands before the next
+        // request is served, however fast the master asks again (`receive` returns at once
+        // while frames wait, so a burst is still taken without sleeping).
+        if let Some(frame) = bus.receive(timeout) {
+            drive.on_frame(&frame, clock.now());
+            transmit(&mut drive, bus);
+            if drive.take_connection_event() == Some(ConnectionEvent::ResetApplication) {
+                firmware.reset(drive.od(), &env, &mut updates);
             }
-            Err(RecvTimeoutError::Timeout) => {}
-            // The bus keeps a sender as long as it exists; without it nothing can arrive.
-            Err(RecvTimeoutError::Disconnected) => break,
         }
         lss_services(&mut drive, board.lss_file);
         for change in drive.hooks_mut().take_changes() {
@@ -202,8 +188,10 @@ fn lss_services<S: Persistence>(drive: &mut BoardDrive<S>, lss_file: Option<&Pat
         let timing = change.bit_timing;
         let rate =
             timing.standard_rate().and_then(|r| r.kbit_per_s()).map_or("?".to_string(), |r| r.to_string());
-        println!("bit-rate {rate} kbit/s (table {} index {})", timing.table_selector, timing.table_index);
-        let _ = std::io::stdout().flush();
+        crate::output::line(format_args!(
+            "bit-rate {rate} kbit/s (table {} index {})",
+            timing.table_selector, timing.table_index
+        ));
     }
     if let (Some((node_id, bit_timing)), Some(path)) = (drive.take_lss_store(), lss_file) {
         if let Err(e) = crate::lss_store::save(path, node_id, bit_timing) {
@@ -225,6 +213,7 @@ mod tests {
     use super::*;
     use crate::bus::{Delivery, Sink};
     use crate::profiles::ProfileName;
+    use canopen_drive::CanFrame;
     use std::sync::mpsc::{sync_channel, TrySendError};
     use std::sync::Arc;
     use std::thread;
@@ -246,11 +235,27 @@ mod tests {
     }
 
     #[test]
+    fn every_profile_signs_its_stored_parameters_differently() {
+        let signatures: Vec<u32> = ProfileName::ALL
+            .iter()
+            .map(|name| {
+                let device = BoardProfile::of(*name).config(5).device;
+                canopen_drive::storage::device_signature(&device, STORAGE_LAYOUT)
+            })
+            .collect();
+        for (i, a) in signatures.iter().enumerate() {
+            for (j, b) in signatures.iter().enumerate() {
+                assert!(i == j || a != b, "{:?} and {:?}", ProfileName::ALL[i], ProfileName::ALL[j]);
+            }
+        }
+    }
+
+    #[test]
     fn loop_boots_answers_and_stops() {
         let profile = BoardProfile::of(ProfileName::Generic);
         let (config, _) = config_with_eds(&profile, 3).unwrap();
         let drive = BoardDrive::<()>::create(config, profile.hooks(false)).unwrap();
-        let (bus, frames) = Bus::new();
+        let bus = Bus::new();
         let (tx, rx) = sync_channel(64);
         let sink: Sink = Box::new(move |f: &CanFrame| match tx.try_send(*f) {
             Ok(()) => Delivery::Queued,
@@ -263,7 +268,7 @@ mod tests {
             let (bus, stop) = (bus.clone(), Arc::clone(&stop));
             thread::spawn(move || {
                 let board = Board { profile: &profile, lss_file: None, bit_rate_kbit: 1000 };
-                run(drive, &board, &bus, &frames, &stop)
+                run(drive, &board, &bus, &stop)
             })
         };
         let timeout = StdDuration::from_secs(5);

@@ -33,7 +33,9 @@ pub fn attach(iface: &str, bus: &Bus) -> io::Result<()> {
         }),
     );
 
-    spawn_threads(iface, socket, rx, id, bus).inspect_err(|_| bus.detach(id))
+    spawn_threads(iface, socket, rx, id, bus).inspect_err(|_| {
+        bus.detach(id);
+    })
 }
 
 fn spawn_threads(

@@ -263,6 +263,9 @@ pub struct FileFlash {
     capacity: usize,
     erase_size: usize,
     write_size: usize,
+    /// The file has another size ([`open_tolerant`](Self::open_tolerant)): it reads as
+    /// damaged data and gets its size at the first erase or write.
+    wrong_size: bool,
 }
 
 impl FileFlash {
@@ -282,16 +285,7 @@ impl FileFlash {
         erase_size: usize,
         write_size: usize,
     ) -> io::Result<Self> {
-        if erase_size == 0
-            || write_size == 0
-            || !capacity.is_multiple_of(erase_size)
-            || !erase_size.is_multiple_of(write_size)
-        {
-            return Err(io::Error::new(
-                io::ErrorKind::InvalidInput,
-                "flash geometry: capacity must be whole sectors, a sector whole write units",
-            ));
-        }
+        check_geometry(capacity, erase_size, write_size)?;
         let mut file = OpenOptions::new().read(true).write(true).create(true).truncate(false).open(path)?;
         let len = file.metadata()?.len();
         if len == 0 {
@@ -303,12 +297,58 @@ impl FileFlash {
                 format!("storage file has {len} bytes, expected {capacity}"),
             ));
         }
-        Ok(FileFlash { file, capacity, erase_size, write_size })
+        Ok(FileFlash { file, capacity, erase_size, write_size, wrong_size: false })
     }
 
     /// [`open`](Self::open) with the default geometry (16 KiB, 4 KiB sectors, 4-byte units).
     pub fn open_default(path: impl AsRef<Path>) -> io::Result<Self> {
         Self::open(path, Self::DEFAULT_CAPACITY, Self::DEFAULT_ERASE_SIZE, Self::DEFAULT_WRITE_SIZE)
+    }
+
+    /// Like [`open`](Self::open), with one rule for every kind of damage: an existing file of
+    /// another size (an empty one too) is not an error but a damaged medium, as damaged
+    /// contents are. It reads as programmed zeros, so that a load finds no valid image (the
+    /// defaults apply and the image is reported lost), and it is not changed until the first
+    /// erase or write (a store), which first gives it its size, erased. A missing file is
+    /// created erased, as by `open`.
+    ///
+    /// Returns the flash and, for a file of another size, what is wrong with it.
+    pub fn open_tolerant(
+        path: impl AsRef<Path>,
+        capacity: usize,
+        erase_size: usize,
+        write_size: usize,
+    ) -> io::Result<(Self, Option<String>)> {
+        let path = path.as_ref();
+        let len = match std::fs::metadata(path) {
+            Ok(metadata) => Some(metadata.len()),
+            Err(e) if e.kind() == io::ErrorKind::NotFound => None,
+            Err(e) => return Err(e),
+        };
+        match len {
+            Some(len) if len != capacity as u64 => {
+                check_geometry(capacity, erase_size, write_size)?;
+                let file = OpenOptions::new().read(true).write(true).open(path)?;
+                let flash = FileFlash { file, capacity, erase_size, write_size, wrong_size: true };
+                Ok((flash, Some(format!("the file has {len} bytes, not {capacity}"))))
+            }
+            _ => Ok((Self::open(path, capacity, erase_size, write_size)?, None)),
+        }
+    }
+
+    /// [`open_tolerant`](Self::open_tolerant) with the default geometry.
+    pub fn open_default_tolerant(path: impl AsRef<Path>) -> io::Result<(Self, Option<String>)> {
+        Self::open_tolerant(path, Self::DEFAULT_CAPACITY, Self::DEFAULT_ERASE_SIZE, Self::DEFAULT_WRITE_SIZE)
+    }
+
+    /// Before the first change of a file of the wrong size: gives it its size, erased.
+    fn restore_size(&mut self) -> io::Result<()> {
+        if self.wrong_size {
+            self.file.set_len(0)?;
+            self.write_at(0, &vec![0xFF; self.capacity])?;
+            self.wrong_size = false;
+        }
+        Ok(())
     }
 
     fn read_at(&mut self, start: usize, buf: &mut [u8]) -> io::Result<()> {
@@ -321,6 +361,21 @@ impl FileFlash {
         self.file.write_all(data)?;
         self.file.sync_data()
     }
+}
+
+/// Capacity in whole sectors, a sector in whole program units.
+fn check_geometry(capacity: usize, erase_size: usize, write_size: usize) -> io::Result<()> {
+    if erase_size == 0
+        || write_size == 0
+        || !capacity.is_multiple_of(erase_size)
+        || !erase_size.is_multiple_of(write_size)
+    {
+        return Err(io::Error::new(
+            io::ErrorKind::InvalidInput,
+            "flash geometry: capacity must be whole sectors, a sector whole write units",
+        ));
+    }
+    Ok(())
 }
 
 impl NonVolatile for FileFlash {
@@ -338,11 +393,16 @@ impl NonVolatile for FileFlash {
 
     fn read(&mut self, offset: u32, buf: &mut [u8]) -> Result<(), NvError> {
         let start = check_range(offset, buf.len(), 1, self.capacity)?;
+        if self.wrong_size {
+            buf.fill(0);
+            return Ok(());
+        }
         self.read_at(start, buf).map_err(|_| NvError::Device)
     }
 
     fn write(&mut self, offset: u32, data: &[u8]) -> Result<(), NvError> {
         let start = check_range(offset, data.len(), self.write_size, self.capacity)?;
+        self.restore_size().map_err(|_| NvError::Device)?;
         // NOR: programming only clears bits.
         let mut merged = vec![0u8; data.len()];
         self.read_at(start, &mut merged).map_err(|_| NvError::Device)?;
@@ -353,6 +413,7 @@ impl NonVolatile for FileFlash {
     fn erase(&mut self, from: u32, to: u32) -> Result<(), NvError> {
         let len = (to as usize).checked_sub(from as usize).ok_or(NvError::OutOfBounds)?;
         let start = check_range(from, len, self.erase_size, self.capacity)?;
+        self.restore_size().map_err(|_| NvError::Device)?;
         self.write_at(start, &vec![0xFF; len]).map_err(|_| NvError::Device)
     }
 }
@@ -462,6 +523,31 @@ mod tests {
         flash.read(8192, &mut back).unwrap();
         assert_eq!(back, [0x30; 4]);
         assert!(FileFlash::open(&path, 8192, 4096, 4).is_err(), "another size is refused");
+        let _ = std::fs::remove_file(&path);
+    }
+
+    #[test]
+    fn a_file_of_another_size_is_a_damaged_medium_kept_until_a_store() {
+        let path = temp_path("file-flash-size");
+        let device = DeviceInfo::servo_drive();
+        for len in [0, 100, FileFlash::DEFAULT_CAPACITY + 1] {
+            std::fs::write(&path, vec![0x5A; len]).unwrap();
+            let (flash, damage) = FileFlash::open_default_tolerant(&path).unwrap();
+            assert!(damage.unwrap().contains(&format!("{len} bytes")));
+            let mut storage = Storage::new(flash, 7).unwrap();
+            let mut od = Dictionary::<512>::new(&[&COMMUNICATION], device, 3).unwrap();
+            assert_eq!(storage.load(&mut od, Group::All).unwrap().image, ImageState::Corrupt, "{len} bytes");
+            assert!(std::fs::read(&path).unwrap() == vec![0x5A; len], "{len} bytes: untouched until a store");
+            storage.store(&od, Group::All).unwrap();
+            assert_eq!(std::fs::metadata(&path).unwrap().len(), FileFlash::DEFAULT_CAPACITY as u64);
+            let (flash, damage) = FileFlash::open_default_tolerant(&path).unwrap();
+            assert_eq!(damage, None);
+            let mut storage = Storage::new(flash, 7).unwrap();
+            assert_eq!(storage.load(&mut od, Group::All).unwrap().image, ImageState::Found { sequence: 1 });
+        }
+        let _ = std::fs::remove_file(&path);
+        let (_, damage) = FileFlash::open_default_tolerant(&path).unwrap();
+        assert_eq!(damage, None, "a missing file is created erased");
         let _ = std::fs::remove_file(&path);
     }
 }

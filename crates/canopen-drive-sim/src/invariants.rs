@@ -12,7 +12,9 @@
 //!   Fault reaction active.
 //! - [`DemandWatch`]: invariant 2 for velocity and torque: a velocity set-point within
 //!   min(607Fh, 6080h) in increments/s (through the factor group) or ramping down to it, a
-//!   torque set-point within min(6072h, 6073h); the same for the feed-forward.
+//!   torque set-point within min(6072h, 6073h); the same for the feed-forward; and for
+//!   position: outside homing, a position set-point never moves out of the software position
+//!   limits 607Dh (corrected by the home offset 607Ch), nor further out than it or the axis was.
 //! - [`SdoWatch`]: at most one SDO answer per request.
 //!
 //! Each check returns `Err(description)` on the first violation found, so a fuzz target can
@@ -21,7 +23,9 @@
 use canopen_drive::cia402::factor::Factors;
 use canopen_drive::cia402::fsa::State;
 use canopen_drive::cia402::objects::{
-    MAX_CURRENT, MAX_MOTOR_SPEED, MAX_PROFILE_VELOCITY, MAX_TORQUE, STATUSWORD,
+    HOME_OFFSET, MAX_CURRENT, MAX_MOTOR_SPEED, MAX_PROFILE_VELOCITY, MAX_TORQUE, MODES_OF_OPERATION_DISPLAY,
+    POSITION_ACTUAL_INTERNAL_VALUE, POSITION_ACTUAL_VALUE, POSITION_RANGE_LIMIT, SOFTWARE_POSITION_LIMIT,
+    STATUSWORD,
 };
 use canopen_drive::cia402::ProfileConfig;
 use canopen_drive::comm::error_control::ErrorBehaviour;
@@ -73,6 +77,20 @@ pub fn check_entries<const B: usize>(
     entries: &[Entry],
     profile: &ProfileConfig,
 ) -> Result<(), String> {
+    check_values(od, entries, profile)?;
+    check_pdos(od)?;
+    check_heartbeat_consumers(od)
+}
+
+/// The part of [`check_entries`] that looks at each of `entries` alone (type, size, limits,
+/// value rules), without the checks across entries ([`check_pdos`],
+/// [`check_heartbeat_consumers`]): for a fuzz rig that re-checks only the entries that changed
+/// since its last check.
+pub fn check_values<const B: usize>(
+    od: &Dictionary<B>,
+    entries: &[Entry],
+    profile: &ProfileConfig,
+) -> Result<(), String> {
     for entry in entries {
         let (index, sub, var) = (entry.index(), entry.sub, entry.var);
         // Fixed-size values are read into a stack buffer (this runs after every fuzz step).
@@ -101,8 +119,7 @@ pub fn check_entries<const B: usize>(
         }
         check_value_rules(od, profile, entry, bytes).map_err(|why| format!("{}: {why}", at()))?;
     }
-    check_pdos(od)?;
-    check_heartbeat_consumers(od)
+    Ok(())
 }
 
 /// The value rules beyond type and limits that an SDO write must pass, for values at rest.
@@ -128,7 +145,7 @@ fn check_value_rules<const B: usize>(
 /// Every valid PDO has a COB-ID outside the restricted range, an allowed transmission type and
 /// a mapping that resolves: at most 8 entries, each mappable in its direction with its exact
 /// size (or a dummy entry, or one bit of a BOOLEAN), at most 64 bits.
-fn check_pdos<const B: usize>(od: &Dictionary<B>) -> Result<(), String> {
+pub fn check_pdos<const B: usize>(od: &Dictionary<B>) -> Result<(), String> {
     for object in od.objects() {
         let index = object.index;
         let rpdo = match index {
@@ -207,7 +224,7 @@ fn mapped_bits<const B: usize>(od: &Dictionary<B>, raw: u32, rpdo: bool) -> Resu
 }
 
 /// No two entries of 1016h supervise the same node.
-fn check_heartbeat_consumers<const B: usize>(od: &Dictionary<B>) -> Result<(), String> {
+pub fn check_heartbeat_consumers<const B: usize>(od: &Dictionary<B>) -> Result<(), String> {
     let Ok(count) = od.get::<u8>(0x1016, 0) else { return Ok(()) };
     let mut seen = std::collections::BTreeSet::new();
     for sub in 1..=count {
@@ -251,11 +268,74 @@ pub struct DemandLimits {
     pub velocity: u32,
     /// min(6072h, 6073h), ‰.
     pub torque: u16,
+    /// The software position limits, while they apply to a position set-point.
+    pub position: Option<PositionLimits>,
+}
+
+/// The software position limits 607Dh as they apply to a position set-point now: in user units,
+/// corrected by the home offset (607Dh sub 1/2 − 607Ch), with what turns a set-point in
+/// increments into user units.
+///
+/// They apply while they are on (corrected min ≤ max), outside homing (6061h ≠ 6: homing
+/// searches the reference the limits are relative to) and on a linear axis (607Bh off: on a
+/// modulo axis positions wrap).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PositionLimits {
+    /// Corrected minimum, user units.
+    pub low: i64,
+    /// Corrected maximum, user units.
+    pub high: i64,
+    /// 6063h after the tick: the encoder count the sample gave.
+    actual_internal: i32,
+    /// 6064h after the tick: the same position in user units.
+    actual_user: i64,
+    factors: Factors,
+}
+
+impl PositionLimits {
+    /// The limits `od` configures (the axis's position not filled in yet: see
+    /// [`DemandLimits::at`]), if they are on on a linear axis.
+    fn configured<const B: usize>(od: &Dictionary<B>) -> Option<Self> {
+        let get = |index: u16, sub: u8| od.get::<i32>(index, sub).ok().map(i64::from);
+        if let (Some(min), Some(max)) = (get(POSITION_RANGE_LIMIT, 1), get(POSITION_RANGE_LIMIT, 2)) {
+            if min < max {
+                return None;
+            }
+        }
+        let offset = get(HOME_OFFSET, 0).unwrap_or(0);
+        let low = get(SOFTWARE_POSITION_LIMIT, 1)? - offset;
+        let high = get(SOFTWARE_POSITION_LIMIT, 2)? - offset;
+        (low <= high).then_some(PositionLimits {
+            low,
+            high,
+            actual_internal: 0,
+            actual_user: 0,
+            factors: Factors::from_od(od),
+        })
+    }
+
+    /// A position in increments in user units, measured from the actual position (so that the
+    /// origin the drive chose by homing or by a preset needs no knowing).
+    pub fn to_user(&self, internal: i32) -> i64 {
+        let from_actual = i64::from(internal.wrapping_sub(self.actual_internal));
+        self.actual_user + self.factors.position_sign() * self.factors.to_user(from_actual)
+    }
+
+    /// How far `user` lies outside the limits (0 within).
+    pub fn beyond(&self, user: i64) -> i64 {
+        (self.low - user).max(user - self.high).max(0)
+    }
 }
 
 impl DemandLimits {
-    /// The limits of `od`.
+    /// The limits of `od` ([`Self::configured`] [`at`](Self::at) the axis's state now).
     pub fn of<const B: usize>(od: &Dictionary<B>) -> Self {
+        Self::configured(od).at(od)
+    }
+
+    /// The limits the parameters of `od` configure: they change only when a parameter does,
+    /// so a caller that knows none changed may keep them and only call [`Self::at`] each tick.
+    pub fn configured<const B: usize>(od: &Dictionary<B>) -> Self {
         let factors = Factors::from_od(od);
         let max_profile = od.get::<u32>(MAX_PROFILE_VELOCITY, 0).unwrap_or(u32::MAX);
         let max_motor = od.get::<u32>(MAX_MOTOR_SPEED, 0).unwrap_or(u32::MAX);
@@ -264,7 +344,25 @@ impl DemandLimits {
             .get::<u16>(MAX_TORQUE, 0)
             .unwrap_or(u16::MAX)
             .min(od.get::<u16>(MAX_CURRENT, 0).unwrap_or(u16::MAX));
-        DemandLimits { velocity, torque }
+        DemandLimits { velocity, torque, position: PositionLimits::configured(od) }
+    }
+
+    /// The configured limits as they apply in the axis's state after a tick: the software
+    /// position limits not while homing (6061h), and measured from the actual position
+    /// (6063h, 6064h).
+    pub fn at<const B: usize>(self, od: &Dictionary<B>) -> Self {
+        let homing = od.get::<i8>(MODES_OF_OPERATION_DISPLAY, 0) == Ok(6);
+        let actual = od
+            .get::<i32>(POSITION_ACTUAL_INTERNAL_VALUE, 0)
+            .ok()
+            .zip(od.get::<i32>(POSITION_ACTUAL_VALUE, 0).ok());
+        let position = match (self.position, actual) {
+            (Some(limits), Some((internal, user))) if !homing => {
+                Some(PositionLimits { actual_internal: internal, actual_user: i64::from(user), ..limits })
+            }
+            _ => None,
+        };
+        DemandLimits { position, ..self }
     }
 }
 
@@ -283,7 +381,11 @@ impl DemandWatch {
     /// - a velocity set-point and the velocity feed-forward lie within min(607Fh, 6080h), or,
     ///   when the master lowered the limit below the running velocity, they come down to it and
     ///   never rise above both their previous value and the actual velocity: the deceleration
-    ///   limits (6084h, 60C6h) also hold, so a drop to the new limit takes a ramp.
+    ///   limits (6084h, 60C6h) also hold, so a drop to the new limit takes a ramp;
+    /// - a position set-point lies within the software position limits ([`PositionLimits`]), or
+    ///   no further beyond them than the previous position set-point or the axis (limits
+    ///   narrowed under a standing axis, an axis pushed out): it may stay or come back, never
+    ///   leave. One user unit of rounding is allowed (a target converted to increments and back).
     pub fn check(&mut self, demand: &Demand, limits: DemandLimits, sample: &Sample) -> Result<(), String> {
         let previous = self.previous.replace(*demand);
         let vmax = u64::from(limits.velocity);
@@ -300,7 +402,15 @@ impl DemandWatch {
         let setpoint_ok = match demand.setpoint {
             Setpoint::Velocity(v) => velocity_ok(v, previous_velocity),
             Setpoint::Torque(t) => torque_ok(t),
-            Setpoint::Position(_) | Setpoint::None => true,
+            Setpoint::Position(p) => limits.position.is_none_or(|limits| {
+                let before = match previous.map(|p| p.setpoint) {
+                    Some(Setpoint::Position(q)) => limits.beyond(limits.to_user(q)),
+                    _ => 0,
+                };
+                let allowed = before.max(limits.beyond(limits.actual_user)).saturating_add(1);
+                limits.beyond(limits.to_user(p)) <= allowed
+            }),
+            Setpoint::None => true,
         };
         if !setpoint_ok {
             return Err(format!(

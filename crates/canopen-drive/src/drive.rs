@@ -590,12 +590,21 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
     /// Applies the stored values of `group`; a corrupt or foreign image is never loaded and is
     /// reported with EMCY 0x6300 (data set), active until the next successful store.
     fn load_stored(&mut self, group: Group) {
-        match self.storage.load(&mut self.od, group) {
-            Ok(report) if !report.image.is_lost() => {}
-            // Unreadable, corrupt or foreign: the defaults stay.
-            _ => self.raise_error(code::DATA_SET, ErrorRegister::empty(), [group as u8, 0, 0, 0, 0]),
+        if !self.apply_stored(group) {
+            self.raise_data_set_error(group);
         }
+    }
+
+    /// Applies the stored values of `group`; false when the image is unreadable, corrupt or
+    /// foreign (nothing of it is loaded: the defaults stay).
+    fn apply_stored(&mut self, group: Group) -> bool {
+        let intact = matches!(self.storage.load(&mut self.od, group), Ok(report) if !report.image.is_lost());
         self.profile.parameters_loaded(&self.od);
+        intact
+    }
+
+    fn raise_data_set_error(&mut self, group: Group) {
+        self.raise_error(code::DATA_SET, ErrorRegister::empty(), [group as u8, 0, 0, 0, 0]);
     }
 
     /// Frames dropped because the transmit queue was full (the board did not drain it).
@@ -1168,9 +1177,18 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
                 let node_id = self.lss.activate_pending();
                 self.od.set_node_id(node_id);
                 self.od.reset(0x2000..=0xFFFF);
-                self.load_stored(Group::Manufacturer);
-                self.load_stored(Group::Application);
+                let manufacturer = self.apply_stored(Group::Manufacturer);
+                let application = self.apply_stored(Group::Application);
                 self.reset_communication(now);
+                // A damaged image is such a condition: raised once communication is reset, so
+                // that 1003h records it and its EMCY is sent (not discarded with the queue).
+                if !(manufacturer && application) {
+                    self.raise_data_set_error(if manufacturer {
+                        Group::Application
+                    } else {
+                        Group::Manufacturer
+                    });
+                }
                 self.profile.reset();
                 self.connection_event = Some(ConnectionEvent::ResetApplication);
             }
@@ -1186,9 +1204,9 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
         let node_id = self.lss.activate_pending();
         self.od.set_node_id(node_id);
         self.od.reset(0x1000..=0x1FFF);
-        self.load_stored(Group::Communication);
         // Active errors are conditions of the device and stay; the history and queue go.
         self.emcy.discard_pending();
+        self.load_stored(Group::Communication);
         self.sync_error_register();
         self.heartbeat_consumer = HeartbeatConsumer::default();
         self.guarding.reset();

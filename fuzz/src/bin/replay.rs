@@ -1,7 +1,7 @@
 //! Runs a fuzz target's body on corpus files or directories, without libFuzzer (stable
-//! toolchain, no sanitizer): `cargo run --manifest-path fuzz/Cargo.toml --release --bin replay
-//! -- <target> <file or dir>...`. A violated invariant panics with its description; the file
-//! being run is printed first.
+//! toolchain, no sanitizer): `cargo run --manifest-path fuzz/Cargo.toml --release --features
+//! tools --bin replay -- <target> <file or dir>...`. A violated invariant panics with its
+//! description; the file being run is printed first.
 
 use std::path::PathBuf;
 

@@ -8,7 +8,7 @@
 //!   (every frame the test's master sent, with its time; see `tests/tests/common/mod.rs`):
 //!   each becomes a program of time steps and raw frames.
 //!
-//! Usage: `cargo run --manifest-path fuzz/Cargo.toml --bin seeds [-- TRACE_DIR]`.
+//! Usage: `cargo run --manifest-path fuzz/Cargo.toml --features tools --bin seeds [-- TRACE_DIR]`.
 
 use std::collections::hash_map::DefaultHasher;
 use std::hash::{Hash, Hasher};

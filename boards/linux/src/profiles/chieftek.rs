@@ -244,9 +244,12 @@ pub fn profile_config() -> ProfileConfig {
     config
 }
 
-/// Identity: the manual gives none; 6502h as §3.2.
+/// Identity: the manual gives none; 6502h as §3.2. The product code ("CPC" in ASCII) is this
+/// program's, distinct from the generic drive's 0: stored parameters are signed with 1018h's
+/// vendor-ID and product code, so each profile loads only its own.
 pub fn device_info() -> DeviceInfo {
     DeviceInfo {
+        product_code: 0x0043_5043,
         device_name: "cpc servo drive",
         hardware_version: "simulated",
         software_version: "DS402 1.0",
