@@ -321,12 +321,15 @@ mod tests {
         // a's oldest frames are gone; b's frame goes within two turns.
         assert_eq!(bus.receive(NOW).unwrap(), frame(extra as u16));
         assert_eq!(bus.receive(NOW).unwrap(), frame(0x605));
-        // a is held to its burst, then to its rate.
+        // a is held to its burst, then to its rate (what the rate refills while this loop runs
+        // on a loaded machine is allowed for).
+        let started = Instant::now();
         let mut taken = 2;
         while bus.receive(NOW).is_some() {
             taken += 1;
         }
-        assert!(taken <= BURST as usize + 2 + 5, "{taken} frames at once");
+        let refilled = (started.elapsed().as_secs_f64() * f64::from(RATE)).ceil() as usize;
+        assert!(taken <= BURST as usize + 2 + 5 + refilled, "{taken} frames at once ({refilled} refilled)");
         assert_eq!(bus.detach(a), Some(Losses { sent: extra as u64, received: 0 }));
     }
 }

@@ -74,23 +74,7 @@ pub const STANDARD_OD_BYTES: usize = crate::od::storage_bytes(&[
     &crate::cia402::objects::PROFILE,
 ]);
 
-/// Events that break the connection to the master; the CiA 402 layer reacts to them as the
-/// abort connection option code 6007h says (digest 402 §6.1).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum ConnectionEvent {
-    /// The CAN controller went bus-off.
-    BusOff,
-    /// A consumed heartbeat timed out.
-    HeartbeatLost,
-    /// Life guarding failed.
-    LifeGuardingLost,
-    /// NMT Stopped was entered.
-    NmtStopped,
-    /// NMT reset application.
-    ResetApplication,
-    /// NMT reset communication.
-    ResetCommunication,
-}
+pub use crate::comm::ConnectionEvent;
 
 /// State of the CAN controller, as the board reports it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -509,7 +493,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
             config.extra_profile_objects,
         ];
         self.od.attach(&tables)?;
-        self.od.set_homing_methods(config.profile.homing);
+        self.od.set_homing_methods(config.profile.homing.method_list());
         self.od.set_entry_overrides(config.entry_overrides)?;
         self.od.set_default_overrides(config.default_overrides)?;
         self.od.set_absent(config.absent_objects);

@@ -227,6 +227,11 @@ impl HomingConfig {
             .take(usize::from(MAX_LISTED_METHODS))
     }
 
+    /// The methods 60E3h lists ([`HomingConfig::listed_methods`]), as the dictionary keeps them.
+    pub fn method_list(&self) -> crate::od::MethodList {
+        self.listed_methods().fold(crate::od::MethodList::EMPTY, crate::od::MethodList::with)
+    }
+
     /// 60E3h sub 0: how many methods [`HomingConfig::listed_methods`] gives.
     pub fn listed_method_count(&self) -> u8 {
         u8::try_from(self.listed_methods().count()).unwrap_or(MAX_LISTED_METHODS)

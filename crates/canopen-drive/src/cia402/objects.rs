@@ -8,6 +8,7 @@ pub use super::probe::{
     TOUCH_PROBE_2_POSITIVE_EDGE, TOUCH_PROBE_2_POSITIVE_EDGE_COUNTER, TOUCH_PROBE_FUNCTION,
     TOUCH_PROBE_STATUS,
 };
+use crate::od::DeviceInfo;
 use crate::od::{
     layout, AbortCode, Access, DataType, DefaultValue, DeviceField, Dictionary, Object, PdoMapping, Var,
 };
@@ -218,6 +219,33 @@ pub const IMPLEMENTED_MODES: u32 = mode_bit::PROFILE_VELOCITY
 /// The mode bits of 6502h that CiA 402 assigns (bits 0–9; the others are reserved or the
 /// manufacturer's).
 pub const STANDARD_MODES: u32 = 0x03FF;
+
+// The CiA 402 defaults of the identity live with the modes they list (the dictionary layer
+// below does not know which modes this build runs).
+impl DeviceInfo {
+    /// A CiA 402 servo drive (device type 0x0002_0192) with empty identity.
+    pub const fn servo_drive() -> Self {
+        DeviceInfo {
+            device_type: 0x0002_0192,
+            vendor_id: 0,
+            product_code: 0,
+            revision_number: 0,
+            serial_number: 0,
+            device_name: "canopen-drive",
+            hardware_version: "",
+            software_version: env!("CARGO_PKG_VERSION"),
+            vendor_name: "",
+            eds: &[],
+            drive_modes: IMPLEMENTED_MODES,
+        }
+    }
+}
+
+impl Default for DeviceInfo {
+    fn default() -> Self {
+        Self::servo_drive()
+    }
+}
 
 /// A value the master commands (rw, RPDO-mappable).
 const fn command(index: u16, name: &'static str, data_type: DataType) -> Object {

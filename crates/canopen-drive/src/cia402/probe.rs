@@ -105,63 +105,7 @@ pub fn check_write(value: u16) -> Result<(), AbortCode> {
     }
 }
 
-/// What the board knows about the instant of an edge on one trigger signal.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum EdgeCapture {
-    /// Nothing better than the tick: the edge is taken at the actual position of the sample.
-    #[default]
-    AtSample,
-    /// The position (increments) a hardware capture unit latched at the edge; taken as is.
-    Position(i32),
-    /// The edge came this many µs before the sample. The position at the edge is interpolated
-    /// as `position − velocity · micros / 10⁶` with [`Capture::velocity`], rounded to the
-    /// nearest increment (halves away from zero) and saturated to the i32 range.
-    Before {
-        /// Time from the edge to the sample, µs.
-        micros: u32,
-    },
-}
-
-/// The board's more precise view of the edges of this tick, per trigger signal (the board needs
-/// not know which probe uses which signal). Only read when an edge of that signal is seen.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct Capture {
-    /// Velocity actual value in increments per second, for [`EdgeCapture::Before`].
-    pub velocity: i32,
-    /// The edge of the touch probe 1 input.
-    pub probe_1: EdgeCapture,
-    /// The edge of the touch probe 2 input.
-    pub probe_2: EdgeCapture,
-    /// The encoder index pulse.
-    pub index: EdgeCapture,
-}
-
-impl Capture {
-    /// No capture hardware: every edge is taken at the sample.
-    pub const NONE: Capture = Capture {
-        velocity: 0,
-        probe_1: EdgeCapture::AtSample,
-        probe_2: EdgeCapture::AtSample,
-        index: EdgeCapture::AtSample,
-    };
-
-    /// The position at an edge described by `edge`, for the actual `position` of the sample.
-    fn position_at(&self, edge: EdgeCapture, position: i32) -> i32 {
-        match edge {
-            EdgeCapture::AtSample => position,
-            EdgeCapture::Position(latched) => latched,
-            EdgeCapture::Before { micros } => {
-                // |velocity · micros| ≤ 2³¹ · (2³² − 1) < 2⁶³ − 2³¹: the product and the rounding
-                // term fit in i64, and so does the difference below.
-                let travel = i64::from(self.velocity) * i64::from(micros);
-                let half = if travel < 0 { -500_000 } else { 500_000 };
-                let delta = (travel + half) / 1_000_000;
-                let at = i64::from(position) - delta;
-                at.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32
-            }
-        }
-    }
-}
+pub use crate::hal::{Capture, EdgeCapture};
 
 bitflags! {
     /// Which outputs of [`TouchProbe::tick`] changed in this tick.

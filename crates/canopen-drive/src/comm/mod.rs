@@ -10,3 +10,21 @@ pub mod sdo_server;
 pub mod sync;
 
 pub use crate::wire::nmt::NmtState;
+
+/// Events that break the connection to the master; the CiA 402 layer reacts to them as the
+/// abort connection option code 6007h says (digest 402 §6.1).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ConnectionEvent {
+    /// The CAN controller went bus-off.
+    BusOff,
+    /// A consumed heartbeat timed out.
+    HeartbeatLost,
+    /// Life guarding failed.
+    LifeGuardingLost,
+    /// NMT Stopped was entered.
+    NmtStopped,
+    /// NMT reset application.
+    ResetApplication,
+    /// NMT reset communication.
+    ResetCommunication,
+}

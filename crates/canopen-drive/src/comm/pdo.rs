@@ -35,7 +35,7 @@ use crate::od::{
     AbortCode, Access, DataType, DefaultValue, Dictionary, Entry, Object, ObjectHooks, PdoMapping, Span, Var,
 };
 use crate::time::{Duration, Instant};
-use crate::wire::cob_id::{self, CobId, BIT30, INVALID};
+use crate::wire::cob_id::{self, CobId};
 
 /// First RPDO communication parameter (1400h).
 pub const RPDO_COMMUNICATION: u16 = 0x1400;
@@ -104,7 +104,7 @@ const fn u32_rw(name: &'static str, default: DefaultValue) -> Var {
 
 // One description per record kind, shared by every PDO of the table: the defaults that
 // differ from PDO to PDO (COB-ID, transmission type, mapping) are `DefaultValue::PdoPreset`,
-// computed by `preset` from the index (a description per PDO cost ~10 KiB of flash).
+// computed by `od::standard::pdo_preset` from the index (a description per PDO cost ~10 KiB of flash).
 
 static RPDO_COMMUNICATION_SUBS: [(u8, Var); 4] = [
     (0, Var::new(HIGHEST_SUB, DataType::Unsigned8).access(Access::Const).default(DefaultValue::Unsigned(5))),
@@ -151,40 +151,9 @@ static MAPPING_SUBS: [(u8, Var); 9] = [
     (8, MAPPING_ENTRY),
 ];
 
-/// The mapping of the pre-defined PDOs 1–4 (CiA 402): controlword / statusword, then the mode,
-/// the pp target / position, the pv target / velocity.
-const RPDO_PRESET_MAPPING: [[u32; 2]; 4] =
-    [[0x6040_0010, 0], [0x6040_0010, 0x6060_0008], [0x6040_0010, 0x607A_0020], [0x6040_0010, 0x60FF_0020]];
-const TPDO_PRESET_MAPPING: [[u32; 2]; 4] =
-    [[0x6041_0010, 0], [0x6041_0010, 0x6061_0008], [0x6041_0010, 0x6064_0020], [0x6041_0010, 0x606C_0020]];
-
-/// The power-on value of [`DefaultValue::PdoPreset`] entries: PDOs 1–4 carry the CiA 402
-/// pre-defined identifiers (TPDOs with bit 30, no RTR) and mapping, TPDOs 1–2 event-driven and
-/// 3–4 on every SYNC; higher PDOs start invalid and empty.
-pub fn preset(index: u16, sub: u8) -> DefaultValue {
-    let Some(record) = PdoRecord::of(index) else { return DefaultValue::Zero };
-    let predefined = record.number < 4;
-    let (base, mappings) = match record.direction {
-        Direction::Rpdo => (0x200, &RPDO_PRESET_MAPPING),
-        Direction::Tpdo => (BIT30 | 0x180, &TPDO_PRESET_MAPPING),
-    };
-    let unassigned = match record.direction {
-        Direction::Rpdo => INVALID,
-        Direction::Tpdo => INVALID | BIT30,
-    };
-    let mapping = mappings.get(record.number).copied().unwrap_or([0, 0]);
-    match (record.communication, sub) {
-        (true, 1) if predefined => DefaultValue::NodeIdPlus(base + 0x100 * record.number as u32),
-        (true, 1) => DefaultValue::Unsigned(u64::from(unassigned)),
-        (true, 2) if predefined && record.number >= 2 => DefaultValue::Unsigned(1),
-        (true, 2) => DefaultValue::Unsigned(255),
-        (false, 0) => DefaultValue::Unsigned(mapping.iter().filter(|m| **m != 0).count() as u64),
-        (false, s) => DefaultValue::Unsigned(u64::from(
-            mapping.get(usize::from(s).wrapping_sub(1)).copied().unwrap_or(0),
-        )),
-        _ => DefaultValue::Zero,
-    }
-}
+/// The power-on value of [`DefaultValue::PdoPreset`] entries (the pre-defined connection set,
+/// a fact of the dictionary: [`crate::od::standard::pdo_preset`]).
+pub use crate::od::standard::pdo_preset as preset;
 
 /// The 1400h/1600h/1800h/1A00h objects of `rpdos` RPDOs and `N / 2 - rpdos` TPDOs, to be laid out
 /// with [`crate::od::layout`]: `static PDOS: [Object; 16] = layout(pdo::objects::<16>(4));`.
@@ -940,6 +909,7 @@ fn apply<const B: usize>(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::wire::cob_id::{BIT30, INVALID};
 
     /// The word-wide bit fields agree with a bit-by-bit reference at every position and width,
     /// including fields cut at the end of the frame.

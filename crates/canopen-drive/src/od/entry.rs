@@ -240,7 +240,7 @@ pub enum DefaultValue {
     /// A field of the device description given at start-up (identity, names, EDS).
     Device(DeviceField),
     /// The value of the pre-defined PDO set for this PDO record entry (COB-ID, transmission
-    /// type, mapping of PDOs 1–4; see [`comm::pdo::preset`](crate::comm::pdo::preset)),
+    /// type, mapping of PDOs 1–4; see [`od::standard::pdo_preset`](crate::od::standard::pdo_preset)),
     /// resolved from the index and sub-index.
     PdoPreset,
 }

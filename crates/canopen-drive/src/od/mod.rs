@@ -13,14 +13,13 @@
 //! rights; access from the bus goes through [`Dictionary::check_write`] and friends, which answer
 //! with the exact [`AbortCode`].
 
-mod abort;
 pub mod eds;
 mod entry;
 mod overrides;
 pub mod persist;
 pub mod standard;
 
-pub use abort::AbortCode;
+pub use crate::wire::AbortCode;
 pub use entry::{
     layout, Access, Bound, DataType, DefaultValue, DeviceField, Kind, Object, PdoMapping, Var, WriteRule,
 };
@@ -77,31 +76,6 @@ pub struct DeviceInfo {
     /// 6502h: the CiA 402 modes of operation the drive supports (bit 0 pp, 2 pv, 3 tq, …;
     /// digest §7.3). 6060h accepts only these. Default: the modes this crate runs.
     pub drive_modes: u32,
-}
-
-impl DeviceInfo {
-    /// A CiA 402 servo drive (device type 0x0002_0192) with empty identity.
-    pub const fn servo_drive() -> Self {
-        DeviceInfo {
-            device_type: 0x0002_0192,
-            vendor_id: 0,
-            product_code: 0,
-            revision_number: 0,
-            serial_number: 0,
-            device_name: "canopen-drive",
-            hardware_version: "",
-            software_version: env!("CARGO_PKG_VERSION"),
-            vendor_name: "",
-            eds: &[],
-            drive_modes: crate::cia402::objects::IMPLEMENTED_MODES,
-        }
-    }
-}
-
-impl Default for DeviceInfo {
-    fn default() -> Self {
-        Self::servo_drive()
-    }
 }
 
 /// The firmware's own power-on value for an entry of the crate's tables (a default its
@@ -340,6 +314,51 @@ pub struct Span {
     len: u8,
 }
 
+/// A set of homing methods (6098h values) as 60E3h lists them: ascending, the negative
+/// (manufacturer-specific) methods first. The drive profile computes it from its configuration
+/// (`cia402::hm::HomingConfig::method_list`); the dictionary only lists it.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct MethodList {
+    /// Bit `m + 128` of the 256-bit set (two halves): method `m` is in the list.
+    bits: [u128; 2],
+}
+
+impl MethodList {
+    /// No method.
+    pub const EMPTY: MethodList = MethodList { bits: [0, 0] };
+
+    /// The list with `method` added.
+    pub const fn with(self, method: i8) -> Self {
+        let position = (method as i16 + 128) as u32;
+        let mut bits = self.bits;
+        if position < 128 {
+            bits[0] |= 1 << position;
+        } else {
+            bits[1] |= 1 << (position - 128);
+        }
+        MethodList { bits }
+    }
+
+    /// The methods, ascending.
+    pub fn iter(&self) -> impl Iterator<Item = i8> + '_ {
+        (0u32..256).filter_map(move |position| {
+            let half = self.bits.get((position / 128) as usize)?;
+            (half & (1 << (position % 128)) != 0).then(|| (position as i16 - 128) as i8)
+        })
+    }
+
+    /// How many methods (60E3h sub 0).
+    pub fn count(&self) -> u8 {
+        u8::try_from(self.bits[0].count_ones() + self.bits[1].count_ones()).unwrap_or(u8::MAX)
+    }
+
+    /// 60E3h sub `sub` (1-based): the `sub`-th method, `None` beyond the list.
+    pub fn nth(&self, sub: u8) -> Option<i8> {
+        self.iter().nth(usize::from(sub).checked_sub(1)?)
+    }
+}
+
 /// The object dictionary: description tables plus a value store of `BYTES` bytes.
 pub struct Dictionary<const BYTES: usize> {
     tables: [&'static [Object]; MAX_TABLES],
@@ -352,7 +371,7 @@ pub struct Dictionary<const BYTES: usize> {
     /// The firmware's descriptions of entries of the tables ([`EntryOverride`]).
     entry_overrides: &'static [EntryOverride],
     /// The homing methods 60E3h lists ([`DeviceField::HomingMethods`]).
-    homing: crate::cia402::hm::HomingConfig,
+    homing: MethodList,
     /// Objects of the tables the device does not show on the bus ([`Self::set_absent`]).
     absent: &'static [u16],
 }
@@ -394,7 +413,7 @@ impl<const BYTES: usize> Dictionary<BYTES> {
             node_id,
             overrides: &[],
             entry_overrides: &[],
-            homing: crate::cia402::hm::HomingConfig::new(),
+            homing: MethodList::EMPTY,
             absent: &[],
         }
     }
@@ -484,20 +503,20 @@ impl<const BYTES: usize> Dictionary<BYTES> {
             self.overrides.iter().find(|o| o.index == index && o.sub == sub).map_or(var.default, |o| o.value);
         match default {
             DefaultValue::Device(DeviceField::HomingMethodCount) => {
-                DefaultValue::Unsigned(u64::from(self.homing.listed_method_count()))
+                DefaultValue::Unsigned(u64::from(self.homing.count()))
             }
             DefaultValue::Device(DeviceField::HomingMethods) => {
-                DefaultValue::Signed(self.homing.listed_method(sub).map_or(0, i64::from))
+                DefaultValue::Signed(self.homing.nth(sub).map_or(0, i64::from))
             }
-            DefaultValue::PdoPreset => crate::comm::pdo::preset(index, sub),
+            DefaultValue::PdoPreset => standard::pdo_preset(index, sub),
             other => other,
         }
     }
 
     /// The homing methods the drive supports, for the entries whose default is
     /// [`DeviceField::HomingMethodCount`] or [`DeviceField::HomingMethods`] (60E3h).
-    pub fn set_homing_methods(&mut self, homing: crate::cia402::hm::HomingConfig) {
-        self.homing = homing;
+    pub fn set_homing_methods(&mut self, methods: MethodList) {
+        self.homing = methods;
     }
 
     /// The number of elements of ARRAY `index` with `len` elements and sub-index 0 `sub0`: fewer
@@ -505,9 +524,7 @@ impl<const BYTES: usize> Dictionary<BYTES> {
     /// a constant below `len` (the table's or a firmware's default).
     pub fn array_len(&self, index: u16, sub0: &Var, len: u8) -> u8 {
         match sub0.default {
-            DefaultValue::Device(DeviceField::HomingMethodCount) => {
-                self.homing.listed_method_count().min(len)
-            }
+            DefaultValue::Device(DeviceField::HomingMethodCount) => self.homing.count().min(len),
             // A constant count below the array's length shows that many elements: an ARRAY
             // whose further elements a configuration switches on (1029h) by overriding it.
             _ if sub0.access == Access::Const => match self.default_of(index, 0, sub0) {

@@ -27,6 +27,10 @@ pub const PRE_DEFINED_ERROR_FIELD: u16 = 0x1003;
 pub const GUARD_TIME: u16 = 0x100C;
 /// 100Dh life time factor.
 pub const LIFE_TIME_FACTOR: u16 = 0x100D;
+/// 1010h store parameters (the storage's command object, `crate::storage`).
+pub const STORE_PARAMETERS: u16 = 0x1010;
+/// 1011h restore default parameters (the storage's command object).
+pub const RESTORE_DEFAULT_PARAMETERS: u16 = 0x1011;
 /// 1014h COB-ID EMCY.
 pub const COB_ID_EMCY: u16 = 0x1014;
 /// 1015h inhibit time EMCY (100 µs).
@@ -141,7 +145,7 @@ const ALL_COMMUNICATION: [Object; 22] = [
         Var::new("Life time factor", DataType::Unsigned8).access(Access::ReadWrite),
     ),
     Object::array(
-        crate::storage::STORE_PARAMETERS,
+        STORE_PARAMETERS,
         "Store parameters",
         4,
         &Var::new("Store parameters", DataType::Unsigned32)
@@ -149,7 +153,7 @@ const ALL_COMMUNICATION: [Object; 22] = [
             .default(DefaultValue::Unsigned(1)),
     ),
     Object::array(
-        crate::storage::RESTORE_DEFAULT_PARAMETERS,
+        RESTORE_DEFAULT_PARAMETERS,
         "Restore default parameters",
         4,
         &Var::new("Restore default parameters", DataType::Unsigned32)
@@ -243,3 +247,45 @@ const COMMUNICATION_COUNT: usize = included_count(&ALL_COMMUNICATION);
 
 /// The CiA 301 objects of the communication profile area (1000h–1FFFh) this crate implements.
 pub static COMMUNICATION: [Object; COMMUNICATION_COUNT] = layout(select(&ALL_COMMUNICATION));
+
+/// The mapping of the pre-defined PDOs 1–4 (CiA 402): controlword / statusword, then the mode,
+/// the pp target / position, the pv target / velocity.
+const RPDO_PRESET_MAPPING: [[u32; 2]; 4] =
+    [[0x6040_0010, 0], [0x6040_0010, 0x6060_0008], [0x6040_0010, 0x607A_0020], [0x6040_0010, 0x60FF_0020]];
+const TPDO_PRESET_MAPPING: [[u32; 2]; 4] =
+    [[0x6041_0010, 0], [0x6041_0010, 0x6061_0008], [0x6041_0010, 0x6064_0020], [0x6041_0010, 0x606C_0020]];
+
+/// The power-on value of [`DefaultValue::PdoPreset`] entries of the PDO records (1400h–1BFFh):
+/// PDOs 1–4 carry the pre-defined identifiers (CiA 301 §7.3.5; TPDOs with bit 30, no RTR) and
+/// the CiA 402 mapping, TPDOs 1–2 event-driven and 3–4 on every SYNC; higher PDOs start invalid
+/// and empty.
+pub fn pdo_preset(index: u16, sub: u8) -> DefaultValue {
+    use crate::wire::cob_id::{BIT30, INVALID};
+    // (receive, communication record, PDO number − 1)
+    let (receive, communication, number) = match index {
+        0x1400..=0x15FF => (true, true, index - 0x1400),
+        0x1600..=0x17FF => (true, false, index - 0x1600),
+        0x1800..=0x19FF => (false, true, index - 0x1800),
+        0x1A00..=0x1BFF => (false, false, index - 0x1A00),
+        _ => return DefaultValue::Zero,
+    };
+    let number = usize::from(number);
+    let predefined = number < 4;
+    let (base, unassigned, mappings) = if receive {
+        (0x200, INVALID, &RPDO_PRESET_MAPPING)
+    } else {
+        (BIT30 | 0x180, INVALID | BIT30, &TPDO_PRESET_MAPPING)
+    };
+    let mapping = mappings.get(number).copied().unwrap_or([0, 0]);
+    match (communication, sub) {
+        (true, 1) if predefined => DefaultValue::NodeIdPlus(base + 0x100 * number as u32),
+        (true, 1) => DefaultValue::Unsigned(u64::from(unassigned)),
+        (true, 2) if predefined && number >= 2 => DefaultValue::Unsigned(1),
+        (true, 2) => DefaultValue::Unsigned(255),
+        (false, 0) => DefaultValue::Unsigned(mapping.iter().filter(|m| **m != 0).count() as u64),
+        (false, s) => DefaultValue::Unsigned(u64::from(
+            mapping.get(usize::from(s).wrapping_sub(1)).copied().unwrap_or(0),
+        )),
+        _ => DefaultValue::Zero,
+    }
+}

@@ -83,10 +83,10 @@ use crate::od::{AbortCode, DeviceInfo, Dictionary};
 use crc32::Crc32;
 use image::{is_newer, Decoded, Header, FORMAT_VERSION, HEADER_LEN};
 
-/// 1010h store parameters (write [`SAVE_SIGNATURE`] to sub `group.sub()`).
-pub const STORE_PARAMETERS: u16 = 0x1010;
 /// 1011h restore default parameters (write [`LOAD_SIGNATURE`] to sub `group.sub()`).
-pub const RESTORE_DEFAULT_PARAMETERS: u16 = 0x1011;
+pub use crate::od::standard::RESTORE_DEFAULT_PARAMETERS;
+/// 1010h store parameters (write [`SAVE_SIGNATURE`] to sub `group.sub()`).
+pub use crate::od::standard::STORE_PARAMETERS;
 /// "save" (73 61 76 65 on the wire), the only value 1010h accepts (§11).
 pub const SAVE_SIGNATURE: u32 = 0x6576_6173;
 /// "load" (6C 6F 61 64 on the wire), the only value 1011h accepts (§11).

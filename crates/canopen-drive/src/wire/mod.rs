@@ -1,6 +1,7 @@
 //! Stateless codecs of CANopen frames: each format is parsed from a received frame's bytes
 //! into a `Repr`-style value and emitted into bytes for transmission. No state, no I/O.
 
+mod abort;
 pub mod cob_id;
 pub mod crc;
 pub mod lss;
@@ -15,3 +16,5 @@ pub const ERROR_CONTROL_BASE: u16 = 0x700;
 pub const SDO_TX_BASE: u16 = 0x580;
 /// Function code base of the default SDO server's requests.
 pub const SDO_RX_BASE: u16 = 0x600;
+
+pub use abort::AbortCode;

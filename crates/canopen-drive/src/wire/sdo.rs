@@ -12,7 +12,7 @@
 //! accepted when the bytes its command needs are there (digest §18 item 16). Responses are
 //! always eight bytes.
 
-use crate::od::AbortCode;
+use super::AbortCode;
 
 /// Object address of an SDO transfer: index and sub-index (the "multiplexer").
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]

@@ -1,0 +1,136 @@
+//! The import graph of the core points down the layers of the architecture (DESIGN.md, "The
+//! core crate: layers, lowest first"): a module may name the modules of its own layer and the
+//! layers below, never one above. A path `crate::<module>` in code (not in comments or docs,
+//! not in the unit-test modules at the bottom of a file) counts as an import; so do the items
+//! re-exported at the crate root (`crate::Drive` is `drive`).
+
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::indexing_slicing, clippy::panic)]
+
+use std::fs;
+use std::path::{Path, PathBuf};
+
+/// The layers, lowest first. `wide` (128-bit division) and `fmt` (the logging shim) are
+/// utilities below everything; `can_io` (the embedded-can helper) sits on top of `drive`.
+const LAYERS: &[&[&str]] = &[
+    &["time", "frame", "wide", "fmt"],
+    &["wire", "motion"],
+    &["hal"],
+    &["od"],
+    &["storage", "control"],
+    &["comm"],
+    &["cia402"],
+    &["drive"],
+    &["can_io", "lib"],
+];
+
+/// Items re-exported at the crate root, and the module they come from.
+const ROOT_ITEMS: &[(&str, &str)] = &[
+    ("Config", "drive"),
+    ("Drive", "drive"),
+    ("CanFrame", "frame"),
+    ("AbortCode", "wire"),
+    ("Duration", "time"),
+    ("Instant", "time"),
+];
+
+fn layer_of(module: &str) -> Option<usize> {
+    LAYERS.iter().position(|layer| layer.contains(&module))
+}
+
+fn source_files(dir: &Path, out: &mut Vec<PathBuf>) {
+    let mut entries: Vec<_> = fs::read_dir(dir).unwrap().map(|e| e.unwrap().path()).collect();
+    entries.sort();
+    for path in entries {
+        if path.is_dir() {
+            source_files(&path, out);
+        } else if path.extension().is_some_and(|e| e == "rs") {
+            out.push(path);
+        }
+    }
+}
+
+/// The module a file belongs to: the first component below `src/` (`od/persist.rs` is `od`).
+fn module_of(src: &Path, file: &Path) -> String {
+    let relative = file.strip_prefix(src).unwrap();
+    let first = relative.components().next().unwrap().as_os_str().to_string_lossy().to_string();
+    first.trim_end_matches(".rs").to_string()
+}
+
+/// The modules `line` names through `crate::`.
+fn references(line: &str) -> Vec<String> {
+    let mut found = Vec::new();
+    let mut rest = line;
+    while let Some(at) = rest.find("crate::") {
+        rest = &rest[at + "crate::".len()..];
+        let names: Vec<&str> = if let Some(group) = rest.strip_prefix('{') {
+            let end = group.find('}').unwrap_or(group.len());
+            group[..end].split(',').map(str::trim).collect()
+        } else {
+            vec![rest]
+        };
+        for name in names {
+            let ident: String = name.chars().take_while(|c| c.is_alphanumeric() || *c == '_').collect();
+            let module = ROOT_ITEMS
+                .iter()
+                .find(|(item, _)| *item == ident)
+                .map_or(ident.clone(), |(_, m)| m.to_string());
+            if !module.is_empty() {
+                found.push(module);
+            }
+        }
+    }
+    found
+}
+
+#[test]
+fn imports_point_down_the_layers() {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let mut files = Vec::new();
+    source_files(&src, &mut files);
+    let mut upward = Vec::new();
+    let mut unknown = Vec::new();
+    for file in &files {
+        let name = file.file_name().unwrap().to_string_lossy();
+        if name == "tests.rs" || name.ends_with("_tests.rs") {
+            continue; // unit tests of the module, as the `mod tests` below
+        }
+        let module = module_of(&src, file);
+        let Some(own) = layer_of(&module) else {
+            unknown.push(format!("{}: module `{module}` is in no layer", file.display()));
+            continue;
+        };
+        let text = fs::read_to_string(file).unwrap();
+        for (n, line) in text.lines().enumerate() {
+            let code = line.trim_start();
+            if code.starts_with("#[cfg(test)]") {
+                break; // the unit-test module closes the file
+            }
+            if code.starts_with("//") {
+                continue;
+            }
+            for target in references(line) {
+                match layer_of(&target) {
+                    Some(layer) if layer > own => upward.push(format!(
+                        "{}:{}: `{module}` (layer {own}) names `{target}` (layer {layer}): {}",
+                        file.strip_prefix(&src).unwrap().display(),
+                        n + 1,
+                        code
+                    )),
+                    Some(_) => {}
+                    None => unknown.push(format!("{}:{}: unknown module `{target}`", file.display(), n + 1)),
+                }
+            }
+        }
+    }
+    assert!(unknown.is_empty(), "{}", unknown.join("\n"));
+    assert!(upward.is_empty(), "imports that point up the layers:\n{}", upward.join("\n"));
+}
+
+#[test]
+fn the_check_sees_an_upward_import() {
+    // The parser the check relies on: direct paths, groups, root items.
+    assert_eq!(references("use crate::cia402::hm::HomingConfig;"), ["cia402"]);
+    assert_eq!(references("use crate::{Config, Drive, od};"), ["drive", "drive", "od"]);
+    assert_eq!(references("let x = crate::comm::pdo::preset(1, 2);"), ["comm"]);
+    assert!(layer_of("od").unwrap() < layer_of("cia402").unwrap());
+}
