@@ -341,7 +341,10 @@ def test_idle_clients_are_disconnected_on_request():
         with raw_client(program, timeout=10) as idle:
             assert served(idle)
             started = time.monotonic()
-            assert idle.recv(256) == b""  # EOF
+            # Until EOF: the drive's own frames may come first (its boot-up, when the client
+            # connected before it), but nothing that keeps the client from being idle.
+            while chunk := idle.recv(256):
+                assert all(line.startswith(b"t7") for line in chunk.split(b"\r") if line), chunk
             waited = time.monotonic() - started
         assert 0.9 <= waited < 5, waited
     finally:
