@@ -109,3 +109,31 @@ fn regression_rpdo_cannot_store_what_sdo_refuses() {
         board.check_dictionary();
     }
 }
+
+/// pp (and homing): a gear ratio 6091h written during a move turned 607Fh/6080h into a limit
+/// of 1 increment/s and every ramp into 0 increments/s²; no re-plan fitted, and the old plan
+/// went on accelerating beyond the limit (invariant 2; the fuzzer `drive_frames` at speed,
+/// issue 19). Now the demand stops where it is.
+#[test]
+fn regression_pp_limits_no_ramp_can_follow_stop_the_demand() {
+    use common::profile::{cw, enable, node, write, write_sub};
+    use common::Bench;
+    let mut bench = Bench::new();
+    write(&mut bench, 0x6081, &20_000u32.to_le_bytes());
+    write(&mut bench, 0x6083, &50_000u32.to_le_bytes());
+    write(&mut bench, 0x6084, &50_000u32.to_le_bytes());
+    enable(&mut bench, 1);
+    write(&mut bench, 0x607A, &1_000_000i32.to_le_bytes());
+    cw(&mut bench, 0x001F, 100); // accelerating
+    let before = node(&mut bench).demand.feed_forward.velocity;
+    assert!(before > 1000, "moving: {before}");
+    write_sub(&mut bench, 0x6091, 2, &4_278_259_975u32.to_le_bytes());
+    let mut previous = before.unsigned_abs();
+    for _ in 0..50 {
+        bench.advance(canopen_drive::Duration::from_millis(1));
+        let velocity = node(&mut bench).demand.feed_forward.velocity.unsigned_abs();
+        assert!(velocity <= previous.max(1), "{velocity} after {previous}: faster than the limit");
+        previous = velocity;
+    }
+    assert_eq!(previous, 0, "the demand stopped");
+}

@@ -610,7 +610,8 @@ impl Profile {
             }
         }
         let before = self.fsa.state();
-        let at_rest = self.velocity_demand() == 0;
+        let previous_velocity = self.velocity_demand();
+        let at_rest = previous_velocity == 0;
         // A stop is complete once the brake has had its time to close.
         let stopped = at_rest
             && (self.config.brake_engage_delay == Duration::ZERO
@@ -739,7 +740,7 @@ impl Profile {
         } else {
             bit4_rose || core::mem::take(&mut self.pending_edge) && controlword & 0x0010 != 0
         };
-        let setpoint = match stop {
+        let mut setpoint = match stop {
             None if opening => {
                 self.pp.reset(actual, actual_user);
                 self.velocity = Ramp::default();
@@ -917,6 +918,17 @@ impl Profile {
         if cycle.set_point && !(drive_enabled && stop.is_none() && !opening && self.cyclic_mode()) {
             // Written before Operation enabled (an SDO-driven cycle): kept for the mode.
             self.held_set_point = true;
+        }
+        if self.position_mode() && drive_enabled {
+            let velocity = self.trajectory().velocity.unsigned_abs();
+            if velocity > u64::from(vmax) && velocity > previous_velocity.unsigned_abs() {
+                // A velocity limit lowered below the running motion with ramps no plan can
+                // follow (a factor group that turns them into 0 increments/s²): rather than run
+                // on faster than the limit (DESIGN invariant 2), the demand stops where it is.
+                let position = self.trajectory().position;
+                self.pp.planner_mut().reset(position);
+                setpoint = Setpoint::Position(saturate(position));
+            }
         }
         if matches!(self.active_mode, mode::PROFILE_POSITION | mode::HOMING) && drive_enabled {
             self.feed_forward.velocity = saturate(self.trajectory().velocity);
