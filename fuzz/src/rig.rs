@@ -179,10 +179,13 @@ pub enum Start {
     CspEnabled,
     /// Operational, homing method 17 (negative limit switch) running.
     Homing,
+    /// In the LSS configuration state (switch state global), NMT as booted: for the LSS target,
+    /// whose short programs then start with a node that takes configuration commands.
+    LssConfiguration,
 }
 
 impl Start {
-    /// Every start, in selector order.
+    /// Every start of the whole-drive target, in selector order.
     pub const ALL: [Start; 5] =
         [Start::Booted, Start::PpMoving, Start::PvTurning, Start::CspEnabled, Start::Homing];
 
@@ -208,6 +211,8 @@ impl Start {
         };
         let mut ops = match self {
             Start::Booted => return Vec::new(),
+            // LSS_COMMANDS[0] is 0x04, switch state global; 1: configuration.
+            Start::LssConfiguration => return vec![Op::Lss { command: 0, data: [1, 0, 0, 0, 0, 0, 0] }],
             Start::PpMoving => enable(1),
             Start::PvTurning => enable(3),
             Start::CspEnabled => enable(8),
@@ -222,7 +227,7 @@ impl Start {
             ]),
             Start::PvTurning => ops.extend([write(0x60FF, 4, 20_000), Op::Advance(50_000)]),
             Start::Homing => ops.extend([write(0x6098, 1, 17), Op::Controlword(0x1F), Op::Advance(20_000)]),
-            Start::Booted | Start::CspEnabled => {}
+            Start::Booted | Start::CspEnabled | Start::LssConfiguration => {}
         }
         ops
     }
@@ -317,7 +322,8 @@ impl Rig {
         thread_local! {
             static PREPARED: RefCell<Vec<(Variant, Start, Rig)>> = const { RefCell::new(Vec::new()) };
         }
-        let start = if variant == Variant::Unconfigured { Start::Booted } else { start };
+        let lss_only = matches!(start, Start::Booted | Start::LssConfiguration);
+        let start = if variant == Variant::Unconfigured && !lss_only { Start::Booted } else { start };
         PREPARED.with(|prepared| {
             let mut prepared = prepared.borrow_mut();
             if let Some((_, _, rig)) = prepared.iter().find(|(v, s, _)| (*v, *s) == (variant, start)) {
@@ -328,7 +334,7 @@ impl Rig {
                 rig.run(&op).map_err(|e| format!("preparing {start:?}: {e}"))?;
             }
             let enabled = matches!(rig.drive.state(), State::OperationEnabled { .. });
-            if enabled != (start != Start::Booted) {
+            if enabled != !matches!(start, Start::Booted | Start::LssConfiguration) {
                 return Err(format!("preparing {start:?} of {variant:?} ended in {:?}", rig.drive.state()));
             }
             let copy = rig.copy();

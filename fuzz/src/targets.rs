@@ -41,13 +41,15 @@ pub fn pdo_mapping(data: &[u8]) {
 
 /// (d) LSS: requests of every command specifier (and unknown ones) with arbitrary parameters,
 /// NMT resets that activate a configured node-ID, time and stray frames, on a node that starts
-/// unconfigured (node-ID 255) or configured (first byte). Beyond the rig's invariants: at most
-/// one LSS response per request and none without one, an unconfigured node sends nothing but
-/// LSS responses, and the node-ID is always 1..=127 or 255.
+/// unconfigured (node-ID 255) or configured (first byte, bit 0), waiting or in the LSS
+/// configuration state (bit 1). Beyond the rig's invariants: at most one LSS response per
+/// request and none without one, an unconfigured node sends nothing but LSS responses, and the
+/// node-ID is always 1..=127 or 255.
 pub fn lss(data: &[u8]) {
-    let Some((&variant, program)) = data.split_first() else { return };
-    let variant = if variant & 1 == 0 { Variant::Unconfigured } else { Variant::Standard };
-    let mut rig = match Rig::prepared(variant, Start::Booted) {
+    let Some((&selector, program)) = data.split_first() else { return };
+    let variant = if selector & 1 == 0 { Variant::Unconfigured } else { Variant::Standard };
+    let start = if selector & 2 == 0 { Start::Booted } else { Start::LssConfiguration };
+    let mut rig = match Rig::prepared(variant, start) {
         Ok(rig) => rig,
         Err(e) => panic!("the rig does not start: {e}"),
     };

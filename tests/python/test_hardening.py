@@ -10,6 +10,7 @@ import os
 import pathlib
 import resource
 import select
+import shutil
 import signal
 import socket
 import struct
@@ -353,6 +354,8 @@ def test_idle_clients_are_disconnected_on_request():
 
 
 def test_connections_use_tcp_keepalive():
+    if shutil.which("ss") is None:
+        pytest.skip("ss (iproute2) is not installed")
     program = Program()
     try:
         with raw_client(program) as sock:
