@@ -919,19 +919,18 @@ impl Profile {
             // Written before Operation enabled (an SDO-driven cycle): kept for the mode.
             self.held_set_point = true;
         }
-        if self.position_mode() && drive_enabled {
-            let velocity = self.trajectory().velocity.unsigned_abs();
+        if matches!(self.active_mode, mode::PROFILE_POSITION | mode::HOMING) && drive_enabled {
+            let mut state = self.trajectory();
+            let velocity = state.velocity.unsigned_abs();
             if velocity > u64::from(vmax) && velocity > previous_velocity.unsigned_abs() {
                 // A velocity limit lowered below the running motion with ramps no plan can
                 // follow (a factor group that turns them into 0 increments/s²): rather than run
                 // on faster than the limit (DESIGN invariant 2), the demand stops where it is.
-                let position = self.trajectory().position;
-                self.pp.planner_mut().reset(position);
-                setpoint = Setpoint::Position(saturate(position));
+                self.pp.planner_mut().reset(state.position);
+                setpoint = Setpoint::Position(saturate(state.position));
+                state.velocity = 0;
             }
-        }
-        if matches!(self.active_mode, mode::PROFILE_POSITION | mode::HOMING) && drive_enabled {
-            self.feed_forward.velocity = saturate(self.trajectory().velocity);
+            self.feed_forward.velocity = saturate(state.velocity);
         }
 
         // Demands and the position control function (digest §11).
