@@ -98,8 +98,8 @@ use canopen_drive_sim::motor::MotorParams;
 use super::trinamic::method_mask;
 use super::{
     bit_timing_index, communication_emcy_bytes, communication_entry, default_of, highest, pdo_records,
-    profile_entry, ro, rpdo_communication, rw, stored_node_settings, tpdo_communication, u, value_of, var,
-    Action, BoardDictionary, BoardProfile, Environment, Firmware, ProfileName, Update, CIA402_RPDO_MAPPING,
+    profile_entry, ro, rpdo_communication, rw, stored_bit_rate, tpdo_communication, u, value_of, var, Action,
+    BoardDictionary, BoardProfile, Environment, Firmware, ProfileName, Update, CIA402_RPDO_MAPPING,
     CIA402_TPDO_MAPPING, TEMPLATE_NODE_ID,
 };
 use crate::board_objects::{
@@ -691,7 +691,7 @@ impl Firmware for Actuator {
         Actuator::derived(od, updates);
         // The actuator was reset: the stored bit rate is the one it runs at (the node-ID took
         // effect in the core).
-        let rate = stored_node_settings(env).and_then(|(_, rate)| rate).unwrap_or(env.bit_rate_kbit);
+        let rate = stored_bit_rate(env).unwrap_or(env.bit_rate_kbit);
         updates.push(Update { index: CAN_BIT_RATE, sub: 0, value: u64::from(rate) });
     }
 

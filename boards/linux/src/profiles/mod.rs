@@ -180,11 +180,10 @@ pub(crate) const fn communication_emcy_bytes(own: (u16, [u8; 5])) -> [(u16, [u8;
     ]
 }
 
-/// The node-ID and bit rate (kbit/s) a vendor object stored for the next start, from the LSS
-/// file of `--storage`; `None` without one.
-pub(crate) fn stored_node_settings(env: &Environment<'_>) -> Option<(Option<u8>, Option<u16>)> {
-    let path = env.lss_file?;
-    Some((crate::lss_store::load(path), crate::lss_store::load_bit_rate(path)))
+/// The bit rate (kbit/s) a vendor object stored for the next start, from the LSS file of
+/// `--storage`; `None` without one.
+pub(crate) fn stored_bit_rate(env: &Environment<'_>) -> Option<u16> {
+    env.lss_file.and_then(crate::lss_store::load_bit_rate)
 }
 
 /// A drive without manufacturer behaviour.

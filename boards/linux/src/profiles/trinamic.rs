@@ -93,8 +93,8 @@ use canopen_drive_sim::motor::{MotorParams, Zone};
 
 use super::{
     bit_timing_index, communication_emcy_bytes, communication_entry, default_of, highest, pdo_records,
-    profile_entry, ro, rpdo_communication, rw, stored_node_settings, tpdo_communication, u, value_of, var,
-    Action, BoardDictionary, BoardProfile, Environment, Firmware, ProfileName, Update, CIA402_RPDO_MAPPING,
+    profile_entry, ro, rpdo_communication, rw, stored_bit_rate, tpdo_communication, u, value_of, var, Action,
+    BoardDictionary, BoardProfile, Environment, Firmware, ProfileName, Update, CIA402_RPDO_MAPPING,
     CIA402_TPDO_MAPPING, TEMPLATE_NODE_ID,
 };
 use crate::board_objects::{
@@ -628,7 +628,7 @@ impl Firmware for Pd57 {
     fn reset(&mut self, od: &BoardDictionary, env: &Environment<'_>, updates: &mut Vec<Update>) {
         // The module was reset: the stored bit rate is now the active one (the node-ID took
         // effect in the core, and 2705h/2708h show it).
-        let rate = stored_node_settings(env).and_then(|(_, rate)| rate).unwrap_or(env.bit_rate_kbit);
+        let rate = stored_bit_rate(env).unwrap_or(env.bit_rate_kbit);
         for index in [CAN_BIT_RATE, 0x2707] {
             updates.push(Update { index, sub: 0, value: u64::from(rate) });
         }

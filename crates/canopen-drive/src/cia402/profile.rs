@@ -178,14 +178,13 @@ pub struct Profile {
     /// A fault latched outside the tick (a connection loss, 6007h) whose EMCY the next tick
     /// raises.
     fault_unreported: bool,
-    /// The encoder count of the last tick.
-    actual: i64,
     /// The encoder count at which 6063h reads 0 ([`hm::HomingConfig::rebase_internal_position`]).
     internal_origin: i64,
     /// Since when the shaft has rested (|606Ch| ≤ 606Fh without a break).
     resting_since: Option<Instant>,
-    /// An active limit switch holds motion towards it ([`ProfileConfig::limit_switches_stop`]).
-    at_limit_switch: bool,
+    /// The encoder directions (positive, negative) an active limit switch blocks in this tick
+    /// ([`ProfileConfig::limit_switches_stop`]).
+    blocked: (bool, bool),
     /// A set-point arrived while the cyclic mode was not running ([`CycleStart::SetPoint`]):
     /// it is the target once the mode runs.
     held_set_point: bool,
@@ -269,10 +268,9 @@ impl Profile {
             travel_limit: None,
             dynamic_braking: false,
             fault_unreported: false,
-            actual: 0,
             internal_origin: 0,
             resting_since: None,
-            at_limit_switch: false,
+            blocked: (false, false),
             held_set_point: false,
         }
     }
@@ -300,7 +298,9 @@ impl Profile {
             Some(factors) => factors,
             None => self.refresh(od),
         };
-        let actual = self.actual;
+        // The encoder count of the last tick (6063h counts from `internal_origin`).
+        let actual =
+            i64::from(od.load(self.slots.position_actual_internal)).wrapping_add(self.internal_origin);
         self.origin = actual.saturating_sub(factors.to_internal(i64::from(user) * factors.position_sign()));
         self.pp.reset(actual, i64::from(user));
     }
@@ -351,13 +351,19 @@ impl Profile {
         if self.config.software_limits_after_homing && !self.homing.is_homed() {
             return None;
         }
-        let offset = match self.config.homing.home_offset {
-            HomeOffset::ZeroBeforeHome => i64::from(od.load(self.slots.home_offset)),
-            HomeOffset::HomeValue => 0,
-        };
+        let offset = self.limit_offset(od);
         let low = i64::from(od.load(self.slots.software_position_limit_min)) - offset;
         let high = i64::from(od.load(self.slots.software_position_limit_max)) - offset;
         (low <= high).then_some((low, high))
+    }
+
+    /// What the software limits 607Dh count from, as 6064h reads it: 607Ch with CiA 402's
+    /// home offset, nothing where 607Ch is the home's position value.
+    fn limit_offset<const B: usize>(&self, od: &Dictionary<B>) -> i64 {
+        match self.config.homing.home_offset {
+            HomeOffset::ZeroBeforeHome => i64::from(od.load(self.slots.home_offset)),
+            HomeOffset::HomeValue => 0,
+        }
     }
 
     /// The range a pp target may take (user units): the software limits, narrowed to the
@@ -520,7 +526,6 @@ impl Profile {
         if sample.faults.contains(HardwareFaults::ENCODER) {
             self.homing.forget();
         }
-        self.actual = actual;
         let mut actual_user = factors.to_user(actual - self.origin) * position_sign;
         // 6063h: the encoder count, from the zero homing on the current position may have set.
         od.store(self.slots.position_actual_internal, actual.wrapping_sub(self.internal_origin) as i32);
@@ -542,8 +547,8 @@ impl Profile {
             self.resting_since = None;
             true
         };
-        let (positive_blocked, negative_blocked) = self.blocked_directions(sample.inputs);
-        self.at_limit_switch = positive_blocked || negative_blocked;
+        self.blocked = self.blocked_directions(sample.inputs);
+        let (positive_blocked, negative_blocked) = self.blocked;
         let torque_user = factors.torque_to_user(i64::from(sample.torque));
         od.store_int(self.slots.torque_actual, torque_user);
         od.store_int(self.slots.current_actual, torque_user);
@@ -824,10 +829,7 @@ impl Profile {
                 if outcome.home.is_some() {
                     // Limits a method found become 607Dh (compared after the 607Ch correction):
                     // what 607Ch adds to a position value read as 6064h.
-                    let limit_offset = match self.config.homing.home_offset {
-                        HomeOffset::ZeroBeforeHome => i64::from(od.load(self.slots.home_offset)),
-                        HomeOffset::HomeValue => 0,
-                    };
+                    let limit_offset = self.limit_offset(od);
                     for (count, sub) in [(outcome.limits.0, 1u8), (outcome.limits.1, 2u8)] {
                         if let Some(count) = count {
                             let user = factors.to_user(count - self.origin) * position_sign + limit_offset;
@@ -877,7 +879,7 @@ impl Profile {
                 self.run_cyclic(od, &input, &mut report)
             }
             None if super::PP && drive_enabled && self.position_mode() => {
-                let moving = if self.at_limit_switch { self.pp.state().velocity } else { 0 };
+                let moving = if positive_blocked || negative_blocked { self.pp.state().velocity } else { 0 };
                 if (positive_blocked && moving > 0) || (negative_blocked && moving < 0) {
                     // Running into an active limit switch: stopped on the quick-stop ramp.
                     let deceleration = stop_deceleration(StopKind::QuickStopRamp);
@@ -906,7 +908,7 @@ impl Profile {
                 status = self.pp.status(&inputs);
                 Setpoint::Position(state.position_demand())
             }
-            None if drive_enabled => self.run_mode(od, &factors, dt, halt, sample.inputs),
+            None if drive_enabled => self.run_mode(od, &factors, dt, halt),
             None => {
                 self.velocity = Ramp::default();
                 self.torque = Ramp::default();
@@ -1370,14 +1372,13 @@ impl Profile {
         factors: &Factors,
         dt: Duration,
         halt: bool,
-        sample_inputs: DigitalInputs,
     ) -> Setpoint {
         match self.active_mode {
             mode::PROFILE_VELOCITY => {
                 let limit = i64::from(velocity_limit(od, &self.slots, factors));
                 let target_user = i64::from(od.load(self.slots.target_velocity)) * factors.velocity_sign();
                 let mut target = factors.velocity_to_internal(target_user).clamp(-limit, limit);
-                let (positive_blocked, negative_blocked) = self.blocked_directions(sample_inputs);
+                let (positive_blocked, negative_blocked) = self.blocked;
                 if (positive_blocked && target > 0) || (negative_blocked && target < 0) {
                     // No velocity towards an active limit switch.
                     target = 0;
@@ -1457,7 +1458,7 @@ impl Profile {
         if target_reached || core::mem::take(&mut self.mode_changed) {
             sw |= 1 << 10;
         }
-        let limit_switch = self.at_limit_switch
+        let limit_switch = (self.blocked.0 || self.blocked.1)
             && matches!(self.active_mode, mode::PROFILE_POSITION | mode::PROFILE_VELOCITY);
         if pp.internal_limit || limit_switch || (self.active_mode == vl::MODE && self.vl_bits.1) {
             sw |= 1 << 11;
