@@ -13,7 +13,7 @@
 use canopen_drive::comm::emcy::EmcyProducer;
 use canopen_drive::comm::heartbeat::HeartbeatProducer;
 use canopen_drive::comm::nmt::{transition, NmtAction, Services};
-use canopen_drive::comm::pdo::{self, FrameSink, PdoEvent, PdoRecord, PdoSet, RpdoFrame};
+use canopen_drive::comm::pdo::{self, FrameSink, NoRules, PdoEvent, PdoRecord, PdoSet, RpdoFrame};
 use canopen_drive::comm::sdo_server::{ObjectAccess, SdoServer};
 use canopen_drive::comm::sync::{Sync, SyncConfig, SyncReception};
 use canopen_drive::comm::NmtState;
@@ -108,7 +108,7 @@ impl Node301 {
     }
 
     fn configure_pdos(&mut self) {
-        if let Some(PdoEvent::Raise(code)) = self.pdos.configure_all(&self.od) {
+        if let Some(PdoEvent::Raise(code)) = self.pdos.configure_all(&self.od, &NoRules) {
             let _ = self.emcy.raise(code, canopen_drive::comm::emcy::ErrorRegister::COMMUNICATION, [0; 5]);
         }
     }
@@ -160,7 +160,7 @@ impl Node301 {
         {
             self.sync.restart(now, self.sync_config().0);
         } else if let Some(record) = PdoRecord::of(mux.index) {
-            self.pdos.configure(&self.od, record);
+            self.pdos.configure(&self.od, record, &NoRules);
             if self.nmt == NmtState::Operational {
                 self.pdos.start(now);
             }
@@ -227,7 +227,7 @@ impl crate::Node for Node301 {
             self.drain_sdo(now);
         } else if self.nmt.serves_pdo() {
             let frame = RpdoFrame { can_id: id, data, now, late: false };
-            self.pdos.on_frame(frame, &mut self.od, &mut (), &no_value_rules, &mut |_| {});
+            self.pdos.on_frame(frame, &mut self.od, &mut (), &NoRules, &mut |_| {});
         }
     }
 
@@ -257,17 +257,13 @@ impl crate::Node for Node301 {
     /// The application's cycle: apply synchronous RPDOs, send TPDOs whose values changed.
     fn tick(&mut self, now: Instant, _sample: &Sample) -> Demand {
         if self.nmt.serves_pdo() {
-            self.pdos.apply_ready(&mut self.od, &mut (), &no_value_rules);
+            self.pdos.apply_ready(&mut self.od, &mut (), &NoRules, &mut |_| {});
             self.pdos.detect_changes(now, &self.od, &mut self.tx);
         }
         Demand::OFF
     }
 }
 
-/// A 301-only node has no value rules beyond type and limits for what RPDOs write.
-fn no_value_rules(_od: &Dictionary<OD_BYTES>, _entry: &Entry, _data: &[u8]) -> Result<(), AbortCode> {
-    Ok(())
-}
 
 fn embedded_can_data(frame: &CanFrame) -> &[u8] {
     embedded_can::Frame::data(frame)

@@ -15,37 +15,36 @@ use heapless::Deque;
 
 use crate::cia402::cyclic::CycleStart;
 use crate::cia402::fsa::State;
+use crate::cia402::objects::Rule;
 use crate::cia402::objects::{IMPLEMENTED_MODES, STANDARD_MODES};
 use crate::cia402::profile::Profile;
 use crate::cia402::ProfileConfig;
-use crate::comm::emcy::{code, EmcyProducer, ErrorRegister};
+use crate::comm::emcy::{self, code, EmcyProducer, ErrorRegister};
 use crate::comm::error_control::{
-    parse_entry, ConsumerEvent, ErrorBehaviour, GuardingEvent, HeartbeatConsumer, NodeGuarding,
+    check_consumer_write, guarding_configured, ConsumerEvent, ErrorBehaviour, GuardingEvent,
+    HeartbeatConsumer, NodeGuarding,
 };
 use crate::comm::heartbeat::HeartbeatProducer;
 use crate::comm::lss::{LssHooks, LssSlave, StoreError};
 use crate::comm::nmt::{transition, NmtAction, Services};
-use crate::comm::pdo::{self, FrameSink, PdoEvent, PdoRecord, PdoSet, RpdoFrame};
+use crate::comm::pdo::{self, FrameSink, PdoEvent, PdoRecord, PdoSet, RpdoFrame, ValueRules};
 use crate::comm::sdo_server::{ObjectAccess, SdoServer};
-use crate::comm::sync::{Sync, SyncConfig, SyncPoll, SyncReception};
+use crate::comm::sync::{self, Sync, SyncConfig, SyncPoll, SyncReception, SyncSlots};
 use crate::frame::CanFrame;
 use crate::hal::{Demand, Sample};
 use crate::od::eds::{self, EdsInfo};
 use crate::od::standard::{
-    self, COB_ID_EMCY, COB_ID_SYNC, COMMUNICATION_CYCLE_PERIOD, CONSUMER_HEARTBEAT_TIME, ERROR_BEHAVIOUR,
-    ERROR_HISTORY_LEN, ERROR_REGISTER, GUARD_TIME, HEARTBEAT_CONSUMERS, INHIBIT_TIME_EMCY, LIFE_TIME_FACTOR,
-    PRE_DEFINED_ERROR_FIELD, PRODUCER_HEARTBEAT_TIME, SYNCHRONOUS_COUNTER_OVERFLOW,
+    self, COB_ID_EMCY, ERROR_BEHAVIOUR, ERROR_HISTORY_LEN, ERROR_REGISTER, GUARD_TIME, HEARTBEAT_CONSUMERS,
+    INHIBIT_TIME_EMCY, LIFE_TIME_FACTOR, PRE_DEFINED_ERROR_FIELD, PRODUCER_HEARTBEAT_TIME,
     SYNCHRONOUS_WINDOW_LENGTH,
 };
 use crate::od::{
-    AbortCode, ConfigError, DefaultOverride, DeviceInfo, Dictionary, Entry, EntryOverride, Object,
-    ObjectHooks, Slot, WriteRule,
+    le_u32, AbortCode, ConfigError, DefaultOverride, DeviceInfo, Dictionary, Entry, EntryOverride, Object,
+    ObjectHooks, Owner, Slot, WriteRule,
 };
-use crate::storage::{
-    Group, Persistence, LOAD_SIGNATURE, RESTORE_DEFAULT_PARAMETERS, SAVE_SIGNATURE, STORE_PARAMETERS,
-};
+use crate::storage::{Group, Persistence, LOAD_SIGNATURE, SAVE_SIGNATURE, STORE_PARAMETERS};
 use crate::time::{earliest, Duration, Instant};
-use crate::wire::cob_id::{self, CobId};
+use crate::wire::cob_id::CobId;
 use crate::wire::lss::{
     BitTiming, LssAddress, LSS_REQUEST_COB_ID, LSS_RESPONSE_COB_ID, NODE_ID_UNCONFIGURED,
 };
@@ -57,6 +56,9 @@ use crate::wire::{ERROR_CONTROL_BASE, NMT_COB_ID, SDO_RX_BASE, SDO_TX_BASE};
 const ERROR_CONTROL_FIRST: u16 = ERROR_CONTROL_BASE + 1;
 const ERROR_CONTROL_LAST: u16 = ERROR_CONTROL_BASE + 127;
 
+/// PDO events one frame or tick may report (two length errors and the reactions to up to two
+/// RPDOs' worth of values).
+const PDO_EVENTS: usize = 18;
 /// Frames the drive can hold for transmission until [`Drive::pop_tx`] drains them.
 pub const TX_QUEUE: usize = 16;
 /// Bytes the SDO server can stage for one download.
@@ -187,9 +189,7 @@ impl Config {
 /// The communication entries read on every frame or poll (a lookup each would cost more than
 /// the rest of a frame's handling).
 struct CommSlots {
-    cob_id_sync: Slot<u32>,
-    communication_cycle_period: Slot<u32>,
-    synchronous_counter_overflow: Slot<u8>,
+    sync: SyncSlots,
     synchronous_window_length: Slot<u32>,
     producer_heartbeat_time: Slot<u16>,
 }
@@ -197,18 +197,14 @@ struct CommSlots {
 impl CommSlots {
     /// Slots that look their entries up (before the dictionary has its tables).
     const LOOKUP: CommSlots = CommSlots {
-        cob_id_sync: Slot::lookup(COB_ID_SYNC, 0),
-        communication_cycle_period: Slot::lookup(COMMUNICATION_CYCLE_PERIOD, 0),
-        synchronous_counter_overflow: Slot::lookup(SYNCHRONOUS_COUNTER_OVERFLOW, 0),
+        sync: SyncSlots::LOOKUP,
         synchronous_window_length: Slot::lookup(SYNCHRONOUS_WINDOW_LENGTH, 0),
         producer_heartbeat_time: Slot::lookup(PRODUCER_HEARTBEAT_TIME, 0),
     };
 
     fn resolve<const B: usize>(od: &Dictionary<B>) -> Self {
         CommSlots {
-            cob_id_sync: od.slot(COB_ID_SYNC, 0),
-            communication_cycle_period: od.slot(COMMUNICATION_CYCLE_PERIOD, 0),
-            synchronous_counter_overflow: od.slot(SYNCHRONOUS_COUNTER_OVERFLOW, 0),
+            sync: SyncSlots::resolve(od),
             synchronous_window_length: od.slot(SYNCHRONOUS_WINDOW_LENGTH, 0),
             producer_heartbeat_time: od.slot(PRODUCER_HEARTBEAT_TIME, 0),
         }
@@ -229,6 +225,8 @@ pub struct Drive<
     od: Dictionary<OD_BYTES>,
     /// The communication entries every frame or poll reads, resolved once.
     slots: CommSlots,
+    /// The identifiers this node receives.
+    receive: ReceiveFilter,
     sdo: SdoServer<SDO_BUFFER>,
     nmt: NmtState,
     heartbeat: HeartbeatProducer,
@@ -257,42 +255,53 @@ pub struct Drive<
     storage: S,
 }
 
-/// The firmware's hooks, plus a note of RPDO writes the drive profile must see (ip data records
-/// and buffer configuration).
-struct Tap<'a, H> {
-    hooks: &'a mut H,
-    log: heapless::Vec<(u16, u8), 16>,
-}
+/// A filter of received identifiers by their low seven bits (the node-ID part of the
+/// pre-defined connection set): a frame whose bit is clear is for no service of this node, and is
+/// turned away in O(1). One that passes is routed by the services' own identifiers.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+struct ReceiveFilter([u32; 4]);
 
-impl<'a, H: ObjectHooks> Tap<'a, H> {
-    fn new(hooks: &'a mut H) -> Self {
-        Tap { hooks, log: heapless::Vec::new() }
+impl ReceiveFilter {
+    /// An unconfigured node: LSS only.
+    const LSS_ONLY: ReceiveFilter = {
+        let mut filter = ReceiveFilter([0; 4]);
+        filter.add(LSS_REQUEST_COB_ID);
+        filter
+    };
+
+    // The word index is below 4.
+    #[allow(clippy::indexing_slicing)]
+    const fn add(&mut self, id: u16) {
+        self.0[((id >> 5) & 3) as usize] |= 1 << (id & 31);
+    }
+
+    #[inline(always)]
+    fn passes(&self, id: u16) -> bool {
+        self.0.get(usize::from((id >> 5) & 3)).is_some_and(|word| word & (1 << (id & 31)) != 0)
     }
 }
 
-impl<H: ObjectHooks> ObjectHooks for Tap<'_, H> {
-    fn read_len(&mut self, index: u16, sub: u8) -> Option<Result<usize, AbortCode>> {
-        self.hooks.read_len(index, sub)
-    }
+/// The drive profile's value rules for process data ([`ValueRules`]): an RPDO entry's rule is
+/// the profile's [`Rule`] of the object, decided when the mapping is validated.
+struct ProcessDataRules<'a>(&'a Profile);
 
-    fn read(&mut self, index: u16, sub: u8, offset: usize, buf: &mut [u8]) -> Result<usize, AbortCode> {
-        self.hooks.read(index, sub, offset, buf)
-    }
-
-    fn validate(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
-        self.hooks.validate(index, sub, data)
-    }
-
-    fn written(&mut self, index: u16, sub: u8, data: &[u8]) {
-        if matches!(index, 0x60C1 | 0x60C4) {
-            // Two full RPDOs of ip data per tick; more in one tick are not buffered.
-            let _ = self.log.push((index, sub));
+impl<const B: usize> ValueRules<B> for ProcessDataRules<'_> {
+    fn rule(&self, entry: &Entry) -> u8 {
+        if entry.object.owner != Owner::Profile {
+            return 0;
         }
-        self.hooks.written(index, sub, data);
+        match self.0.rule(entry.index(), entry.sub, true) {
+            Some(rule) if rule.reacts() => rule as u8 | <Self as ValueRules<B>>::REACTS,
+            Some(rule) => rule as u8,
+            None => 0,
+        }
     }
 
-    fn stored(&mut self, sub: u8) {
-        self.hooks.stored(sub);
+    fn check(&self, od: &Dictionary<B>, rule: u8, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        match Rule::from_raw(rule & !<Self as ValueRules<B>>::REACTS) {
+            Some(rule) => self.0.check(rule, od, index, sub, data),
+            None => Ok(()),
+        }
     }
 }
 
@@ -343,14 +352,25 @@ struct TxQueue {
     dropped: u32,
 }
 
-impl FrameSink for TxQueue {
-    fn send(&mut self, id: u16, data: &[u8]) -> bool {
-        let Some(frame) = CanFrame::new_standard(id, data) else { return false };
+impl TxQueue {
+    #[inline]
+    fn push(&mut self, frame: Option<CanFrame>) -> bool {
+        let Some(frame) = frame else { return false };
         let sent = self.frames.push_back(frame).is_ok();
         if !sent {
             self.dropped = self.dropped.saturating_add(1);
         }
         sent
+    }
+}
+
+impl FrameSink for TxQueue {
+    fn send(&mut self, id: u16, data: &[u8]) -> bool {
+        self.push(CanFrame::new_standard(id, data))
+    }
+
+    fn send_array(&mut self, id: u16, data: [u8; 8], len: usize) -> bool {
+        self.push(CanFrame::from_array(id, data, len))
     }
 }
 
@@ -438,6 +458,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
         let sdo = SdoServer::new(config.sdo_timeout);
         Drive {
             slots: CommSlots::LOOKUP,
+            receive: ReceiveFilter::LSS_ONLY,
             od: Dictionary::empty(config.device, config.node_id),
             sdo: if config.sdo_block_transfer { sdo } else { sdo.without_block_transfer() },
             nmt: NmtState::Initialising,
@@ -497,6 +518,8 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
         self.od.set_entry_overrides(config.entry_overrides)?;
         self.od.set_default_overrides(config.default_overrides)?;
         self.od.set_absent(config.absent_objects);
+        let modes = self.od.get::<u32>(crate::cia402::objects::SUPPORTED_DRIVE_MODES, 0).unwrap_or(0);
+        self.profile.set_supported_modes(modes);
         self.slots = CommSlots::resolve(&self.od);
         self.pdos.long_rpdo = config.long_rpdo;
         self.pdos.inhibit_unit = config.tpdo_inhibit_unit;
@@ -603,11 +626,24 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
 
     /// Handles one received frame. Bounded work: at most one SDO step and a transmit queue's
     /// worth of block-upload segments.
+    #[inline]
     pub fn on_frame(&mut self, frame: &CanFrame, now: Instant) {
-        self.boot_if_pending(now);
+        if self.nmt == NmtState::Initialising {
+            self.boot_if_pending(now);
+        }
         let Some(id) = frame.standard_id() else {
             return;
         };
+        if !self.receive.passes(id) {
+            // Not an identifier this node receives (another node's traffic): nothing to do.
+            return;
+        }
+        self.dispatch(id, frame, now);
+    }
+
+    /// A frame whose identifier passed the receive filter, routed to its service.
+    #[inline(never)]
+    fn dispatch(&mut self, id: u16, frame: &CanFrame, now: Instant) {
         if id == LSS_REQUEST_COB_ID && !embedded_can::Frame::is_remote_frame(frame) {
             self.lss_request(embedded_can::Frame::data(frame), now);
             return;
@@ -627,7 +663,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
         }
         let data = embedded_can::Frame::data(frame);
         // One dictionary look-up for the SYNC identifier; the rest only for a SYNC.
-        let sync_id = (self.od.load_or(self.slots.cob_id_sync, 0x80) & 0x7FF) as u16;
+        let sync_id = self.slots.sync.can_id(&self.od);
         // SDO first: its identifier is restricted, no PDO or SYNC can use it.
         if id == SDO_RX_BASE + u16::from(node_id) {
             if self.nmt.serves_sdo() {
@@ -635,9 +671,8 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
             }
         } else if id == sync_id && self.nmt.serves_emcy() {
             self.sync_received(data, now, self.sync_config().0);
-        } else if self.nmt.serves_pdo() && self.rpdo_received(id, data, now) {
-            // An RPDO.
         } else if let (ERROR_CONTROL_FIRST..=ERROR_CONTROL_LAST, Some(&state)) = (id, data.first()) {
+            // Restricted identifiers (as NMT's): no RPDO uses them.
             if self.nmt.serves_sdo() {
                 let event = self.heartbeat_consumer.on_heartbeat((id - ERROR_CONTROL_BASE) as u8, state, now);
                 self.consumer_event(event, now);
@@ -646,6 +681,8 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
             if let Some(control) = NodeControl::parse(data).filter(|c| c.addresses(node_id)) {
                 self.nmt_command(transition(self.nmt, control.command), now);
             }
+        } else if self.nmt.serves_pdo() {
+            self.rpdo_received(id, data, now);
         }
     }
 
@@ -661,10 +698,10 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
         let written = access.written;
         let stored = access.stored;
         if let Some(response) = response {
-            self.send(SDO_TX_BASE + u16::from(node_id), &response);
+            let _ = self.tx.send_array(SDO_TX_BASE + u16::from(node_id), response, 8);
         }
-        if let Some(mux) = written {
-            self.after_write(mux, now);
+        if let Some((owner, mux)) = written {
+            self.after_write(owner, mux, now);
         }
         if stored {
             self.clear_error(code::DATA_SET);
@@ -924,14 +961,13 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
     /// whose values changed. Returns what the power stage must do until the next tick.
     pub fn tick(&mut self, now: Instant, sample: &Sample) -> Demand {
         if self.nmt.serves_pdo() {
-            let mut tap = Tap::new(&mut self.hooks);
-            let (profile, error_behaviour) = (&self.profile, self.error_behaviour);
-            let rules = |od: &Dictionary<OD_BYTES>, entry: &Entry, data: &[u8]| {
-                rpdo_rules(od, profile, error_behaviour, entry, data)
-            };
-            self.pdos.apply_ready(&mut self.od, &mut tap, &rules);
-            for (index, sub) in tap.log {
-                self.profile.ip_written(&mut self.od, index, sub);
+            let mut events = heapless::Vec::<PdoEvent, PDO_EVENTS>::new();
+            let rules = ProcessDataRules(&self.profile);
+            self.pdos.apply_ready(&mut self.od, &mut self.hooks, &rules, &mut |e| {
+                let _ = events.push(e);
+            });
+            for event in &events {
+                self.pdo_event(*event, now);
             }
         }
         let sync = self.cycle.sync.take();
@@ -996,13 +1032,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
 
     /// SYNC configuration (1005h/1006h/1019h) and the SYNC CAN-ID.
     fn sync_config(&self) -> (SyncConfig, u16) {
-        let cob = self.od.load_or(self.slots.cob_id_sync, 0x80);
-        let config = SyncConfig {
-            producer: cob & cob_id::BIT30 != 0,
-            period_us: self.od.load(self.slots.communication_cycle_period),
-            overflow: self.od.load(self.slots.synchronous_counter_overflow),
-        };
-        (config, (cob & 0x7FF) as u16)
+        (self.slots.sync.config(&self.od), self.slots.sync.can_id(&self.od))
     }
 
     fn sync_received(&mut self, data: &[u8], now: Instant, config: SyncConfig) {
@@ -1038,27 +1068,17 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
 
     /// Offers a frame to the RPDOs; true when one of them took it.
     fn rpdo_received(&mut self, id: u16, data: &[u8], now: Instant) -> bool {
-        if !self.pdos.is_rpdo(id) {
-            return false;
-        }
         // Synchronous RPDOs arriving after the synchronous window are discarded (digest §7).
         let window = u64::from(self.od.load(self.slots.synchronous_window_length));
         let late = window != 0 && self.sync.last().is_some_and(|at| now - at > Duration::from_micros(window));
-        let mut events = heapless::Vec::<PdoEvent, 4>::new();
-        let mut tap = Tap::new(&mut self.hooks);
-        let (profile, error_behaviour) = (&self.profile, self.error_behaviour);
-        let rules = |od: &Dictionary<OD_BYTES>, entry: &Entry, data: &[u8]| {
-            rpdo_rules(od, profile, error_behaviour, entry, data)
-        };
+        let mut events = heapless::Vec::<PdoEvent, PDO_EVENTS>::new();
+        let rules = ProcessDataRules(&self.profile);
         let frame = RpdoFrame { can_id: id, data, now, late };
-        let taken = self.pdos.on_frame(frame, &mut self.od, &mut tap, &rules, &mut |e| {
+        let taken = self.pdos.on_frame(frame, &mut self.od, &mut self.hooks, &rules, &mut |e| {
             let _ = events.push(e);
         });
-        for (index, sub) in tap.log {
-            self.profile.ip_written(&mut self.od, index, sub);
-        }
-        for event in events {
-            self.pdo_event(event, now);
+        for event in &events {
+            self.pdo_event(*event, now);
         }
         self.cycle.rpdo_since_sync |= taken;
         taken
@@ -1074,13 +1094,43 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
                 self.raise_error(code::RPDO_TIMEOUT, ErrorRegister::COMMUNICATION, [lo, hi, 0, 0, 0]);
                 self.error_class_reaction(1, now);
             }
+            PdoEvent::Written { index, sub, rule } => {
+                if let Some(rule) = Rule::from_raw(rule & !<ProcessDataRules as ValueRules<OD_BYTES>>::REACTS)
+                {
+                    self.profile.written(&mut self.od, rule, index, sub);
+                }
+            }
         }
     }
 
+    /// The identifiers this node receives, again: after a change of the node-ID, of 1005h, of a
+    /// PDO's COB-ID or of the heartbeat consumer.
+    fn update_receive_filter(&mut self) {
+        let mut filter = ReceiveFilter::default();
+        filter.add(LSS_REQUEST_COB_ID);
+        if self.is_configured() {
+            let node_id = u16::from(self.node_id());
+            for id in [NMT_COB_ID, SDO_RX_BASE + node_id, ERROR_CONTROL_BASE + node_id] {
+                filter.add(id);
+            }
+            filter.add(self.slots.sync.can_id(&self.od));
+            for node in self.heartbeat_consumer.nodes() {
+                filter.add(ERROR_CONTROL_BASE + u16::from(node));
+            }
+            for id in self.pdos.received_ids() {
+                filter.add(id);
+            }
+        }
+        self.receive = filter;
+    }
+
     fn configure_pdos(&mut self) {
-        if let Some(PdoEvent::Raise(code)) = self.pdos.configure_all(&self.od) {
+        if let Some(PdoEvent::Raise(code)) =
+            self.pdos.configure_all(&self.od, &ProcessDataRules(&self.profile))
+        {
             self.raise_error(code, ErrorRegister::COMMUNICATION, [0; 5]);
         }
+        self.update_receive_filter();
     }
 
     /// True when the node has a node-ID (not waiting for LSS).
@@ -1202,48 +1252,56 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
         self.boot_if_pending(now);
     }
 
-    /// Side effects of a value written from the bus.
-    fn after_write(&mut self, mux: Mux, now: Instant) {
-        match mux.index {
-            0x60C1 | 0x60C4 => self.profile.ip_written(&mut self.od, mux.index, mux.sub),
-            0x607A | 0x60FF | 0x6071 if self.profile.config().cyclic.sdo_set_points => {
-                // A set-point by SDO counts for the cyclic stream as an RPDO would.
-                self.cycle.rpdo_since_sync = true;
-                self.profile.invalidate();
+    /// The reaction of the object's owner to a value written from the bus by SDO.
+    fn after_write(&mut self, owner: Owner, mux: Mux, now: Instant) {
+        if self.profile.sdo_written(mux.index) {
+            // A set-point by SDO counts for the cyclic stream as an RPDO would.
+            self.cycle.rpdo_since_sync = true;
+        }
+        match owner {
+            Owner::Profile => {
+                if let Some(rule) = self.profile.rule(mux.index, mux.sub, false) {
+                    self.profile.written(&mut self.od, rule, mux.index, mux.sub);
+                }
             }
-            0x2000..=0x67FF => self.profile.invalidate(),
-            PRODUCER_HEARTBEAT_TIME => {
+            Owner::HeartbeatProducer => {
                 self.heartbeat.restart(now, self.heartbeat_period());
                 if self.heartbeat_period() != 0 {
                     self.guarding.stop();
                 }
             }
-            CONSUMER_HEARTBEAT_TIME => {
-                let raw = self.od.get::<u32>(CONSUMER_HEARTBEAT_TIME, mux.sub).unwrap_or(0);
+            Owner::HeartbeatConsumer => {
+                let raw = self.od.get::<u32>(mux.index, mux.sub).unwrap_or(0);
                 self.heartbeat_consumer.configure(mux.sub, raw);
                 self.communication_recovered();
+                self.update_receive_filter();
             }
-            COB_ID_SYNC | COMMUNICATION_CYCLE_PERIOD | SYNCHRONOUS_COUNTER_OVERFLOW => {
+            Owner::Sync => {
                 self.sync.restart(now, self.sync_config().0);
+                self.update_receive_filter();
             }
-            index if PdoRecord::of(index).is_some() => {
-                if let Some(record) = PdoRecord::of(index) {
-                    if let Some(PdoEvent::Raise(code)) = self.pdos.configure(&self.od, record) {
+            Owner::Pdo => {
+                if let Some(record) = PdoRecord::of(mux.index) {
+                    let rules = ProcessDataRules(&self.profile);
+                    if let Some(PdoEvent::Raise(code)) = self.pdos.configure(&self.od, record, &rules) {
                         self.raise_error(code, ErrorRegister::COMMUNICATION, [0; 5]);
                     }
                     if self.nmt == NmtState::Operational {
                         self.pdos.start(now);
                     }
+                    self.update_receive_filter();
                 }
             }
-            GUARD_TIME | LIFE_TIME_FACTOR => {
-                let guard = self.od.get::<u16>(GUARD_TIME, 0).unwrap_or(0);
-                let factor = self.od.get::<u8>(LIFE_TIME_FACTOR, 0).unwrap_or(0);
-                if guard == 0 || factor == 0 {
+            Owner::Guarding => {
+                if !guarding_configured(&self.od) {
                     self.guarding.stop();
                 }
             }
-            _ => {}
+            Owner::Dictionary
+            | Owner::Emcy
+            | Owner::ErrorHistory
+            | Owner::ErrorBehaviour
+            | Owner::Storage => {}
         }
     }
 
@@ -1256,7 +1314,9 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
             access.store_groups = self.store_groups;
             access.remap_while_valid = self.remap_while_valid;
             match self.sdo.poll(now, &mut access) {
-                Some(frame) => self.send(SDO_TX_BASE + u16::from(node_id), &frame),
+                Some(frame) => {
+                    let _ = self.tx.send_array(SDO_TX_BASE + u16::from(node_id), frame, 8);
+                }
                 None => break,
             }
         }
@@ -1282,7 +1342,8 @@ struct Access<'a, H, S, const B: usize> {
     store_groups: &'static [Group],
     /// [`Drive::set_remap_while_valid`].
     remap_while_valid: bool,
-    written: Option<Mux>,
+    /// The owner and place of the value a download stored.
+    written: Option<(Owner, Mux)>,
     /// A store on command succeeded.
     stored: bool,
     /// The entry the last lookup of this call resolved: a transfer asks for the same entry
@@ -1314,9 +1375,8 @@ impl<'a, H: ObjectHooks, S: Persistence, const B: usize> Access<'a, H, S, B> {
     }
 
     /// 1010h/1011h subs 1..=4: the read value says whether the command is supported (§11).
-    fn command_capability(&self, mux: Mux) -> Option<u32> {
-        let command = matches!(mux.index, STORE_PARAMETERS | RESTORE_DEFAULT_PARAMETERS);
-        let group = Group::from_sub(mux.sub).filter(|_| command)?;
+    fn command_capability(&self, entry: &Entry) -> Option<u32> {
+        let group = Group::from_sub(entry.sub).filter(|_| entry.object.owner == Owner::Storage)?;
         Some(u32::from(self.storage.available() && self.store_groups.contains(&group)))
     }
 
@@ -1324,7 +1384,7 @@ impl<'a, H: ObjectHooks, S: Persistence, const B: usize> Access<'a, H, S, B> {
     /// the dictionary.
     fn storage_command(&mut self, mux: Mux, data: &[u8]) -> Result<(), AbortCode> {
         let group = Group::from_sub(mux.sub).ok_or(AbortCode::SubIndexDoesNotExist)?;
-        let value = u32_le(data);
+        let value = le_u32(data);
         let signature = if mux.index == STORE_PARAMETERS { SAVE_SIGNATURE } else { LOAD_SIGNATURE };
         if value != signature || !self.storage.available() || !self.store_groups.contains(&group) {
             return Err(AbortCode::CannotStore);
@@ -1347,6 +1407,25 @@ impl<'a, H: ObjectHooks, S: Persistence, const B: usize> Access<'a, H, S, B> {
         let entry = self.od.bus_entry(mux.index, mux.sub)?;
         self.resolved = Some(entry);
         Ok(entry)
+    }
+
+    /// The rules of the object's owner beyond type, access and limits (each service checks its
+    /// own objects).
+    fn check_owned(&self, entry: &Entry, data: &[u8]) -> Result<(), AbortCode> {
+        let (od, index, sub) = (&*self.od, entry.index(), entry.sub);
+        match entry.object.owner {
+            Owner::Dictionary | Owner::HeartbeatProducer | Owner::Guarding | Owner::Storage => Ok(()),
+            Owner::Emcy => emcy::check_write(od, index, data),
+            Owner::ErrorHistory => emcy::check_history_write(data),
+            Owner::ErrorBehaviour => ErrorBehaviour::check_write(self.error_behaviour, data),
+            Owner::Sync => sync::check_write(od, index, data),
+            Owner::HeartbeatConsumer => check_consumer_write(od, sub, data),
+            Owner::Pdo => pdo::check_write(od, index, sub, data, self.remap_while_valid),
+            Owner::Profile => match self.profile.rule(index, sub, false) {
+                Some(rule) => self.profile.check(rule, od, index, sub, data),
+                None => Ok(()),
+            },
+        }
     }
 
     fn writable_entry(&mut self, mux: Mux) -> Result<Entry, AbortCode> {
@@ -1372,10 +1451,10 @@ impl<H: ObjectHooks, S: Persistence, const B: usize> ObjectAccess for Access<'_,
         if !entry.var.access.readable() {
             return Err(AbortCode::ReadOfWriteOnly);
         }
-        if mux.index == PRE_DEFINED_ERROR_FIELD && mux.sub > self.od.get::<u8>(mux.index, 0).unwrap_or(0) {
-            return Err(AbortCode::NoDataAvailable);
+        if entry.object.owner == Owner::ErrorHistory {
+            emcy::check_history_read(self.od, mux.index, mux.sub)?;
         }
-        if self.command_capability(mux).is_some() {
+        if self.command_capability(&entry).is_some() {
             return Ok(4);
         }
         match self.hooks.read_len(mux.index, mux.sub) {
@@ -1386,7 +1465,7 @@ impl<H: ObjectHooks, S: Persistence, const B: usize> ObjectAccess for Access<'_,
 
     fn read(&mut self, mux: Mux, offset: usize, buf: &mut [u8]) -> Result<usize, AbortCode> {
         let entry = self.entry(mux)?;
-        if let Some(capability) = self.command_capability(mux) {
+        if let Some(capability) = self.command_capability(&entry) {
             let bytes = capability.to_le_bytes();
             let rest = bytes.get(offset..).unwrap_or(&[]);
             let n = rest.len().min(buf.len());
@@ -1415,139 +1494,14 @@ impl<H: ObjectHooks, S: Persistence, const B: usize> ObjectAccess for Access<'_,
     fn write(&mut self, mux: Mux, data: &[u8]) -> Result<(), AbortCode> {
         let entry = self.writable_entry(mux)?;
         self.od.check_write(&entry, data)?;
-        if self.command_capability(mux).is_some() {
+        if self.command_capability(&entry).is_some() {
             return self.storage_command(mux, data);
         }
-        let rules = CommunicationRules {
-            error_behaviour: self.error_behaviour,
-            remap_while_valid: self.remap_while_valid,
-        };
-        check_communication(self.od, self.profile, rules, mux, data)?;
+        self.check_owned(&entry, data)?;
         self.hooks.validate(mux.index, mux.sub, data)?;
         self.od.commit(&entry, data);
         self.hooks.written(mux.index, mux.sub, data);
-        self.written = Some(mux);
+        self.written = Some((entry.object.owner, mux));
         Ok(())
     }
-}
-
-/// Value rules of the communication objects beyond type and limits (digest §1.3, §9.3).
-fn check_communication<const B: usize>(
-    od: &Dictionary<B>,
-    profile: &Profile,
-    rules: CommunicationRules,
-    mux: Mux,
-    data: &[u8],
-) -> Result<(), AbortCode> {
-    let error_behaviour = rules.error_behaviour;
-    let raw = u32_le(data);
-    match mux.index {
-        // Only 0 may be written to the number of errors: it clears the history.
-        PRE_DEFINED_ERROR_FIELD if raw != 0 => Err(AbortCode::InvalidValue),
-        ERROR_BEHAVIOUR if ErrorBehaviour::lookup(error_behaviour, raw as u8).is_none() => {
-            Err(AbortCode::InvalidValue)
-        }
-        // A device that changes modes only outside Operation enabled refuses a new mode there.
-        crate::cia402::objects::MODES_OF_OPERATION
-            if !profile.config().mode_change_in_operation
-                && matches!(profile.state(), State::OperationEnabled { .. })
-                && od.get::<i8>(mux.index, 0).ok() != Some(raw as u8 as i8) =>
-        {
-            Err(AbortCode::CannotStoreDeviceState)
-        }
-        index if PdoRecord::of(index).is_some() => {
-            pdo::check_write(od, index, mux.sub, data, rules.remap_while_valid)
-        }
-        0x60C0..=0x60C4 => crate::cia402::ip::check_write(od, profile.ip_buffer(), mux.index, mux.sub, data),
-        0x6000..=0x67FF => {
-            crate::cia402::objects::check_write(od, profile.config(), mux.index, mux.sub, data)
-        }
-        index if profile.config().cascade == Some(index) => {
-            crate::control::check_write(od, index, mux.sub, data, profile.config().tick_rate.hz())
-        }
-        COB_ID_SYNC => {
-            let new = CobId::parse(raw).map_err(|_| AbortCode::InvalidValue)?;
-            if raw & cob_id::INVALID != 0 || cob_id::is_restricted(new.can_id) {
-                return Err(AbortCode::InvalidValue);
-            }
-            let old = od.get::<u32>(COB_ID_SYNC, 0).unwrap_or(0x80);
-            // The CAN-ID must not change while this device produces SYNC.
-            if old & cob_id::BIT30 != 0 && (old & 0x7FF) as u16 != new.can_id {
-                return Err(AbortCode::InvalidValue);
-            }
-            Ok(())
-        }
-        SYNCHRONOUS_COUNTER_OVERFLOW => {
-            if od.get::<u32>(COMMUNICATION_CYCLE_PERIOD, 0).unwrap_or(0) != 0 {
-                Err(AbortCode::CannotStoreDeviceState)
-            } else if raw == 1 || raw > 240 {
-                Err(AbortCode::InvalidValue)
-            } else {
-                Ok(())
-            }
-        }
-        CONSUMER_HEARTBEAT_TIME => {
-            // Two entries must not supervise the same node (digest §4.2).
-            let Some((node, _)) = parse_entry(raw) else { return Ok(()) };
-            let duplicate = (1..=HEARTBEAT_CONSUMERS).filter(|&sub| sub != mux.sub).any(|sub| {
-                od.get::<u32>(CONSUMER_HEARTBEAT_TIME, sub)
-                    .ok()
-                    .and_then(parse_entry)
-                    .is_some_and(|(n, _)| n == node)
-            });
-            if duplicate {
-                Err(AbortCode::ParameterIncompatible)
-            } else {
-                Ok(())
-            }
-        }
-        COB_ID_EMCY => {
-            let new = CobId::parse(raw).map_err(|_| AbortCode::InvalidValue)?;
-            let old = od.get::<u32>(COB_ID_EMCY, 0).ok().and_then(|r| CobId::parse(r).ok());
-            if new.bit30 || cob_id::is_restricted(new.can_id) {
-                return Err(AbortCode::InvalidValue);
-            }
-            // The CAN-ID changes only while the EMCY is invalid (before or after the write).
-            match old {
-                Some(old) if old.valid && new.valid && old.can_id != new.can_id => {
-                    Err(AbortCode::InvalidValue)
-                }
-                _ => Ok(()),
-            }
-        }
-        _ => Ok(()),
-    }
-}
-
-/// The value rules of an RPDO's values: those of an SDO download ([`check_communication`]), so
-/// that process data cannot store what the SDO server refuses (an unsupported 6060h mode, a
-/// homing method the drive lacks, …: DESIGN invariant 3). The ip data record 60C1h is the
-/// exception: a record for a full or disabled buffer is taken, and the buffer drops it and
-/// reports it in the statusword (bit 7), as the profile documents for RPDOs.
-fn rpdo_rules<const B: usize>(
-    od: &Dictionary<B>,
-    profile: &Profile,
-    error_behaviour: &'static [(u8, ErrorBehaviour)],
-    entry: &Entry,
-    data: &[u8],
-) -> Result<(), AbortCode> {
-    if entry.index() == crate::cia402::ip::INTERPOLATION_DATA_RECORD {
-        return Ok(());
-    }
-    let rules = CommunicationRules { error_behaviour, remap_while_valid: false };
-    check_communication(od, profile, rules, Mux { index: entry.index(), sub: entry.sub }, data)
-}
-
-/// The run-time settings [`check_communication`] needs besides the dictionary.
-#[derive(Clone, Copy)]
-struct CommunicationRules {
-    /// [`Config::error_behaviour_values`].
-    error_behaviour: &'static [(u8, ErrorBehaviour)],
-    /// [`Drive::set_remap_while_valid`].
-    remap_while_valid: bool,
-}
-
-/// Up to four little-endian bytes as a number (missing bytes read as 0).
-fn u32_le(data: &[u8]) -> u32 {
-    data.iter().take(4).rev().fold(0, |acc, b| (acc << 8) | u32::from(*b))
 }

@@ -9,16 +9,40 @@ use embedded_can::{ExtendedId, Frame, Id, StandardId};
 /// A classic CAN frame (data or remote), owned and `Copy`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct CanFrame {
-    id: Id,
+    // Word-sized fields first: a frame is 16 bytes, aligned, and copied as four words (the
+    // transmit queue moves every frame once).
+    data: [u8; 8],
+    /// The raw identifier; [`EXTENDED`] set for a 29-bit one.
+    id: u32,
     remote: bool,
     dlc: u8,
-    data: [u8; 8],
+}
+
+/// Bit of [`CanFrame`]'s raw identifier that marks an extended (29-bit) identifier.
+const EXTENDED: u32 = 1 << 31;
+
+/// The raw form of `id` ([`EXTENDED`] set for a 29-bit identifier).
+fn raw_id(id: Id) -> u32 {
+    match id {
+        Id::Standard(id) => u32::from(id.as_raw()),
+        Id::Extended(id) => id.as_raw() | EXTENDED,
+    }
 }
 
 impl CanFrame {
     /// A data frame with an 11-bit identifier; `None` if `id > 0x7FF` or `data` is longer than 8.
     pub fn new_standard(id: u16, data: &[u8]) -> Option<Self> {
         Self::new(Id::Standard(StandardId::new(id)?), data)
+    }
+
+    /// A data frame with an 11-bit identifier and the first `len` bytes of `data` (a whole
+    /// buffer: no copy of a variable length); `None` if `id > 0x7FF` or `len > 8`.
+    pub fn from_array(id: u16, data: [u8; 8], len: usize) -> Option<Self> {
+        let id = u32::from(StandardId::new(id)?.as_raw());
+        // The bytes beyond `len` are not part of the frame: zero, as in every other frame.
+        let kept = u64::MAX.checked_shr(64 - 8 * u32::try_from(len).ok()?).unwrap_or(0);
+        let data = (u64::from_le_bytes(data) & kept).to_le_bytes();
+        (len <= 8).then_some(CanFrame { id, remote: false, dlc: len as u8, data })
     }
 
     /// A remote frame with an 11-bit identifier and data length code `dlc` (0..=8).
@@ -28,10 +52,7 @@ impl CanFrame {
 
     /// The 11-bit identifier, or `None` for an extended frame.
     pub fn standard_id(&self) -> Option<u16> {
-        match self.id {
-            Id::Standard(id) => Some(id.as_raw()),
-            Id::Extended(_) => None,
-        }
+        (self.id & EXTENDED == 0).then_some(self.id as u16)
     }
 
     /// Copies any `embedded_can::Frame` (data beyond 8 bytes is cut, which classic CAN
@@ -44,7 +65,7 @@ impl CanFrame {
             dst.copy_from_slice(src);
         }
         CanFrame {
-            id: frame.id(),
+            id: raw_id(frame.id()),
             remote: frame.is_remote_frame(),
             dlc: if frame.is_remote_frame() { frame.dlc().min(8) as u8 } else { len as u8 },
             data,
@@ -54,9 +75,9 @@ impl CanFrame {
     /// Converts into the frame type of a driver.
     pub fn to_frame<F: Frame>(&self) -> Option<F> {
         if self.remote {
-            F::new_remote(self.id, usize::from(self.dlc))
+            F::new_remote(self.id(), usize::from(self.dlc))
         } else {
-            F::new(self.id, self.data())
+            F::new(self.id(), self.data())
         }
     }
 }
@@ -68,18 +89,18 @@ impl Frame for CanFrame {
         }
         let mut buf = [0u8; 8];
         buf.get_mut(..data.len())?.copy_from_slice(data);
-        Some(CanFrame { id: id.into(), remote: false, dlc: data.len() as u8, data: buf })
+        Some(CanFrame { id: raw_id(id.into()), remote: false, dlc: data.len() as u8, data: buf })
     }
 
     fn new_remote(id: impl Into<Id>, dlc: usize) -> Option<Self> {
         if dlc > 8 {
             return None;
         }
-        Some(CanFrame { id: id.into(), remote: true, dlc: dlc as u8, data: [0; 8] })
+        Some(CanFrame { id: raw_id(id.into()), remote: true, dlc: dlc as u8, data: [0; 8] })
     }
 
     fn is_extended(&self) -> bool {
-        matches!(self.id, Id::Extended(_))
+        self.id & EXTENDED != 0
     }
 
     fn is_remote_frame(&self) -> bool {
@@ -87,7 +108,14 @@ impl Frame for CanFrame {
     }
 
     fn id(&self) -> Id {
-        self.id
+        let raw = self.id & !EXTENDED;
+        let id = if self.id & EXTENDED != 0 {
+            ExtendedId::new(raw).map(Id::Extended)
+        } else {
+            StandardId::new(raw as u16).map(Id::Standard)
+        };
+        // Every raw identifier was made from a valid one.
+        id.unwrap_or(Id::Standard(StandardId::ZERO))
     }
 
     fn dlc(&self) -> usize {

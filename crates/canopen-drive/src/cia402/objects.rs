@@ -10,7 +10,8 @@ pub use super::probe::{
 };
 use crate::od::DeviceInfo;
 use crate::od::{
-    layout, AbortCode, Access, DataType, DefaultValue, DeviceField, Dictionary, Object, PdoMapping, Var,
+    layout, owned, AbortCode, Access, DataType, DefaultValue, DeviceField, Dictionary, Object, Owner,
+    PdoMapping, Var,
 };
 
 /// 6007h abort connection option code.
@@ -367,223 +368,396 @@ pub const PROFILE_LEN: usize = 72
 
 /// The profile objects, ascending: those of the modes this build runs (cargo features `pp`,
 /// `hm`, `ip`, `vl`, `touch-probe`).
-pub static PROFILE: [Object; PROFILE_LEN] = layout([
-    option_code(ABORT_CONNECTION_OPTION_CODE, "Abort connection option code", 1),
-    actual(ERROR_CODE, "Error code", DataType::Unsigned16),
-    command(CONTROLWORD, "Controlword", DataType::Unsigned16),
-    actual(STATUSWORD, "Statusword", DataType::Unsigned16),
-    #[cfg(feature = "vl")]
-    super::vl::VL_TARGET_VELOCITY_OBJECT,
-    #[cfg(feature = "vl")]
-    super::vl::VL_VELOCITY_DEMAND_OBJECT,
-    #[cfg(feature = "vl")]
-    super::vl::VL_VELOCITY_ACTUAL_VALUE_OBJECT,
-    #[cfg(feature = "vl")]
-    super::vl::VL_VELOCITY_MIN_MAX_AMOUNT_OBJECT,
-    #[cfg(feature = "vl")]
-    super::vl::VL_VELOCITY_ACCELERATION_OBJECT,
-    #[cfg(feature = "vl")]
-    super::vl::VL_VELOCITY_DECELERATION_OBJECT,
-    #[cfg(feature = "vl")]
-    super::vl::VL_VELOCITY_QUICK_STOP_OBJECT,
-    #[cfg(feature = "vl")]
-    super::vl::VL_SET_POINT_FACTOR_OBJECT,
-    #[cfg(feature = "vl")]
-    super::vl::VL_DIMENSION_FACTOR_OBJECT,
-    option_code(QUICK_STOP_OPTION_CODE, "Quick stop option code", 2),
-    option_code(SHUTDOWN_OPTION_CODE, "Shutdown option code", 0),
-    option_code(DISABLE_OPERATION_OPTION_CODE, "Disable operation option code", 1),
-    option_code(HALT_OPTION_CODE, "Halt option code", 1),
-    option_code(FAULT_REACTION_OPTION_CODE, "Fault reaction option code", 2),
-    command(MODES_OF_OPERATION, "Modes of operation", DataType::Integer8),
-    actual(MODES_OF_OPERATION_DISPLAY, "Modes of operation display", DataType::Integer8),
-    actual(POSITION_DEMAND_VALUE, "Position demand value", DataType::Integer32),
-    actual(POSITION_ACTUAL_INTERNAL_VALUE, "Position actual internal value", DataType::Integer32),
-    actual(POSITION_ACTUAL_VALUE, "Position actual value", DataType::Integer32),
-    parameter(
-        FOLLOWING_ERROR_WINDOW,
-        "Following error window",
-        DataType::Unsigned32,
-        DefaultValue::Unsigned(10_000),
-    ),
-    parameter(
-        FOLLOWING_ERROR_TIME_OUT,
-        "Following error time out",
-        DataType::Unsigned16,
-        DefaultValue::Unsigned(100),
-    ),
-    parameter(POSITION_WINDOW, "Position window", DataType::Unsigned32, DefaultValue::Unsigned(100)),
-    parameter(POSITION_WINDOW_TIME, "Position window time", DataType::Unsigned16, DefaultValue::Unsigned(10)),
-    parameter(SENSOR_SELECTION_CODE, "Sensor selection code", DataType::Integer16, DefaultValue::Zero),
-    actual(VELOCITY_DEMAND_VALUE, "Velocity demand value", DataType::Integer32),
-    actual(VELOCITY_ACTUAL_VALUE, "Velocity actual value", DataType::Integer32),
-    parameter(VELOCITY_WINDOW, "Velocity window", DataType::Unsigned16, DefaultValue::Zero),
-    parameter(VELOCITY_WINDOW_TIME, "Velocity window time", DataType::Unsigned16, DefaultValue::Zero),
-    parameter(VELOCITY_THRESHOLD, "Velocity threshold", DataType::Unsigned16, DefaultValue::Zero),
-    parameter(VELOCITY_THRESHOLD_TIME, "Velocity threshold time", DataType::Unsigned16, DefaultValue::Zero),
-    torque(TARGET_TORQUE, "Target torque", true),
-    setting(MAX_TORQUE, "Max torque", DataType::Unsigned16, DefaultValue::Unsigned(3000)),
-    setting(MAX_CURRENT, "Max current", DataType::Unsigned16, DefaultValue::Unsigned(3000)),
-    torque(TORQUE_DEMAND, "Torque demand", false),
-    parameter(0x6075, "Motor rated current", DataType::Unsigned32, DefaultValue::Zero),
-    parameter(0x6076, "Motor rated torque", DataType::Unsigned32, DefaultValue::Zero),
-    torque(TORQUE_ACTUAL_VALUE, "Torque actual value", false),
-    torque(CURRENT_ACTUAL_VALUE, "Current actual value", false),
-    actual(DC_LINK_VOLTAGE, "DC link circuit voltage", DataType::Unsigned32),
-    command(TARGET_POSITION, "Target position", DataType::Integer32),
-    Object::record(POSITION_RANGE_LIMIT, "Position range limit", &POSITION_RANGE_SUBS),
-    parameter(HOME_OFFSET, "Home offset", DataType::Integer32, DefaultValue::Zero),
-    Object::record(SOFTWARE_POSITION_LIMIT, "Software position limit", &SOFTWARE_LIMIT_SUBS),
-    parameter(POLARITY, "Polarity", DataType::Unsigned8, DefaultValue::Zero),
-    setting(
-        MAX_PROFILE_VELOCITY,
-        "Max profile velocity",
-        DataType::Unsigned32,
-        DefaultValue::Unsigned(u32::MAX as u64),
-    ),
-    parameter(
-        MAX_MOTOR_SPEED,
-        "Max motor speed",
-        DataType::Unsigned32,
-        DefaultValue::Unsigned(u32::MAX as u64),
-    ),
-    #[cfg(feature = "pp")]
-    setting(PROFILE_VELOCITY, "Profile velocity", DataType::Unsigned32, DefaultValue::Unsigned(10_000)),
-    #[cfg(feature = "pp")]
-    setting(END_VELOCITY, "End velocity", DataType::Unsigned32, DefaultValue::Zero),
-    setting(
-        PROFILE_ACCELERATION,
-        "Profile acceleration",
-        DataType::Unsigned32,
-        DefaultValue::Unsigned(10_000),
-    ),
-    setting(
-        PROFILE_DECELERATION,
-        "Profile deceleration",
-        DataType::Unsigned32,
-        DefaultValue::Unsigned(10_000),
-    ),
-    setting(
-        QUICK_STOP_DECELERATION,
-        "Quick stop deceleration",
-        DataType::Unsigned32,
-        DefaultValue::Unsigned(50_000),
-    ),
-    #[cfg(feature = "pp")]
-    parameter(MOTION_PROFILE_TYPE, "Motion profile type", DataType::Integer16, DefaultValue::Zero),
-    setting(TORQUE_SLOPE, "Torque slope", DataType::Unsigned32, DefaultValue::Unsigned(10_000)),
-    parameter(TORQUE_PROFILE_TYPE, "Torque profile type", DataType::Integer16, DefaultValue::Zero),
-    ratio(
-        POSITION_ENCODER_RESOLUTION,
-        "Position encoder resolution",
-        &ratio_entry("Position encoder resolution"),
-    ),
-    ratio(
-        VELOCITY_ENCODER_RESOLUTION,
-        "Velocity encoder resolution",
-        &ratio_entry("Velocity encoder resolution"),
-    ),
-    ratio(GEAR_RATIO, "Gear ratio", &ratio_entry("Gear ratio")),
-    ratio(FEED_CONSTANT, "Feed constant", &ratio_entry("Feed constant")),
-    #[cfg(feature = "hm")]
-    setting(HOMING_METHOD, "Homing method", DataType::Integer8, DefaultValue::Zero),
-    #[cfg(feature = "hm")]
-    Object::record(HOMING_SPEEDS, "Homing speeds", &HOMING_SPEED_SUBS),
-    #[cfg(feature = "hm")]
-    setting(
-        HOMING_ACCELERATION,
-        "Homing acceleration",
-        DataType::Unsigned32,
-        DefaultValue::Unsigned(100_000),
-    ),
-    #[cfg(feature = "pp")]
-    parameter(PROFILE_JERK_USE, "Profile jerk use", DataType::Unsigned8, DefaultValue::Unsigned(1)),
-    #[cfg(feature = "pp")]
-    Object::array(
-        PROFILE_JERK,
-        "Profile jerk",
-        4,
-        &Var::new("Profile jerk", DataType::Unsigned32)
-            .access(Access::ReadWrite)
-            .default(DefaultValue::Unsigned(1_000_000)),
-    ),
-    command(0x60B0, "Position offset", DataType::Integer32),
-    command(0x60B1, "Velocity offset", DataType::Integer32),
-    torque(TORQUE_OFFSET, "Torque offset", true),
-    #[cfg(feature = "touch-probe")]
-    parameter(TOUCH_PROBE_FUNCTION, "Touch probe function", DataType::Unsigned16, DefaultValue::Zero),
-    #[cfg(feature = "touch-probe")]
-    actual(TOUCH_PROBE_STATUS, "Touch probe status", DataType::Unsigned16),
-    #[cfg(feature = "touch-probe")]
-    actual(TOUCH_PROBE_1_POSITIVE_EDGE, "Touch probe 1 positive edge", DataType::Integer32),
-    #[cfg(feature = "touch-probe")]
-    actual(TOUCH_PROBE_1_NEGATIVE_EDGE, "Touch probe 1 negative edge", DataType::Integer32),
-    #[cfg(feature = "touch-probe")]
-    actual(TOUCH_PROBE_2_POSITIVE_EDGE, "Touch probe 2 positive edge", DataType::Integer32),
-    #[cfg(feature = "touch-probe")]
-    actual(TOUCH_PROBE_2_NEGATIVE_EDGE, "Touch probe 2 negative edge", DataType::Integer32),
-    #[cfg(feature = "ip")]
-    super::ip::SUB_MODE_SELECT_OBJECT,
-    #[cfg(feature = "ip")]
-    super::ip::DATA_RECORD_OBJECT,
-    super::ip::TIME_PERIOD_OBJECT,
-    #[cfg(feature = "ip")]
-    super::ip::DATA_CONFIGURATION_OBJECT,
-    setting(MAX_ACCELERATION, "Max acceleration", DataType::Unsigned32, DefaultValue::Unsigned(100_000)),
-    setting(MAX_DECELERATION, "Max deceleration", DataType::Unsigned32, DefaultValue::Unsigned(100_000)),
-    #[cfg(feature = "touch-probe")]
-    actual(TOUCH_PROBE_1_POSITIVE_EDGE_COUNTER, "Touch probe 1 positive edge counter", DataType::Unsigned16),
-    #[cfg(feature = "touch-probe")]
-    actual(TOUCH_PROBE_1_NEGATIVE_EDGE_COUNTER, "Touch probe 1 negative edge counter", DataType::Unsigned16),
-    #[cfg(feature = "touch-probe")]
-    actual(TOUCH_PROBE_2_POSITIVE_EDGE_COUNTER, "Touch probe 2 positive edge counter", DataType::Unsigned16),
-    #[cfg(feature = "touch-probe")]
-    actual(TOUCH_PROBE_2_NEGATIVE_EDGE_COUNTER, "Touch probe 2 negative edge counter", DataType::Unsigned16),
-    #[cfg(feature = "hm")]
-    Object::array_with_sub0(
-        SUPPORTED_HOMING_METHODS,
-        "Supported homing methods",
-        super::hm::MAX_LISTED_METHODS,
-        Var::new("Highest sub-index supported", DataType::Unsigned8)
-            .access(Access::Const)
-            .default(DefaultValue::Device(DeviceField::HomingMethodCount)),
-        &Var::new("Supported homing method", DataType::Integer8)
-            .access(Access::Const)
-            .default(DefaultValue::Device(DeviceField::HomingMethods)),
-    ),
-    #[cfg(feature = "pp")]
-    parameter(POSITIONING_OPTION_CODE, "Positioning option code", DataType::Unsigned16, DefaultValue::Zero),
-    actual(FOLLOWING_ERROR_ACTUAL_VALUE, "Following error actual value", DataType::Integer32),
-    parameter(MAX_SLIPPAGE, "Max slippage", DataType::Integer32, DefaultValue::Zero),
-    actual(CONTROL_EFFORT, "Control effort", DataType::Integer32),
-    actual(POSITION_DEMAND_INTERNAL_VALUE, "Position demand internal value", DataType::Integer32),
-    actual(DIGITAL_INPUTS, "Digital inputs", DataType::Unsigned32),
-    Object::record(DIGITAL_OUTPUTS, "Digital outputs", &DIGITAL_OUTPUT_SUBS),
-    command(TARGET_VELOCITY, "Target velocity", DataType::Integer32),
-    // Identification (digest §20.2): not assigned until the firmware or the master sets them.
-    parameter(MOTOR_TYPE, "Motor type", DataType::Unsigned16, DefaultValue::Unsigned(0x7FFF)),
-    text(0x6403, "Motor catalogue number"),
-    text(0x6404, "Motor manufacturer"),
-    text(0x6405, "http motor catalogue address"),
-    parameter(0x6406, "Motor calibration date", DataType::TimeOfDay, DefaultValue::Zero),
-    parameter(0x6407, "Motor service period", DataType::Unsigned32, DefaultValue::Zero),
-    Object::var(
-        SUPPORTED_DRIVE_MODES,
-        "Supported drive modes",
-        Var::new("Supported drive modes", DataType::Unsigned32)
-            .access(Access::Const)
-            .default(DefaultValue::Device(DeviceField::DriveModes)),
-    ),
-    text(0x6503, "Drive catalogue number"),
-    text(0x6505, "http drive catalogue address"),
-]);
+pub static PROFILE: [Object; PROFILE_LEN] = layout(owned(
+    Owner::Profile,
+    [
+        option_code(ABORT_CONNECTION_OPTION_CODE, "Abort connection option code", 1),
+        actual(ERROR_CODE, "Error code", DataType::Unsigned16),
+        command(CONTROLWORD, "Controlword", DataType::Unsigned16),
+        actual(STATUSWORD, "Statusword", DataType::Unsigned16),
+        #[cfg(feature = "vl")]
+        super::vl::VL_TARGET_VELOCITY_OBJECT,
+        #[cfg(feature = "vl")]
+        super::vl::VL_VELOCITY_DEMAND_OBJECT,
+        #[cfg(feature = "vl")]
+        super::vl::VL_VELOCITY_ACTUAL_VALUE_OBJECT,
+        #[cfg(feature = "vl")]
+        super::vl::VL_VELOCITY_MIN_MAX_AMOUNT_OBJECT,
+        #[cfg(feature = "vl")]
+        super::vl::VL_VELOCITY_ACCELERATION_OBJECT,
+        #[cfg(feature = "vl")]
+        super::vl::VL_VELOCITY_DECELERATION_OBJECT,
+        #[cfg(feature = "vl")]
+        super::vl::VL_VELOCITY_QUICK_STOP_OBJECT,
+        #[cfg(feature = "vl")]
+        super::vl::VL_SET_POINT_FACTOR_OBJECT,
+        #[cfg(feature = "vl")]
+        super::vl::VL_DIMENSION_FACTOR_OBJECT,
+        option_code(QUICK_STOP_OPTION_CODE, "Quick stop option code", 2),
+        option_code(SHUTDOWN_OPTION_CODE, "Shutdown option code", 0),
+        option_code(DISABLE_OPERATION_OPTION_CODE, "Disable operation option code", 1),
+        option_code(HALT_OPTION_CODE, "Halt option code", 1),
+        option_code(FAULT_REACTION_OPTION_CODE, "Fault reaction option code", 2),
+        command(MODES_OF_OPERATION, "Modes of operation", DataType::Integer8),
+        actual(MODES_OF_OPERATION_DISPLAY, "Modes of operation display", DataType::Integer8),
+        actual(POSITION_DEMAND_VALUE, "Position demand value", DataType::Integer32),
+        actual(POSITION_ACTUAL_INTERNAL_VALUE, "Position actual internal value", DataType::Integer32),
+        actual(POSITION_ACTUAL_VALUE, "Position actual value", DataType::Integer32),
+        parameter(
+            FOLLOWING_ERROR_WINDOW,
+            "Following error window",
+            DataType::Unsigned32,
+            DefaultValue::Unsigned(10_000),
+        ),
+        parameter(
+            FOLLOWING_ERROR_TIME_OUT,
+            "Following error time out",
+            DataType::Unsigned16,
+            DefaultValue::Unsigned(100),
+        ),
+        parameter(POSITION_WINDOW, "Position window", DataType::Unsigned32, DefaultValue::Unsigned(100)),
+        parameter(
+            POSITION_WINDOW_TIME,
+            "Position window time",
+            DataType::Unsigned16,
+            DefaultValue::Unsigned(10),
+        ),
+        parameter(SENSOR_SELECTION_CODE, "Sensor selection code", DataType::Integer16, DefaultValue::Zero),
+        actual(VELOCITY_DEMAND_VALUE, "Velocity demand value", DataType::Integer32),
+        actual(VELOCITY_ACTUAL_VALUE, "Velocity actual value", DataType::Integer32),
+        parameter(VELOCITY_WINDOW, "Velocity window", DataType::Unsigned16, DefaultValue::Zero),
+        parameter(VELOCITY_WINDOW_TIME, "Velocity window time", DataType::Unsigned16, DefaultValue::Zero),
+        parameter(VELOCITY_THRESHOLD, "Velocity threshold", DataType::Unsigned16, DefaultValue::Zero),
+        parameter(
+            VELOCITY_THRESHOLD_TIME,
+            "Velocity threshold time",
+            DataType::Unsigned16,
+            DefaultValue::Zero,
+        ),
+        torque(TARGET_TORQUE, "Target torque", true),
+        setting(MAX_TORQUE, "Max torque", DataType::Unsigned16, DefaultValue::Unsigned(3000)),
+        setting(MAX_CURRENT, "Max current", DataType::Unsigned16, DefaultValue::Unsigned(3000)),
+        torque(TORQUE_DEMAND, "Torque demand", false),
+        parameter(0x6075, "Motor rated current", DataType::Unsigned32, DefaultValue::Zero),
+        parameter(0x6076, "Motor rated torque", DataType::Unsigned32, DefaultValue::Zero),
+        torque(TORQUE_ACTUAL_VALUE, "Torque actual value", false),
+        torque(CURRENT_ACTUAL_VALUE, "Current actual value", false),
+        actual(DC_LINK_VOLTAGE, "DC link circuit voltage", DataType::Unsigned32),
+        command(TARGET_POSITION, "Target position", DataType::Integer32),
+        Object::record(POSITION_RANGE_LIMIT, "Position range limit", &POSITION_RANGE_SUBS),
+        parameter(HOME_OFFSET, "Home offset", DataType::Integer32, DefaultValue::Zero),
+        Object::record(SOFTWARE_POSITION_LIMIT, "Software position limit", &SOFTWARE_LIMIT_SUBS),
+        parameter(POLARITY, "Polarity", DataType::Unsigned8, DefaultValue::Zero),
+        setting(
+            MAX_PROFILE_VELOCITY,
+            "Max profile velocity",
+            DataType::Unsigned32,
+            DefaultValue::Unsigned(u32::MAX as u64),
+        ),
+        parameter(
+            MAX_MOTOR_SPEED,
+            "Max motor speed",
+            DataType::Unsigned32,
+            DefaultValue::Unsigned(u32::MAX as u64),
+        ),
+        #[cfg(feature = "pp")]
+        setting(PROFILE_VELOCITY, "Profile velocity", DataType::Unsigned32, DefaultValue::Unsigned(10_000)),
+        #[cfg(feature = "pp")]
+        setting(END_VELOCITY, "End velocity", DataType::Unsigned32, DefaultValue::Zero),
+        setting(
+            PROFILE_ACCELERATION,
+            "Profile acceleration",
+            DataType::Unsigned32,
+            DefaultValue::Unsigned(10_000),
+        ),
+        setting(
+            PROFILE_DECELERATION,
+            "Profile deceleration",
+            DataType::Unsigned32,
+            DefaultValue::Unsigned(10_000),
+        ),
+        setting(
+            QUICK_STOP_DECELERATION,
+            "Quick stop deceleration",
+            DataType::Unsigned32,
+            DefaultValue::Unsigned(50_000),
+        ),
+        #[cfg(feature = "pp")]
+        parameter(MOTION_PROFILE_TYPE, "Motion profile type", DataType::Integer16, DefaultValue::Zero),
+        setting(TORQUE_SLOPE, "Torque slope", DataType::Unsigned32, DefaultValue::Unsigned(10_000)),
+        parameter(TORQUE_PROFILE_TYPE, "Torque profile type", DataType::Integer16, DefaultValue::Zero),
+        ratio(
+            POSITION_ENCODER_RESOLUTION,
+            "Position encoder resolution",
+            &ratio_entry("Position encoder resolution"),
+        ),
+        ratio(
+            VELOCITY_ENCODER_RESOLUTION,
+            "Velocity encoder resolution",
+            &ratio_entry("Velocity encoder resolution"),
+        ),
+        ratio(GEAR_RATIO, "Gear ratio", &ratio_entry("Gear ratio")),
+        ratio(FEED_CONSTANT, "Feed constant", &ratio_entry("Feed constant")),
+        #[cfg(feature = "hm")]
+        setting(HOMING_METHOD, "Homing method", DataType::Integer8, DefaultValue::Zero),
+        #[cfg(feature = "hm")]
+        Object::record(HOMING_SPEEDS, "Homing speeds", &HOMING_SPEED_SUBS),
+        #[cfg(feature = "hm")]
+        setting(
+            HOMING_ACCELERATION,
+            "Homing acceleration",
+            DataType::Unsigned32,
+            DefaultValue::Unsigned(100_000),
+        ),
+        #[cfg(feature = "pp")]
+        parameter(PROFILE_JERK_USE, "Profile jerk use", DataType::Unsigned8, DefaultValue::Unsigned(1)),
+        #[cfg(feature = "pp")]
+        Object::array(
+            PROFILE_JERK,
+            "Profile jerk",
+            4,
+            &Var::new("Profile jerk", DataType::Unsigned32)
+                .access(Access::ReadWrite)
+                .default(DefaultValue::Unsigned(1_000_000)),
+        ),
+        command(0x60B0, "Position offset", DataType::Integer32),
+        command(0x60B1, "Velocity offset", DataType::Integer32),
+        torque(TORQUE_OFFSET, "Torque offset", true),
+        #[cfg(feature = "touch-probe")]
+        parameter(TOUCH_PROBE_FUNCTION, "Touch probe function", DataType::Unsigned16, DefaultValue::Zero),
+        #[cfg(feature = "touch-probe")]
+        actual(TOUCH_PROBE_STATUS, "Touch probe status", DataType::Unsigned16),
+        #[cfg(feature = "touch-probe")]
+        actual(TOUCH_PROBE_1_POSITIVE_EDGE, "Touch probe 1 positive edge", DataType::Integer32),
+        #[cfg(feature = "touch-probe")]
+        actual(TOUCH_PROBE_1_NEGATIVE_EDGE, "Touch probe 1 negative edge", DataType::Integer32),
+        #[cfg(feature = "touch-probe")]
+        actual(TOUCH_PROBE_2_POSITIVE_EDGE, "Touch probe 2 positive edge", DataType::Integer32),
+        #[cfg(feature = "touch-probe")]
+        actual(TOUCH_PROBE_2_NEGATIVE_EDGE, "Touch probe 2 negative edge", DataType::Integer32),
+        #[cfg(feature = "ip")]
+        super::ip::SUB_MODE_SELECT_OBJECT,
+        #[cfg(feature = "ip")]
+        super::ip::DATA_RECORD_OBJECT,
+        super::ip::TIME_PERIOD_OBJECT,
+        #[cfg(feature = "ip")]
+        super::ip::DATA_CONFIGURATION_OBJECT,
+        setting(MAX_ACCELERATION, "Max acceleration", DataType::Unsigned32, DefaultValue::Unsigned(100_000)),
+        setting(MAX_DECELERATION, "Max deceleration", DataType::Unsigned32, DefaultValue::Unsigned(100_000)),
+        #[cfg(feature = "touch-probe")]
+        actual(
+            TOUCH_PROBE_1_POSITIVE_EDGE_COUNTER,
+            "Touch probe 1 positive edge counter",
+            DataType::Unsigned16,
+        ),
+        #[cfg(feature = "touch-probe")]
+        actual(
+            TOUCH_PROBE_1_NEGATIVE_EDGE_COUNTER,
+            "Touch probe 1 negative edge counter",
+            DataType::Unsigned16,
+        ),
+        #[cfg(feature = "touch-probe")]
+        actual(
+            TOUCH_PROBE_2_POSITIVE_EDGE_COUNTER,
+            "Touch probe 2 positive edge counter",
+            DataType::Unsigned16,
+        ),
+        #[cfg(feature = "touch-probe")]
+        actual(
+            TOUCH_PROBE_2_NEGATIVE_EDGE_COUNTER,
+            "Touch probe 2 negative edge counter",
+            DataType::Unsigned16,
+        ),
+        #[cfg(feature = "hm")]
+        Object::array_with_sub0(
+            SUPPORTED_HOMING_METHODS,
+            "Supported homing methods",
+            super::hm::MAX_LISTED_METHODS,
+            Var::new("Highest sub-index supported", DataType::Unsigned8)
+                .access(Access::Const)
+                .default(DefaultValue::Device(DeviceField::HomingMethodCount)),
+            &Var::new("Supported homing method", DataType::Integer8)
+                .access(Access::Const)
+                .default(DefaultValue::Device(DeviceField::HomingMethods)),
+        ),
+        #[cfg(feature = "pp")]
+        parameter(
+            POSITIONING_OPTION_CODE,
+            "Positioning option code",
+            DataType::Unsigned16,
+            DefaultValue::Zero,
+        ),
+        actual(FOLLOWING_ERROR_ACTUAL_VALUE, "Following error actual value", DataType::Integer32),
+        parameter(MAX_SLIPPAGE, "Max slippage", DataType::Integer32, DefaultValue::Zero),
+        actual(CONTROL_EFFORT, "Control effort", DataType::Integer32),
+        actual(POSITION_DEMAND_INTERNAL_VALUE, "Position demand internal value", DataType::Integer32),
+        actual(DIGITAL_INPUTS, "Digital inputs", DataType::Unsigned32),
+        Object::record(DIGITAL_OUTPUTS, "Digital outputs", &DIGITAL_OUTPUT_SUBS),
+        command(TARGET_VELOCITY, "Target velocity", DataType::Integer32),
+        // Identification (digest §20.2): not assigned until the firmware or the master sets them.
+        parameter(MOTOR_TYPE, "Motor type", DataType::Unsigned16, DefaultValue::Unsigned(0x7FFF)),
+        text(0x6403, "Motor catalogue number"),
+        text(0x6404, "Motor manufacturer"),
+        text(0x6405, "http motor catalogue address"),
+        parameter(0x6406, "Motor calibration date", DataType::TimeOfDay, DefaultValue::Zero),
+        parameter(0x6407, "Motor service period", DataType::Unsigned32, DefaultValue::Zero),
+        Object::var(
+            SUPPORTED_DRIVE_MODES,
+            "Supported drive modes",
+            Var::new("Supported drive modes", DataType::Unsigned32)
+                .access(Access::Const)
+                .default(DefaultValue::Device(DeviceField::DriveModes)),
+        ),
+        text(0x6503, "Drive catalogue number"),
+        text(0x6505, "http drive catalogue address"),
+    ],
+));
 
-/// Value rules of the profile objects beyond type and limits (digest §6–§9): option codes the
-/// configuration does not support, modes 6502h does not list, profile types and positioning
-/// options this crate does not implement, and zeros in the factor group are refused.
-pub fn check_write<const B: usize>(
-    od: &Dictionary<B>,
+/// The value rule of a profile object beyond type and limits (digest §6–§9), decided from the
+/// index once: per SDO write, or once when a PDO mapping is validated (an RPDO's entries without
+/// a rule are then plain copies).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[repr(u8)]
+pub enum Rule {
+    /// 6007h: the option codes the configuration supports.
+    AbortConnectionOption = 1,
+    /// 605Ah.
+    QuickStopOption,
+    /// 605Bh.
+    ShutdownOption,
+    /// 605Ch.
+    DisableOperationOption,
+    /// 605Dh.
+    HaltOption,
+    /// 605Eh.
+    FaultReactionOption,
+    /// 6060h: 0, a mode 6502h lists and this build runs, or a manufacturer mode; with
+    /// `mode_change_in_operation` off, no other mode in Operation enabled.
+    Mode,
+    /// 6086h: the motion profile types of `motion::ProfileType`.
+    MotionProfileType,
+    /// 6088h: linear only.
+    TorqueProfileType,
+    /// 60A4h sub 0 … (jerk use): 1, 2 or 4.
+    JerkUse,
+    /// 6098h: the methods the configuration supports.
+    HomingMethod,
+    /// 60B8h.
+    TouchProbe,
+    /// 60F2h: relative options 00/01/10 only.
+    PositioningOption,
+    /// The vl factors and ramps: no zeros where a ratio or a slope needs them.
+    Velocity,
+    /// The factor group: no zero in a ratio, no reserved polarity bit.
+    Factor,
+    /// 60C0h, 60C2h: the ip sub-mode and the interpolation time period.
+    Interpolation,
+    /// 60C1h by SDO: refused while the ip buffer is disabled or full.
+    InterpolationRecord,
+    /// 60C1h as process data: taken; a full or disabled buffer drops it and reports it in the
+    /// statusword (bit 7), as the profile documents for RPDOs.
+    InterpolationRecordPdo,
+    /// 60C4h: the buffer configuration.
+    InterpolationConfiguration,
+    /// The cascade's parameter record (`ProfileConfig::cascade`).
+    Cascade,
+}
+
+impl Rule {
+    /// Every rule, by its `u8` value minus one ([`Rule::from_raw`]).
+    const ALL: [Rule; 20] = [
+        Rule::AbortConnectionOption,
+        Rule::QuickStopOption,
+        Rule::ShutdownOption,
+        Rule::DisableOperationOption,
+        Rule::HaltOption,
+        Rule::FaultReactionOption,
+        Rule::Mode,
+        Rule::MotionProfileType,
+        Rule::TorqueProfileType,
+        Rule::JerkUse,
+        Rule::HomingMethod,
+        Rule::TouchProbe,
+        Rule::PositioningOption,
+        Rule::Velocity,
+        Rule::Factor,
+        Rule::Interpolation,
+        Rule::InterpolationRecord,
+        Rule::InterpolationRecordPdo,
+        Rule::InterpolationConfiguration,
+        Rule::Cascade,
+    ];
+
+    /// The rule whose `u8` value is `raw` (a PDO mapping keeps its entries' rules as bytes).
+    pub fn from_raw(raw: u8) -> Option<Rule> {
+        Rule::ALL.get(usize::from(raw).checked_sub(1)?).copied()
+    }
+
+    /// Whether the profile reacts to a value written under this rule (the ip buffer takes it).
+    pub fn reacts(self) -> bool {
+        matches!(
+            self,
+            Rule::InterpolationRecord | Rule::InterpolationRecordPdo | Rule::InterpolationConfiguration
+        )
+    }
+}
+
+/// The rule of `index`/`sub` (an object of the profile's tables, or the cascade's record);
+/// `pdo`: as an RPDO writes it. `None`: type, access and limits are all there is to check.
+pub fn rule(config: &ProfileConfig, index: u16, sub: u8, pdo: bool) -> Option<Rule> {
+    use super::ip::{
+        INTERPOLATION_DATA_CONFIGURATION, INTERPOLATION_DATA_RECORD, INTERPOLATION_SUB_MODE_SELECT,
+    };
+    use super::vl::{
+        VL_DIMENSION_FACTOR, VL_SET_POINT_FACTOR, VL_VELOCITY_ACCELERATION, VL_VELOCITY_DECELERATION,
+        VL_VELOCITY_QUICK_STOP,
+    };
+    Some(match index {
+        ABORT_CONNECTION_OPTION_CODE => Rule::AbortConnectionOption,
+        QUICK_STOP_OPTION_CODE => Rule::QuickStopOption,
+        SHUTDOWN_OPTION_CODE => Rule::ShutdownOption,
+        DISABLE_OPERATION_OPTION_CODE => Rule::DisableOperationOption,
+        HALT_OPTION_CODE => Rule::HaltOption,
+        FAULT_REACTION_OPTION_CODE => Rule::FaultReactionOption,
+        MODES_OF_OPERATION => Rule::Mode,
+        MOTION_PROFILE_TYPE => Rule::MotionProfileType,
+        TORQUE_PROFILE_TYPE => Rule::TorqueProfileType,
+        PROFILE_JERK_USE => Rule::JerkUse,
+        HOMING_METHOD => Rule::HomingMethod,
+        TOUCH_PROBE_FUNCTION => Rule::TouchProbe,
+        POSITIONING_OPTION_CODE => Rule::PositioningOption,
+        VL_VELOCITY_ACCELERATION
+        | VL_VELOCITY_DECELERATION
+        | VL_VELOCITY_QUICK_STOP
+        | VL_SET_POINT_FACTOR
+        | VL_DIMENSION_FACTOR
+            if super::VL =>
+        {
+            Rule::Velocity
+        }
+        POSITION_ENCODER_RESOLUTION | VELOCITY_ENCODER_RESOLUTION | GEAR_RATIO | FEED_CONSTANT | POLARITY => {
+            Rule::Factor
+        }
+        INTERPOLATION_DATA_RECORD if sub == 0 => return None,
+        INTERPOLATION_DATA_RECORD if pdo => Rule::InterpolationRecordPdo,
+        INTERPOLATION_DATA_RECORD => Rule::InterpolationRecord,
+        INTERPOLATION_DATA_CONFIGURATION => Rule::InterpolationConfiguration,
+        INTERPOLATION_SUB_MODE_SELECT | INTERPOLATION_TIME_PERIOD => Rule::Interpolation,
+        index if config.cascade == Some(index) => Rule::Cascade,
+        _ => return None,
+    })
+}
+
+/// Checks `data` against the rules of the configuration (the option codes it supports, the modes
+/// 6502h lists, the homing methods, …): every [`Rule`] but those that also need the drive's
+/// state ([`Rule::Mode`] in Operation enabled, the ip buffer, the cascade), which the profile
+/// checks (`Profile::check`) and which pass here.
+/// `supported_modes` is 6502h.
+pub fn check(
+    rule: Rule,
     config: &ProfileConfig,
+    supported_modes: u32,
     index: u16,
     sub: u8,
     data: &[u8],
@@ -591,35 +765,53 @@ pub fn check_write<const B: usize>(
     let raw = data.iter().take(4).rev().fold(0u32, |acc, b| (acc << 8) | u32::from(*b));
     let value = raw as u16 as i16;
     let codes = &config.option_codes;
-    let valid = match index {
-        ABORT_CONNECTION_OPTION_CODE => OptionCodes::allows(codes.abort_connection, value),
-        QUICK_STOP_OPTION_CODE => OptionCodes::allows(codes.quick_stop, value),
-        SHUTDOWN_OPTION_CODE => OptionCodes::allows(codes.shutdown, value),
-        DISABLE_OPERATION_OPTION_CODE => OptionCodes::allows(codes.disable_operation, value),
-        HALT_OPTION_CODE => OptionCodes::allows(codes.halt, value),
-        FAULT_REACTION_OPTION_CODE => OptionCodes::allows(codes.fault_reaction, value),
-        MODES_OF_OPERATION => {
+    let valid = match rule {
+        Rule::AbortConnectionOption => OptionCodes::allows(codes.abort_connection, value),
+        Rule::QuickStopOption => OptionCodes::allows(codes.quick_stop, value),
+        Rule::ShutdownOption => OptionCodes::allows(codes.shutdown, value),
+        Rule::DisableOperationOption => OptionCodes::allows(codes.disable_operation, value),
+        Rule::HaltOption => OptionCodes::allows(codes.halt, value),
+        Rule::FaultReactionOption => OptionCodes::allows(codes.fault_reaction, value),
+        Rule::Mode => {
             let mode = raw as u8 as i8;
-            let supported = od.get::<u32>(SUPPORTED_DRIVE_MODES, 0).unwrap_or(0);
             mode == 0
-                || (1..=10).contains(&mode) && supported & IMPLEMENTED_MODES & (1 << (mode - 1)) != 0
+                || (1..=10).contains(&mode) && supported_modes & IMPLEMENTED_MODES & (1 << (mode - 1)) != 0
                 || config.manufacturer_mode(mode).is_some()
         }
         // Trapezoidal and jerk-limited profiles (motion::ProfileType).
-        MOTION_PROFILE_TYPE => crate::motion::ProfileType::from_raw(value).is_some(),
-        TORQUE_PROFILE_TYPE => value == 0,
-        PROFILE_JERK_USE => matches!(raw, 1 | 2 | 4),
-        HOMING_METHOD => config.homing.supports(raw as u8 as i8),
-        TOUCH_PROBE_FUNCTION => return super::probe::check_write(raw as u16),
+        Rule::MotionProfileType => crate::motion::ProfileType::from_raw(value).is_some(),
+        Rule::TorqueProfileType => value == 0,
+        Rule::JerkUse => matches!(raw, 1 | 2 | 4),
+        Rule::HomingMethod => config.homing.supports(raw as u8 as i8),
+        Rule::TouchProbe => return super::probe::check_write(raw as u16),
         // Relative option 00/01/10 only; change-immediately and request-response options are not
         // implemented (testable item 100).
-        POSITIONING_OPTION_CODE => raw & !0x0003 == 0 && raw & 0x0003 != 0x0003,
-        0x6042..=0x604C if super::VL => return super::vl::check_write(index, sub, data),
-        _ => return super::factor::check_write(index, sub, raw),
+        Rule::PositioningOption => raw & !0x0003 == 0 && raw & 0x0003 != 0x0003,
+        Rule::Velocity => return super::vl::check_write(index, sub, data),
+        Rule::Factor => return super::factor::check_write(index, sub, raw),
+        Rule::Interpolation
+        | Rule::InterpolationRecord
+        | Rule::InterpolationRecordPdo
+        | Rule::InterpolationConfiguration
+        | Rule::Cascade => true,
     };
     if valid {
         Ok(())
     } else {
         Err(AbortCode::InvalidValue)
     }
+}
+
+/// Value rules of the profile objects beyond type and limits that the configuration decides
+/// ([`rule`] and [`check`] of an SDO write, for values at rest).
+pub fn check_write<const B: usize>(
+    od: &Dictionary<B>,
+    config: &ProfileConfig,
+    index: u16,
+    sub: u8,
+    data: &[u8],
+) -> Result<(), AbortCode> {
+    let Some(rule) = rule(config, index, sub, false) else { return Ok(()) };
+    let supported_modes = od.get::<u32>(SUPPORTED_DRIVE_MODES, 0).unwrap_or(0);
+    check(rule, config, supported_modes, index, sub, data)
 }

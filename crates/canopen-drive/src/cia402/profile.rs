@@ -49,7 +49,7 @@ use crate::comm::emcy::ErrorRegister;
 use crate::comm::ConnectionEvent;
 use crate::control::{Actual, Cascade, Parameters, Reference};
 use crate::hal::{Demand, DigitalInputs, FeedForward, HardwareFaults, Sample, Setpoint};
-use crate::od::Dictionary;
+use crate::od::{AbortCode, Dictionary};
 use crate::time::{Duration, Instant};
 
 /// The longest time step a tick integrates (a stalled board must not cause a jump).
@@ -113,6 +113,8 @@ impl Ramp {
 #[derive(Clone, Debug)]
 pub struct Profile {
     config: ProfileConfig,
+    /// 6502h, a fact of the device ([`Profile::set_supported_modes`]).
+    supported_modes: u32,
     fsa: Fsa,
     /// The factor group, re-read after [`Profile::invalidate`].
     factors: Option<Factors>,
@@ -229,6 +231,7 @@ impl Profile {
         Profile {
             slots: Slots::UNRESOLVED,
             config,
+            supported_modes: 0,
             fsa: Fsa::default(),
             factors: None,
             cascade: None,
@@ -287,7 +290,13 @@ impl Profile {
 
     /// Back to power-on (reset application).
     pub fn reset(&mut self) {
-        *self = Profile::new(self.config);
+        *self = Profile { supported_modes: self.supported_modes, ..Profile::new(self.config) };
+    }
+
+    /// The modes 6502h lists (the device's, fixed once its dictionary is built): 6060h accepts
+    /// only these.
+    pub fn set_supported_modes(&mut self, modes: u32) {
+        self.supported_modes = modes;
     }
 
     /// Presets the position: from the next tick on 6064h reads `user` at the present position
@@ -476,6 +485,58 @@ impl Profile {
     /// The ip data-record buffer (for the SDO server's value rules).
     pub fn ip_buffer(&self) -> &IpBuffer {
         &self.ip
+    }
+
+    /// The value rule of the profile's object `index`/`sub` ([`Rule`]); `pdo`: as an RPDO
+    /// writes it.
+    pub fn rule(&self, index: u16, sub: u8, pdo: bool) -> Option<Rule> {
+        super::objects::rule(&self.config, index, sub, pdo)
+    }
+
+    /// Checks `data` as the new value of `index`/`sub` under `rule`: the configuration's rules
+    /// and those of the drive's state (a new mode in Operation enabled, the ip buffer, the
+    /// cascade's parameters at the tick rate).
+    pub fn check<const B: usize>(
+        &self,
+        rule: Rule,
+        od: &Dictionary<B>,
+        index: u16,
+        sub: u8,
+        data: &[u8],
+    ) -> Result<(), AbortCode> {
+        match rule {
+            // A device that changes modes only outside Operation enabled refuses a new mode there.
+            Rule::Mode
+                if !self.config.mode_change_in_operation
+                    && matches!(self.state(), State::OperationEnabled { .. })
+                    && od.get::<i8>(index, sub).ok() != data.first().map(|b| *b as i8) =>
+            {
+                Err(AbortCode::CannotStoreDeviceState)
+            }
+            Rule::Interpolation | Rule::InterpolationRecord | Rule::InterpolationConfiguration => {
+                super::ip::check_write(od, &self.ip, index, sub, data)
+            }
+            Rule::InterpolationRecordPdo => Ok(()),
+            Rule::Cascade => crate::control::check_write(od, index, sub, data, self.config.tick_rate.hz()),
+            rule => super::objects::check(rule, &self.config, self.supported_modes, index, sub, data),
+        }
+    }
+
+    /// `index`/`sub` was written under `rule` (SDO or RPDO): the ip buffer takes its records and
+    /// its configuration.
+    pub fn written<const B: usize>(&mut self, od: &mut Dictionary<B>, rule: Rule, index: u16, sub: u8) {
+        if rule.reacts() {
+            self.ip_written(od, index, sub);
+        }
+    }
+
+    /// An SDO download to `index` was stored: the parameters the tick derives are computed again;
+    /// returns whether it was a set-point that counts for the cyclic stream as an RPDO would
+    /// ([`CyclicConfig::sdo_set_points`](super::cyclic::CyclicConfig::sdo_set_points)).
+    pub fn sdo_written(&mut self, index: u16) -> bool {
+        self.invalidate();
+        self.config.cyclic.sdo_set_points
+            && matches!(index, TARGET_POSITION | TARGET_VELOCITY | TARGET_TORQUE)
     }
 
     /// A 60C1h/60C4h entry was written (SDO or RPDO): the ip buffer takes it.

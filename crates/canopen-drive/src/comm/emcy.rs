@@ -15,7 +15,47 @@
 use bitflags::bitflags;
 use heapless::{Deque, Vec};
 
+use crate::od::standard::COB_ID_EMCY;
+use crate::od::{le_u32, AbortCode, Dictionary};
 use crate::time::{Duration, Instant};
+use crate::wire::cob_id::{self, CobId};
+
+/// The value rules of the EMCY objects (digest §9, §10): 1014h holds an unrestricted CAN-ID
+/// without bit 30 that changes only while the EMCY is invalid (before or after the write).
+pub fn check_write<const B: usize>(od: &Dictionary<B>, index: u16, data: &[u8]) -> Result<(), AbortCode> {
+    if index != COB_ID_EMCY {
+        return Ok(());
+    }
+    let new = CobId::parse(le_u32(data)).map_err(|_| AbortCode::InvalidValue)?;
+    let old = od.get::<u32>(COB_ID_EMCY, 0).ok().and_then(|r| CobId::parse(r).ok());
+    if new.bit30 || cob_id::is_restricted(new.can_id) {
+        return Err(AbortCode::InvalidValue);
+    }
+    match old {
+        Some(old) if old.valid && new.valid && old.can_id != new.can_id => Err(AbortCode::InvalidValue),
+        _ => Ok(()),
+    }
+}
+
+/// The rule of the error history 1003h: only 0 may be written to the number of errors (it
+/// clears the history).
+pub fn check_history_write(data: &[u8]) -> Result<(), AbortCode> {
+    if le_u32(data) == 0 {
+        Ok(())
+    } else {
+        Err(AbortCode::InvalidValue)
+    }
+}
+
+/// The read rule of the error history 1003h: an entry beyond the number of errors holds no
+/// data (0x0800_0024).
+pub fn check_history_read<const B: usize>(od: &Dictionary<B>, index: u16, sub: u8) -> Result<(), AbortCode> {
+    if sub > od.get::<u8>(index, 0).unwrap_or(0) {
+        Err(AbortCode::NoDataAvailable)
+    } else {
+        Ok(())
+    }
+}
 
 bitflags! {
     /// Error register 1001h (digest §9.3).

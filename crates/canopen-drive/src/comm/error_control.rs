@@ -12,6 +12,8 @@
 //! a "remote reset" event; the entry then waits for the node's next heartbeat. Life guarding
 //! starts with the first guarding request and is active only while 1017h = 0.
 
+use crate::od::standard::{CONSUMER_HEARTBEAT_TIME, GUARD_TIME, HEARTBEAT_CONSUMERS, LIFE_TIME_FACTOR};
+use crate::od::{le_u32, AbortCode, Dictionary};
 use crate::time::{Duration, Instant};
 use crate::wire::nmt::NmtState;
 
@@ -56,6 +58,30 @@ pub fn parse_entry(raw: u32) -> Option<(u8, u16)> {
     let node = ((raw >> 16) & 0xFF) as u8;
     let time = (raw & 0xFFFF) as u16;
     (node != 0 && time != 0).then_some((node, time))
+}
+
+/// The rule of the heartbeat consumer 1016h (digest §4.2): two entries must not supervise the
+/// same node.
+pub fn check_consumer_write<const B: usize>(
+    od: &Dictionary<B>,
+    sub: u8,
+    data: &[u8],
+) -> Result<(), AbortCode> {
+    let Some((node, _)) = parse_entry(le_u32(data)) else { return Ok(()) };
+    let duplicate = (1..=HEARTBEAT_CONSUMERS).filter(|&s| s != sub).any(|s| {
+        od.get::<u32>(CONSUMER_HEARTBEAT_TIME, s).ok().and_then(parse_entry).is_some_and(|(n, _)| n == node)
+    });
+    if duplicate {
+        Err(AbortCode::ParameterIncompatible)
+    } else {
+        Ok(())
+    }
+}
+
+/// Whether guard time 100Ch and life time factor 100Dh both enable life guarding (a zero in
+/// either ends it).
+pub fn guarding_configured<const B: usize>(od: &Dictionary<B>) -> bool {
+    od.get::<u16>(GUARD_TIME, 0).unwrap_or(0) != 0 && od.get::<u8>(LIFE_TIME_FACTOR, 0).unwrap_or(0) != 0
 }
 
 /// The heartbeat consumer with `N` entries.
@@ -129,6 +155,11 @@ impl<const N: usize> HeartbeatConsumer<N> {
             }
         }
         None
+    }
+
+    /// The nodes whose heartbeats are supervised.
+    pub fn nodes(&self) -> impl Iterator<Item = u8> + '_ {
+        self.entries.iter().filter_map(|(raw, _)| parse_entry(*raw).map(|(node, _)| node))
     }
 
     /// True while any entry is timed out.
@@ -241,6 +272,15 @@ impl ErrorBehaviour {
             Some((_, behaviour)) => Some(*behaviour),
             None if value >= 0x80 => Some(ErrorBehaviour::Manufacturer(value)),
             None => None,
+        }
+    }
+
+    /// The rule of 1029h: a value `table` (the device's values) has, or a manufacturer-specific
+    /// one.
+    pub fn check_write(table: &[(u8, ErrorBehaviour)], data: &[u8]) -> Result<(), AbortCode> {
+        match ErrorBehaviour::lookup(table, le_u32(data) as u8) {
+            Some(_) => Ok(()),
+            None => Err(AbortCode::InvalidValue),
         }
     }
 

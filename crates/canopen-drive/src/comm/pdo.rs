@@ -32,7 +32,8 @@
 //!   disabled and reported with EMCY 0x8200.
 
 use crate::od::{
-    AbortCode, Access, DataType, DefaultValue, Dictionary, Entry, Object, ObjectHooks, PdoMapping, Span, Var,
+    AbortCode, Access, DataType, DefaultValue, Dictionary, Entry, Object, ObjectHooks, Owner, PdoMapping,
+    Span, Var,
 };
 use crate::time::{Duration, Instant};
 use crate::wire::cob_id::{self, CobId};
@@ -172,9 +173,11 @@ pub const fn objects<const N: usize>(rpdos: usize) -> [Object; N] {
             "RPDO communication parameter",
             &RPDO_COMMUNICATION_SUBS,
         )
-        .numbered(n);
-        out[rpdos + i] =
-            Object::record(RPDO_MAPPING + i as u16, "RPDO mapping parameter", &MAPPING_SUBS).numbered(n);
+        .numbered(n)
+        .owned_by(Owner::Pdo);
+        out[rpdos + i] = Object::record(RPDO_MAPPING + i as u16, "RPDO mapping parameter", &MAPPING_SUBS)
+            .numbered(n)
+            .owned_by(Owner::Pdo);
         i += 1;
     }
     let mut j = 0;
@@ -185,9 +188,12 @@ pub const fn objects<const N: usize>(rpdos: usize) -> [Object; N] {
             "TPDO communication parameter",
             &TPDO_COMMUNICATION_SUBS,
         )
-        .numbered(n);
+        .numbered(n)
+        .owned_by(Owner::Pdo);
         out[2 * rpdos + tpdos + j] =
-            Object::record(TPDO_MAPPING + j as u16, "TPDO mapping parameter", &MAPPING_SUBS).numbered(n);
+            Object::record(TPDO_MAPPING + j as u16, "TPDO mapping parameter", &MAPPING_SUBS)
+                .numbered(n)
+                .owned_by(Owner::Pdo);
         j += 1;
     }
     out
@@ -207,30 +213,48 @@ pub fn count(table: &[Object]) -> (usize, usize) {
 
 // --- Mapping ---------------------------------------------------------------------------
 
-/// One resolved mapping entry.
+/// One mapping entry, decided when the mapping was validated: where its value lives, and what a
+/// received value must pass besides its size (which the mapping already fixed).
 #[derive(Clone, Copy, Debug)]
 struct Slot {
-    /// The mapped entry; `None` for a dummy entry.
-    entry: Option<Entry>,
-    /// Where its value is stored (every mappable entry is a stored number).
-    span: Option<Span>,
+    /// The entry's description when a received value must be checked against its limits
+    /// (RPDOs; `None`: no limits beyond the type's range).
+    limits: Option<&'static Var>,
+    /// Index of the mapped entry (0 for a dummy entry).
+    index: u16,
+    /// Store offset of the value (every mappable entry is a stored number of up to 8 bytes).
+    offset: u16,
+    /// Sub-index of the mapped entry.
+    sub: u8,
+    /// Mapped length in bits.
     bits: u8,
+    /// Bytes of the stored value; 0 for a dummy entry.
+    len: u8,
+    /// The value rule of the entry's owner, as [`ValueRules::rule`] gave it (RPDOs; 0: none).
+    rule: u8,
 }
 
-/// A resolved mapping.
+impl Slot {
+    const DUMMY: Slot = Slot { limits: None, index: 0, offset: 0, sub: 0, bits: 0, len: 0, rule: 0 };
+
+    fn span(&self) -> Span {
+        Span::new(self.offset, self.len)
+    }
+}
+
+/// A validated mapping.
 #[derive(Clone, Copy, Debug)]
 struct Mapping {
     slots: [Slot; MAX_MAPPED as usize],
     count: u8,
     bits: u16,
+    /// Some received value has a limit or a rule to pass (RPDOs).
+    checked: bool,
 }
 
 impl Mapping {
-    const EMPTY: Mapping = Mapping {
-        slots: [Slot { entry: None, span: None, bits: 0 }; MAX_MAPPED as usize],
-        count: 0,
-        bits: 0,
-    };
+    const EMPTY: Mapping =
+        Mapping { slots: [Slot::DUMMY; MAX_MAPPED as usize], count: 0, bits: 0, checked: false };
 
     fn bytes(&self) -> usize {
         usize::from(self.bits).div_ceil(8)
@@ -242,8 +266,12 @@ impl Mapping {
 }
 
 /// Resolves one mapping entry value, with the abort code of digest §6.5 when it cannot be
-/// mapped.
-fn resolve<const B: usize>(od: &Dictionary<B>, raw: u32, direction: Direction) -> Result<Slot, AbortCode> {
+/// mapped; also the entry, for its rule.
+fn resolve<const B: usize>(
+    od: &Dictionary<B>,
+    raw: u32,
+    direction: Direction,
+) -> Result<(Slot, Option<Entry>), AbortCode> {
     let index = (raw >> 16) as u16;
     let sub = (raw >> 8) as u8;
     let bits = raw as u8;
@@ -259,7 +287,7 @@ fn resolve<const B: usize>(od: &Dictionary<B>, raw: u32, direction: Direction) -
             _ => 32,
         };
         return if sub == 0 && bits == size {
-            Ok(Slot { entry: None, span: None, bits })
+            Ok((Slot { bits, ..Slot::DUMMY }, None))
         } else {
             Err(AbortCode::ObjectNotMappable)
         };
@@ -272,14 +300,20 @@ fn resolve<const B: usize>(od: &Dictionary<B>, raw: u32, direction: Direction) -
     };
     let size_bits = var.data_type.fixed_size().map(|n| n * 8);
     let length_ok = size_bits == Some(usize::from(bits)) || (var.data_type == DataType::Boolean && bits == 1);
-    if !direction_ok || !length_ok || var.is_fixed() {
-        return Err(AbortCode::ObjectNotMappable);
-    }
-    Ok(Slot { span: od.span(&entry), entry: Some(entry), bits })
+    let span = od.span(&entry).filter(|_| direction_ok && length_ok);
+    let Some(span) = span else { return Err(AbortCode::ObjectNotMappable) };
+    let limits = (direction == Direction::Rpdo && Dictionary::<B>::has_limits(var)).then_some(var);
+    let slot = Slot { limits, index, offset: span.offset(), sub, bits, len: span.len() as u8, rule: 0 };
+    Ok((slot, Some(entry)))
 }
 
-/// Resolves the mapping record of `record` as stored in the dictionary.
-fn resolve_mapping<const B: usize>(od: &Dictionary<B>, record: PdoRecord) -> Result<Mapping, AbortCode> {
+/// Resolves the mapping record of `record` as stored in the dictionary, each RPDO entry with its
+/// rule from `rules`.
+fn resolve_mapping<const B: usize>(
+    od: &Dictionary<B>,
+    record: PdoRecord,
+    rules: &impl ValueRules<B>,
+) -> Result<Mapping, AbortCode> {
     let index = record.mapping_index();
     let count = od.get::<u8>(index, 0)?;
     if count > MAX_MAPPED {
@@ -287,8 +321,13 @@ fn resolve_mapping<const B: usize>(od: &Dictionary<B>, record: PdoRecord) -> Res
     }
     let mut mapping = Mapping { count, ..Mapping::EMPTY };
     for (sub, slot) in (1..=count).zip(mapping.slots.iter_mut()) {
-        *slot = resolve(od, od.get::<u32>(index, sub)?, record.direction)?;
+        let (resolved, entry) = resolve(od, od.get::<u32>(index, sub)?, record.direction)?;
+        *slot = resolved;
+        if let (Some(entry), Direction::Rpdo) = (entry, record.direction) {
+            slot.rule = rules.rule(&entry);
+        }
         mapping.bits += u16::from(slot.bits);
+        mapping.checked |= slot.limits.is_some() || slot.rule != 0;
     }
     if mapping.bits > 64 {
         return Err(AbortCode::PdoLengthExceeded);
@@ -320,15 +359,13 @@ pub fn check_write<const B: usize>(
             return Err(AbortCode::UnsupportedAccess);
         }
         if sub == 0 {
-            let mut probe = Mapping::EMPTY;
             let count = raw as u8;
             if count > MAX_MAPPED {
                 return Err(AbortCode::PdoLengthExceeded);
             }
             let mut bits = 0u16;
-            for (s, slot) in (1..=count).zip(probe.slots.iter_mut()) {
-                *slot = resolve(od, od.get::<u32>(index, s)?, record.direction)?;
-                bits += u16::from(slot.bits);
+            for s in 1..=count {
+                bits += u16::from(resolve(od, od.get::<u32>(index, s)?, record.direction)?.0.bits);
             }
             return if bits > 64 { Err(AbortCode::PdoLengthExceeded) } else { Ok(()) };
         }
@@ -353,7 +390,7 @@ pub fn check_write<const B: usize>(
             }
             if new.valid && !valid {
                 // Validating: the mapping must be usable and not empty.
-                let mapping = resolve_mapping(od, record).map_err(|_| AbortCode::InvalidValue)?;
+                let mapping = resolve_mapping(od, record, &NoRules).map_err(|_| AbortCode::InvalidValue)?;
                 if mapping.count == 0 {
                     return Err(AbortCode::InvalidValue);
                 }
@@ -378,6 +415,12 @@ pub fn check_write<const B: usize>(
 pub trait FrameSink {
     /// Queues a frame; false when it was dropped.
     fn send(&mut self, id: u16, data: &[u8]) -> bool;
+
+    /// Queues a frame of the first `len` bytes of `data` (a whole frame's buffer: no copy of a
+    /// variable length on the way).
+    fn send_array(&mut self, id: u16, data: [u8; 8], len: usize) -> bool {
+        self.send(id, data.get(..len).unwrap_or(&data))
+    }
 }
 
 /// Something the PDO layer asks the drive to report.
@@ -389,6 +432,16 @@ pub enum PdoEvent {
     Clear(u16),
     /// An RPDO timed out (EMCY 0x8250 and the communication-error reaction).
     RpdoTimeout(u16),
+    /// An RPDO stored a value whose rule asks for the owner's reaction
+    /// ([`ValueRules::REACTS`]).
+    Written {
+        /// Index of the entry.
+        index: u16,
+        /// Sub-index of the entry.
+        sub: u8,
+        /// The entry's rule.
+        rule: u8,
+    },
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -485,6 +538,9 @@ pub struct RpdoFrame<'a> {
 pub struct PdoSet<const R: usize, const T: usize> {
     rpdos: [Rpdo; R],
     tpdos: [Tpdo; T],
+    /// EMCY 8210h / 8220h raised by an RPDO and not cleared since (a correct frame clears them:
+    /// then, and only then, the clear is reported).
+    length_errors: (bool, bool),
     /// What an RPDO longer than its mapping does.
     pub long_rpdo: LongRpdo,
     /// The unit of the TPDO inhibit time (sub 3): 100 µs in CiA 301.
@@ -496,6 +552,7 @@ impl<const R: usize, const T: usize> Default for PdoSet<R, T> {
         PdoSet {
             rpdos: [Rpdo::OFF; R],
             tpdos: [Tpdo::OFF; T],
+            length_errors: (false, false),
             long_rpdo: LongRpdo::ApplyAndReport,
             inhibit_unit: INHIBIT_UNIT,
         }
@@ -505,24 +562,14 @@ impl<const R: usize, const T: usize> Default for PdoSet<R, T> {
 /// The unit of the inhibit times in CiA 301 (TPDO sub 3, 1015h): 100 µs.
 pub const INHIBIT_UNIT: Duration = Duration::from_micros(100);
 
-fn read_value<const B: usize>(od: &Dictionary<B>, slot: &Slot) -> u64 {
-    match (slot.span, &slot.entry) {
-        (Some(span), _) => od.load_span(span),
-        (None, Some(entry)) => {
-            let mut raw = [0u8; 8];
-            od.read(entry, 0, &mut raw);
-            u64::from_le_bytes(raw)
-        }
-        (None, None) => 0,
+/// `word` (a frame, little-endian: CiA 301 §7.2.2 bit order) with the low `bits` of `value` at
+/// bit `position`; bits beyond the 64 of a frame are dropped.
+#[inline]
+fn with_bits(word: u64, position: usize, bits: usize, value: u64) -> u64 {
+    match field_mask(position, bits) {
+        Some(mask) => (word & !mask) | ((value << position) & mask),
+        None => word,
     }
-}
-
-/// Writes the low `bits` of `value` at bit `position` of the frame (little-endian bit order,
-/// CiA 301 §7.2.2); bits beyond the 64 of a frame are dropped.
-fn put_bits(frame: &mut [u8; 8], position: usize, bits: usize, value: u64) {
-    let Some(mask) = field_mask(position, bits) else { return };
-    let word = u64::from_le_bytes(*frame);
-    *frame = ((word & !mask) | ((value << position) & mask)).to_le_bytes();
 }
 
 /// The `bits` bits at bit `position` of the frame.
@@ -545,9 +592,16 @@ fn sample<const B: usize>(od: &Dictionary<B>, mapping: &Mapping) -> [u8; 8] {
     let mut frame = [0u8; 8];
     let mut position = 0;
     for slot in mapping.slots() {
-        let value = read_value(od, slot);
-        put_bits(&mut frame, position, usize::from(slot.bits), value);
-        position += usize::from(slot.bits);
+        let bits = usize::from(slot.bits);
+        match (position % 8, bits % 8, frame.get_mut(position / 8..)) {
+            // Whole bytes: copied as stored (little-endian, as on the bus).
+            (0, 0, Some(field)) => od.copy_span(slot.span(), field),
+            _ => {
+                frame = with_bits(u64::from_le_bytes(frame), position, bits, od.load_span(slot.span()))
+                    .to_le_bytes()
+            }
+        }
+        position += bits;
     }
     frame
 }
@@ -555,27 +609,36 @@ fn sample<const B: usize>(od: &Dictionary<B>, mapping: &Mapping) -> [u8; 8] {
 impl<const R: usize, const T: usize> PdoSet<R, T> {
     /// Reloads the configuration of every PDO from the dictionary; returns the EMCY to raise
     /// when a valid PDO's mapping cannot be resolved (0x8200).
-    pub fn configure_all<const B: usize>(&mut self, od: &Dictionary<B>) -> Option<PdoEvent> {
+    pub fn configure_all<const B: usize>(
+        &mut self,
+        od: &Dictionary<B>,
+        rules: &impl ValueRules<B>,
+    ) -> Option<PdoEvent> {
         let mut event = None;
         for number in 0..R {
             let record = PdoRecord { direction: Direction::Rpdo, communication: true, number };
-            event = self.configure(od, record).or(event);
+            event = self.configure(od, record, rules).or(event);
         }
         for number in 0..T {
             let record = PdoRecord { direction: Direction::Tpdo, communication: true, number };
-            event = self.configure(od, record).or(event);
+            event = self.configure(od, record, rules).or(event);
         }
         event
     }
 
     /// Reloads one PDO after a write to one of its records.
-    pub fn configure<const B: usize>(&mut self, od: &Dictionary<B>, record: PdoRecord) -> Option<PdoEvent> {
+    pub fn configure<const B: usize>(
+        &mut self,
+        od: &Dictionary<B>,
+        record: PdoRecord,
+        rules: &impl ValueRules<B>,
+    ) -> Option<PdoEvent> {
         let cob = cob_id_of(od, record);
         let communication = record.communication_index();
         let transmission = od.get::<u8>(communication, 2).unwrap_or(255);
         let event_timer = Duration::from_millis(u64::from(od.get::<u16>(communication, 5).unwrap_or(0)));
         let (mapping, broken) = match cob {
-            Some(c) if c.valid => match resolve_mapping(od, record) {
+            Some(c) if c.valid => match resolve_mapping(od, record, rules) {
                 Ok(m) => (Some(m), false),
                 Err(_) => (None, true),
             },
@@ -633,6 +696,13 @@ impl<const R: usize, const T: usize> PdoSet<R, T> {
         }
     }
 
+    /// The identifiers the PDOs receive: those of the valid RPDOs, and of the TPDOs that answer
+    /// remote frames.
+    pub fn received_ids(&self) -> impl Iterator<Item = u16> + '_ {
+        let rpdos = self.rpdos.iter().filter_map(|r| r.can_id);
+        rpdos.chain(self.tpdos.iter().filter(|t| t.rtr).filter_map(|t| t.can_id))
+    }
+
     /// Whether a frame with `can_id` is one of the valid RPDOs (a frame for another node
     /// is turned away with this check alone).
     pub fn is_rpdo(&self, can_id: u16) -> bool {
@@ -656,17 +726,22 @@ impl<const R: usize, const T: usize> PdoSet<R, T> {
             return false;
         };
         let needed = rpdo.mapping.bytes();
+        let (short, long) = &mut self.length_errors;
         if data.len() < needed {
+            *short = true;
             events(PdoEvent::Raise(crate::comm::emcy::code::PDO_LENGTH));
             return true;
         }
-        events(PdoEvent::Clear(crate::comm::emcy::code::PDO_LENGTH));
+        if core::mem::take(short) {
+            events(PdoEvent::Clear(crate::comm::emcy::code::PDO_LENGTH));
+        }
         if data.len() > needed && policy != LongRpdo::Apply {
+            *long = true;
             events(PdoEvent::Raise(crate::comm::emcy::code::PDO_LENGTH_EXCEEDED));
             if policy == LongRpdo::DiscardAndReport {
                 return true;
             }
-        } else {
+        } else if core::mem::take(long) {
             events(PdoEvent::Clear(crate::comm::emcy::code::PDO_LENGTH_EXCEEDED));
         }
         if rpdo.timeout != Duration::ZERO {
@@ -686,7 +761,7 @@ impl<const R: usize, const T: usize> PdoSet<R, T> {
                 rpdo.latched = Some(frame);
             }
         } else {
-            apply(od, hooks, rules, &rpdo.mapping, &frame);
+            apply(od, hooks, rules, &rpdo.mapping, &frame, events);
         }
         true
     }
@@ -742,10 +817,11 @@ impl<const R: usize, const T: usize> PdoSet<R, T> {
         od: &mut Dictionary<B>,
         hooks: &mut impl ObjectHooks,
         rules: &impl ValueRules<B>,
+        events: &mut impl FnMut(PdoEvent),
     ) {
         for rpdo in self.rpdos.iter_mut() {
             if let Some(frame) = rpdo.ready.take() {
-                apply(od, hooks, rules, &rpdo.mapping, &frame);
+                apply(od, hooks, rules, &rpdo.mapping, &frame, events);
             }
         }
     }
@@ -850,59 +926,84 @@ impl<const R: usize, const T: usize> PdoSet<R, T> {
 }
 
 fn send(tx: &mut impl FrameSink, can_id: u16, data: &[u8; 8], mapping: &Mapping) -> bool {
-    tx.send(can_id, data.get(..mapping.bytes()).unwrap_or(&[]))
+    tx.send_array(can_id, *data, mapping.bytes())
 }
 
 /// The value rules beyond type and limits that the drive applies to writes from the bus (the
 /// modes 6502h lists, supported option codes, …): an RPDO must not store a value that an SDO
-/// download of the same entry would be refused. Any `Fn(&Dictionary, &Entry, &[u8])` is one.
+/// download of the same entry would be refused. The rule of an entry is decided once, when its
+/// mapping is validated ([`rule`](Self::rule)); a received value then passes only the check of
+/// its rule ([`check`](Self::check)), and an entry without a rule is a plain copy.
 pub trait ValueRules<const B: usize> {
-    /// Checks `data` (size and limits already checked) as the new value of `entry`.
-    fn check(&self, od: &Dictionary<B>, entry: &Entry, data: &[u8]) -> Result<(), AbortCode>;
+    /// Bit of a rule: the owner reacts to a stored value ([`PdoEvent::Written`]).
+    const REACTS: u8 = 0x80;
+
+    /// The rule of `entry` as an RPDO writes it: 0 for none, else a value of the implementor's
+    /// own numbering, with [`REACTS`](Self::REACTS) set when the owner reacts to the value.
+    fn rule(&self, entry: &Entry) -> u8;
+
+    /// Checks `data` (size and limits already checked) as the new value of `index`/`sub`
+    /// under `rule`.
+    fn check(&self, od: &Dictionary<B>, rule: u8, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode>;
 }
 
-impl<const B: usize, F: Fn(&Dictionary<B>, &Entry, &[u8]) -> Result<(), AbortCode>> ValueRules<B> for F {
-    fn check(&self, od: &Dictionary<B>, entry: &Entry, data: &[u8]) -> Result<(), AbortCode> {
-        self(od, entry, data)
+/// No rules beyond type and limits.
+pub struct NoRules;
+
+impl<const B: usize> ValueRules<B> for NoRules {
+    fn rule(&self, _entry: &Entry) -> u8 {
+        0
+    }
+
+    fn check(&self, _: &Dictionary<B>, _: u8, _: u16, _: u8, _: &[u8]) -> Result<(), AbortCode> {
+        Ok(())
     }
 }
 
 /// Writes an RPDO's values into the dictionary: all or nothing (limits, value rules and hooks
-/// checked first).
-fn apply<const B: usize>(
+/// checked first, when the mapping or the hooks have any).
+fn apply<const B: usize, V: ValueRules<B>, H: ObjectHooks>(
     od: &mut Dictionary<B>,
-    hooks: &mut impl ObjectHooks,
-    rules: &impl ValueRules<B>,
+    hooks: &mut H,
+    rules: &V,
     mapping: &Mapping,
     frame: &[u8; 8],
+    events: &mut impl FnMut(PdoEvent),
 ) {
-    let mut values = [(0u64, 0usize); MAX_MAPPED as usize];
-    let mut position = 0;
-    for (slot, value) in mapping.slots().iter().zip(values.iter_mut()) {
-        let bits = usize::from(slot.bits);
-        *value = (get_bits(frame, position, bits), position);
-        position += bits;
-        let Some(entry) = slot.entry else { continue };
-        let size = entry.var.data_type.fixed_size().unwrap_or(0);
-        let bytes = value.0.to_le_bytes();
-        let data = bytes.get(..size).unwrap_or(&[]);
-        if od.check_write(&entry, data).is_err()
-            || rules.check(od, &entry, data).is_err()
-            || hooks.validate(entry.index(), entry.sub, data).is_err()
-        {
-            return;
+    if mapping.checked || H::VALIDATES {
+        let mut position = 0;
+        for slot in mapping.slots() {
+            let bytes = get_bits(frame, position, usize::from(slot.bits)).to_le_bytes();
+            position += usize::from(slot.bits);
+            let data = bytes.get(..usize::from(slot.len)).unwrap_or(&[]);
+            if data.is_empty() {
+                continue;
+            }
+            let limits_ok = slot.limits.is_none_or(|var| Dictionary::<B>::check_limits(var, data).is_ok());
+            if !limits_ok
+                || (slot.rule != 0 && rules.check(od, slot.rule, slot.index, slot.sub, data).is_err())
+                || hooks.validate(slot.index, slot.sub, data).is_err()
+            {
+                return;
+            }
         }
     }
-    for (slot, (value, _)) in mapping.slots().iter().zip(values) {
-        let Some(entry) = slot.entry else { continue };
-        let size = entry.var.data_type.fixed_size().unwrap_or(0);
-        let bytes = value.to_le_bytes();
-        let data = bytes.get(..size).unwrap_or(&[]);
-        match slot.span {
-            Some(span) => od.store_span(span, value),
-            None => od.commit(&entry, data),
+    let mut position = 0;
+    for slot in mapping.slots() {
+        let bits = usize::from(slot.bits);
+        match (position % 8, bits % 8, frame.get(position / 8..)) {
+            // Whole bytes: stored as received (little-endian, as in the store).
+            (0, 0, Some(field)) => od.fill_span(slot.span(), field),
+            _ => od.store_span(slot.span(), get_bits(frame, position, bits)),
         }
-        hooks.written(entry.index(), entry.sub, data);
+        if H::NOTIFIES && slot.len != 0 {
+            let bytes = get_bits(frame, position, bits).to_le_bytes();
+            hooks.written(slot.index, slot.sub, bytes.get(..usize::from(slot.len)).unwrap_or(&[]));
+        }
+        position += bits;
+        if slot.rule & V::REACTS != 0 {
+            events(PdoEvent::Written { index: slot.index, sub: slot.sub, rule: slot.rule });
+        }
     }
 }
 
@@ -932,7 +1033,7 @@ mod tests {
                     }
                 }
                 let mut frame = background;
-                put_bits(&mut frame, position, bits, value);
+                frame = with_bits(u64::from_le_bytes(frame), position, bits, value).to_le_bytes();
                 assert_eq!(frame, expected, "put {bits} bits at {position}");
                 let kept = bits.min(64usize.saturating_sub(position));
                 let want = if kept == 0 { 0 } else { value & (u64::MAX >> (64 - kept)) };
@@ -944,9 +1045,9 @@ mod tests {
     #[test]
     fn bit_packing_round_trips() {
         let mut frame = [0u8; 8];
-        put_bits(&mut frame, 0, 16, 0x1234);
-        put_bits(&mut frame, 16, 1, 1);
-        put_bits(&mut frame, 17, 32, 0xDEAD_BEEF);
+        frame = with_bits(u64::from_le_bytes(frame), 0, 16, 0x1234).to_le_bytes();
+        frame = with_bits(u64::from_le_bytes(frame), 16, 1, 1).to_le_bytes();
+        frame = with_bits(u64::from_le_bytes(frame), 17, 32, 0xDEAD_BEEF).to_le_bytes();
         assert_eq!(get_bits(&frame, 0, 16), 0x1234);
         assert_eq!(get_bits(&frame, 16, 1), 1);
         assert_eq!(get_bits(&frame, 17, 32), 0xDEAD_BEEF);

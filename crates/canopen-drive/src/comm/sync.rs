@@ -11,7 +11,82 @@
 //! CiA 301), cleared by the next SYNC. A SYNC of the wrong length raises EMCY 0x8240 and is not
 //! processed.
 
+use crate::od::standard::{COB_ID_SYNC, COMMUNICATION_CYCLE_PERIOD, SYNCHRONOUS_COUNTER_OVERFLOW};
+use crate::od::{le_u32, AbortCode, Dictionary, Slot};
 use crate::time::{Duration, Instant};
+use crate::wire::cob_id::{self, CobId};
+
+/// The value rules of the SYNC objects (digest §7, §10): 1005h holds a valid, unrestricted
+/// CAN-ID that does not change while this device produces SYNC; 1019h is 0 or 2..=240 and
+/// changes only while 1006h is 0.
+pub fn check_write<const B: usize>(od: &Dictionary<B>, index: u16, data: &[u8]) -> Result<(), AbortCode> {
+    let raw = le_u32(data);
+    match index {
+        COB_ID_SYNC => {
+            let new = CobId::parse(raw).map_err(|_| AbortCode::InvalidValue)?;
+            if raw & cob_id::INVALID != 0 || cob_id::is_restricted(new.can_id) {
+                return Err(AbortCode::InvalidValue);
+            }
+            let old = od.get::<u32>(COB_ID_SYNC, 0).unwrap_or(0x80);
+            // The CAN-ID must not change while this device produces SYNC.
+            if old & cob_id::BIT30 != 0 && (old & 0x7FF) as u16 != new.can_id {
+                return Err(AbortCode::InvalidValue);
+            }
+            Ok(())
+        }
+        SYNCHRONOUS_COUNTER_OVERFLOW => {
+            if od.get::<u32>(COMMUNICATION_CYCLE_PERIOD, 0).unwrap_or(0) != 0 {
+                Err(AbortCode::CannotStoreDeviceState)
+            } else if raw == 1 || raw > 240 {
+                Err(AbortCode::InvalidValue)
+            } else {
+                Ok(())
+            }
+        }
+        _ => Ok(()),
+    }
+}
+
+/// The SYNC entries read on every frame or poll, resolved once ([`Dictionary::slot`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SyncSlots {
+    cob_id: Slot<u32>,
+    period: Slot<u32>,
+    overflow: Slot<u8>,
+}
+
+impl SyncSlots {
+    /// Slots that look their entries up (before the dictionary has its tables).
+    pub const LOOKUP: SyncSlots = SyncSlots {
+        cob_id: Slot::lookup(COB_ID_SYNC, 0),
+        period: Slot::lookup(COMMUNICATION_CYCLE_PERIOD, 0),
+        overflow: Slot::lookup(SYNCHRONOUS_COUNTER_OVERFLOW, 0),
+    };
+
+    /// The slots of `od`.
+    pub fn resolve<const B: usize>(od: &Dictionary<B>) -> Self {
+        SyncSlots {
+            cob_id: od.slot(COB_ID_SYNC, 0),
+            period: od.slot(COMMUNICATION_CYCLE_PERIOD, 0),
+            overflow: od.slot(SYNCHRONOUS_COUNTER_OVERFLOW, 0),
+        }
+    }
+
+    /// The SYNC CAN-ID (1005h bits 10..0).
+    #[inline]
+    pub fn can_id<const B: usize>(&self, od: &Dictionary<B>) -> u16 {
+        (od.load_or(self.cob_id, 0x80) & 0x7FF) as u16
+    }
+
+    /// The configuration 1005h/1006h/1019h hold.
+    pub fn config<const B: usize>(&self, od: &Dictionary<B>) -> SyncConfig {
+        SyncConfig {
+            producer: od.load_or(self.cob_id, 0x80) & cob_id::BIT30 != 0,
+            period_us: od.load(self.period),
+            overflow: od.load(self.overflow),
+        }
+    }
+}
 
 /// A SYNC the node processes (received, or produced by itself).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -339,7 +339,8 @@ pub const fn object(index: u16) -> Object {
 
 /// The parameter record at `index` with sub-indices built by [`record_subs`].
 pub const fn object_with(index: u16, subs: &'static [(u8, Var); 6]) -> Object {
-    Object::record(index, OBJECT_NAME, subs)
+    // The drive profile checks its values (`check_write`) for the index its configuration names.
+    Object::record(index, OBJECT_NAME, subs).owned_by(crate::od::Owner::Profile)
 }
 
 #[cfg(test)]

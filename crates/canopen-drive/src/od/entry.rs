@@ -385,6 +385,40 @@ pub enum Kind {
     Record(&'static [(u8, Var)]),
 }
 
+/// The module of the crate that rules an object's values beyond type and limits and reacts to
+/// its writes (the role of CANopenNode's OD extensions). The dictionary only carries the tag:
+/// the composer ([`crate::Drive`]) hands a write from the bus to the owner's own check, and the
+/// value, once stored, to the owner's reaction. An object without an owner is a plain value
+/// (the firmware's [`ObjectHooks`](super::ObjectHooks) still see it).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[repr(u8)]
+pub enum Owner {
+    /// No rule beyond type, access and limits.
+    #[default]
+    Dictionary,
+    /// The EMCY producer (`comm::emcy`): 1014h, 1015h.
+    Emcy,
+    /// The error history (`comm::emcy`): 1003h.
+    ErrorHistory,
+    /// The error behaviour (`comm::emcy`): 1029h.
+    ErrorBehaviour,
+    /// SYNC (`comm::sync`): 1005h, 1006h, 1019h.
+    Sync,
+    /// The heartbeat producer (`comm::heartbeat`): 1017h.
+    HeartbeatProducer,
+    /// The heartbeat consumer (`comm::heartbeat`): 1016h.
+    HeartbeatConsumer,
+    /// Node guarding (`comm::error_control`): 100Ch, 100Dh.
+    Guarding,
+    /// The PDO records (`comm::pdo`): 1400h–1BFFh.
+    Pdo,
+    /// Store and restore on command (`storage`): 1010h, 1011h.
+    Storage,
+    /// The CiA 402 drive profile (`cia402`): its objects and the cascade's.
+    Profile,
+}
+
 /// One object (one index) of the dictionary.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -400,12 +434,14 @@ pub struct Object {
     /// Instance number appended to the name in the EDS (e.g. "RPDO communication parameter 3");
     /// 0 = none.
     pub number: u16,
+    /// The module that rules the object's values and reacts to its writes.
+    pub owner: Owner,
 }
 
 impl Object {
     /// A VAR object.
     pub const fn var(index: u16, name: &'static str, var: Var) -> Self {
-        Object { index, name: kept(name), kind: Kind::Var(var), base: 0, number: 0 }
+        Object { index, name: kept(name), kind: Kind::Var(var), base: 0, number: 0, owner: Owner::Dictionary }
     }
     /// An ARRAY object with a read-only sub 0 holding `len`.
     /// In a `static` or `const` table `&Var::new(..)` is a `'static` reference.
@@ -413,7 +449,14 @@ impl Object {
         let sub0 = Var::new("Highest sub-index supported", DataType::Unsigned8)
             .access(Access::Const)
             .default(DefaultValue::Unsigned(len as u64));
-        Object { index, name: kept(name), kind: Kind::Array { sub0, element, len }, base: 0, number: 0 }
+        Object {
+            index,
+            name: kept(name),
+            kind: Kind::Array { sub0, element, len },
+            base: 0,
+            number: 0,
+            owner: Owner::Dictionary,
+        }
     }
     /// An ARRAY object with a custom sub 0 (e.g. a writable count).
     pub const fn array_with_sub0(
@@ -423,11 +466,31 @@ impl Object {
         sub0: Var,
         element: &'static Var,
     ) -> Self {
-        Object { index, name: kept(name), kind: Kind::Array { sub0, element, len }, base: 0, number: 0 }
+        Object {
+            index,
+            name: kept(name),
+            kind: Kind::Array { sub0, element, len },
+            base: 0,
+            number: 0,
+            owner: Owner::Dictionary,
+        }
     }
     /// A RECORD object; `subs` sorted by sub-index, sub 0 included.
     pub const fn record(index: u16, name: &'static str, subs: &'static [(u8, Var)]) -> Self {
-        Object { index, name: kept(name), kind: Kind::Record(subs), base: 0, number: 0 }
+        Object {
+            index,
+            name: kept(name),
+            kind: Kind::Record(subs),
+            base: 0,
+            number: 0,
+            owner: Owner::Dictionary,
+        }
+    }
+
+    /// The same object, ruled by `owner`.
+    pub const fn owned_by(mut self, owner: Owner) -> Self {
+        self.owner = owner;
+        self
     }
 
     /// The same object with an instance number for its EDS name.
@@ -489,6 +552,18 @@ impl Object {
             Kind::Record(subs) => subs.last().map_or(0, |(s, _)| *s),
         }
     }
+}
+
+/// Every object of `objects` ruled by `owner` (a module's whole table).
+// The loop index is bounded by `N`; `get_mut` is not usable in a const fn.
+#[allow(clippy::indexing_slicing)]
+pub const fn owned<const N: usize>(owner: Owner, mut objects: [Object; N]) -> [Object; N] {
+    let mut i = 0;
+    while i < N {
+        objects[i].owner = owner;
+        i += 1;
+    }
+    objects
 }
 
 /// Lays a table out: gives each object its storage offset inside the table's region.

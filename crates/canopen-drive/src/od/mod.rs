@@ -21,7 +21,8 @@ pub mod standard;
 
 pub use crate::wire::AbortCode;
 pub use entry::{
-    layout, Access, Bound, DataType, DefaultValue, DeviceField, Kind, Object, PdoMapping, Var, WriteRule,
+    layout, owned, Access, Bound, DataType, DefaultValue, DeviceField, Kind, Object, Owner, PdoMapping, Var,
+    WriteRule,
 };
 pub use overrides::EntryOverride;
 
@@ -97,6 +98,13 @@ pub struct DefaultOverride {
 /// of any other entry). Every method has a default that does nothing, so a firmware implements
 /// only what it needs. Hooks run inside [`crate::Drive::on_frame`]: keep them short.
 pub trait ObjectHooks {
+    /// Whether [`validate`](Self::validate) may refuse a value (`false` lets the process data
+    /// path skip the check pass for mappings without rules).
+    const VALIDATES: bool = true;
+
+    /// Whether [`written`](Self::written) does anything.
+    const NOTIFIES: bool = true;
+
     /// Length of a value the hook serves itself, or `None` to read the dictionary's store.
     /// An `Err` refuses the upload with that code.
     fn read_len(&mut self, index: u16, sub: u8) -> Option<Result<usize, AbortCode>> {
@@ -131,7 +139,10 @@ pub trait ObjectHooks {
 }
 
 /// No hooks: every value lives in the dictionary.
-impl ObjectHooks for () {}
+impl ObjectHooks for () {
+    const VALIDATES: bool = false;
+    const NOTIFIES: bool = false;
+}
 
 /// Why a set of tables cannot form a dictionary.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -196,6 +207,12 @@ impl Entry {
     pub fn index(&self) -> u16 {
         self.object.index
     }
+}
+
+/// Up to four little-endian bytes of a value as a number (missing bytes read as 0): what the
+/// services' write rules compare.
+pub fn le_u32(data: &[u8]) -> u32 {
+    data.iter().take(4).rev().fold(0, |acc, b| (acc << 8) | u32::from(*b))
 }
 
 /// A value type the device reads and writes with [`Dictionary::get`] / [`Dictionary::set`].
@@ -312,6 +329,28 @@ impl IntSlot {
 pub struct Span {
     offset: u16,
     len: u8,
+}
+
+impl Span {
+    /// The span of `len` bytes at store offset `offset` (one that [`Dictionary::span`] gave).
+    pub(crate) const fn new(offset: u16, len: u8) -> Self {
+        Span { offset, len }
+    }
+
+    /// Store offset of the value.
+    pub fn offset(&self) -> u16 {
+        self.offset
+    }
+
+    /// Bytes of the value.
+    pub fn len(&self) -> usize {
+        usize::from(self.len)
+    }
+
+    /// Whether the span holds no value (a PDO's dummy entry).
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
 }
 
 /// A set of homing methods (6098h values) as 60E3h lists them: ascending, the negative
@@ -703,6 +742,21 @@ impl<const BYTES: usize> Dictionary<BYTES> {
         }
     }
 
+    /// Copies the value at `span` to the start of `out` (as many bytes as both have).
+    #[inline]
+    pub fn copy_span(&self, span: Span, out: &mut [u8]) {
+        let start = usize::from(span.offset);
+        copy_small(out, self.store.get(start..).unwrap_or(&[]), span.len);
+    }
+
+    /// Stores the first bytes of `data` (little-endian, as on the bus) as the value at `span`
+    /// (after the checks a bus write needs).
+    #[inline]
+    pub fn fill_span(&mut self, span: Span, data: &[u8]) {
+        let start = usize::from(span.offset);
+        copy_small(self.store.get_mut(start..).unwrap_or(&mut []), data, span.len);
+    }
+
     /// Stores the low bytes of `value` at `span` (after the checks a bus write needs).
     #[inline]
     pub fn store_span(&mut self, span: Span, value: u64) {
@@ -729,6 +783,20 @@ impl<const BYTES: usize> Dictionary<BYTES> {
             None if data.len() > usize::from(var.capacity) => return Err(AbortCode::LengthTooHigh),
             None => return Ok(()),
         }
+        check_limits(var, data)
+    }
+
+    /// Whether a value written to an entry described by `var` must be checked against limits
+    /// beyond its type's range (its bounds, BOOLEAN's 0/1, a REAL's NaN).
+    pub fn has_limits(var: &Var) -> bool {
+        var.low != Bound::None
+            || var.high != Bound::None
+            || matches!(var.data_type, DataType::Boolean | DataType::Real32 | DataType::Real64)
+    }
+
+    /// Checks a numeric value of the entry's size against the limits of `var`
+    /// ([`has_limits`](Self::has_limits)).
+    pub fn check_limits(var: &Var, data: &[u8]) -> Result<(), AbortCode> {
         check_limits(var, data)
     }
 
@@ -954,6 +1022,34 @@ fn check_object(object: &Object) -> Result<(), ConfigError> {
         }
     }
     Ok(())
+}
+
+/// Copies the first `n` bytes of `src` to `dst` (fewer when either is shorter): fixed-size
+/// moves for 1, 2 and 4 bytes, where a copy of variable length would call `memcpy`.
+#[inline]
+fn copy_small(dst: &mut [u8], src: &[u8], n: u8) {
+    match n {
+        1 => {
+            if let (Some(d), Some(s)) = (dst.first_mut(), src.first()) {
+                *d = *s;
+            }
+        }
+        2 => {
+            if let (Some(d), Some(s)) = (dst.first_chunk_mut::<2>(), src.first_chunk::<2>()) {
+                *d = *s;
+            }
+        }
+        4 => {
+            if let (Some(d), Some(s)) = (dst.first_chunk_mut::<4>(), src.first_chunk::<4>()) {
+                *d = *s;
+            }
+        }
+        n => {
+            for (d, s) in dst.iter_mut().zip(src).take(usize::from(n)) {
+                *d = *s;
+            }
+        }
+    }
 }
 
 /// The two's-complement number in the low `bytes` (1–8) bytes of `raw`, sign-extended.
