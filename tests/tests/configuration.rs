@@ -1266,3 +1266,73 @@ fn a_firmware_may_let_mappings_change_while_the_pdo_is_valid() {
     bench.drive().set_remap_while_valid(false);
     assert_eq!(bench.sdo1(&req(0x2F, 0x1A00, 0, [0; 4])), abort(0x1A00, 0, 0x0601_0000));
 }
+
+/// The rules of a standard object belong to the service that implements it, not to the table
+/// that describes it: a firmware that brings its own PDO records (other defaults, other names)
+/// and its own profile object still gets every CiA 301 / CiA 402 refusal.
+#[test]
+fn a_firmwares_own_descriptions_of_standard_objects_keep_their_rules() {
+    const RW32: Var = Var::new("COB-ID", DataType::Unsigned32).access(Access::ReadWrite);
+    const TYPE: Var = Var::new("Transmission type", DataType::Unsigned8).access(Access::ReadWrite);
+    const RPDO_SUBS: [(u8, Var); 3] = [
+        (
+            0,
+            Var::new("Highest sub-index supported", DataType::Unsigned8)
+                .access(Access::Const)
+                .default(DefaultValue::Unsigned(2)),
+        ),
+        (1, RW32.default(DefaultValue::NodeIdPlus(0x8000_0200))),
+        (2, TYPE.default(DefaultValue::Unsigned(255))),
+    ];
+    const TPDO_SUBS: [(u8, Var); 3] = [
+        (
+            0,
+            Var::new("Highest sub-index supported", DataType::Unsigned8)
+                .access(Access::Const)
+                .default(DefaultValue::Unsigned(2)),
+        ),
+        (1, RW32.default(DefaultValue::NodeIdPlus(0xC000_0180))),
+        (2, TYPE.default(DefaultValue::Unsigned(255))),
+    ];
+    const MAPPING: Var = Var::new("Mapping entry", DataType::Unsigned32).access(Access::ReadWrite);
+    const MAPPING_SUBS: [(u8, Var); 3] = [
+        (0, Var::new("Number of mapped objects", DataType::Unsigned8).access(Access::ReadWrite)),
+        (1, MAPPING),
+        (2, MAPPING),
+    ];
+    static PDOS: [Object; 16] = layout([
+        Object::record(0x1400, "RPDO communication parameter", &RPDO_SUBS),
+        Object::record(0x1401, "RPDO communication parameter", &RPDO_SUBS),
+        Object::record(0x1402, "RPDO communication parameter", &RPDO_SUBS),
+        Object::record(0x1403, "RPDO communication parameter", &RPDO_SUBS),
+        Object::record(0x1600, "RPDO mapping parameter", &MAPPING_SUBS),
+        Object::record(0x1601, "RPDO mapping parameter", &MAPPING_SUBS),
+        Object::record(0x1602, "RPDO mapping parameter", &MAPPING_SUBS),
+        Object::record(0x1603, "RPDO mapping parameter", &MAPPING_SUBS),
+        Object::record(0x1800, "TPDO communication parameter", &TPDO_SUBS),
+        Object::record(0x1801, "TPDO communication parameter", &TPDO_SUBS),
+        Object::record(0x1802, "TPDO communication parameter", &TPDO_SUBS),
+        Object::record(0x1803, "TPDO communication parameter", &TPDO_SUBS),
+        Object::record(0x1A00, "TPDO mapping parameter", &MAPPING_SUBS),
+        Object::record(0x1A01, "TPDO mapping parameter", &MAPPING_SUBS),
+        Object::record(0x1A02, "TPDO mapping parameter", &MAPPING_SUBS),
+        Object::record(0x1A03, "TPDO mapping parameter", &MAPPING_SUBS),
+    ]);
+    let mut bench = Bench::with_config(|c| Config { pdo_objects: &PDOS, ..c });
+    // PDO: a reserved transmission type, a restricted COB-ID, an entry that cannot be mapped.
+    assert_eq!(bench.sdo1(&req(0x2F, 0x1400, 2, [241, 0, 0, 0])), abort(0x1400, 2, INVALID_VALUE));
+    assert_eq!(
+        bench.sdo1(&req(0x23, 0x1800, 1, 0x0000_0701u32.to_le_bytes())),
+        abort(0x1800, 1, INVALID_VALUE)
+    );
+    assert_eq!(
+        bench.sdo1(&req(0x23, 0x1600, 1, 0x6041_0010u32.to_le_bytes())),
+        abort(0x1600, 1, 0x0604_0041),
+        "6041h is not receive-mappable"
+    );
+    // SYNC and the profile keep theirs too.
+    assert_eq!(bench.sdo1(&req(0x2F, 0x1019, 0, [1, 0, 0, 0])), abort(0x1019, 0, INVALID_VALUE));
+    assert_eq!(bench.sdo1(&req(0x2F, 0x6060, 0, [77, 0, 0, 0])), abort(0x6060, 0, INVALID_VALUE));
+    // And a valid mapping is taken.
+    assert_eq!(bench.sdo1(&req(0x23, 0x1600, 1, 0x6040_0010u32.to_le_bytes()))[0], 0x60);
+}

@@ -255,6 +255,32 @@ pub struct Drive<
     storage: S,
 }
 
+/// The service that owns `object`: the one that declares its index (the CiA 301 communication
+/// objects, the PDO records, the profile area and the cascade's record), else the object's own
+/// tag ([`Object::owner`]: a firmware's object a service of the crate rules). Each service checks
+/// and reacts to its own objects; this is where they are registered.
+fn owner(object: &Object, profile: &Profile) -> Owner {
+    use crate::comm::error_control::{
+        guarding_owns, CONSUMER_OBJECT, ERROR_BEHAVIOUR_OBJECT, PRODUCER_OBJECT,
+    };
+    let index = object.index;
+    if crate::cia402::objects::PROFILE_AREA.contains(&index) || profile.config().cascade == Some(index) {
+        return Owner::Profile;
+    }
+    match index {
+        _ if sync::owns(index) => Owner::Sync,
+        _ if emcy::owns(index) => Owner::Emcy,
+        emcy::HISTORY => Owner::ErrorHistory,
+        ERROR_BEHAVIOUR_OBJECT => Owner::ErrorBehaviour,
+        CONSUMER_OBJECT => Owner::HeartbeatConsumer,
+        PRODUCER_OBJECT => Owner::HeartbeatProducer,
+        _ if guarding_owns(index) => Owner::Guarding,
+        _ if crate::storage::owns(index) => Owner::Storage,
+        _ if PdoRecord::of(index).is_some() => Owner::Pdo,
+        _ => object.owner,
+    }
+}
+
 /// A filter of received identifiers by their low seven bits (the node-ID part of the
 /// pre-defined connection set): a frame whose bit is clear is for no service of this node, and is
 /// turned away in O(1). One that passes is routed by the services' own identifiers.
@@ -287,7 +313,7 @@ struct ProcessDataRules<'a>(&'a Profile);
 
 impl<const B: usize> ValueRules<B> for ProcessDataRules<'_> {
     fn rule(&self, entry: &Entry) -> u8 {
-        if entry.object.owner != Owner::Profile {
+        if owner(entry.object, self.0) != Owner::Profile {
             return 0;
         }
         match self.0.rule(entry.index(), entry.sub, true) {
@@ -1307,7 +1333,8 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
 
     fn drain_sdo(&mut self, now: Instant) {
         let node_id = self.node_id();
-        while !self.tx.frames.is_full() {
+        // The server sends on its own only what is due (block-upload segments, a timeout).
+        while self.sdo.deadline().is_some_and(|due| now >= due) && !self.tx.frames.is_full() {
             let mut access =
                 Access::new(&mut self.od, &mut self.hooks, &mut self.storage, self.nmt, &self.profile);
             access.error_behaviour = self.error_behaviour;
@@ -1346,9 +1373,9 @@ struct Access<'a, H, S, const B: usize> {
     written: Option<(Owner, Mux)>,
     /// A store on command succeeded.
     stored: bool,
-    /// The entry the last lookup of this call resolved: a transfer asks for the same entry
-    /// two or three times (size, access, value) within one frame.
-    resolved: Option<Entry>,
+    /// The entry the last lookup of this call resolved, with its owner: a transfer asks for the
+    /// same entry two or three times (size, access, value) within one frame.
+    resolved: Option<(Entry, Owner)>,
 }
 
 impl<'a, H: ObjectHooks, S: Persistence, const B: usize> Access<'a, H, S, B> {
@@ -1375,8 +1402,8 @@ impl<'a, H: ObjectHooks, S: Persistence, const B: usize> Access<'a, H, S, B> {
     }
 
     /// 1010h/1011h subs 1..=4: the read value says whether the command is supported (§11).
-    fn command_capability(&self, entry: &Entry) -> Option<u32> {
-        let group = Group::from_sub(entry.sub).filter(|_| entry.object.owner == Owner::Storage)?;
+    fn command_capability(&self, entry: &Entry, owner: Owner) -> Option<u32> {
+        let group = Group::from_sub(entry.sub).filter(|_| owner == Owner::Storage)?;
         Some(u32::from(self.storage.available() && self.store_groups.contains(&group)))
     }
 
@@ -1400,20 +1427,21 @@ impl<'a, H: ObjectHooks, S: Persistence, const B: usize> Access<'a, H, S, B> {
     }
 
     /// `mux` resolved, from the call's one-entry cache when it was the last one asked for.
-    fn entry(&mut self, mux: Mux) -> Result<Entry, AbortCode> {
-        if let Some(entry) = self.resolved.filter(|e| e.index() == mux.index && e.sub == mux.sub) {
-            return Ok(entry);
+    fn entry(&mut self, mux: Mux) -> Result<(Entry, Owner), AbortCode> {
+        if let Some(resolved) = self.resolved.filter(|(e, _)| e.index() == mux.index && e.sub == mux.sub) {
+            return Ok(resolved);
         }
         let entry = self.od.bus_entry(mux.index, mux.sub)?;
-        self.resolved = Some(entry);
-        Ok(entry)
+        let resolved = (entry, owner(entry.object, self.profile));
+        self.resolved = Some(resolved);
+        Ok(resolved)
     }
 
     /// The rules of the object's owner beyond type, access and limits (each service checks its
     /// own objects).
-    fn check_owned(&self, entry: &Entry, data: &[u8]) -> Result<(), AbortCode> {
+    fn check_owned(&self, entry: &Entry, owner: Owner, data: &[u8]) -> Result<(), AbortCode> {
         let (od, index, sub) = (&*self.od, entry.index(), entry.sub);
-        match entry.object.owner {
+        match owner {
             Owner::Dictionary | Owner::HeartbeatProducer | Owner::Guarding | Owner::Storage => Ok(()),
             Owner::Emcy => emcy::check_write(od, index, data),
             Owner::ErrorHistory => emcy::check_history_write(data),
@@ -1428,8 +1456,8 @@ impl<'a, H: ObjectHooks, S: Persistence, const B: usize> Access<'a, H, S, B> {
         }
     }
 
-    fn writable_entry(&mut self, mux: Mux) -> Result<Entry, AbortCode> {
-        let entry = self.entry(mux)?;
+    fn writable_entry(&mut self, mux: Mux) -> Result<(Entry, Owner), AbortCode> {
+        let (entry, owner) = self.entry(mux)?;
         if !entry.var.access.writable() {
             return Err(AbortCode::WriteOfReadOnly);
         }
@@ -1441,20 +1469,20 @@ impl<'a, H: ObjectHooks, S: Persistence, const B: usize> Access<'a, H, S, B> {
         {
             return Err(AbortCode::CannotStoreDeviceState);
         }
-        Ok(entry)
+        Ok((entry, owner))
     }
 }
 
 impl<H: ObjectHooks, S: Persistence, const B: usize> ObjectAccess for Access<'_, H, S, B> {
     fn upload_len(&mut self, mux: Mux) -> Result<usize, AbortCode> {
-        let entry = self.entry(mux)?;
+        let (entry, owner) = self.entry(mux)?;
         if !entry.var.access.readable() {
             return Err(AbortCode::ReadOfWriteOnly);
         }
-        if entry.object.owner == Owner::ErrorHistory {
+        if owner == Owner::ErrorHistory {
             emcy::check_history_read(self.od, mux.index, mux.sub)?;
         }
-        if self.command_capability(&entry).is_some() {
+        if self.command_capability(&entry, owner).is_some() {
             return Ok(4);
         }
         match self.hooks.read_len(mux.index, mux.sub) {
@@ -1464,8 +1492,8 @@ impl<H: ObjectHooks, S: Persistence, const B: usize> ObjectAccess for Access<'_,
     }
 
     fn read(&mut self, mux: Mux, offset: usize, buf: &mut [u8]) -> Result<usize, AbortCode> {
-        let entry = self.entry(mux)?;
-        if let Some(capability) = self.command_capability(&entry) {
+        let (entry, owner) = self.entry(mux)?;
+        if let Some(capability) = self.command_capability(&entry, owner) {
             let bytes = capability.to_le_bytes();
             let rest = bytes.get(offset..).unwrap_or(&[]);
             let n = rest.len().min(buf.len());
@@ -1481,7 +1509,7 @@ impl<H: ObjectHooks, S: Persistence, const B: usize> ObjectAccess for Access<'_,
     }
 
     fn download_check(&mut self, mux: Mux, size: Option<usize>) -> Result<Option<usize>, AbortCode> {
-        let entry = self.writable_entry(mux)?;
+        let (entry, _) = self.writable_entry(mux)?;
         let fixed = entry.var.data_type.fixed_size();
         match (fixed, size) {
             (Some(n), Some(s)) if s > n => Err(AbortCode::LengthTooHigh),
@@ -1492,16 +1520,16 @@ impl<H: ObjectHooks, S: Persistence, const B: usize> ObjectAccess for Access<'_,
     }
 
     fn write(&mut self, mux: Mux, data: &[u8]) -> Result<(), AbortCode> {
-        let entry = self.writable_entry(mux)?;
+        let (entry, owner) = self.writable_entry(mux)?;
         self.od.check_write(&entry, data)?;
-        if self.command_capability(&entry).is_some() {
+        if self.command_capability(&entry, owner).is_some() {
             return self.storage_command(mux, data);
         }
-        self.check_owned(&entry, data)?;
+        self.check_owned(&entry, owner, data)?;
         self.hooks.validate(mux.index, mux.sub, data)?;
         self.od.commit(&entry, data);
         self.hooks.written(mux.index, mux.sub, data);
-        self.written = Some((entry.object.owner, mux));
+        self.written = Some((owner, mux));
         Ok(())
     }
 }

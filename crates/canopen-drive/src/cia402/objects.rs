@@ -10,9 +10,12 @@ pub use super::probe::{
 };
 use crate::od::DeviceInfo;
 use crate::od::{
-    layout, owned, AbortCode, Access, DataType, DefaultValue, DeviceField, Dictionary, Object, Owner,
-    PdoMapping, Var,
+    layout, AbortCode, Access, DataType, DefaultValue, DeviceField, Dictionary, Object, PdoMapping, Var,
 };
+
+/// The profile area of the first logical device (CiA 402: 6000h–67FFh): objects the drive
+/// profile rules ([`rule`]) wherever their descriptions come from.
+pub const PROFILE_AREA: core::ops::RangeInclusive<u16> = 0x6000..=0x67FF;
 
 /// 6007h abort connection option code.
 pub const ABORT_CONNECTION_OPTION_CODE: u16 = 0x6007;
@@ -368,250 +371,216 @@ pub const PROFILE_LEN: usize = 72
 
 /// The profile objects, ascending: those of the modes this build runs (cargo features `pp`,
 /// `hm`, `ip`, `vl`, `touch-probe`).
-pub static PROFILE: [Object; PROFILE_LEN] = layout(owned(
-    Owner::Profile,
-    [
-        option_code(ABORT_CONNECTION_OPTION_CODE, "Abort connection option code", 1),
-        actual(ERROR_CODE, "Error code", DataType::Unsigned16),
-        command(CONTROLWORD, "Controlword", DataType::Unsigned16),
-        actual(STATUSWORD, "Statusword", DataType::Unsigned16),
-        #[cfg(feature = "vl")]
-        super::vl::VL_TARGET_VELOCITY_OBJECT,
-        #[cfg(feature = "vl")]
-        super::vl::VL_VELOCITY_DEMAND_OBJECT,
-        #[cfg(feature = "vl")]
-        super::vl::VL_VELOCITY_ACTUAL_VALUE_OBJECT,
-        #[cfg(feature = "vl")]
-        super::vl::VL_VELOCITY_MIN_MAX_AMOUNT_OBJECT,
-        #[cfg(feature = "vl")]
-        super::vl::VL_VELOCITY_ACCELERATION_OBJECT,
-        #[cfg(feature = "vl")]
-        super::vl::VL_VELOCITY_DECELERATION_OBJECT,
-        #[cfg(feature = "vl")]
-        super::vl::VL_VELOCITY_QUICK_STOP_OBJECT,
-        #[cfg(feature = "vl")]
-        super::vl::VL_SET_POINT_FACTOR_OBJECT,
-        #[cfg(feature = "vl")]
-        super::vl::VL_DIMENSION_FACTOR_OBJECT,
-        option_code(QUICK_STOP_OPTION_CODE, "Quick stop option code", 2),
-        option_code(SHUTDOWN_OPTION_CODE, "Shutdown option code", 0),
-        option_code(DISABLE_OPERATION_OPTION_CODE, "Disable operation option code", 1),
-        option_code(HALT_OPTION_CODE, "Halt option code", 1),
-        option_code(FAULT_REACTION_OPTION_CODE, "Fault reaction option code", 2),
-        command(MODES_OF_OPERATION, "Modes of operation", DataType::Integer8),
-        actual(MODES_OF_OPERATION_DISPLAY, "Modes of operation display", DataType::Integer8),
-        actual(POSITION_DEMAND_VALUE, "Position demand value", DataType::Integer32),
-        actual(POSITION_ACTUAL_INTERNAL_VALUE, "Position actual internal value", DataType::Integer32),
-        actual(POSITION_ACTUAL_VALUE, "Position actual value", DataType::Integer32),
-        parameter(
-            FOLLOWING_ERROR_WINDOW,
-            "Following error window",
-            DataType::Unsigned32,
-            DefaultValue::Unsigned(10_000),
-        ),
-        parameter(
-            FOLLOWING_ERROR_TIME_OUT,
-            "Following error time out",
-            DataType::Unsigned16,
-            DefaultValue::Unsigned(100),
-        ),
-        parameter(POSITION_WINDOW, "Position window", DataType::Unsigned32, DefaultValue::Unsigned(100)),
-        parameter(
-            POSITION_WINDOW_TIME,
-            "Position window time",
-            DataType::Unsigned16,
-            DefaultValue::Unsigned(10),
-        ),
-        parameter(SENSOR_SELECTION_CODE, "Sensor selection code", DataType::Integer16, DefaultValue::Zero),
-        actual(VELOCITY_DEMAND_VALUE, "Velocity demand value", DataType::Integer32),
-        actual(VELOCITY_ACTUAL_VALUE, "Velocity actual value", DataType::Integer32),
-        parameter(VELOCITY_WINDOW, "Velocity window", DataType::Unsigned16, DefaultValue::Zero),
-        parameter(VELOCITY_WINDOW_TIME, "Velocity window time", DataType::Unsigned16, DefaultValue::Zero),
-        parameter(VELOCITY_THRESHOLD, "Velocity threshold", DataType::Unsigned16, DefaultValue::Zero),
-        parameter(
-            VELOCITY_THRESHOLD_TIME,
-            "Velocity threshold time",
-            DataType::Unsigned16,
-            DefaultValue::Zero,
-        ),
-        torque(TARGET_TORQUE, "Target torque", true),
-        setting(MAX_TORQUE, "Max torque", DataType::Unsigned16, DefaultValue::Unsigned(3000)),
-        setting(MAX_CURRENT, "Max current", DataType::Unsigned16, DefaultValue::Unsigned(3000)),
-        torque(TORQUE_DEMAND, "Torque demand", false),
-        parameter(0x6075, "Motor rated current", DataType::Unsigned32, DefaultValue::Zero),
-        parameter(0x6076, "Motor rated torque", DataType::Unsigned32, DefaultValue::Zero),
-        torque(TORQUE_ACTUAL_VALUE, "Torque actual value", false),
-        torque(CURRENT_ACTUAL_VALUE, "Current actual value", false),
-        actual(DC_LINK_VOLTAGE, "DC link circuit voltage", DataType::Unsigned32),
-        command(TARGET_POSITION, "Target position", DataType::Integer32),
-        Object::record(POSITION_RANGE_LIMIT, "Position range limit", &POSITION_RANGE_SUBS),
-        parameter(HOME_OFFSET, "Home offset", DataType::Integer32, DefaultValue::Zero),
-        Object::record(SOFTWARE_POSITION_LIMIT, "Software position limit", &SOFTWARE_LIMIT_SUBS),
-        parameter(POLARITY, "Polarity", DataType::Unsigned8, DefaultValue::Zero),
-        setting(
-            MAX_PROFILE_VELOCITY,
-            "Max profile velocity",
-            DataType::Unsigned32,
-            DefaultValue::Unsigned(u32::MAX as u64),
-        ),
-        parameter(
-            MAX_MOTOR_SPEED,
-            "Max motor speed",
-            DataType::Unsigned32,
-            DefaultValue::Unsigned(u32::MAX as u64),
-        ),
-        #[cfg(feature = "pp")]
-        setting(PROFILE_VELOCITY, "Profile velocity", DataType::Unsigned32, DefaultValue::Unsigned(10_000)),
-        #[cfg(feature = "pp")]
-        setting(END_VELOCITY, "End velocity", DataType::Unsigned32, DefaultValue::Zero),
-        setting(
-            PROFILE_ACCELERATION,
-            "Profile acceleration",
-            DataType::Unsigned32,
-            DefaultValue::Unsigned(10_000),
-        ),
-        setting(
-            PROFILE_DECELERATION,
-            "Profile deceleration",
-            DataType::Unsigned32,
-            DefaultValue::Unsigned(10_000),
-        ),
-        setting(
-            QUICK_STOP_DECELERATION,
-            "Quick stop deceleration",
-            DataType::Unsigned32,
-            DefaultValue::Unsigned(50_000),
-        ),
-        #[cfg(feature = "pp")]
-        parameter(MOTION_PROFILE_TYPE, "Motion profile type", DataType::Integer16, DefaultValue::Zero),
-        setting(TORQUE_SLOPE, "Torque slope", DataType::Unsigned32, DefaultValue::Unsigned(10_000)),
-        parameter(TORQUE_PROFILE_TYPE, "Torque profile type", DataType::Integer16, DefaultValue::Zero),
-        ratio(
-            POSITION_ENCODER_RESOLUTION,
-            "Position encoder resolution",
-            &ratio_entry("Position encoder resolution"),
-        ),
-        ratio(
-            VELOCITY_ENCODER_RESOLUTION,
-            "Velocity encoder resolution",
-            &ratio_entry("Velocity encoder resolution"),
-        ),
-        ratio(GEAR_RATIO, "Gear ratio", &ratio_entry("Gear ratio")),
-        ratio(FEED_CONSTANT, "Feed constant", &ratio_entry("Feed constant")),
-        #[cfg(feature = "hm")]
-        setting(HOMING_METHOD, "Homing method", DataType::Integer8, DefaultValue::Zero),
-        #[cfg(feature = "hm")]
-        Object::record(HOMING_SPEEDS, "Homing speeds", &HOMING_SPEED_SUBS),
-        #[cfg(feature = "hm")]
-        setting(
-            HOMING_ACCELERATION,
-            "Homing acceleration",
-            DataType::Unsigned32,
-            DefaultValue::Unsigned(100_000),
-        ),
-        #[cfg(feature = "pp")]
-        parameter(PROFILE_JERK_USE, "Profile jerk use", DataType::Unsigned8, DefaultValue::Unsigned(1)),
-        #[cfg(feature = "pp")]
-        Object::array(
-            PROFILE_JERK,
-            "Profile jerk",
-            4,
-            &Var::new("Profile jerk", DataType::Unsigned32)
-                .access(Access::ReadWrite)
-                .default(DefaultValue::Unsigned(1_000_000)),
-        ),
-        command(0x60B0, "Position offset", DataType::Integer32),
-        command(0x60B1, "Velocity offset", DataType::Integer32),
-        torque(TORQUE_OFFSET, "Torque offset", true),
-        #[cfg(feature = "touch-probe")]
-        parameter(TOUCH_PROBE_FUNCTION, "Touch probe function", DataType::Unsigned16, DefaultValue::Zero),
-        #[cfg(feature = "touch-probe")]
-        actual(TOUCH_PROBE_STATUS, "Touch probe status", DataType::Unsigned16),
-        #[cfg(feature = "touch-probe")]
-        actual(TOUCH_PROBE_1_POSITIVE_EDGE, "Touch probe 1 positive edge", DataType::Integer32),
-        #[cfg(feature = "touch-probe")]
-        actual(TOUCH_PROBE_1_NEGATIVE_EDGE, "Touch probe 1 negative edge", DataType::Integer32),
-        #[cfg(feature = "touch-probe")]
-        actual(TOUCH_PROBE_2_POSITIVE_EDGE, "Touch probe 2 positive edge", DataType::Integer32),
-        #[cfg(feature = "touch-probe")]
-        actual(TOUCH_PROBE_2_NEGATIVE_EDGE, "Touch probe 2 negative edge", DataType::Integer32),
-        #[cfg(feature = "ip")]
-        super::ip::SUB_MODE_SELECT_OBJECT,
-        #[cfg(feature = "ip")]
-        super::ip::DATA_RECORD_OBJECT,
-        super::ip::TIME_PERIOD_OBJECT,
-        #[cfg(feature = "ip")]
-        super::ip::DATA_CONFIGURATION_OBJECT,
-        setting(MAX_ACCELERATION, "Max acceleration", DataType::Unsigned32, DefaultValue::Unsigned(100_000)),
-        setting(MAX_DECELERATION, "Max deceleration", DataType::Unsigned32, DefaultValue::Unsigned(100_000)),
-        #[cfg(feature = "touch-probe")]
-        actual(
-            TOUCH_PROBE_1_POSITIVE_EDGE_COUNTER,
-            "Touch probe 1 positive edge counter",
-            DataType::Unsigned16,
-        ),
-        #[cfg(feature = "touch-probe")]
-        actual(
-            TOUCH_PROBE_1_NEGATIVE_EDGE_COUNTER,
-            "Touch probe 1 negative edge counter",
-            DataType::Unsigned16,
-        ),
-        #[cfg(feature = "touch-probe")]
-        actual(
-            TOUCH_PROBE_2_POSITIVE_EDGE_COUNTER,
-            "Touch probe 2 positive edge counter",
-            DataType::Unsigned16,
-        ),
-        #[cfg(feature = "touch-probe")]
-        actual(
-            TOUCH_PROBE_2_NEGATIVE_EDGE_COUNTER,
-            "Touch probe 2 negative edge counter",
-            DataType::Unsigned16,
-        ),
-        #[cfg(feature = "hm")]
-        Object::array_with_sub0(
-            SUPPORTED_HOMING_METHODS,
-            "Supported homing methods",
-            super::hm::MAX_LISTED_METHODS,
-            Var::new("Highest sub-index supported", DataType::Unsigned8)
-                .access(Access::Const)
-                .default(DefaultValue::Device(DeviceField::HomingMethodCount)),
-            &Var::new("Supported homing method", DataType::Integer8)
-                .access(Access::Const)
-                .default(DefaultValue::Device(DeviceField::HomingMethods)),
-        ),
-        #[cfg(feature = "pp")]
-        parameter(
-            POSITIONING_OPTION_CODE,
-            "Positioning option code",
-            DataType::Unsigned16,
-            DefaultValue::Zero,
-        ),
-        actual(FOLLOWING_ERROR_ACTUAL_VALUE, "Following error actual value", DataType::Integer32),
-        parameter(MAX_SLIPPAGE, "Max slippage", DataType::Integer32, DefaultValue::Zero),
-        actual(CONTROL_EFFORT, "Control effort", DataType::Integer32),
-        actual(POSITION_DEMAND_INTERNAL_VALUE, "Position demand internal value", DataType::Integer32),
-        actual(DIGITAL_INPUTS, "Digital inputs", DataType::Unsigned32),
-        Object::record(DIGITAL_OUTPUTS, "Digital outputs", &DIGITAL_OUTPUT_SUBS),
-        command(TARGET_VELOCITY, "Target velocity", DataType::Integer32),
-        // Identification (digest §20.2): not assigned until the firmware or the master sets them.
-        parameter(MOTOR_TYPE, "Motor type", DataType::Unsigned16, DefaultValue::Unsigned(0x7FFF)),
-        text(0x6403, "Motor catalogue number"),
-        text(0x6404, "Motor manufacturer"),
-        text(0x6405, "http motor catalogue address"),
-        parameter(0x6406, "Motor calibration date", DataType::TimeOfDay, DefaultValue::Zero),
-        parameter(0x6407, "Motor service period", DataType::Unsigned32, DefaultValue::Zero),
-        Object::var(
-            SUPPORTED_DRIVE_MODES,
-            "Supported drive modes",
-            Var::new("Supported drive modes", DataType::Unsigned32)
-                .access(Access::Const)
-                .default(DefaultValue::Device(DeviceField::DriveModes)),
-        ),
-        text(0x6503, "Drive catalogue number"),
-        text(0x6505, "http drive catalogue address"),
-    ],
-));
+pub static PROFILE: [Object; PROFILE_LEN] = layout([
+    option_code(ABORT_CONNECTION_OPTION_CODE, "Abort connection option code", 1),
+    actual(ERROR_CODE, "Error code", DataType::Unsigned16),
+    command(CONTROLWORD, "Controlword", DataType::Unsigned16),
+    actual(STATUSWORD, "Statusword", DataType::Unsigned16),
+    #[cfg(feature = "vl")]
+    super::vl::VL_TARGET_VELOCITY_OBJECT,
+    #[cfg(feature = "vl")]
+    super::vl::VL_VELOCITY_DEMAND_OBJECT,
+    #[cfg(feature = "vl")]
+    super::vl::VL_VELOCITY_ACTUAL_VALUE_OBJECT,
+    #[cfg(feature = "vl")]
+    super::vl::VL_VELOCITY_MIN_MAX_AMOUNT_OBJECT,
+    #[cfg(feature = "vl")]
+    super::vl::VL_VELOCITY_ACCELERATION_OBJECT,
+    #[cfg(feature = "vl")]
+    super::vl::VL_VELOCITY_DECELERATION_OBJECT,
+    #[cfg(feature = "vl")]
+    super::vl::VL_VELOCITY_QUICK_STOP_OBJECT,
+    #[cfg(feature = "vl")]
+    super::vl::VL_SET_POINT_FACTOR_OBJECT,
+    #[cfg(feature = "vl")]
+    super::vl::VL_DIMENSION_FACTOR_OBJECT,
+    option_code(QUICK_STOP_OPTION_CODE, "Quick stop option code", 2),
+    option_code(SHUTDOWN_OPTION_CODE, "Shutdown option code", 0),
+    option_code(DISABLE_OPERATION_OPTION_CODE, "Disable operation option code", 1),
+    option_code(HALT_OPTION_CODE, "Halt option code", 1),
+    option_code(FAULT_REACTION_OPTION_CODE, "Fault reaction option code", 2),
+    command(MODES_OF_OPERATION, "Modes of operation", DataType::Integer8),
+    actual(MODES_OF_OPERATION_DISPLAY, "Modes of operation display", DataType::Integer8),
+    actual(POSITION_DEMAND_VALUE, "Position demand value", DataType::Integer32),
+    actual(POSITION_ACTUAL_INTERNAL_VALUE, "Position actual internal value", DataType::Integer32),
+    actual(POSITION_ACTUAL_VALUE, "Position actual value", DataType::Integer32),
+    parameter(
+        FOLLOWING_ERROR_WINDOW,
+        "Following error window",
+        DataType::Unsigned32,
+        DefaultValue::Unsigned(10_000),
+    ),
+    parameter(
+        FOLLOWING_ERROR_TIME_OUT,
+        "Following error time out",
+        DataType::Unsigned16,
+        DefaultValue::Unsigned(100),
+    ),
+    parameter(POSITION_WINDOW, "Position window", DataType::Unsigned32, DefaultValue::Unsigned(100)),
+    parameter(POSITION_WINDOW_TIME, "Position window time", DataType::Unsigned16, DefaultValue::Unsigned(10)),
+    parameter(SENSOR_SELECTION_CODE, "Sensor selection code", DataType::Integer16, DefaultValue::Zero),
+    actual(VELOCITY_DEMAND_VALUE, "Velocity demand value", DataType::Integer32),
+    actual(VELOCITY_ACTUAL_VALUE, "Velocity actual value", DataType::Integer32),
+    parameter(VELOCITY_WINDOW, "Velocity window", DataType::Unsigned16, DefaultValue::Zero),
+    parameter(VELOCITY_WINDOW_TIME, "Velocity window time", DataType::Unsigned16, DefaultValue::Zero),
+    parameter(VELOCITY_THRESHOLD, "Velocity threshold", DataType::Unsigned16, DefaultValue::Zero),
+    parameter(VELOCITY_THRESHOLD_TIME, "Velocity threshold time", DataType::Unsigned16, DefaultValue::Zero),
+    torque(TARGET_TORQUE, "Target torque", true),
+    setting(MAX_TORQUE, "Max torque", DataType::Unsigned16, DefaultValue::Unsigned(3000)),
+    setting(MAX_CURRENT, "Max current", DataType::Unsigned16, DefaultValue::Unsigned(3000)),
+    torque(TORQUE_DEMAND, "Torque demand", false),
+    parameter(0x6075, "Motor rated current", DataType::Unsigned32, DefaultValue::Zero),
+    parameter(0x6076, "Motor rated torque", DataType::Unsigned32, DefaultValue::Zero),
+    torque(TORQUE_ACTUAL_VALUE, "Torque actual value", false),
+    torque(CURRENT_ACTUAL_VALUE, "Current actual value", false),
+    actual(DC_LINK_VOLTAGE, "DC link circuit voltage", DataType::Unsigned32),
+    command(TARGET_POSITION, "Target position", DataType::Integer32),
+    Object::record(POSITION_RANGE_LIMIT, "Position range limit", &POSITION_RANGE_SUBS),
+    parameter(HOME_OFFSET, "Home offset", DataType::Integer32, DefaultValue::Zero),
+    Object::record(SOFTWARE_POSITION_LIMIT, "Software position limit", &SOFTWARE_LIMIT_SUBS),
+    parameter(POLARITY, "Polarity", DataType::Unsigned8, DefaultValue::Zero),
+    setting(
+        MAX_PROFILE_VELOCITY,
+        "Max profile velocity",
+        DataType::Unsigned32,
+        DefaultValue::Unsigned(u32::MAX as u64),
+    ),
+    parameter(
+        MAX_MOTOR_SPEED,
+        "Max motor speed",
+        DataType::Unsigned32,
+        DefaultValue::Unsigned(u32::MAX as u64),
+    ),
+    #[cfg(feature = "pp")]
+    setting(PROFILE_VELOCITY, "Profile velocity", DataType::Unsigned32, DefaultValue::Unsigned(10_000)),
+    #[cfg(feature = "pp")]
+    setting(END_VELOCITY, "End velocity", DataType::Unsigned32, DefaultValue::Zero),
+    setting(
+        PROFILE_ACCELERATION,
+        "Profile acceleration",
+        DataType::Unsigned32,
+        DefaultValue::Unsigned(10_000),
+    ),
+    setting(
+        PROFILE_DECELERATION,
+        "Profile deceleration",
+        DataType::Unsigned32,
+        DefaultValue::Unsigned(10_000),
+    ),
+    setting(
+        QUICK_STOP_DECELERATION,
+        "Quick stop deceleration",
+        DataType::Unsigned32,
+        DefaultValue::Unsigned(50_000),
+    ),
+    #[cfg(feature = "pp")]
+    parameter(MOTION_PROFILE_TYPE, "Motion profile type", DataType::Integer16, DefaultValue::Zero),
+    setting(TORQUE_SLOPE, "Torque slope", DataType::Unsigned32, DefaultValue::Unsigned(10_000)),
+    parameter(TORQUE_PROFILE_TYPE, "Torque profile type", DataType::Integer16, DefaultValue::Zero),
+    ratio(
+        POSITION_ENCODER_RESOLUTION,
+        "Position encoder resolution",
+        &ratio_entry("Position encoder resolution"),
+    ),
+    ratio(
+        VELOCITY_ENCODER_RESOLUTION,
+        "Velocity encoder resolution",
+        &ratio_entry("Velocity encoder resolution"),
+    ),
+    ratio(GEAR_RATIO, "Gear ratio", &ratio_entry("Gear ratio")),
+    ratio(FEED_CONSTANT, "Feed constant", &ratio_entry("Feed constant")),
+    #[cfg(feature = "hm")]
+    setting(HOMING_METHOD, "Homing method", DataType::Integer8, DefaultValue::Zero),
+    #[cfg(feature = "hm")]
+    Object::record(HOMING_SPEEDS, "Homing speeds", &HOMING_SPEED_SUBS),
+    #[cfg(feature = "hm")]
+    setting(
+        HOMING_ACCELERATION,
+        "Homing acceleration",
+        DataType::Unsigned32,
+        DefaultValue::Unsigned(100_000),
+    ),
+    #[cfg(feature = "pp")]
+    parameter(PROFILE_JERK_USE, "Profile jerk use", DataType::Unsigned8, DefaultValue::Unsigned(1)),
+    #[cfg(feature = "pp")]
+    Object::array(
+        PROFILE_JERK,
+        "Profile jerk",
+        4,
+        &Var::new("Profile jerk", DataType::Unsigned32)
+            .access(Access::ReadWrite)
+            .default(DefaultValue::Unsigned(1_000_000)),
+    ),
+    command(0x60B0, "Position offset", DataType::Integer32),
+    command(0x60B1, "Velocity offset", DataType::Integer32),
+    torque(TORQUE_OFFSET, "Torque offset", true),
+    #[cfg(feature = "touch-probe")]
+    parameter(TOUCH_PROBE_FUNCTION, "Touch probe function", DataType::Unsigned16, DefaultValue::Zero),
+    #[cfg(feature = "touch-probe")]
+    actual(TOUCH_PROBE_STATUS, "Touch probe status", DataType::Unsigned16),
+    #[cfg(feature = "touch-probe")]
+    actual(TOUCH_PROBE_1_POSITIVE_EDGE, "Touch probe 1 positive edge", DataType::Integer32),
+    #[cfg(feature = "touch-probe")]
+    actual(TOUCH_PROBE_1_NEGATIVE_EDGE, "Touch probe 1 negative edge", DataType::Integer32),
+    #[cfg(feature = "touch-probe")]
+    actual(TOUCH_PROBE_2_POSITIVE_EDGE, "Touch probe 2 positive edge", DataType::Integer32),
+    #[cfg(feature = "touch-probe")]
+    actual(TOUCH_PROBE_2_NEGATIVE_EDGE, "Touch probe 2 negative edge", DataType::Integer32),
+    #[cfg(feature = "ip")]
+    super::ip::SUB_MODE_SELECT_OBJECT,
+    #[cfg(feature = "ip")]
+    super::ip::DATA_RECORD_OBJECT,
+    super::ip::TIME_PERIOD_OBJECT,
+    #[cfg(feature = "ip")]
+    super::ip::DATA_CONFIGURATION_OBJECT,
+    setting(MAX_ACCELERATION, "Max acceleration", DataType::Unsigned32, DefaultValue::Unsigned(100_000)),
+    setting(MAX_DECELERATION, "Max deceleration", DataType::Unsigned32, DefaultValue::Unsigned(100_000)),
+    #[cfg(feature = "touch-probe")]
+    actual(TOUCH_PROBE_1_POSITIVE_EDGE_COUNTER, "Touch probe 1 positive edge counter", DataType::Unsigned16),
+    #[cfg(feature = "touch-probe")]
+    actual(TOUCH_PROBE_1_NEGATIVE_EDGE_COUNTER, "Touch probe 1 negative edge counter", DataType::Unsigned16),
+    #[cfg(feature = "touch-probe")]
+    actual(TOUCH_PROBE_2_POSITIVE_EDGE_COUNTER, "Touch probe 2 positive edge counter", DataType::Unsigned16),
+    #[cfg(feature = "touch-probe")]
+    actual(TOUCH_PROBE_2_NEGATIVE_EDGE_COUNTER, "Touch probe 2 negative edge counter", DataType::Unsigned16),
+    #[cfg(feature = "hm")]
+    Object::array_with_sub0(
+        SUPPORTED_HOMING_METHODS,
+        "Supported homing methods",
+        super::hm::MAX_LISTED_METHODS,
+        Var::new("Highest sub-index supported", DataType::Unsigned8)
+            .access(Access::Const)
+            .default(DefaultValue::Device(DeviceField::HomingMethodCount)),
+        &Var::new("Supported homing method", DataType::Integer8)
+            .access(Access::Const)
+            .default(DefaultValue::Device(DeviceField::HomingMethods)),
+    ),
+    #[cfg(feature = "pp")]
+    parameter(POSITIONING_OPTION_CODE, "Positioning option code", DataType::Unsigned16, DefaultValue::Zero),
+    actual(FOLLOWING_ERROR_ACTUAL_VALUE, "Following error actual value", DataType::Integer32),
+    parameter(MAX_SLIPPAGE, "Max slippage", DataType::Integer32, DefaultValue::Zero),
+    actual(CONTROL_EFFORT, "Control effort", DataType::Integer32),
+    actual(POSITION_DEMAND_INTERNAL_VALUE, "Position demand internal value", DataType::Integer32),
+    actual(DIGITAL_INPUTS, "Digital inputs", DataType::Unsigned32),
+    Object::record(DIGITAL_OUTPUTS, "Digital outputs", &DIGITAL_OUTPUT_SUBS),
+    command(TARGET_VELOCITY, "Target velocity", DataType::Integer32),
+    // Identification (digest §20.2): not assigned until the firmware or the master sets them.
+    parameter(MOTOR_TYPE, "Motor type", DataType::Unsigned16, DefaultValue::Unsigned(0x7FFF)),
+    text(0x6403, "Motor catalogue number"),
+    text(0x6404, "Motor manufacturer"),
+    text(0x6405, "http motor catalogue address"),
+    parameter(0x6406, "Motor calibration date", DataType::TimeOfDay, DefaultValue::Zero),
+    parameter(0x6407, "Motor service period", DataType::Unsigned32, DefaultValue::Zero),
+    Object::var(
+        SUPPORTED_DRIVE_MODES,
+        "Supported drive modes",
+        Var::new("Supported drive modes", DataType::Unsigned32)
+            .access(Access::Const)
+            .default(DefaultValue::Device(DeviceField::DriveModes)),
+    ),
+    text(0x6503, "Drive catalogue number"),
+    text(0x6505, "http drive catalogue address"),
+]);
 
 /// The value rule of a profile object beyond type and limits (digest §6–§9), decided from the
 /// index once: per SDO write, or once when a PDO mapping is validated (an RPDO's entries without

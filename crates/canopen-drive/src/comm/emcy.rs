@@ -20,6 +20,14 @@ use crate::od::{le_u32, AbortCode, Dictionary};
 use crate::time::{Duration, Instant};
 use crate::wire::cob_id::{self, CobId};
 
+/// Whether `index` is an object of the EMCY producer (1014h's rules: [`check_write`]).
+pub const fn owns(index: u16) -> bool {
+    matches!(index, COB_ID_EMCY | crate::od::standard::INHIBIT_TIME_EMCY)
+}
+
+/// The error history 1003h ([`check_history_write`], [`check_history_read`]).
+pub const HISTORY: u16 = crate::od::standard::PRE_DEFINED_ERROR_FIELD;
+
 /// The value rules of the EMCY objects (digest §9, §10): 1014h holds an unrestricted CAN-ID
 /// without bit 30 that changes only while the EMCY is invalid (before or after the write).
 pub fn check_write<const B: usize>(od: &Dictionary<B>, index: u16, data: &[u8]) -> Result<(), AbortCode> {

@@ -60,6 +60,21 @@ pub fn parse_entry(raw: u32) -> Option<(u8, u16)> {
     (node != 0 && time != 0).then_some((node, time))
 }
 
+/// The heartbeat consumer's object ([`check_consumer_write`]; a write configures the entry).
+pub const CONSUMER_OBJECT: u16 = CONSUMER_HEARTBEAT_TIME;
+
+/// The heartbeat producer's object (a write restarts the producer and ends life guarding).
+pub const PRODUCER_OBJECT: u16 = crate::od::standard::PRODUCER_HEARTBEAT_TIME;
+
+/// Whether `index` is an object of node guarding (a zero in either ends life guarding:
+/// [`guarding_configured`]).
+pub const fn guarding_owns(index: u16) -> bool {
+    matches!(index, GUARD_TIME | LIFE_TIME_FACTOR)
+}
+
+/// The error behaviour 1029h ([`ErrorBehaviour::check_write`]).
+pub const ERROR_BEHAVIOUR_OBJECT: u16 = crate::od::standard::ERROR_BEHAVIOUR;
+
 /// The rule of the heartbeat consumer 1016h (digest §4.2): two entries must not supervise the
 /// same node.
 pub fn check_consumer_write<const B: usize>(

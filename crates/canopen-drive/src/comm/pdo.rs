@@ -32,8 +32,7 @@
 //!   disabled and reported with EMCY 0x8200.
 
 use crate::od::{
-    AbortCode, Access, DataType, DefaultValue, Dictionary, Entry, Object, ObjectHooks, Owner, PdoMapping,
-    Span, Var,
+    AbortCode, Access, DataType, DefaultValue, Dictionary, Entry, Object, ObjectHooks, PdoMapping, Span, Var,
 };
 use crate::time::{Duration, Instant};
 use crate::wire::cob_id::{self, CobId};
@@ -173,11 +172,9 @@ pub const fn objects<const N: usize>(rpdos: usize) -> [Object; N] {
             "RPDO communication parameter",
             &RPDO_COMMUNICATION_SUBS,
         )
-        .numbered(n)
-        .owned_by(Owner::Pdo);
-        out[rpdos + i] = Object::record(RPDO_MAPPING + i as u16, "RPDO mapping parameter", &MAPPING_SUBS)
-            .numbered(n)
-            .owned_by(Owner::Pdo);
+        .numbered(n);
+        out[rpdos + i] =
+            Object::record(RPDO_MAPPING + i as u16, "RPDO mapping parameter", &MAPPING_SUBS).numbered(n);
         i += 1;
     }
     let mut j = 0;
@@ -188,12 +185,9 @@ pub const fn objects<const N: usize>(rpdos: usize) -> [Object; N] {
             "TPDO communication parameter",
             &TPDO_COMMUNICATION_SUBS,
         )
-        .numbered(n)
-        .owned_by(Owner::Pdo);
+        .numbered(n);
         out[2 * rpdos + tpdos + j] =
-            Object::record(TPDO_MAPPING + j as u16, "TPDO mapping parameter", &MAPPING_SUBS)
-                .numbered(n)
-                .owned_by(Owner::Pdo);
+            Object::record(TPDO_MAPPING + j as u16, "TPDO mapping parameter", &MAPPING_SUBS).numbered(n);
         j += 1;
     }
     out

@@ -16,6 +16,12 @@ use crate::od::{le_u32, AbortCode, Dictionary, Slot};
 use crate::time::{Duration, Instant};
 use crate::wire::cob_id::{self, CobId};
 
+/// Whether `index` is an object of SYNC: its rules ([`check_write`]), and a restart of SYNC
+/// when it is written.
+pub const fn owns(index: u16) -> bool {
+    matches!(index, COB_ID_SYNC | COMMUNICATION_CYCLE_PERIOD | SYNCHRONOUS_COUNTER_OVERFLOW)
+}
+
 /// The value rules of the SYNC objects (digest §7, §10): 1005h holds a valid, unrestricted
 /// CAN-ID that does not change while this device produces SYNC; 1019h is 0 or 2..=240 and
 /// changes only while 1006h is 0.

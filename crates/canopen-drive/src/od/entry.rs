@@ -75,7 +75,57 @@ pub enum DataType {
 
 impl DataType {
     /// Size in bytes of a fixed-size type; `None` for strings and DOMAIN.
+    // Every discriminant is below the table's length (the indices of a const loop too).
+    #[allow(clippy::indexing_slicing)]
+    #[inline]
     pub const fn fixed_size(self) -> Option<usize> {
+        // One load from a table by the data-type index (all are below 0x1C).
+        const SIZES: [u8; 0x1C] = {
+            let mut sizes = [0u8; 0x1C];
+            let all = [
+                DataType::Boolean,
+                DataType::Integer8,
+                DataType::Integer16,
+                DataType::Integer32,
+                DataType::Unsigned8,
+                DataType::Unsigned16,
+                DataType::Unsigned32,
+                DataType::Real32,
+                DataType::VisibleString,
+                DataType::OctetString,
+                DataType::UnicodeString,
+                DataType::TimeOfDay,
+                DataType::TimeDifference,
+                DataType::Domain,
+                DataType::Integer24,
+                DataType::Real64,
+                DataType::Integer40,
+                DataType::Integer48,
+                DataType::Integer56,
+                DataType::Integer64,
+                DataType::Unsigned24,
+                DataType::Unsigned40,
+                DataType::Unsigned48,
+                DataType::Unsigned56,
+                DataType::Unsigned64,
+            ];
+            let mut i = 0;
+            while i < all.len() {
+                if let Some(n) = all[i].size_by_type() {
+                    sizes[all[i] as usize] = n as u8;
+                }
+                i += 1;
+            }
+            sizes
+        };
+        match SIZES[self as usize] {
+            0 => None,
+            n => Some(n as usize),
+        }
+    }
+
+    /// [`fixed_size`](Self::fixed_size) by the type's definition.
+    const fn size_by_type(self) -> Option<usize> {
         use DataType::*;
         Some(match self {
             Boolean | Integer8 | Unsigned8 => 1,

@@ -402,6 +402,9 @@ impl MethodList {
 pub struct Dictionary<const BYTES: usize> {
     tables: [&'static [Object]; MAX_TABLES],
     regions: [u16; MAX_TABLES],
+    /// The first and the last index of each table (empty tables: an empty range), so that a
+    /// look-up picks its table without reading the descriptions.
+    ranges: [(u16, u16); MAX_TABLES],
     table_count: usize,
     store: [u8; BYTES],
     device: DeviceInfo,
@@ -446,6 +449,7 @@ impl<const BYTES: usize> Dictionary<BYTES> {
         Dictionary {
             tables: [&[]; MAX_TABLES],
             regions: [0; MAX_TABLES],
+            ranges: [(1, 0); MAX_TABLES],
             table_count: 0,
             store: [0; BYTES],
             device,
@@ -487,8 +491,14 @@ impl<const BYTES: usize> Dictionary<BYTES> {
         }
         let mut region = 0usize;
         let mut previous: Option<u16> = None;
-        for (table, (slot, start)) in tables.iter().zip(self.tables.iter_mut().zip(self.regions.iter_mut())) {
+        for ((table, range), (slot, start)) in
+            tables.iter().zip(self.ranges.iter_mut()).zip(self.tables.iter_mut().zip(self.regions.iter_mut()))
+        {
             *slot = table;
+            *range = match (table.first(), table.last()) {
+                (Some(first), Some(last)) => (first.index, last.index),
+                _ => (1, 0),
+            };
             *start = u16::try_from(region).map_err(|_| ConfigError::StorageTooSmall { needed: region })?;
             let mut offset = 0usize;
             for object in table.iter() {
@@ -607,19 +617,12 @@ impl<const BYTES: usize> Dictionary<BYTES> {
     pub fn object(&self, index: u16) -> Option<(&'static Object, u16)> {
         // Indexed, not zipped iterators: those made the compiler copy both arrays onto the
         // stack on every lookup (a byte-wise memcpy of 72 bytes on a Cortex-M).
-        for i in 0..self.table_count {
-            let (Some(&table), Some(&region)) = (self.tables.get(i), self.regions.get(i)) else {
-                break;
-            };
-            match (table.first(), table.last()) {
-                (Some(first), Some(last)) if first.index <= index && index <= last.index => {
-                    let pos = table.binary_search_by_key(&index, |o| o.index).ok()?;
-                    return table.get(pos).map(|o| (o, region));
-                }
-                _ => {}
-            }
-        }
-        None
+        let count = self.table_count.min(MAX_TABLES);
+        let i =
+            self.ranges.get(..count)?.iter().position(|&(first, last)| first <= index && index <= last)?;
+        let (table, region) = (*self.tables.get(i)?, *self.regions.get(i)?);
+        let pos = table.binary_search_by_key(&index, |o| o.index).ok()?;
+        table.get(pos).map(|o| (o, region))
     }
 
     /// Resolves `index`/`sub`, or answers 0x0602_0000 / 0x0609_0011.

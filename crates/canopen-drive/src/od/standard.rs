@@ -1,7 +1,7 @@
 //! The communication-profile objects the crate brings (CiA 301 §7.5, digest §10), and the
 //! index constants of every object the crate itself reads or writes.
 
-use super::{layout, Access, DataType, DefaultValue, DeviceField, Object, Owner, PdoMapping, Var};
+use super::{layout, Access, DataType, DefaultValue, DeviceField, Object, PdoMapping, Var};
 
 /// 1000h device type.
 pub const DEVICE_TYPE: u16 = 0x1000;
@@ -101,22 +101,19 @@ const ALL_COMMUNICATION: [Object; 22] = [
         ERROR_HISTORY_LEN,
         Var::new("Number of errors", DataType::Unsigned8).access(Access::ReadWrite),
         &Var::new("Standard error field", DataType::Unsigned32),
-    )
-    .owned_by(Owner::ErrorHistory),
+    ),
     Object::var(
         COB_ID_SYNC,
         "COB-ID SYNC",
         Var::new("COB-ID SYNC", DataType::Unsigned32)
             .access(Access::ReadWrite)
             .default(DefaultValue::Unsigned(0x80)),
-    )
-    .owned_by(Owner::Sync),
+    ),
     Object::var(
         COMMUNICATION_CYCLE_PERIOD,
         "Communication cycle period",
         Var::new("Communication cycle period", DataType::Unsigned32).access(Access::ReadWrite),
-    )
-    .owned_by(Owner::Sync),
+    ),
     Object::var(
         SYNCHRONOUS_WINDOW_LENGTH,
         "Synchronous window length",
@@ -141,14 +138,12 @@ const ALL_COMMUNICATION: [Object; 22] = [
         GUARD_TIME,
         "Guard time",
         Var::new("Guard time", DataType::Unsigned16).access(Access::ReadWrite),
-    )
-    .owned_by(Owner::Guarding),
+    ),
     Object::var(
         LIFE_TIME_FACTOR,
         "Life time factor",
         Var::new("Life time factor", DataType::Unsigned8).access(Access::ReadWrite),
-    )
-    .owned_by(Owner::Guarding),
+    ),
     Object::array(
         STORE_PARAMETERS,
         "Store parameters",
@@ -156,8 +151,7 @@ const ALL_COMMUNICATION: [Object; 22] = [
         &Var::new("Store parameters", DataType::Unsigned32)
             .access(Access::ReadWrite)
             .default(DefaultValue::Unsigned(1)),
-    )
-    .owned_by(Owner::Storage),
+    ),
     Object::array(
         RESTORE_DEFAULT_PARAMETERS,
         "Restore default parameters",
@@ -165,42 +159,36 @@ const ALL_COMMUNICATION: [Object; 22] = [
         &Var::new("Restore default parameters", DataType::Unsigned32)
             .access(Access::ReadWrite)
             .default(DefaultValue::Unsigned(1)),
-    )
-    .owned_by(Owner::Storage),
+    ),
     Object::var(
         COB_ID_EMCY,
         "COB-ID EMCY",
         Var::new("COB-ID EMCY", DataType::Unsigned32)
             .access(Access::ReadWrite)
             .default(DefaultValue::NodeIdPlus(0x80)),
-    )
-    .owned_by(Owner::Emcy),
+    ),
     Object::var(
         INHIBIT_TIME_EMCY,
         "Inhibit time EMCY",
         Var::new("Inhibit time EMCY", DataType::Unsigned16).access(Access::ReadWrite),
-    )
-    .owned_by(Owner::Emcy),
+    ),
     Object::array(
         CONSUMER_HEARTBEAT_TIME,
         "Consumer heartbeat time",
         HEARTBEAT_CONSUMERS,
         &Var::new("Consumer heartbeat time", DataType::Unsigned32).access(Access::ReadWrite),
-    )
-    .owned_by(Owner::HeartbeatConsumer),
+    ),
     Object::var(
         PRODUCER_HEARTBEAT_TIME,
         "Producer heartbeat time",
         Var::new("Producer heartbeat time", DataType::Unsigned16).access(Access::ReadWrite),
-    )
-    .owned_by(Owner::HeartbeatProducer),
+    ),
     Object::record(IDENTITY, "Identity object", &IDENTITY_SUBS),
     Object::var(
         SYNCHRONOUS_COUNTER_OVERFLOW,
         "Synchronous counter overflow value",
         Var::new("Synchronous counter overflow value", DataType::Unsigned8).access(Access::ReadWrite),
-    )
-    .owned_by(Owner::Sync),
+    ),
     Object::var(
         STORE_EDS,
         "Store EDS",
@@ -218,8 +206,7 @@ const ALL_COMMUNICATION: [Object; 22] = [
             .access(Access::Const)
             .default(DefaultValue::Unsigned(1)),
         &Var::new("Error class", DataType::Unsigned8).access(Access::ReadWrite),
-    )
-    .owned_by(Owner::ErrorBehaviour),
+    ),
     Object::record(SDO_SERVER_PARAMETER, "SDO server parameter", &SDO_SERVER_SUBS),
 ];
 

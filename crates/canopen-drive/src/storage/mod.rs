@@ -87,6 +87,12 @@ use image::{is_newer, Decoded, Header, FORMAT_VERSION, HEADER_LEN};
 pub use crate::od::standard::RESTORE_DEFAULT_PARAMETERS;
 /// 1010h store parameters (write [`SAVE_SIGNATURE`] to sub `group.sub()`).
 pub use crate::od::standard::STORE_PARAMETERS;
+
+/// Whether `index` is a command object of the storage, 1010h or 1011h (their subs 1..=4 read
+/// the supported groups and take the signatures; nothing is stored in the dictionary).
+pub const fn owns(index: u16) -> bool {
+    matches!(index, STORE_PARAMETERS | RESTORE_DEFAULT_PARAMETERS)
+}
 /// "save" (73 61 76 65 on the wire), the only value 1010h accepts (§11).
 pub const SAVE_SIGNATURE: u32 = 0x6576_6173;
 /// "load" (6C 6F 61 64 on the wire), the only value 1011h accepts (§11).
