@@ -227,6 +227,11 @@ pub struct Drive<
     slots: CommSlots,
     /// The identifiers this node receives.
     receive: ReceiveFilter,
+    /// [`Drive::sync_config`] as last read; `None` after a write that may change it.
+    sync_settings: (SyncConfig, u16),
+    /// The dictionary may have changed behind the drive's back ([`Drive::od_mut`]): refresh
+    /// before the next frame or poll.
+    stale: bool,
     sdo: SdoServer<SDO_BUFFER>,
     nmt: NmtState,
     heartbeat: HeartbeatProducer,
@@ -396,7 +401,7 @@ impl FrameSink for TxQueue {
     }
 
     fn send_array(&mut self, id: u16, data: [u8; 8], len: usize) -> bool {
-        self.push(CanFrame::from_array(id, data, len))
+        self.push(CanFrame::from_padded(id, data, len))
     }
 }
 
@@ -485,6 +490,8 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
         Drive {
             slots: CommSlots::LOOKUP,
             receive: ReceiveFilter::LSS_ONLY,
+            sync_settings: (SyncConfig { producer: false, period_us: 0, overflow: 0 }, 0x80),
+            stale: true,
             od: Dictionary::empty(config.device, config.node_id),
             sdo: if config.sdo_block_transfer { sdo } else { sdo.without_block_transfer() },
             nmt: NmtState::Initialising,
@@ -552,6 +559,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
         // Power-on values: the stored set where there is one (digest §3.3).
         self.load_stored(Group::All);
         self.configure_pdos();
+        self.refresh();
         Ok(())
     }
 
@@ -573,6 +581,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
     /// The object dictionary, mutable (device-side access: no SDO access rules).
     pub fn od_mut(&mut self) -> &mut Dictionary<OD_BYTES> {
         self.profile.invalidate();
+        self.stale = true;
         &mut self.od
     }
 
@@ -654,6 +663,9 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
     /// worth of block-upload segments.
     #[inline]
     pub fn on_frame(&mut self, frame: &CanFrame, now: Instant) {
+        if self.stale {
+            self.refresh();
+        }
         if self.nmt == NmtState::Initialising {
             self.boot_if_pending(now);
         }
@@ -689,7 +701,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
         }
         let data = embedded_can::Frame::data(frame);
         // One dictionary look-up for the SYNC identifier; the rest only for a SYNC.
-        let sync_id = self.slots.sync.can_id(&self.od);
+        let sync_id = self.sync_config().1;
         // SDO first: its identifier is restricted, no PDO or SYNC can use it.
         if id == SDO_RX_BASE + u16::from(node_id) {
             if self.nmt.serves_sdo() {
@@ -738,6 +750,9 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
     /// Runs the timers and background work due at `now`; returns when to call again
     /// (`None`: only when a frame arrives).
     pub fn poll(&mut self, now: Instant) -> Option<Instant> {
+        if self.stale {
+            self.refresh();
+        }
         self.boot_if_pending(now);
         let (sync, sync_id) = self.sync_config();
         let mut sync_deadline = None;
@@ -922,6 +937,10 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
 
     /// Clears an active error: sends the "error reset" EMCY (code 0000h) and updates 1001h.
     pub fn clear_error(&mut self, code: u16) {
+        if self.emcy.active().is_empty() {
+            // Nothing to clear (the common case: every SYNC and RPDO clears its errors).
+            return;
+        }
         let code = self.profile.config().reported_code(code);
         if self.emcy.clear(code) {
             self.sync_error_register();
@@ -1056,9 +1075,19 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
         self.profile.connection_lost(event, &self.od);
     }
 
-    /// SYNC configuration (1005h/1006h/1019h) and the SYNC CAN-ID.
+    /// SYNC configuration (1005h/1006h/1019h) and the SYNC CAN-ID, as last read
+    /// ([`Self::refresh`]).
     fn sync_config(&self) -> (SyncConfig, u16) {
-        (self.slots.sync.config(&self.od), self.slots.sync.can_id(&self.od))
+        self.sync_settings
+    }
+
+    /// Reads again what the drive keeps resolved from communication objects (the SYNC
+    /// configuration, the identifiers it receives): after a write to them, a reset of
+    /// communication, or device-side access ([`Self::od_mut`]).
+    fn refresh(&mut self) {
+        self.sync_settings = (self.slots.sync.config(&self.od), self.slots.sync.can_id(&self.od));
+        self.update_receive_filter();
+        self.stale = false;
     }
 
     fn sync_received(&mut self, data: &[u8], now: Instant, config: SyncConfig) {
@@ -1267,6 +1296,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
         // Active errors are conditions of the device and stay; the history and queue go.
         self.emcy.discard_pending();
         self.load_stored(Group::Communication);
+        self.refresh();
         self.sync_error_register();
         self.heartbeat_consumer = HeartbeatConsumer::default();
         self.guarding.reset();
@@ -1303,8 +1333,8 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
                 self.update_receive_filter();
             }
             Owner::Sync => {
+                self.refresh();
                 self.sync.restart(now, self.sync_config().0);
-                self.update_receive_filter();
             }
             Owner::Pdo => {
                 if let Some(record) = PdoRecord::of(mux.index) {

@@ -35,13 +35,12 @@ impl CanFrame {
         Self::new(Id::Standard(StandardId::new(id)?), data)
     }
 
-    /// A data frame with an 11-bit identifier and the first `len` bytes of `data` (a whole
-    /// buffer: no copy of a variable length); `None` if `id > 0x7FF` or `len > 8`.
-    pub fn from_array(id: u16, data: [u8; 8], len: usize) -> Option<Self> {
+    /// A data frame with an 11-bit identifier and the first `len` bytes of `data`, whose bytes
+    /// beyond `len` are zero (a whole buffer: no copy of a variable length); `None` if
+    /// `id > 0x7FF` or `len > 8`.
+    pub(crate) fn from_padded(id: u16, data: [u8; 8], len: usize) -> Option<Self> {
+        debug_assert!(data.get(len..).is_none_or(|rest| rest.iter().all(|b| *b == 0)));
         let id = u32::from(StandardId::new(id)?.as_raw());
-        // The bytes beyond `len` are not part of the frame: zero, as in every other frame.
-        let kept = u64::MAX.checked_shr(64 - 8 * u32::try_from(len).ok()?).unwrap_or(0);
-        let data = (u64::from_le_bytes(data) & kept).to_le_bytes();
         (len <= 8).then_some(CanFrame { id, remote: false, dlc: len as u8, data })
     }
 

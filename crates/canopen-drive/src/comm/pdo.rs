@@ -410,8 +410,8 @@ pub trait FrameSink {
     /// Queues a frame; false when it was dropped.
     fn send(&mut self, id: u16, data: &[u8]) -> bool;
 
-    /// Queues a frame of the first `len` bytes of `data` (a whole frame's buffer: no copy of a
-    /// variable length on the way).
+    /// Queues a frame of the first `len` bytes of `data`, whose further bytes are zero (a whole
+    /// frame's buffer: no copy of a variable length on the way).
     fn send_array(&mut self, id: u16, data: [u8; 8], len: usize) -> bool {
         self.send(id, data.get(..len).unwrap_or(&data))
     }
@@ -532,6 +532,10 @@ pub struct RpdoFrame<'a> {
 pub struct PdoSet<const R: usize, const T: usize> {
     rpdos: [Rpdo; R],
     tpdos: [Tpdo; T],
+    /// Some synchronous RPDO latched a frame since the last SYNC.
+    latched: bool,
+    /// Some RPDO has a frame ready for the next tick.
+    ready: bool,
     /// EMCY 8210h / 8220h raised by an RPDO and not cleared since (a correct frame clears them:
     /// then, and only then, the clear is reported).
     length_errors: (bool, bool),
@@ -547,6 +551,8 @@ impl<const R: usize, const T: usize> Default for PdoSet<R, T> {
             rpdos: [Rpdo::OFF; R],
             tpdos: [Tpdo::OFF; T],
             length_errors: (false, false),
+            latched: false,
+            ready: false,
             long_rpdo: LongRpdo::ApplyAndReport,
             inhibit_unit: INHIBIT_UNIT,
         }
@@ -555,16 +561,6 @@ impl<const R: usize, const T: usize> Default for PdoSet<R, T> {
 
 /// The unit of the inhibit times in CiA 301 (TPDO sub 3, 1015h): 100 µs.
 pub const INHIBIT_UNIT: Duration = Duration::from_micros(100);
-
-/// `word` (a frame, little-endian: CiA 301 §7.2.2 bit order) with the low `bits` of `value` at
-/// bit `position`; bits beyond the 64 of a frame are dropped.
-#[inline]
-fn with_bits(word: u64, position: usize, bits: usize, value: u64) -> u64 {
-    match field_mask(position, bits) {
-        Some(mask) => (word & !mask) | ((value << position) & mask),
-        None => word,
-    }
-}
 
 /// The `bits` bits at bit `position` of the frame.
 fn get_bits(frame: &[u8; 8], position: usize, bits: usize) -> u64 {
@@ -583,21 +579,20 @@ fn field_mask(position: usize, bits: usize) -> Option<u64> {
 }
 
 fn sample<const B: usize>(od: &Dictionary<B>, mapping: &Mapping) -> [u8; 8] {
-    let mut frame = [0u8; 8];
-    let mut position = 0;
+    // The frame as one little-endian word, each value or-ed in at its bit position: a validated
+    // mapping holds at most 64 bits, and each value fills its field exactly (a whole entry, or
+    // the low bit of a BOOLEAN, masked).
+    let mut word = 0u64;
+    let mut position = 0u32;
     for slot in mapping.slots() {
-        let bits = usize::from(slot.bits);
-        match (position % 8, bits % 8, frame.get_mut(position / 8..)) {
-            // Whole bytes: copied as stored (little-endian, as on the bus).
-            (0, 0, Some(field)) => od.copy_span(slot.span(), field),
-            _ => {
-                frame = with_bits(u64::from_le_bytes(frame), position, bits, od.load_span(slot.span()))
-                    .to_le_bytes()
-            }
+        let mut value = od.load_span(slot.span());
+        if u32::from(slot.bits) < 8 * u32::from(slot.len) {
+            value &= (1u64 << slot.bits) - 1;
         }
-        position += bits;
+        word |= value.checked_shl(position).unwrap_or(0);
+        position += u32::from(slot.bits);
     }
-    frame
+    word.to_le_bytes()
 }
 
 impl<const R: usize, const T: usize> PdoSet<R, T> {
@@ -753,6 +748,7 @@ impl<const R: usize, const T: usize> PdoSet<R, T> {
             // Outside the synchronous window the data wait for nothing: discarded.
             if !late {
                 rpdo.latched = Some(frame);
+                self.latched = true;
             }
         } else {
             apply(od, hooks, rules, &rpdo.mapping, &frame, events);
@@ -769,9 +765,12 @@ impl<const R: usize, const T: usize> PdoSet<R, T> {
         od: &Dictionary<B>,
         tx: &mut impl FrameSink,
     ) {
-        for rpdo in self.rpdos.iter_mut() {
-            if let Some(frame) = rpdo.latched.take() {
-                rpdo.ready = Some(frame);
+        if core::mem::take(&mut self.latched) {
+            for rpdo in self.rpdos.iter_mut() {
+                if let Some(frame) = rpdo.latched.take() {
+                    rpdo.ready = Some(frame);
+                    self.ready = true;
+                }
             }
         }
         for tpdo in self.tpdos.iter_mut() {
@@ -813,6 +812,9 @@ impl<const R: usize, const T: usize> PdoSet<R, T> {
         rules: &impl ValueRules<B>,
         events: &mut impl FnMut(PdoEvent),
     ) {
+        if !core::mem::take(&mut self.ready) {
+            return;
+        }
         for rpdo in self.rpdos.iter_mut() {
             if let Some(frame) = rpdo.ready.take() {
                 apply(od, hooks, rules, &rpdo.mapping, &frame, events);
@@ -967,8 +969,12 @@ fn apply<const B: usize, V: ValueRules<B>, H: ObjectHooks>(
     if mapping.checked || H::VALIDATES {
         let mut position = 0;
         for slot in mapping.slots() {
-            let bytes = get_bits(frame, position, usize::from(slot.bits)).to_le_bytes();
+            let at = position;
             position += usize::from(slot.bits);
+            if slot.limits.is_none() && slot.rule == 0 && !H::VALIDATES {
+                continue;
+            }
+            let bytes = get_bits(frame, at, usize::from(slot.bits)).to_le_bytes();
             let data = bytes.get(..usize::from(slot.len)).unwrap_or(&[]);
             if data.is_empty() {
                 continue;
@@ -1006,7 +1012,23 @@ mod tests {
     use super::*;
     use crate::wire::cob_id::{BIT30, INVALID};
 
-    /// The word-wide bit fields agree with a bit-by-bit reference at every position and width,
+    /// `bits` bits of `value` written bit by bit at `position` into `frame` (the reference of
+    /// CiA 301's bit order), cut at the end of the frame.
+    fn reference_put(frame: &mut [u8; 8], position: usize, bits: usize, value: u64) {
+        for bit in 0..bits {
+            let target = position + bit;
+            if let Some(byte) = frame.get_mut(target / 8) {
+                let mask = 1u8 << (target % 8);
+                if (value >> bit) & 1 == 1 {
+                    *byte |= mask;
+                } else {
+                    *byte &= !mask;
+                }
+            }
+        }
+    }
+
+    /// Reading a field agrees with the bit-by-bit reference at every position and width,
     /// including fields cut at the end of the frame.
     #[test]
     fn bit_fields_match_a_bit_by_bit_reference() {
@@ -1014,21 +1036,8 @@ mod tests {
         let background = [0x5Au8, 0xFF, 0x00, 0x81, 0x7E, 0x33, 0xCC, 0x01];
         for position in 0..=70 {
             for bits in 0..=64 {
-                let mut expected = background;
-                for bit in 0..bits {
-                    let target = position + bit;
-                    if let Some(byte) = expected.get_mut(target / 8) {
-                        let mask = 1u8 << (target % 8);
-                        if (value >> bit) & 1 == 1 {
-                            *byte |= mask;
-                        } else {
-                            *byte &= !mask;
-                        }
-                    }
-                }
                 let mut frame = background;
-                frame = with_bits(u64::from_le_bytes(frame), position, bits, value).to_le_bytes();
-                assert_eq!(frame, expected, "put {bits} bits at {position}");
+                reference_put(&mut frame, position, bits, value);
                 let kept = bits.min(64usize.saturating_sub(position));
                 let want = if kept == 0 { 0 } else { value & (u64::MAX >> (64 - kept)) };
                 assert_eq!(get_bits(&frame, position, bits), want, "get {bits} bits at {position}");
@@ -1036,16 +1045,47 @@ mod tests {
         }
     }
 
+    /// A TPDO samples a 16-bit value, a 1-bit BOOLEAN and a 32-bit value at bits 0, 16 and 17 as
+    /// the reference packs them; an RPDO with the same mapping stores them back.
     #[test]
-    fn bit_packing_round_trips() {
-        let mut frame = [0u8; 8];
-        frame = with_bits(u64::from_le_bytes(frame), 0, 16, 0x1234).to_le_bytes();
-        frame = with_bits(u64::from_le_bytes(frame), 16, 1, 1).to_le_bytes();
-        frame = with_bits(u64::from_le_bytes(frame), 17, 32, 0xDEAD_BEEF).to_le_bytes();
-        assert_eq!(get_bits(&frame, 0, 16), 0x1234);
-        assert_eq!(get_bits(&frame, 16, 1), 1);
-        assert_eq!(get_bits(&frame, 17, 32), 0xDEAD_BEEF);
+    fn sampled_and_applied_fields_sit_at_their_bit_positions() {
+        const fn both(name: &'static str, data_type: DataType) -> Var {
+            Var::new(name, data_type).access(Access::ReadWrite).pdo(PdoMapping::Both)
+        }
+        static TABLE: [Object; 3] = crate::od::layout([
+            Object::var(0x2000, "a", both("a", DataType::Unsigned16)),
+            Object::var(0x2001, "b", both("b", DataType::Boolean)),
+            Object::var(0x2002, "c", both("c", DataType::Unsigned32)),
+        ]);
+        let mut od = Dictionary::<64>::new(&[&TABLE], crate::od::DeviceInfo::servo_drive(), 1).unwrap();
+        let entries = [0x2000_0010u32, 0x2001_0001, 0x2002_0020];
+        let mapping_of = |od: &Dictionary<64>, direction| {
+            let mut mapping = Mapping::EMPTY;
+            for (slot, raw) in mapping.slots.iter_mut().zip(entries) {
+                *slot = resolve(od, raw, direction).unwrap().0;
+                mapping.count += 1;
+                mapping.bits += u16::from(slot.bits);
+                mapping.checked |= slot.limits.is_some();
+            }
+            mapping
+        };
+        od.set::<u16>(0x2000, 0, 0x1234).unwrap();
+        od.set::<u8>(0x2001, 0, 1).unwrap();
+        od.set::<u32>(0x2002, 0, 0xDEAD_BEEF).unwrap();
+        let frame = sample(&od, &mapping_of(&od, Direction::Tpdo));
+        let mut expected = [0u8; 8];
+        reference_put(&mut expected, 0, 16, 0x1234);
+        reference_put(&mut expected, 16, 1, 1);
+        reference_put(&mut expected, 17, 32, 0xDEAD_BEEF);
+        assert_eq!(frame, expected);
         assert_eq!(frame[..2], [0x34, 0x12]);
+
+        od.reset(0x2000..=0x2002);
+        let rpdo = mapping_of(&od, Direction::Rpdo);
+        apply(&mut od, &mut (), &NoRules, &rpdo, &frame, &mut |_| {});
+        assert_eq!(od.get::<u16>(0x2000, 0), Ok(0x1234));
+        assert_eq!(od.get::<u8>(0x2001, 0), Ok(1));
+        assert_eq!(od.get::<u32>(0x2002, 0), Ok(0xDEAD_BEEF));
     }
 
     #[test]
