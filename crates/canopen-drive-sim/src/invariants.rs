@@ -103,7 +103,7 @@ pub fn check_values<const B: usize>(
             }
             _ => &[][..],
         };
-        let at = || format!("{index:04X}sub{sub} ({}) = {bytes:02X?}", var.name);
+        let at = || format!("{index:04X}sub{sub} ({}) = {bytes:02X?}", var.name());
         match var.data_type.fixed_size() {
             Some(size) if len != size => {
                 return Err(format!("{}: {len} bytes, its type has {size}", at()));

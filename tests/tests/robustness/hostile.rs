@@ -104,7 +104,7 @@ struct Probe {
 }
 
 fn in_limits_signed(entry: &Entry, v: i128) -> Option<AbortCode> {
-    match (entry.var.low, entry.var.high) {
+    match (entry.var.low(), entry.var.high()) {
         (Bound::Signed(low), _) if v < i128::from(low) => Some(AbortCode::ValueTooLow),
         (_, Bound::Signed(high)) if v > i128::from(high) => Some(AbortCode::ValueTooHigh),
         _ => None,
@@ -115,7 +115,7 @@ fn in_limits_unsigned(entry: &Entry, v: u128) -> Option<AbortCode> {
     if entry.var.data_type == DataType::Boolean && v > 1 {
         return Some(AbortCode::ValueTooHigh);
     }
-    match (entry.var.low, entry.var.high) {
+    match (entry.var.low(), entry.var.high()) {
         (Bound::Unsigned(low), _) if v < u128::from(low) => Some(AbortCode::ValueTooLow),
         (_, Bound::Unsigned(high)) if v > u128::from(high) => Some(AbortCode::ValueTooHigh),
         _ => None,
@@ -143,13 +143,13 @@ fn probes(entry: &Entry) -> Vec<Probe> {
         let min = -(1i128 << (bits - 1));
         let max = (1i128 << (bits - 1)) - 1;
         let mut values = vec![("0", 0i128), ("1", 1), ("-1", -1), ("min", min), ("max", max)];
-        if let Bound::Signed(low) = var.low {
+        if let Bound::Signed(low) = var.low() {
             values.push(("low", i128::from(low)));
             if i128::from(low) > min {
                 values.push(("low - 1", i128::from(low) - 1));
             }
         }
-        if let Bound::Signed(high) = var.high {
+        if let Bound::Signed(high) = var.high() {
             values.push(("high", i128::from(high)));
             if i128::from(high) < max {
                 values.push(("high + 1", i128::from(high) + 1));
@@ -165,13 +165,13 @@ fn probes(entry: &Entry) -> Vec<Probe> {
     } else if ty.is_unsigned() {
         let max = if bits >= 128 { u128::MAX } else { (1u128 << bits) - 1 };
         let mut values = vec![("0", 0u128), ("1", 1), ("2", 2), ("max", max)];
-        if let Bound::Unsigned(low) = var.low {
+        if let Bound::Unsigned(low) = var.low() {
             values.push(("low", u128::from(low)));
             if low > 0 {
                 values.push(("low - 1", u128::from(low) - 1));
             }
         }
-        if let Bound::Unsigned(high) = var.high {
+        if let Bound::Unsigned(high) = var.high() {
             values.push(("high", u128::from(high)));
             if u128::from(high) < max {
                 values.push(("high + 1", u128::from(high) + 1));
@@ -277,7 +277,7 @@ fn walk(notes: &mut Notes) {
                     probe.expected
                 };
                 let what =
-                    format!("{situation:?} {index:04X}sub{sub} ({}) <- {}", entry.var.name, probe.label);
+                    format!("{situation:?} {index:04X}sub{sub} ({}) <- {}", entry.var.name(), probe.label);
                 let verdict = match (situation, answer, fixed) {
                     (Situation::Stopped, Answer::Silent, _) => Ok(()),
                     (Situation::Stopped, other, _) => Err(format!("answered {other:?} in Stopped")),

@@ -95,11 +95,9 @@ pub const HARD_STOP_RECORD: u16 = 0x5E10;
 pub static OBJECTS: [Object; 6] = layout([
     var(
         HARD_STOP_CURRENT,
-        Var {
-            low: Bound::Real(0.01),
-            high: Bound::Real(0.9),
-            ..rw("Hard stop current", DataType::Real32).default(DefaultValue::Real(0.5))
-        },
+        rw("Hard stop current", DataType::Real32)
+            .default(DefaultValue::Real(0.5))
+            .limits(Bound::Real(0.01), Bound::Real(0.9)),
     ),
     var(HARD_STOP_PERIOD, rw("Hard stop period", DataType::Unsigned16).default(DefaultValue::Unsigned(250))),
     simulated_faults(PROFILE_SIMULATION),

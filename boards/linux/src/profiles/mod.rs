@@ -253,7 +253,7 @@ pub(crate) const fn ro(name: &'static str, data_type: DataType) -> Var {
 
 /// A VAR object named like its entry.
 pub(crate) const fn var(index: u16, var: Var) -> Object {
-    Object::var(index, var.name, var)
+    Object::var(index, var.name(), var)
 }
 
 /// An unsigned default.

@@ -331,7 +331,7 @@ pub static DEFAULT_SUBS: [(u8, Var); 6] = record_subs(&Parameters::DEFAULT);
 ///
 /// const CASCADE_PARAMETERS: u16 = 0x2400;
 /// static VENDOR: [Object; 1] = layout([control::object(CASCADE_PARAMETERS)]);
-/// # assert_eq!(VENDOR[0].name, control::OBJECT_NAME);
+/// # assert_eq!(VENDOR[0].name(), control::OBJECT_NAME);
 /// ```
 pub const fn object(index: u16) -> Object {
     object_with(index, &DEFAULT_SUBS)

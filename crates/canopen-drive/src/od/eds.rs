@@ -132,7 +132,7 @@ struct ObjectName<'a>(&'a Object);
 
 impl fmt::Display for ObjectName<'_> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        Clean(self.0.name).fmt(f)?;
+        Clean(self.0.name()).fmt(f)?;
         match self.0.number {
             0 => Ok(()),
             n => write!(f, " {n}"),
@@ -159,11 +159,11 @@ fn write_object<const B: usize>(
             writeln!(w, "\n[{index:04X}]\nParameterName={}", ObjectName(object))?;
             writeln!(w, "ObjectType=0x8\nSubNumber=0x{:X}", u16::from(*len) + 1)?;
             let sub0 = od.describe(index, 0, sub0);
-            writeln!(w, "\n[{index:04X}sub0]\nParameterName={}", Clean(sub0.name))?;
+            writeln!(w, "\n[{index:04X}sub0]\nParameterName={}", Clean(sub0.name()))?;
             write_var(od, sub0, od.default_of(index, 0, sub0), w)?;
             for sub in 1..=*len {
                 let element = od.describe(index, sub, element);
-                writeln!(w, "\n[{index:04X}sub{sub:X}]\nParameterName={} {sub}", Clean(element.name))?;
+                writeln!(w, "\n[{index:04X}sub{sub:X}]\nParameterName={} {sub}", Clean(element.name()))?;
                 write_var(od, element, od.default_of(index, sub, element), w)?;
             }
             Ok(())
@@ -174,7 +174,7 @@ fn write_object<const B: usize>(
             writeln!(w, "ObjectType=0x9\nSubNumber=0x{:X}", visible().count())?;
             for (sub, var) in visible() {
                 let var = od.describe(index, *sub, var);
-                writeln!(w, "\n[{index:04X}sub{sub:X}]\nParameterName={}", Clean(var.name))?;
+                writeln!(w, "\n[{index:04X}sub{sub:X}]\nParameterName={}", Clean(var.name()))?;
                 write_var(od, var, od.default_of(index, *sub, var), w)?;
             }
             Ok(())
@@ -200,7 +200,7 @@ fn write_var<const B: usize>(
     writeln!(w, "AccessType={access}")?;
     write_default(od, var, default, w)?;
     writeln!(w, "PDOMapping={}", u8::from(var.pdo != PdoMapping::No))?;
-    for (key, bound) in [("LowLimit", var.low), ("HighLimit", var.high)] {
+    for (key, bound) in [("LowLimit", var.low()), ("HighLimit", var.high())] {
         match bound {
             Bound::None => {}
             Bound::Signed(v) => writeln!(w, "{key}={v}")?,

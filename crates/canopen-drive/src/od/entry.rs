@@ -239,6 +239,27 @@ pub enum Bound {
     Real(f64),
 }
 
+impl Bound {
+    /// The kind (0 none, 1 signed, 2 unsigned, 3 real) and the raw value.
+    const fn encode(self) -> (u8, u64) {
+        match self {
+            Bound::None => (0, 0),
+            Bound::Signed(v) => (1, v as u64),
+            Bound::Unsigned(v) => (2, v),
+            Bound::Real(v) => (3, v.to_bits()),
+        }
+    }
+
+    const fn decode(kind: u8, raw: u64) -> Self {
+        match kind {
+            1 => Bound::Signed(raw as i64),
+            2 => Bound::Unsigned(raw),
+            3 => Bound::Real(f64::from_bits(raw)),
+            _ => Bound::None,
+        }
+    }
+}
+
 /// Fields of the device description that defaults may refer to.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -295,31 +316,25 @@ pub enum DefaultValue {
     PdoPreset,
 }
 
-/// `name` with the `names` feature, else "" (the string then stays out of the image).
-const fn kept(name: &'static str) -> &'static str {
-    if cfg!(feature = "names") {
-        name
-    } else {
-        ""
-    }
-}
-
 /// One value of the dictionary: a VAR, or one sub-index of an ARRAY or RECORD.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Var {
-    /// Parameter name as written to the EDS.
-    pub name: &'static str,
+    /// Parameter name as written to the EDS (kept with the `names` feature only: [`Var::name`]).
+    #[cfg(feature = "names")]
+    name: &'static str,
     /// CiA 301 data type.
     pub data_type: DataType,
     /// SDO access.
     pub access: Access,
     /// PDO mappability.
     pub pdo: PdoMapping,
-    /// Lowest accepted value (numeric types).
-    pub low: Bound,
-    /// Highest accepted value (numeric types).
-    pub high: Bound,
+    /// The raw values of the low and the high limit ([`Var::low`], [`Var::high`]): two words and
+    /// a byte of kinds instead of two 16-byte enums (a dictionary has hundreds of entries).
+    limits: [u64; 2],
+    /// The kinds of the limits: bits 0–1 the low one, bits 2–3 the high one ([`Bound`]'s
+    /// order: none, signed, unsigned, real).
+    limit_kinds: u8,
     /// Power-on value.
     pub default: DefaultValue,
     /// Storage in bytes for VISIBLE_STRING, OCTET_STRING, UNICODE_STRING and DOMAIN. For a
@@ -334,13 +349,16 @@ pub struct Var {
 impl Var {
     /// A read-only entry of type `data_type` with default zero, no limits, not mappable.
     pub const fn new(name: &'static str, data_type: DataType) -> Self {
+        #[cfg(not(feature = "names"))]
+        let _ = name;
         Var {
-            name: kept(name),
+            #[cfg(feature = "names")]
+            name,
             data_type,
             access: Access::ReadOnly,
             pdo: PdoMapping::No,
-            low: Bound::None,
-            high: Bound::None,
+            limits: [0; 2],
+            limit_kinds: 0,
             default: DefaultValue::Zero,
             capacity: 0,
             rule: WriteRule::Always,
@@ -362,16 +380,44 @@ impl Var {
         self
     }
     /// Sets inclusive limits for an unsigned type.
-    pub const fn limits_unsigned(mut self, low: u64, high: u64) -> Self {
-        self.low = Bound::Unsigned(low);
-        self.high = Bound::Unsigned(high);
-        self
+    pub const fn limits_unsigned(self, low: u64, high: u64) -> Self {
+        self.limits(Bound::Unsigned(low), Bound::Unsigned(high))
     }
     /// Sets inclusive limits for a signed type.
-    pub const fn limits_signed(mut self, low: i64, high: i64) -> Self {
-        self.low = Bound::Signed(low);
-        self.high = Bound::Signed(high);
+    pub const fn limits_signed(self, low: i64, high: i64) -> Self {
+        self.limits(Bound::Signed(low), Bound::Signed(high))
+    }
+
+    /// Sets both limits (either may be [`Bound::None`]).
+    pub const fn limits(mut self, low: Bound, high: Bound) -> Self {
+        let (low_kind, low_raw) = low.encode();
+        let (high_kind, high_raw) = high.encode();
+        self.limits = [low_raw, high_raw];
+        self.limit_kinds = low_kind | high_kind << 2;
         self
+    }
+
+    /// The lowest accepted value.
+    pub const fn low(&self) -> Bound {
+        Bound::decode(self.limit_kinds & 3, self.limits[0])
+    }
+
+    /// The highest accepted value.
+    pub const fn high(&self) -> Bound {
+        Bound::decode(self.limit_kinds >> 2 & 3, self.limits[1])
+    }
+
+    /// Whether either limit is set.
+    pub const fn has_bounds(&self) -> bool {
+        self.limit_kinds != 0
+    }
+
+    /// The parameter name as written to the EDS ("" without the `names` feature).
+    pub const fn name(&self) -> &'static str {
+        #[cfg(feature = "names")]
+        return self.name;
+        #[cfg(not(feature = "names"))]
+        ""
     }
     /// Sets the storage size of a string or DOMAIN entry, or the bytes a numeric entry may be
     /// widened to ([`Var::capacity`](Var#structfield.capacity)).
@@ -475,8 +521,9 @@ pub enum Owner {
 pub struct Object {
     /// Index (0x1000..=0xFFFF).
     pub index: u16,
-    /// Object name as written to the EDS.
-    pub name: &'static str,
+    /// Object name as written to the EDS (kept with the `names` feature only: [`Object::name`]).
+    #[cfg(feature = "names")]
+    name: &'static str,
     /// Sub-index organisation.
     pub kind: Kind,
     /// Offset of the object's first stored byte inside its table's region; set by [`layout`].
@@ -491,17 +538,30 @@ pub struct Object {
 impl Object {
     /// A VAR object.
     pub const fn var(index: u16, name: &'static str, var: Var) -> Self {
-        Object { index, name: kept(name), kind: Kind::Var(var), base: 0, number: 0, owner: Owner::Dictionary }
+        #[cfg(not(feature = "names"))]
+        let _ = name;
+        Object {
+            index,
+            #[cfg(feature = "names")]
+            name,
+            kind: Kind::Var(var),
+            base: 0,
+            number: 0,
+            owner: Owner::Dictionary,
+        }
     }
     /// An ARRAY object with a read-only sub 0 holding `len`.
     /// In a `static` or `const` table `&Var::new(..)` is a `'static` reference.
     pub const fn array(index: u16, name: &'static str, len: u8, element: &'static Var) -> Self {
+        #[cfg(not(feature = "names"))]
+        let _ = name;
         let sub0 = Var::new("Highest sub-index supported", DataType::Unsigned8)
             .access(Access::Const)
             .default(DefaultValue::Unsigned(len as u64));
         Object {
             index,
-            name: kept(name),
+            #[cfg(feature = "names")]
+            name,
             kind: Kind::Array { sub0, element, len },
             base: 0,
             number: 0,
@@ -516,9 +576,12 @@ impl Object {
         sub0: Var,
         element: &'static Var,
     ) -> Self {
+        #[cfg(not(feature = "names"))]
+        let _ = name;
         Object {
             index,
-            name: kept(name),
+            #[cfg(feature = "names")]
+            name,
             kind: Kind::Array { sub0, element, len },
             base: 0,
             number: 0,
@@ -527,14 +590,25 @@ impl Object {
     }
     /// A RECORD object; `subs` sorted by sub-index, sub 0 included.
     pub const fn record(index: u16, name: &'static str, subs: &'static [(u8, Var)]) -> Self {
+        #[cfg(not(feature = "names"))]
+        let _ = name;
         Object {
             index,
-            name: kept(name),
+            #[cfg(feature = "names")]
+            name,
             kind: Kind::Record(subs),
             base: 0,
             number: 0,
             owner: Owner::Dictionary,
         }
+    }
+
+    /// The object name as written to the EDS ("" without the `names` feature).
+    pub const fn name(&self) -> &'static str {
+        #[cfg(feature = "names")]
+        return self.name;
+        #[cfg(not(feature = "names"))]
+        ""
     }
 
     /// The same object, ruled by `owner`.

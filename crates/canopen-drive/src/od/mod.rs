@@ -792,9 +792,7 @@ impl<const BYTES: usize> Dictionary<BYTES> {
     /// Whether a value written to an entry described by `var` must be checked against limits
     /// beyond its type's range (its bounds, BOOLEAN's 0/1, a REAL's NaN).
     pub fn has_limits(var: &Var) -> bool {
-        var.low != Bound::None
-            || var.high != Bound::None
-            || matches!(var.data_type, DataType::Boolean | DataType::Real32 | DataType::Real64)
+        var.has_bounds() || matches!(var.data_type, DataType::Boolean | DataType::Real32 | DataType::Real64)
     }
 
     /// Checks a numeric value of the entry's size against the limits of `var`
@@ -1075,12 +1073,12 @@ fn check_limits(var: &Var, data: &[u8]) -> Result<(), AbortCode> {
     let unsigned = u64::from_le_bytes(raw);
     if ty.is_signed() {
         let value = sign_extend(unsigned, n);
-        if let Bound::Signed(low) = var.low {
+        if let Bound::Signed(low) = var.low() {
             if value < low {
                 return Err(AbortCode::ValueTooLow);
             }
         }
-        if let Bound::Signed(high) = var.high {
+        if let Bound::Signed(high) = var.high() {
             if value > high {
                 return Err(AbortCode::ValueTooHigh);
             }
@@ -1089,12 +1087,12 @@ fn check_limits(var: &Var, data: &[u8]) -> Result<(), AbortCode> {
         if ty == DataType::Boolean && unsigned > 1 {
             return Err(AbortCode::ValueTooHigh);
         }
-        if let Bound::Unsigned(low) = var.low {
+        if let Bound::Unsigned(low) = var.low() {
             if unsigned < low {
                 return Err(AbortCode::ValueTooLow);
             }
         }
-        if let Bound::Unsigned(high) = var.high {
+        if let Bound::Unsigned(high) = var.high() {
             if unsigned > high {
                 return Err(AbortCode::ValueTooHigh);
             }
@@ -1108,12 +1106,12 @@ fn check_limits(var: &Var, data: &[u8]) -> Result<(), AbortCode> {
         if value.is_nan() {
             return Err(AbortCode::InvalidValue);
         }
-        if let Bound::Real(low) = var.low {
+        if let Bound::Real(low) = var.low() {
             if value < low {
                 return Err(AbortCode::ValueTooLow);
             }
         }
-        if let Bound::Real(high) = var.high {
+        if let Bound::Real(high) = var.high() {
             if value > high {
                 return Err(AbortCode::ValueTooHigh);
             }

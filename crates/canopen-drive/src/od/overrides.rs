@@ -85,8 +85,7 @@ impl EntryOverride {
     /// be (a default of −1 becomes 65 535 in an UNSIGNED16), limits that cannot are dropped.
     pub const fn data_type(mut self, data_type: DataType) -> Self {
         if let Some(var) = &mut self.var {
-            var.low = bound_as(var.low, data_type);
-            var.high = bound_as(var.high, data_type);
+            *var = var.limits(bound_as(var.low(), data_type), bound_as(var.high(), data_type));
             var.default = default_as(var.default, data_type);
             var.data_type = data_type;
         }
@@ -112,8 +111,7 @@ impl EntryOverride {
     /// Inclusive limits for an unsigned type.
     pub const fn limits_unsigned(mut self, low: u64, high: u64) -> Self {
         if let Some(var) = &mut self.var {
-            var.low = Bound::Unsigned(low);
-            var.high = Bound::Unsigned(high);
+            *var = var.limits(Bound::Unsigned(low), Bound::Unsigned(high));
         }
         self
     }
@@ -121,8 +119,7 @@ impl EntryOverride {
     /// Inclusive limits for a signed type.
     pub const fn limits_signed(mut self, low: i64, high: i64) -> Self {
         if let Some(var) = &mut self.var {
-            var.low = Bound::Signed(low);
-            var.high = Bound::Signed(high);
+            *var = var.limits(Bound::Signed(low), Bound::Signed(high));
         }
         self
     }
@@ -130,8 +127,7 @@ impl EntryOverride {
     /// No limits beyond the data type's range.
     pub const fn no_limits(mut self) -> Self {
         if let Some(var) = &mut self.var {
-            var.low = Bound::None;
-            var.high = Bound::None;
+            *var = var.limits(Bound::None, Bound::None);
         }
         self
     }
@@ -383,8 +379,8 @@ mod tests {
             [EntryOverride::of(&TABLE, 0x2000, 0).data_type(DataType::Unsigned16)];
         let var = RETYPED[0].var().unwrap();
         assert_eq!(var.default, DefaultValue::Unsigned(0xFFFF));
-        assert_eq!((var.low, var.high), (Bound::None, Bound::Unsigned(3)));
-        assert_eq!((var.name, var.pdo), ("Option", PdoMapping::Rpdo));
+        assert_eq!((var.low(), var.high()), (Bound::None, Bound::Unsigned(3)));
+        assert_eq!((var.name(), var.pdo), ("Option", PdoMapping::Rpdo));
         let mut od = dict();
         od.set_entry_overrides(&RETYPED).unwrap();
         let entry = od.entry(0x2000, 0).unwrap();
@@ -397,19 +393,19 @@ mod tests {
             .data_type(DataType::Integer16);
         let back = back.var().unwrap();
         assert_eq!(
-            (back.default, back.low, back.high),
+            (back.default, back.low(), back.high()),
             (DefaultValue::Signed(-1), Bound::None, Bound::Signed(3))
         );
     }
 
     #[test]
     fn entries_of_arrays_and_records_are_found() {
-        assert_eq!(EntryOverride::of(&TABLE, 0x2001, 2).var().map(|v| v.name), Some("Element"));
+        assert_eq!(EntryOverride::of(&TABLE, 0x2001, 2).var().map(|v| v.name()), Some("Element"));
         assert_eq!(
             EntryOverride::of(&TABLE, 0x2001, 0).var().map(|v| v.data_type),
             Some(DataType::Unsigned8)
         );
-        assert_eq!(EntryOverride::of(&TABLE, 0x2002, 1).var().map(|v| v.name), Some("Text"));
+        assert_eq!(EntryOverride::of(&TABLE, 0x2002, 1).var().map(|v| v.name()), Some("Text"));
         for (index, sub) in [(0x2001, 3), (0x2002, 2), (0x2000, 1), (0x2003, 0)] {
             assert_eq!(EntryOverride::of(&TABLE, index, sub).var(), None);
         }
