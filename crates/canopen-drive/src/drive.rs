@@ -19,12 +19,12 @@ use crate::cia402::objects::Rule;
 use crate::cia402::objects::{IMPLEMENTED_MODES, STANDARD_MODES};
 use crate::cia402::profile::Profile;
 use crate::cia402::ProfileConfig;
-use crate::comm::emcy::{self, code, EmcyProducer, ErrorRegister};
+use crate::comm::emcy::{self, code, EmcyProducer, EmcySettings, ErrorRegister};
 use crate::comm::error_control::{
-    check_consumer_write, guarding_configured, ConsumerEvent, ErrorBehaviour, GuardingEvent,
+    check_consumer_write, guarding_configured, life_time_ms, ConsumerEvent, ErrorBehaviour, GuardingEvent,
     HeartbeatConsumer, NodeGuarding,
 };
-use crate::comm::heartbeat::HeartbeatProducer;
+use crate::comm::heartbeat::{HeartbeatProducer, PeriodSlot};
 use crate::comm::lss::{LssHooks, LssSlave, StoreError};
 use crate::comm::nmt::{transition, NmtAction, Services};
 use crate::comm::pdo::{self, FrameSink, PdoEvent, PdoRecord, PdoSet, RpdoFrame, ValueRules};
@@ -33,18 +33,13 @@ use crate::comm::sync::{self, Sync, SyncConfig, SyncPoll, SyncReception, SyncSlo
 use crate::frame::CanFrame;
 use crate::hal::{Demand, Sample};
 use crate::od::eds::{self, EdsInfo};
-use crate::od::standard::{
-    self, COB_ID_EMCY, ERROR_BEHAVIOUR, ERROR_HISTORY_LEN, ERROR_REGISTER, GUARD_TIME, HEARTBEAT_CONSUMERS,
-    INHIBIT_TIME_EMCY, LIFE_TIME_FACTOR, PRE_DEFINED_ERROR_FIELD, PRODUCER_HEARTBEAT_TIME,
-    SYNCHRONOUS_WINDOW_LENGTH,
-};
+use crate::od::standard::{self, HEARTBEAT_CONSUMERS};
 use crate::od::{
     le_u32, AbortCode, ConfigError, DefaultOverride, DeviceInfo, Dictionary, Entry, EntryOverride, Object,
-    ObjectHooks, Owner, Slot, WriteRule,
+    ObjectHooks, Owner, WriteRule,
 };
-use crate::storage::{Group, Persistence, LOAD_SIGNATURE, SAVE_SIGNATURE, STORE_PARAMETERS};
+use crate::storage::{Group, Persistence, SAVE_SIGNATURE};
 use crate::time::{earliest, Duration, Instant};
-use crate::wire::cob_id::CobId;
 use crate::wire::lss::{
     BitTiming, LssAddress, LSS_REQUEST_COB_ID, LSS_RESPONSE_COB_ID, NODE_ID_UNCONFIGURED,
 };
@@ -186,28 +181,19 @@ impl Config {
     }
 }
 
-/// The communication entries read on every frame or poll (a lookup each would cost more than
-/// the rest of a frame's handling).
+/// The communication entries read on every frame or poll, resolved once by their services (a
+/// look-up each would cost more than the rest of a frame's handling).
 struct CommSlots {
     sync: SyncSlots,
-    synchronous_window_length: Slot<u32>,
-    producer_heartbeat_time: Slot<u16>,
+    heartbeat: PeriodSlot,
 }
 
 impl CommSlots {
     /// Slots that look their entries up (before the dictionary has its tables).
-    const LOOKUP: CommSlots = CommSlots {
-        sync: SyncSlots::LOOKUP,
-        synchronous_window_length: Slot::lookup(SYNCHRONOUS_WINDOW_LENGTH, 0),
-        producer_heartbeat_time: Slot::lookup(PRODUCER_HEARTBEAT_TIME, 0),
-    };
+    const LOOKUP: CommSlots = CommSlots { sync: SyncSlots::LOOKUP, heartbeat: PeriodSlot::LOOKUP };
 
     fn resolve<const B: usize>(od: &Dictionary<B>) -> Self {
-        CommSlots {
-            sync: SyncSlots::resolve(od),
-            synchronous_window_length: od.slot(SYNCHRONOUS_WINDOW_LENGTH, 0),
-            producer_heartbeat_time: od.slot(PRODUCER_HEARTBEAT_TIME, 0),
-        }
+        CommSlots { sync: SyncSlots::resolve(od), heartbeat: PeriodSlot::resolve(od) }
     }
 }
 
@@ -227,8 +213,10 @@ pub struct Drive<
     slots: CommSlots,
     /// The identifiers this node receives.
     receive: ReceiveFilter,
-    /// [`Drive::sync_config`] as last read; `None` after a write that may change it.
+    /// [`Drive::sync_config`] as last read ([`Drive::refresh`]).
     sync_settings: (SyncConfig, u16),
+    /// 1014h/1015h as last read ([`Drive::refresh`]).
+    emcy_settings: EmcySettings,
     /// The dictionary may have changed behind the drive's back ([`Drive::od_mut`]): refresh
     /// before the next frame or poll.
     stale: bool,
@@ -492,6 +480,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
             receive: ReceiveFilter::LSS_ONLY,
             sync_settings: (SyncConfig { producer: false, period_us: 0, overflow: 0 }, 0x80),
             stale: true,
+            emcy_settings: EmcySettings { can_id: None, inhibit_100us: 0 },
             od: Dictionary::empty(config.device, config.node_id),
             sdo: if config.sdo_block_transfer { sdo } else { sdo.without_block_transfer() },
             nmt: NmtState::Initialising,
@@ -551,8 +540,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
         self.od.set_entry_overrides(config.entry_overrides)?;
         self.od.set_default_overrides(config.default_overrides)?;
         self.od.set_absent(config.absent_objects);
-        let modes = self.od.get::<u32>(crate::cia402::objects::SUPPORTED_DRIVE_MODES, 0).unwrap_or(0);
-        self.profile.set_supported_modes(modes);
+        self.profile.configure(&self.od);
         self.slots = CommSlots::resolve(&self.od);
         self.pdos.long_rpdo = config.long_rpdo;
         self.pdos.inhibit_unit = config.tpdo_inhibit_unit;
@@ -866,9 +854,8 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
         if self.heartbeat_period() != 0 || self.nmt == NmtState::Initialising {
             return;
         }
-        let guard = u32::from(self.od.get::<u16>(GUARD_TIME, 0).unwrap_or(0));
-        let factor = u32::from(self.od.get::<u8>(LIFE_TIME_FACTOR, 0).unwrap_or(0));
-        let (byte, event) = self.guarding.on_request(self.nmt, guard * factor, now);
+        let life_time = life_time_ms(&self.od);
+        let (byte, event) = self.guarding.on_request(self.nmt, life_time, now);
         self.send_error_control(byte);
         if event == Some(GuardingEvent::Resumed) {
             self.communication_recovered();
@@ -907,9 +894,8 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
     /// The NMT state 1029h sub `class` selects for an error of that class (sub 1 communication,
     /// sub 2 the drive's Fault); nothing when the sub-index is not shown.
     fn error_class_reaction(&mut self, class: u8, now: Instant) {
-        let Ok(value) = self.od.get::<u8>(ERROR_BEHAVIOUR, class) else { return };
-        if let Some(state) =
-            ErrorBehaviour::lookup(self.error_behaviour, value).and_then(|b| b.next_state(self.nmt))
+        if let Some(state) = ErrorBehaviour::of_class(&self.od, self.error_behaviour, class)
+            .and_then(|b| b.next_state(self.nmt))
         {
             self.nmt_command(NmtAction::Enter(state), now);
         }
@@ -930,7 +916,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
         let code = self.profile.config().reported_code(code);
         let info = self.emcy_bytes.iter().find(|(c, _)| *c == code).map_or(info, |(_, bytes)| *bytes);
         if self.emcy.raise(code, register, info).is_some() {
-            self.record_history(code, info);
+            emcy::record_history(&mut self.od, code, info);
             self.sync_error_register();
         }
     }
@@ -953,27 +939,12 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
     }
 
     fn sync_error_register(&mut self) {
-        // 1001h is in the crate's own table: the write cannot fail.
-        let _ = self.od.set::<u8>(ERROR_REGISTER, 0, self.emcy.register().bits());
-    }
-
-    /// 1003h: newest first, the oldest falls off when full (digest §9.3).
-    fn record_history(&mut self, code: u16, info: [u8; 5]) {
-        let count = self.od.get::<u8>(PRE_DEFINED_ERROR_FIELD, 0).unwrap_or(0).min(ERROR_HISTORY_LEN);
-        for sub in (1..ERROR_HISTORY_LEN).rev() {
-            if let Ok(older) = self.od.get::<u32>(PRE_DEFINED_ERROR_FIELD, sub) {
-                let _ = self.od.set::<u32>(PRE_DEFINED_ERROR_FIELD, sub + 1, older);
-            }
-        }
-        let entry = u32::from(code) | (u32::from(u16::from_le_bytes([info[0], info[1]])) << 16);
-        let _ = self.od.set::<u32>(PRE_DEFINED_ERROR_FIELD, 1, entry);
-        let _ = self.od.set::<u8>(PRE_DEFINED_ERROR_FIELD, 0, (count + 1).min(ERROR_HISTORY_LEN));
+        emcy::show_register(&mut self.od, self.emcy.register());
     }
 
     /// Sends the EMCY frames due; returns when the next one may go.
     fn send_emcy(&mut self, now: Instant) -> Option<Instant> {
-        let cob = self.od.get::<u32>(COB_ID_EMCY, 0).ok().and_then(|raw| CobId::parse(raw).ok());
-        let Some(cob) = cob.filter(|c| c.valid) else {
+        let Some(can_id) = self.emcy_settings.can_id else {
             self.emcy.discard_pending();
             return None;
         };
@@ -981,10 +952,10 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
             // Stopped: kept until the node may speak again.
             return None;
         }
-        let inhibit = self.od.get::<u16>(INHIBIT_TIME_EMCY, 0).unwrap_or(0);
+        let inhibit = self.emcy_settings.inhibit_100us;
         while !self.tx.frames.is_full() {
             match self.emcy.pop_due(now, inhibit) {
-                Some(data) => self.send(cob.can_id, &data),
+                Some(data) => self.send(can_id, &data),
                 None => break,
             }
         }
@@ -1086,6 +1057,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
     /// communication, or device-side access ([`Self::od_mut`]).
     fn refresh(&mut self) {
         self.sync_settings = (self.slots.sync.config(&self.od), self.slots.sync.can_id(&self.od));
+        self.emcy_settings = EmcySettings::read(&self.od);
         self.update_receive_filter();
         self.stale = false;
     }
@@ -1124,7 +1096,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
     /// Offers a frame to the RPDOs; true when one of them took it.
     fn rpdo_received(&mut self, id: u16, data: &[u8], now: Instant) -> bool {
         // Synchronous RPDOs arriving after the synchronous window are discarded (digest §7).
-        let window = u64::from(self.od.load(self.slots.synchronous_window_length));
+        let window = u64::from(self.slots.sync.window_us(&self.od));
         let late = window != 0 && self.sync.last().is_some_and(|at| now - at > Duration::from_micros(window));
         let mut events = heapless::Vec::<PdoEvent, PDO_EVENTS>::new();
         let rules = ProcessDataRules(&self.profile);
@@ -1220,7 +1192,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
     }
 
     fn heartbeat_period(&self) -> u16 {
-        self.od.load(self.slots.producer_heartbeat_time)
+        self.slots.heartbeat.period_ms(&self.od)
     }
 
     fn boot_if_pending(&mut self, now: Instant) {
@@ -1265,7 +1237,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
                 // application's `$NODEID` defaults restart with.
                 let node_id = self.lss.activate_pending();
                 self.od.set_node_id(node_id);
-                self.od.reset(0x2000..=0xFFFF);
+                self.od.reset(standard::APPLICATION_AREA);
                 let manufacturer = self.apply_stored(Group::Manufacturer);
                 let application = self.apply_stored(Group::Application);
                 self.reset_communication(now);
@@ -1292,7 +1264,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
         // A node-ID configured by LSS becomes active here (digest §3.3).
         let node_id = self.lss.activate_pending();
         self.od.set_node_id(node_id);
-        self.od.reset(0x1000..=0x1FFF);
+        self.od.reset(standard::COMMUNICATION_AREA);
         // Active errors are conditions of the device and stay; the history and queue go.
         self.emcy.discard_pending();
         self.load_stored(Group::Communication);
@@ -1353,11 +1325,8 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
                     self.guarding.stop();
                 }
             }
-            Owner::Dictionary
-            | Owner::Emcy
-            | Owner::ErrorHistory
-            | Owner::ErrorBehaviour
-            | Owner::Storage => {}
+            Owner::Emcy => self.refresh(),
+            Owner::Dictionary | Owner::ErrorHistory | Owner::ErrorBehaviour | Owner::Storage => {}
         }
     }
 
@@ -1442,11 +1411,11 @@ impl<'a, H: ObjectHooks, S: Persistence, const B: usize> Access<'a, H, S, B> {
     fn storage_command(&mut self, mux: Mux, data: &[u8]) -> Result<(), AbortCode> {
         let group = Group::from_sub(mux.sub).ok_or(AbortCode::SubIndexDoesNotExist)?;
         let value = le_u32(data);
-        let signature = if mux.index == STORE_PARAMETERS { SAVE_SIGNATURE } else { LOAD_SIGNATURE };
+        let signature = crate::storage::signature(mux.index);
         if value != signature || !self.storage.available() || !self.store_groups.contains(&group) {
             return Err(AbortCode::CannotStore);
         }
-        if mux.index == STORE_PARAMETERS {
+        if signature == SAVE_SIGNATURE {
             self.storage.store(self.od, group)?;
             self.stored = true;
             self.hooks.stored(mux.sub);

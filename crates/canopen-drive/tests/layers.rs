@@ -134,3 +134,83 @@ fn the_check_sees_an_upward_import() {
     assert_eq!(references("let x = crate::comm::pdo::preset(1, 2);"), ["comm"]);
     assert!(layer_of("od").unwrap() < layer_of("cia402").unwrap());
 }
+
+/// The composer (`drive.rs`) routes frames, runs timers and calls the services: it holds no
+/// object index (a literal from 1000h on, or an index constant of `od::standard` or of a
+/// service) and so no rule of an object. Each service registers its own objects (DESIGN.md,
+/// "Who owns an object").
+#[test]
+fn the_composer_holds_no_object_index() {
+    let file = Path::new(env!("CARGO_MANIFEST_DIR")).join("src").join("drive.rs");
+    let text = fs::read_to_string(&file).unwrap();
+    let mut found = Vec::new();
+    for (n, line) in text.lines().enumerate() {
+        let code = line.trim_start();
+        if code.starts_with("#[cfg(test)]") {
+            break;
+        }
+        if code.starts_with("//") {
+            continue;
+        }
+        if let Some(hit) = object_index(code) {
+            found.push(format!("drive.rs:{}: {hit}: {code}", n + 1));
+        }
+    }
+    assert!(found.is_empty(), "object indices in the composer:\n{}", found.join("\n"));
+    // The check sees both forms.
+    assert_eq!(object_index("match mux.index { 0x6060 => {} }"), Some("0x6060".to_string()));
+    assert_eq!(
+        object_index("let x = od.get::<u8>(PRE_DEFINED_ERROR_FIELD, 0);"),
+        Some("PRE_DEFINED_ERROR_FIELD".to_string())
+    );
+    assert_eq!(object_index("let id = 0x80;"), None);
+}
+
+/// A hexadecimal literal of an object index (1000h and above), or an index constant of the
+/// crate's tables, in a line of code.
+fn object_index(code: &str) -> Option<String> {
+    let code = code.split("//").next().unwrap_or("");
+    for (at, _) in code.match_indices("0x") {
+        let digits: String =
+            code[at + 2..].chars().take_while(|c| c.is_ascii_hexdigit() || *c == '_').collect();
+        let value = u32::from_str_radix(&digits.replace('_', ""), 16).unwrap_or(0);
+        if value >= 0x1000 && digits.replace('_', "").len() == 4 {
+            return Some(format!("0x{digits}"));
+        }
+    }
+    const INDEX_CONSTANTS: &[&str] = &[
+        "COB_ID_SYNC",
+        "COB_ID_EMCY",
+        "COMMUNICATION_CYCLE_PERIOD",
+        "SYNCHRONOUS_COUNTER_OVERFLOW",
+        "SYNCHRONOUS_WINDOW_LENGTH",
+        "PRE_DEFINED_ERROR_FIELD",
+        "ERROR_REGISTER",
+        "ERROR_BEHAVIOUR",
+        "GUARD_TIME",
+        "LIFE_TIME_FACTOR",
+        "INHIBIT_TIME_EMCY",
+        "CONSUMER_HEARTBEAT_TIME",
+        "PRODUCER_HEARTBEAT_TIME",
+        "STORE_PARAMETERS",
+        "RESTORE_DEFAULT_PARAMETERS",
+        "IDENTITY",
+        "MODES_OF_OPERATION",
+        "SUPPORTED_DRIVE_MODES",
+        "TARGET_POSITION",
+        "TARGET_VELOCITY",
+        "TARGET_TORQUE",
+        "INTERPOLATION_DATA_RECORD",
+    ];
+    INDEX_CONSTANTS
+        .iter()
+        .find(|name| {
+            code.match_indices(*name).any(|(at, _)| {
+                let before = code[..at].chars().next_back();
+                let after = code[at + name.len()..].chars().next();
+                let word = |c: Option<char>| c.is_some_and(|c| c.is_ascii_alphanumeric() || c == '_');
+                !word(before) && !word(after)
+            })
+        })
+        .map(|name| name.to_string())
+}

@@ -293,10 +293,10 @@ impl Profile {
         *self = Profile { supported_modes: self.supported_modes, ..Profile::new(self.config) };
     }
 
-    /// The modes 6502h lists (the device's, fixed once its dictionary is built): 6060h accepts
-    /// only these.
-    pub fn set_supported_modes(&mut self, modes: u32) {
-        self.supported_modes = modes;
+    /// Reads the facts of the device the profile keeps (6502h, fixed once the dictionary is
+    /// built: 6060h accepts only the modes it lists).
+    pub fn configure<const B: usize>(&mut self, od: &Dictionary<B>) {
+        self.supported_modes = od.get::<u32>(SUPPORTED_DRIVE_MODES, 0).unwrap_or(0);
     }
 
     /// Presets the position: from the next tick on 6064h reads `user` at the present position

@@ -45,6 +45,47 @@ pub fn check_write<const B: usize>(od: &Dictionary<B>, index: u16, data: &[u8]) 
     }
 }
 
+/// Where and how often the EMCY producer sends (1014h, 1015h), as the dictionary holds them.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct EmcySettings {
+    /// The CAN-ID of a valid 1014h; `None`: the EMCY is invalid (nothing is sent).
+    pub can_id: Option<u16>,
+    /// 1015h, 100 µs units.
+    pub inhibit_100us: u16,
+}
+
+impl EmcySettings {
+    /// The settings 1014h and 1015h hold.
+    pub fn read<const B: usize>(od: &Dictionary<B>) -> Self {
+        let cob = od.get::<u32>(COB_ID_EMCY, 0).ok().and_then(|raw| CobId::parse(raw).ok());
+        EmcySettings {
+            can_id: cob.filter(|c| c.valid).map(|c| c.can_id),
+            inhibit_100us: od.get::<u16>(crate::od::standard::INHIBIT_TIME_EMCY, 0).unwrap_or(0),
+        }
+    }
+}
+
+/// Shows `register` in 1001h.
+pub fn show_register<const B: usize>(od: &mut Dictionary<B>, register: ErrorRegister) {
+    // 1001h is in the crate's own table: the write cannot fail.
+    let _ = od.set::<u8>(crate::od::standard::ERROR_REGISTER, 0, register.bits());
+}
+
+/// Records an error in the history 1003h: newest first, the oldest falls off when full
+/// (digest §9.3); the entry holds the code and the first two additional bytes.
+pub fn record_history<const B: usize>(od: &mut Dictionary<B>, code: u16, info: [u8; 5]) {
+    use crate::od::standard::ERROR_HISTORY_LEN;
+    let count = od.get::<u8>(HISTORY, 0).unwrap_or(0).min(ERROR_HISTORY_LEN);
+    for sub in (1..ERROR_HISTORY_LEN).rev() {
+        if let Ok(older) = od.get::<u32>(HISTORY, sub) {
+            let _ = od.set::<u32>(HISTORY, sub + 1, older);
+        }
+    }
+    let entry = u32::from(code) | (u32::from(u16::from_le_bytes([info[0], info[1]])) << 16);
+    let _ = od.set::<u32>(HISTORY, 1, entry);
+    let _ = od.set::<u8>(HISTORY, 0, (count + 1).min(ERROR_HISTORY_LEN));
+}
+
 /// The rule of the error history 1003h: only 0 may be written to the number of errors (it
 /// clears the history).
 pub fn check_history_write(data: &[u8]) -> Result<(), AbortCode> {

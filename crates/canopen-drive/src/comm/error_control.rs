@@ -93,6 +93,12 @@ pub fn check_consumer_write<const B: usize>(
     }
 }
 
+/// The life time in ms: guard time 100Ch × life time factor 100Dh.
+pub fn life_time_ms<const B: usize>(od: &Dictionary<B>) -> u32 {
+    u32::from(od.get::<u16>(GUARD_TIME, 0).unwrap_or(0))
+        * u32::from(od.get::<u8>(LIFE_TIME_FACTOR, 0).unwrap_or(0))
+}
+
 /// Whether guard time 100Ch and life time factor 100Dh both enable life guarding (a zero in
 /// either ends it).
 pub fn guarding_configured<const B: usize>(od: &Dictionary<B>) -> bool {
@@ -297,6 +303,16 @@ impl ErrorBehaviour {
             Some(_) => Ok(()),
             None => Err(AbortCode::InvalidValue),
         }
+    }
+
+    /// The reaction 1029h configures for error class `class` (sub-index), under the device's
+    /// table of values.
+    pub fn of_class<const B: usize>(
+        od: &Dictionary<B>,
+        table: &[(u8, ErrorBehaviour)],
+        class: u8,
+    ) -> Option<Self> {
+        ErrorBehaviour::lookup(table, od.get::<u8>(ERROR_BEHAVIOUR_OBJECT, class).ok()?)
     }
 
     /// The reaction for a 1029h value; reserved values (3..=0x7F) are `None`.

@@ -2,7 +2,29 @@
 //! `0x700+id [state]`. A period of 0 disables it. A change of period or of NMT state sends a
 //! heartbeat at once and restarts the period from there.
 
+use crate::od::standard::PRODUCER_HEARTBEAT_TIME;
+use crate::od::{Dictionary, Slot};
 use crate::time::{Duration, Instant};
+
+/// The producer heartbeat time 1017h, resolved once (read at every poll).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PeriodSlot(Slot<u16>);
+
+impl PeriodSlot {
+    /// A slot that looks 1017h up (before the dictionary has its tables).
+    pub const LOOKUP: PeriodSlot = PeriodSlot(Slot::lookup(PRODUCER_HEARTBEAT_TIME, 0));
+
+    /// The slot of `od`.
+    pub fn resolve<const B: usize>(od: &Dictionary<B>) -> Self {
+        PeriodSlot(od.slot(PRODUCER_HEARTBEAT_TIME, 0))
+    }
+
+    /// 1017h in ms (0: no heartbeat).
+    #[inline]
+    pub fn period_ms<const B: usize>(&self, od: &Dictionary<B>) -> u16 {
+        od.load(self.0)
+    }
+}
 
 /// Heartbeat producer timing.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]

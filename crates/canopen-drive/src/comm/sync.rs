@@ -11,7 +11,9 @@
 //! CiA 301), cleared by the next SYNC. A SYNC of the wrong length raises EMCY 0x8240 and is not
 //! processed.
 
-use crate::od::standard::{COB_ID_SYNC, COMMUNICATION_CYCLE_PERIOD, SYNCHRONOUS_COUNTER_OVERFLOW};
+use crate::od::standard::{
+    COB_ID_SYNC, COMMUNICATION_CYCLE_PERIOD, SYNCHRONOUS_COUNTER_OVERFLOW, SYNCHRONOUS_WINDOW_LENGTH,
+};
 use crate::od::{le_u32, AbortCode, Dictionary, Slot};
 use crate::time::{Duration, Instant};
 use crate::wire::cob_id::{self, CobId};
@@ -59,6 +61,7 @@ pub struct SyncSlots {
     cob_id: Slot<u32>,
     period: Slot<u32>,
     overflow: Slot<u8>,
+    window: Slot<u32>,
 }
 
 impl SyncSlots {
@@ -67,6 +70,7 @@ impl SyncSlots {
         cob_id: Slot::lookup(COB_ID_SYNC, 0),
         period: Slot::lookup(COMMUNICATION_CYCLE_PERIOD, 0),
         overflow: Slot::lookup(SYNCHRONOUS_COUNTER_OVERFLOW, 0),
+        window: Slot::lookup(SYNCHRONOUS_WINDOW_LENGTH, 0),
     };
 
     /// The slots of `od`.
@@ -75,7 +79,15 @@ impl SyncSlots {
             cob_id: od.slot(COB_ID_SYNC, 0),
             period: od.slot(COMMUNICATION_CYCLE_PERIOD, 0),
             overflow: od.slot(SYNCHRONOUS_COUNTER_OVERFLOW, 0),
+            window: od.slot(SYNCHRONOUS_WINDOW_LENGTH, 0),
         }
+    }
+
+    /// The synchronous window 1007h in µs (0: none): synchronous RPDOs received later after a
+    /// SYNC are discarded.
+    #[inline]
+    pub fn window_us<const B: usize>(&self, od: &Dictionary<B>) -> u32 {
+        od.load(self.window)
     }
 
     /// The SYNC CAN-ID (1005h bits 10..0).

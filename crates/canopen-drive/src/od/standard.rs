@@ -3,6 +3,12 @@
 
 use super::{layout, Access, DataType, DefaultValue, DeviceField, Object, PdoMapping, Var};
 
+/// The communication profile area (CiA 301): reset to its power-on values by NMT reset
+/// communication.
+pub const COMMUNICATION_AREA: core::ops::RangeInclusive<u16> = 0x1000..=0x1FFF;
+/// The manufacturer and device profile areas: reset by NMT reset application (reset node).
+pub const APPLICATION_AREA: core::ops::RangeInclusive<u16> = 0x2000..=0xFFFF;
+
 /// 1000h device type.
 pub const DEVICE_TYPE: u16 = 0x1000;
 /// 1001h error register.

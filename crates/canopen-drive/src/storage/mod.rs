@@ -93,6 +93,15 @@ pub use crate::od::standard::STORE_PARAMETERS;
 pub const fn owns(index: u16) -> bool {
     matches!(index, STORE_PARAMETERS | RESTORE_DEFAULT_PARAMETERS)
 }
+
+/// The signature a command object takes: "save" for 1010h, "load" for 1011h.
+pub const fn signature(index: u16) -> u32 {
+    if index == STORE_PARAMETERS {
+        SAVE_SIGNATURE
+    } else {
+        LOAD_SIGNATURE
+    }
+}
 /// "save" (73 61 76 65 on the wire), the only value 1010h accepts (§11).
 pub const SAVE_SIGNATURE: u32 = 0x6576_6173;
 /// "load" (6C 6F 61 64 on the wire), the only value 1011h accepts (§11).
