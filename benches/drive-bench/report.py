@@ -239,7 +239,7 @@ def main():
         "  column can differ slightly between machines and is not compared by `--check`.",
         "- Budgets ([benches/drive-bench/budgets.txt](benches/drive-bench/budgets.txt)): the Cortex-M4",
         f"  count + {MARGIN_PERCENT} % when last set; a count above its budget fails the script.",
-        "- Goals: issue 8. \"(log)\": a look-up may grow at most logarithmically with the dictionary:",
+        "- Goals: issue 8; issue 17 (CANopenNode's cost or less) for the SDO, RPDO, SYNC and other-node rows. \"(log)\": a look-up may grow at most logarithmically with the dictionary:",
         "  at 2000 objects it costs at most the small dictionary's count × log₂(2000) / log₂(objects of",
         "  the small one).",
     ]
