@@ -1,5 +1,24 @@
 //! [`Drive`]: the object dictionary and every service composed behind the two entry points.
 //!
+//! ## Who owns an object
+//!
+//! The drive is a composer: it routes frames by identifier (a receive filter turns other nodes'
+//! traffic away in O(1)), runs the timers and calls the tick. The rules and reactions of the
+//! objects live with the services that implement them, registered by index in one place
+//! ([`Owner`]): SYNC checks and reacts to 1005h/1006h/1019h
+//! (`comm::sync`), the EMCY producer to 1014h/1015h and the error history to 1003h
+//! (`comm::emcy`), the heartbeat and guarding objects and 1029h (`comm::error_control`), the
+//! PDO records (`comm::pdo`), 1010h/1011h (`storage`), and the profile area with the cascade's
+//! record (`cia402`: [`Rule`]). The registration follows the
+//! index, not the table that describes it: a firmware's own PDO records keep the PDO rules. A
+//! firmware's object that a service of the crate should rule carries the service in
+//! [`Object::owner`](crate::od::Object::owner); its own objects it checks with
+//! [`ObjectHooks`].
+//!
+//! A new abort condition of a communication object is one change in its service's
+//! `check_write`; an RPDO entry's rule is decided once, when its mapping is validated, so
+//! process data pays only for the values that have a rule.
+//!
 //! ## Concurrency
 //!
 //! `Drive` is a plain value with `&mut self` entry points. Firmware that calls `tick` from a
