@@ -316,13 +316,36 @@ pub enum DefaultValue {
     PdoPreset,
 }
 
+/// A name for the EDS, kept only with the `names` feature: without it the description holds no
+/// string (not even an empty one's pointer), which saves 8 bytes per entry and object.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+struct Name(#[cfg(feature = "names")] &'static str);
+
+impl Name {
+    #[allow(unused_variables)]
+    const fn new(name: &'static str) -> Self {
+        Name(
+            #[cfg(feature = "names")]
+            name,
+        )
+    }
+
+    /// The name ("" without the `names` feature).
+    const fn get(&self) -> &'static str {
+        #[cfg(feature = "names")]
+        return self.0;
+        #[cfg(not(feature = "names"))]
+        ""
+    }
+}
+
 /// One value of the dictionary: a VAR, or one sub-index of an ARRAY or RECORD.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Var {
-    /// Parameter name as written to the EDS (kept with the `names` feature only: [`Var::name`]).
-    #[cfg(feature = "names")]
-    name: &'static str,
+    /// Parameter name as written to the EDS ([`Var::name`]).
+    name: Name,
     /// CiA 301 data type.
     pub data_type: DataType,
     /// SDO access.
@@ -349,11 +372,8 @@ pub struct Var {
 impl Var {
     /// A read-only entry of type `data_type` with default zero, no limits, not mappable.
     pub const fn new(name: &'static str, data_type: DataType) -> Self {
-        #[cfg(not(feature = "names"))]
-        let _ = name;
         Var {
-            #[cfg(feature = "names")]
-            name,
+            name: Name::new(name),
             data_type,
             access: Access::ReadOnly,
             pdo: PdoMapping::No,
@@ -414,10 +434,7 @@ impl Var {
 
     /// The parameter name as written to the EDS ("" without the `names` feature).
     pub const fn name(&self) -> &'static str {
-        #[cfg(feature = "names")]
-        return self.name;
-        #[cfg(not(feature = "names"))]
-        ""
+        self.name.get()
     }
     /// Sets the storage size of a string or DOMAIN entry, or the bytes a numeric entry may be
     /// widened to ([`Var::capacity`](Var#structfield.capacity)).
@@ -521,9 +538,8 @@ pub enum Owner {
 pub struct Object {
     /// Index (0x1000..=0xFFFF).
     pub index: u16,
-    /// Object name as written to the EDS (kept with the `names` feature only: [`Object::name`]).
-    #[cfg(feature = "names")]
-    name: &'static str,
+    /// Object name as written to the EDS ([`Object::name`]).
+    name: Name,
     /// Sub-index organisation.
     pub kind: Kind,
     /// Offset of the object's first stored byte inside its table's region; set by [`layout`].
@@ -538,12 +554,9 @@ pub struct Object {
 impl Object {
     /// A VAR object.
     pub const fn var(index: u16, name: &'static str, var: Var) -> Self {
-        #[cfg(not(feature = "names"))]
-        let _ = name;
         Object {
             index,
-            #[cfg(feature = "names")]
-            name,
+            name: Name::new(name),
             kind: Kind::Var(var),
             base: 0,
             number: 0,
@@ -553,15 +566,12 @@ impl Object {
     /// An ARRAY object with a read-only sub 0 holding `len`.
     /// In a `static` or `const` table `&Var::new(..)` is a `'static` reference.
     pub const fn array(index: u16, name: &'static str, len: u8, element: &'static Var) -> Self {
-        #[cfg(not(feature = "names"))]
-        let _ = name;
         let sub0 = Var::new("Highest sub-index supported", DataType::Unsigned8)
             .access(Access::Const)
             .default(DefaultValue::Unsigned(len as u64));
         Object {
             index,
-            #[cfg(feature = "names")]
-            name,
+            name: Name::new(name),
             kind: Kind::Array { sub0, element, len },
             base: 0,
             number: 0,
@@ -576,12 +586,9 @@ impl Object {
         sub0: Var,
         element: &'static Var,
     ) -> Self {
-        #[cfg(not(feature = "names"))]
-        let _ = name;
         Object {
             index,
-            #[cfg(feature = "names")]
-            name,
+            name: Name::new(name),
             kind: Kind::Array { sub0, element, len },
             base: 0,
             number: 0,
@@ -590,12 +597,9 @@ impl Object {
     }
     /// A RECORD object; `subs` sorted by sub-index, sub 0 included.
     pub const fn record(index: u16, name: &'static str, subs: &'static [(u8, Var)]) -> Self {
-        #[cfg(not(feature = "names"))]
-        let _ = name;
         Object {
             index,
-            #[cfg(feature = "names")]
-            name,
+            name: Name::new(name),
             kind: Kind::Record(subs),
             base: 0,
             number: 0,
@@ -605,10 +609,7 @@ impl Object {
 
     /// The object name as written to the EDS ("" without the `names` feature).
     pub const fn name(&self) -> &'static str {
-        #[cfg(feature = "names")]
-        return self.name;
-        #[cfg(not(feature = "names"))]
-        ""
+        self.name.get()
     }
 
     /// The same object, ruled by `owner`.
