@@ -431,7 +431,8 @@ impl DemandWatch {
 
 /// Counts the answers of an SDO server to each request: a request may get at most one answer,
 /// except the requests after which the server sends a block-upload sub-block (start `A3`, and
-/// an acknowledgement `A2` that asks for the next one).
+/// an acknowledgement `A2` that asks for the next one; with any value of the bits CiA 301
+/// leaves unused, 4–2, which a server ignores).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct SdoWatch {
     /// The last request may be answered by a sub-block.
@@ -445,7 +446,7 @@ pub struct SdoWatch {
 impl SdoWatch {
     /// A request was sent (its data).
     pub fn request(&mut self, data: &[u8]) {
-        self.block = matches!(data.first(), Some(0xA3 | 0xA2));
+        self.block = data.first().is_some_and(|b| matches!(b & 0xE3, 0xA3 | 0xA2));
         self.answers = 0;
         self.timed_out = false;
         self.requests += 1;
@@ -482,5 +483,24 @@ impl SdoWatch {
     /// Requests and answers so far.
     pub fn counts(&self) -> (usize, usize) {
         (self.requests, self.total_answers)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A block-upload start with the unused bits set (`AF`, found by `drive_frames`) is still a
+    /// start: the server answers it with a whole sub-block, as it does `A3`. Any other request
+    /// gets one answer.
+    #[test]
+    fn a_sub_block_answers_a_start_whatever_its_unused_bits() {
+        let mut watch = SdoWatch::default();
+        for start in [0xA3u8, 0xAF, 0xA2, 0xBE] {
+            watch.request(&[start, 0, 0, 0, 0, 0, 0, 0]);
+            assert_eq!(watch.answered(2), Ok(()), "{start:02X}");
+        }
+        watch.request(&[0x40, 0x08, 0x10, 0, 0, 0, 0, 0]);
+        assert!(watch.answered(2).is_err());
     }
 }

@@ -211,9 +211,6 @@ pub fn count(table: &[Object]) -> (usize, usize) {
 /// received value must pass besides its size (which the mapping already fixed).
 #[derive(Clone, Copy, Debug)]
 struct Slot {
-    /// The entry's description when a received value must be checked against its limits
-    /// (RPDOs; `None`: no limits beyond the type's range).
-    limits: Option<&'static Var>,
     /// Index of the mapped entry (0 for a dummy entry).
     index: u16,
     /// Store offset of the value (every mappable entry is a stored number of up to 8 bytes).
@@ -224,12 +221,19 @@ struct Slot {
     bits: u8,
     /// Bytes of the stored value; 0 for a dummy entry.
     len: u8,
-    /// The value rule of the entry's owner, as [`ValueRules::rule`] gave it (RPDOs; 0: none).
+    /// The value rule of the entry's owner, as [`ValueRules::rule`] gave it (RPDOs; 0: none),
+    /// and [`LIMITS`] when a received value must be checked against the entry's limits (rare:
+    /// the description is looked up again for it). Eight bytes a slot: a node holds 64.
     rule: u8,
 }
 
+/// Bit of [`Slot::rule`]: the entry has limits beyond its type's range
+/// ([`Dictionary::has_limits`]); the bits of [`ValueRules::rule`] stay below it or are
+/// [`ValueRules::REACTS`].
+const LIMITS: u8 = 0x40;
+
 impl Slot {
-    const DUMMY: Slot = Slot { limits: None, index: 0, offset: 0, sub: 0, bits: 0, len: 0, rule: 0 };
+    const DUMMY: Slot = Slot { index: 0, offset: 0, sub: 0, bits: 0, len: 0, rule: 0 };
 
     fn span(&self) -> Span {
         Span::new(self.offset, self.len)
@@ -296,8 +300,8 @@ fn resolve<const B: usize>(
     let length_ok = size_bits == Some(usize::from(bits)) || (var.data_type == DataType::Boolean && bits == 1);
     let span = od.span(&entry).filter(|_| direction_ok && length_ok);
     let Some(span) = span else { return Err(AbortCode::ObjectNotMappable) };
-    let limits = (direction == Direction::Rpdo && Dictionary::<B>::has_limits(var)).then_some(var);
-    let slot = Slot { limits, index, offset: span.offset(), sub, bits, len: span.len() as u8, rule: 0 };
+    let limits = if direction == Direction::Rpdo && Dictionary::<B>::has_limits(var) { LIMITS } else { 0 };
+    let slot = Slot { index, offset: span.offset(), sub, bits, len: span.len() as u8, rule: limits };
     Ok((slot, Some(entry)))
 }
 
@@ -318,10 +322,10 @@ fn resolve_mapping<const B: usize>(
         let (resolved, entry) = resolve(od, od.get::<u32>(index, sub)?, record.direction)?;
         *slot = resolved;
         if let (Some(entry), Direction::Rpdo) = (entry, record.direction) {
-            slot.rule = rules.rule(&entry);
+            slot.rule |= rules.rule(&entry) & !LIMITS;
         }
         mapping.bits += u16::from(slot.bits);
-        mapping.checked |= slot.limits.is_some() || slot.rule != 0;
+        mapping.checked |= slot.rule != 0;
     }
     if mapping.bits > 64 {
         return Err(AbortCode::PdoLengthExceeded);
@@ -935,7 +939,8 @@ pub trait ValueRules<const B: usize> {
     const REACTS: u8 = 0x80;
 
     /// The rule of `entry` as an RPDO writes it: 0 for none, else a value of the implementor's
-    /// own numbering, with [`REACTS`](Self::REACTS) set when the owner reacts to the value.
+    /// own numbering below 40h, with [`REACTS`](Self::REACTS) set when the owner reacts to the
+    /// value.
     fn rule(&self, entry: &Entry) -> u8;
 
     /// Checks `data` (size and limits already checked) as the new value of `index`/`sub`
@@ -971,7 +976,7 @@ fn apply<const B: usize, V: ValueRules<B>, H: ObjectHooks>(
         for slot in mapping.slots() {
             let at = position;
             position += usize::from(slot.bits);
-            if slot.limits.is_none() && slot.rule == 0 && !H::VALIDATES {
+            if slot.rule == 0 && !H::VALIDATES {
                 continue;
             }
             let bytes = get_bits(frame, at, usize::from(slot.bits)).to_le_bytes();
@@ -979,9 +984,13 @@ fn apply<const B: usize, V: ValueRules<B>, H: ObjectHooks>(
             if data.is_empty() {
                 continue;
             }
-            let limits_ok = slot.limits.is_none_or(|var| Dictionary::<B>::check_limits(var, data).is_ok());
+            let limits_ok = slot.rule & LIMITS == 0
+                || od
+                    .entry(slot.index, slot.sub)
+                    .is_ok_and(|e| Dictionary::<B>::check_limits(e.var, data).is_ok());
+            let rule = slot.rule & !LIMITS;
             if !limits_ok
-                || (slot.rule != 0 && rules.check(od, slot.rule, slot.index, slot.sub, data).is_err())
+                || (rule != 0 && rules.check(od, rule, slot.index, slot.sub, data).is_err())
                 || hooks.validate(slot.index, slot.sub, data).is_err()
             {
                 return;
@@ -1065,7 +1074,7 @@ mod tests {
                 *slot = resolve(od, raw, direction).unwrap().0;
                 mapping.count += 1;
                 mapping.bits += u16::from(slot.bits);
-                mapping.checked |= slot.limits.is_some();
+                mapping.checked |= slot.rule != 0;
             }
             mapping
         };
