@@ -7,6 +7,10 @@
 use embedded_can::{ExtendedId, Frame, Id, StandardId};
 
 /// A classic CAN frame (data or remote), owned and `Copy`.
+///
+/// With the `defmt` feature it is logged as candump writes a frame: `605#4000100000000000`
+/// (3 hex digits for an 11-bit identifier, 8 for a 29-bit one, `R` and the length for a
+/// remote frame).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct CanFrame {
     id: Id,

@@ -128,6 +128,7 @@ bitflags! {
 
 /// The touch probe objects after a tick.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct ProbeOutputs {
     /// 60B9h touch probe status.
     pub status: u16,
