@@ -627,6 +627,7 @@ impl Profile {
             stopped,
             &options,
         );
+        #[cfg(any(feature = "defmt", feature = "log"))]
         if step.state != before {
             if matches!(step.state, State::FaultReactionActive) {
                 crate::fmt::warning!("cia402: fault {:#x}", self.fault.unwrap_or_default());

@@ -242,8 +242,8 @@ pub fn device_signature(device: &DeviceInfo, layout: u16) -> u32 {
     crc.value()
 }
 
-/// The log line of a store or a restore of defaults (nothing without a logging feature).
-#[inline(always)]
+/// The log line of a store or a restore of defaults (not built without a logging feature).
+#[cfg(any(feature = "defmt", feature = "log"))]
 fn log_write(_what: &str, _group: Group, _result: Result<(), StorageError>) {
     match _result {
         Ok(()) => crate::fmt::info!("storage: {} of {:?} done", _what, _group),
@@ -488,15 +488,10 @@ impl<A: NonVolatile> Storage<A> {
         od: &mut Dictionary<BYTES>,
         group: Group,
     ) -> Result<LoadReport, StorageError> {
-        let scan = match self.scan() {
-            Ok(scan) => scan,
-            Err(error) => {
-                crate::fmt::error!("storage: load failed: {:?}", error);
-                return Err(error);
-            }
-        };
+        let scan = self.scan()?;
         let image = scan.state();
         let Some((bank, header)) = scan.newest() else {
+            #[cfg(any(feature = "defmt", feature = "log"))]
             if image.is_lost() {
                 crate::fmt::warning!("storage: no usable image ({:?}): defaults kept", image);
             } else {
@@ -546,6 +541,7 @@ impl<A: NonVolatile> Storage<A> {
         group: Group,
     ) -> Result<(), StorageError> {
         let result = self.write_image(Some(od), Selection::Group(group));
+        #[cfg(any(feature = "defmt", feature = "log"))]
         log_write("store", group, result);
         result
     }
@@ -560,6 +556,7 @@ impl<A: NonVolatile> Storage<A> {
         entries: &[(u16, u8)],
     ) -> Result<(), StorageError> {
         let result = self.write_image(Some(od), Selection::Entries(entries));
+        #[cfg(any(feature = "defmt", feature = "log"))]
         match result {
             Ok(()) => crate::fmt::info!("storage: {} single entries stored", entries.len()),
             Err(_error) => crate::fmt::warning!("storage: store of single entries failed: {:?}", _error),
@@ -573,6 +570,7 @@ impl<A: NonVolatile> Storage<A> {
     /// still the one a load takes.
     pub fn restore_defaults(&mut self, group: Group) -> Result<(), StorageError> {
         let result = self.write_image::<0>(None, Selection::Group(group));
+        #[cfg(any(feature = "defmt", feature = "log"))]
         log_write("restore defaults", group, result);
         result
     }
