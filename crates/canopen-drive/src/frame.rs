@@ -112,6 +112,24 @@ pub fn extended(id: u32, data: &[u8]) -> Option<CanFrame> {
     CanFrame::new(Id::Extended(ExtendedId::new(id)?), data)
 }
 
+/// Logged as candump writes a frame (see [`CanFrame`]).
+#[cfg(feature = "defmt")]
+impl defmt::Format for CanFrame {
+    fn format(&self, f: defmt::Formatter<'_>) {
+        match self.id() {
+            Id::Standard(id) => defmt::write!(f, "{=u16:03X}#", id.as_raw()),
+            Id::Extended(id) => defmt::write!(f, "{=u32:08X}#", id.as_raw()),
+        }
+        if self.is_remote_frame() {
+            defmt::write!(f, "R{=usize}", self.dlc());
+        } else {
+            for byte in self.data() {
+                defmt::write!(f, "{=u8:02X}", *byte);
+            }
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

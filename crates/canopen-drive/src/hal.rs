@@ -233,3 +233,18 @@ impl Capture {
         }
     }
 }
+
+// `defmt::Format` of the bitflags types: their raw bits (a bitflags type cannot derive it).
+#[cfg(feature = "defmt")]
+impl defmt::Format for DigitalInputs {
+    fn format(&self, f: defmt::Formatter<'_>) {
+        defmt::write!(f, "DigitalInputs({=u32:#x})", self.bits());
+    }
+}
+
+#[cfg(feature = "defmt")]
+impl defmt::Format for HardwareFaults {
+    fn format(&self, f: defmt::Formatter<'_>) {
+        defmt::write!(f, "HardwareFaults({=u32:#x})", self.bits());
+    }
+}

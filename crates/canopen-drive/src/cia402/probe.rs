@@ -351,6 +351,14 @@ const PROBE_OFF: Probe = Probe {
     negative_count: 0,
 };
 
+// `defmt::Format` of the bitflags type: its raw bits.
+#[cfg(feature = "defmt")]
+impl defmt::Format for Changed {
+    fn format(&self, f: defmt::Formatter<'_>) {
+        defmt::write!(f, "Changed({=u8:#x})", self.bits());
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
