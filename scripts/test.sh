@@ -175,23 +175,20 @@ step_untouched() {
     echo "no tracked file modified"
 }
 
+# The steps both runs start with.
+steps=(
+    "toolchain|rustup components and no_std targets|step_toolchain"
+    "venv|python venv with python-canopen|step_venv"
+    "fmt|cargo fmt --check|step_fmt"
+    "clippy|cargo clippy (workspace, all targets; the core with log)|step_clippy"
+    "test|cargo test --workspace (unit and integration tests)|step_test"
+)
 if [ $mode = quick ]; then
-    steps=(
-        "toolchain|rustup components and no_std targets|step_toolchain"
-        "venv|python venv with python-canopen|step_venv"
-        "fmt|cargo fmt --check|step_fmt"
-        "clippy|cargo clippy (workspace, all targets; the core with log)|step_clippy"
-        "test|cargo test --workspace (unit and integration tests)|step_test"
+    steps+=(
         "python-smoke|python-canopen smoke test against canopen-drive-linux|step_python_smoke"
-        "untouched|no tracked file modified by the run|step_untouched"
     )
 else
-    steps=(
-        "toolchain|rustup components and no_std targets|step_toolchain"
-        "venv|python venv with python-canopen|step_venv"
-        "fmt|cargo fmt --check|step_fmt"
-        "clippy|cargo clippy (workspace, all targets; the core with log)|step_clippy"
-        "test|cargo test --workspace (unit and integration tests)|step_test"
+    steps+=(
         "modes|the core without its optional modes, and with each alone|step_modes"
         "robustness|fault injection, 24 h simulated soak, hostile configuration|step_robustness"
         "doc|cargo doc without warnings|step_doc"
@@ -201,9 +198,9 @@ else
         "mcu|firmware in QEMU, tick bound, footprint budgets|step_mcu"
         "bench|instruction counts against their budgets|step_bench"
         "docs|generated documents equal their committed copies|step_generated_docs"
-        "untouched|no tracked file modified by the run|step_untouched"
     )
 fi
+steps+=("untouched|no tracked file modified by the run|step_untouched")
 
 # --- Running them --------------------------------------------------------------------------------
 
