@@ -12,7 +12,8 @@ import pytest
 
 from conftest import DriveProcess
 
-VENDOR = PRODUCT = REVISION = SERIAL = 0  # 1018h of canopen-drive-linux
+# 1018h of canopen-drive-linux (the generic profile: boards/linux/src/profiles/generic.rs)
+VENDOR, PRODUCT, REVISION, SERIAL = 0, 0x0043_444C, 0x0000_0001, 1
 
 
 def connect(process):
