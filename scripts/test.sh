@@ -7,6 +7,9 @@
 #   ./scripts/test.sh --bless    every step, and write the generated documents (docs/footprint.md,
 #                                docs/robustness.md, BENCHMARKS.md) over the committed ones
 #   ./scripts/test.sh --verbose  (with either) stream every step's output instead of a summary
+#   ./scripts/test.sh --from KEY (with either) start at the step KEY (e.g. mcu, after a failure
+#                                there), keeping the documents earlier steps generated; the
+#                                summary says which steps were not run
 #
 # Each step prints its number, name and duration; its output goes to target/test-logs/NN-name.log
 # (shown when the step fails; a step that runs longer than 30 s prints a progress line every 30 s
@@ -31,14 +34,18 @@ root=$(pwd)
 mode=full
 bless=false
 verbose=false
-for arg in "$@"; do
-    case $arg in
+from=""
+usage="usage: scripts/test.sh [--quick | --bless] [--verbose] [--from STEP]"
+while [ $# -gt 0 ]; do
+    case $1 in
         --quick) mode=quick ;;
         --bless) bless=true ;;
         --verbose) verbose=true ;;
-        -h | --help) sed -n '2,25p' "$0"; exit 0 ;;
-        *) echo "usage: scripts/test.sh [--quick | --bless] [--verbose]" >&2; exit 2 ;;
+        --from) [ $# -ge 2 ] || { echo "$usage" >&2; exit 2; }; from=$2; shift ;;
+        -h | --help) sed -n '2,28p' "$0"; exit 0 ;;
+        *) echo "$usage" >&2; exit 2 ;;
     esac
+    shift
 done
 if $bless && [ $mode = quick ]; then
     echo "--bless needs the full run (the documents come from its slow steps)" >&2
@@ -48,7 +55,8 @@ fi
 logs=$root/target/test-logs
 generated=$root/target/generated-docs
 export GENERATED_DOCS=$generated
-rm -rf "$logs" "$generated"
+rm -rf "$logs"
+[ -n "$from" ] || rm -rf "$generated"
 mkdir -p "$logs" "$generated"
 
 # Tracked files modified before the run (a developer's edits): not the run's doing.
@@ -229,6 +237,11 @@ details() {
 }
 
 total=${#steps[@]}
+if [ -n "$from" ] && ! printf '%s\n' "${steps[@]}" | grep -q "^$from|"; then
+    echo "no step '$from'; the steps: $(printf '%s\n' "${steps[@]}" | cut -d'|' -f1 | tr '\n' ' ')" >&2
+    exit 2
+fi
+skipping=${from:+true}
 results=()
 failed=""
 run_started=$SECONDS
@@ -238,6 +251,11 @@ for i in "${!steps[@]}"; do
     number=$((i + 1))
     log=$(printf '%s/%02d-%s.log' "$logs" "$number" "$key")
     label=$(printf '[%d/%d] %s' "$number" "$total" "$title")
+    [ "$key" = "$from" ] && skipping=""
+    if [ -n "$skipping" ]; then
+        results+=("$(printf '%-80s %8s  SKIP (--from %s)' "$label" "-" "$from")")
+        continue
+    fi
     if [ -n "$failed" ]; then
         results+=("$(printf '%-80s %8s  SKIP (not run)' "$label" "-")")
         continue
@@ -290,5 +308,9 @@ if [ -n "$failed" ]; then
     echo "steps: $passed passed, 1 failed"
     exit 1
 fi
-echo "PASS"
+if [ -n "$from" ]; then
+    echo "PASS (from step '$from' on; the steps before it were not run)"
+else
+    echo "PASS"
+fi
 echo "steps: $passed passed, 0 failed"
