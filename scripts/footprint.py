@@ -218,7 +218,8 @@ def main():
 DOC_TEMPLATE = """# Footprint on Cortex-M
 
 Written by `scripts/footprint.py` (do not edit by hand: `scripts/mcu.sh` writes it to
-`target/generated-docs/` and `scripts/test.sh` fails when this copy differs; `--bless` updates it).
+`target/generated-docs/` and `scripts/test.sh` fails when this copy differs in its text or by
+more than 1 % in a number: `scripts/compare_doc.py`; `--bless` updates it).
 Images from `benches/footprint`, built with opt-level "s", fat LTO, one codegen unit,
 panic = abort, and without the crate's default `names` feature (no parameter names in the
 tables: a firmware that does not write its EDS leaves them out, some 4 KiB):
