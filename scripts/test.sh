@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
 # The whole test suite, with everything it needs installed first (on a fresh machine too).
 #
-#   ./scripts/test.sh            every step (about 25 min warm, 35 cold, on 2 cores)
+#   ./scripts/test.sh            every step (about 15 min warm, 30 cold, on 2 cores)
 #   ./scripts/test.sh --quick    format, clippy, unit + integration tests and one python-canopen
-#                                smoke test (under 3 min warm)
+#                                smoke test (about 1 min warm)
 #   ./scripts/test.sh --bless    every step, and write the generated documents (docs/footprint.md,
 #                                docs/robustness.md, BENCHMARKS.md) over the committed ones
 #   ./scripts/test.sh --verbose  (with either) stream every step's output instead of a summary
