@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # Instruction counts of canopen-drive's entry points (issue 8): the control tick in every mode,
 # on_frame (+ pop_tx) for the SDO, PDO, NMT, heartbeat and SYNC paths, and object dictionary
-# look-ups, on a Cortex-M4 (thumbv7em-none-eabihf in QEMU mps2-an386, counted by the plugin
-# shared/tools/qemu-insncount.c) and on x86-64 (callgrind). The scenarios are in
+# look-ups, on a Cortex-M4 (thumbv7em-none-eabihf in QEMU mps2-an386, counted by the project's
+# plugin tools/qemu-plugins/insncount.c) and on x86-64 (callgrind). The scenarios are in
 # benches/drive-bench (see its README.md); both back-ends run the same scenario code.
 #
 #   scripts/bench.sh                   measure, print the table, write BENCHMARKS.md
@@ -30,7 +30,8 @@
 # gcc-arm-none-eabi and libnewlib-arm-none-eabi, installed here), and the table gets its count
 # and the ratio for every scenario with a counterpart, plus the 301-only footprint next to
 # CANopenNode's. Without it those columns are left out with a note. The peer's code stays in
-# ../shared: nothing of it is copied into this repository.
+# ../shared: nothing of it is copied into this repository. It is the only part of this script
+# that looks outside the repository, and it is skipped with a note when absent.
 #
 # Needs qemu-system-arm and valgrind (installed here when missing, as root), gcc, python3 and
 # the thumbv7em target. Environment: CARGO_TARGET_DIR (default target/drive-bench; the callgrind
@@ -64,13 +65,8 @@ fi
 export CARGO_TARGET_DIR=${CARGO_TARGET_DIR:-$root/target/drive-bench}
 out=$CARGO_TARGET_DIR/results
 n=${REPETITIONS:-10}
-insncount_src=${INSNCOUNT_SRC:-}
-for candidate in "$root/../shared/tools/qemu-insncount.c" /work/shared/tools/qemu-insncount.c; do
-    if [ -z "$insncount_src" ] && [ -f "$candidate" ]; then
-        insncount_src=$candidate
-    fi
-done
-[ -f "$insncount_src" ] || { echo "qemu-insncount.c not found: set INSNCOUNT_SRC" >&2; exit 1; }
+insncount_src=${INSNCOUNT_SRC:-$root/tools/qemu-plugins/insncount.c}
+[ -f "$insncount_src" ] || { echo "QEMU plugin source $insncount_src not found" >&2; exit 1; }
 
 install() {
     if [ "$(id -u)" = 0 ]; then
@@ -172,6 +168,8 @@ if [ -x "$peer_run" ]; then
         >"$out/peer.log" 2>&1 || { cat "$out/peer.log" >&2; exit 1; }
     peer_args=(--peer-m4 "$CARGO_TARGET_DIR/canopennode-peer/results/m4.tsv"
         --peer-results "$CARGO_TARGET_DIR/canopennode-peer/results/results.md")
+else
+    echo "bench: peer comparison skipped ($peer_run not found: ../shared is not beside this clone)" >&2
 fi
 
 status=0

@@ -2,11 +2,16 @@
 """Footprint of canopen-drive on Cortex-M: builds benches/footprint (a CiA 301-only node, the
 full drive, and the bare harness) for thumbv7em-none-eabihf and thumbv6m-none-eabi with
 opt-level "s" and LTO, reads flash and static RAM from the ELF sections, measures the stack
-in QEMU (stack painting), prints the table, writes docs/footprint.md and checks the budgets
-in benches/footprint/budgets.txt.
+in QEMU (stack painting), prints the table, writes the page docs/footprint.md is a committed
+copy of (into target/generated-docs/footprint.md, or --doc PATH) and checks the budgets in
+benches/footprint/budgets.txt.
 
     scripts/footprint.py            build, measure, write the doc, check (exit 1 over budget)
     scripts/footprint.py --update   same, then set the budgets to the measured values + margin
+    scripts/footprint.py --doc docs/footprint.md   write the committed copy directly
+
+scripts/test.sh compares the fresh page with docs/footprint.md and fails when they differ
+(`scripts/test.sh --bless` copies it over).
 
 flash = .vector_table + .text + .rodata + .data (its initial values live in flash);
 static RAM = .data + .bss + .uninit (the node lives in a static, as on a board).
@@ -24,7 +29,7 @@ import sys
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 CRATE = ROOT / "benches" / "footprint"
 BUDGETS = CRATE / "budgets.txt"
-DOC = ROOT / "docs" / "footprint.md"
+DOC = pathlib.Path(os.environ.get("GENERATED_DOCS", ROOT / "target" / "generated-docs")) / "footprint.md"
 TARGET_DIR = pathlib.Path(os.environ.get("FOOTPRINT_TARGET_DIR", ROOT / "target" / "firmware" / "footprint"))
 TARGETS = {
     "thumbv7em-none-eabihf": ["-machine", "mps2-an386", "-cpu", "cortex-m4"],
@@ -142,6 +147,7 @@ def kib(n):
 def main():
     parser = argparse.ArgumentParser()
     parser.add_argument("--update", action="store_true", help="set the budgets from this measurement")
+    parser.add_argument("--doc", type=pathlib.Path, default=DOC, help="where to write the page")
     args = parser.parse_args()
     tool = size_tool()
     results = {}
@@ -200,8 +206,9 @@ def main():
     symbol_rows = ["| bytes | kind | symbol |", "|---|---|---|"] + [
         f"| {size} | {'code' if kind == 't' else 'data'} | `{name.replace('|', '/')}` |" for size, kind, name in symbols
     ]
-    DOC.write_text(DOC_TEMPLATE.format(table=table, goals=goals, symbols="\n".join(symbol_rows)))
-    print(f"\nwrote {DOC.relative_to(ROOT)}")
+    args.doc.parent.mkdir(parents=True, exist_ok=True)
+    args.doc.write_text(DOC_TEMPLATE.format(table=table, goals=goals, symbols="\n".join(symbol_rows)))
+    print(f"\nwrote {args.doc}")
     if failures:
         print("\nover budget:\n  " + "\n  ".join(failures), file=sys.stderr)
         sys.exit(1)
@@ -210,7 +217,9 @@ def main():
 
 DOC_TEMPLATE = """# Footprint on Cortex-M
 
-Written by `scripts/footprint.py` (do not edit by hand; `scripts/mcu.sh` runs it in CI).
+Written by `scripts/footprint.py` (do not edit by hand: `scripts/mcu.sh` writes it to
+`target/generated-docs/` and `scripts/test.sh` fails when this copy differs in its text or by
+more than 1 % in a number: `scripts/compare_doc.py`; `--bless` updates it).
 Images from `benches/footprint`, built with opt-level "s", fat LTO, one codegen unit,
 panic = abort, and without the crate's default `names` feature (no parameter names in the
 tables: a firmware that does not write its EDS leaves them out, some 4 KiB):

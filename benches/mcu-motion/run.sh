@@ -9,7 +9,7 @@
 # Needs qemu-system-arm 7.2 (`apt-get install -y qemu-system-arm`), gcc, and the two Rust
 # targets. Environment:
 #   CARGO_TARGET_DIR  where to build (default: <repo>/target/mcu-motion)
-#   INSNCOUNT_SRC     the plugin source (default: /work/shared/tools/qemu-insncount.c)
+#   INSNCOUNT_SRC     the plugin source (default: <repo>/tools/qemu-plugins/insncount.c)
 #   PLANS, STEPS      repetitions of a plan / a step per run (default: 10 / 1000)
 #
 # Method: each run prepares the same planners, then repeats "copy a planner, make the call" n
@@ -20,7 +20,7 @@ set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 root=$(cd "$here/../.." && pwd)
 export CARGO_TARGET_DIR=${CARGO_TARGET_DIR:-$root/target/mcu-motion}
-insncount_src=${INSNCOUNT_SRC:-/work/shared/tools/qemu-insncount.c}
+insncount_src=${INSNCOUNT_SRC:-$root/tools/qemu-plugins/insncount.c}
 plans=${PLANS:-10}
 steps=${STEPS:-1000}
 

@@ -1,7 +1,7 @@
 """The CiA 402 drive profile of canopen-drive-linux driven by python-canopen's BaseNode402:
 state machine through PDOs, a profile position move with the set-point handshake, profile
 velocity, a fault injected through the board's manufacturer
-object 2100h, and the way back to Operation enabled by a fault reset (shared/spec/cia402.md §3).
+object 2100h, and the way back to Operation enabled by a fault reset (CiA 402-2 §8.1, §8.2: the state machine; docs/testing.md).
 """
 
 import time

@@ -1,6 +1,6 @@
 """Cyclic synchronous position mode of canopen-drive-linux with python-canopen as the master:
 607Ah in a synchronous RPDO, 6041h + 6064h in a synchronous TPDO (type 1), 2000 set-points of
-a sine streamed at a 100 Hz SYNC, and 6064h following them (shared/spec/cia402.md §16)."""
+a sine streamed at a 100 Hz SYNC, and 6064h following them (CiA 402-2 §17; docs/testing.md)."""
 
 import math
 import time

@@ -1,6 +1,6 @@
 """canopen-drive-linux against a real CANopen master (python-canopen over SLCAN/TCP).
 
-Spec references are to shared/spec/cia301.md: NMT §3, heartbeat §4.1, SDO aborts §5.8, EDS §13.
+References are to CiA 301 (NMT, heartbeat, SDO abort codes) and CiA 306 (EDS); see docs/testing.md.
 """
 
 import logging

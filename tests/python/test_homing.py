@@ -1,6 +1,6 @@
 """Homing mode of canopen-drive-linux driven by python-canopen's BaseNode402.homing(): a
 limit-switch method (17) on the board's simulated axis and the current-position method (35),
-each followed by a check of 6064h (shared/spec/cia402.md §10; home offset: 6064h reads −607Ch
+each followed by a check of 6064h (CiA 402-2 §11; home offset: 6064h reads −607Ch
 at the home position)."""
 
 import time

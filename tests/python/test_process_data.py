@@ -1,6 +1,6 @@
 """Process data and error handling of canopen-drive-linux with python-canopen as the master:
 PDO remapping with python-canopen's own PDO API, SYNC-driven TPDOs, and the heartbeat consumer's
-EMCY (shared/spec/cia301.md §4.2, §6, §7, §9).
+EMCY (CiA 301: heartbeat consumer, PDO, SYNC, EMCY).
 """
 
 import struct

@@ -1,7 +1,7 @@
 """Persistence and LSS of canopen-drive-linux with python-canopen as the master: store with
 "save" and restore with "load" across restarts of the program on the same --storage file, and
 an unconfigured node (--node-id 255) given a node-ID through python-canopen's LSS master
-(shared/spec/cia301.md §11, §12).
+(CiA 301 1010h/1011h, CiA 305 LSS).
 """
 
 import select
@@ -12,7 +12,8 @@ import pytest
 
 from conftest import DriveProcess
 
-VENDOR = PRODUCT = REVISION = SERIAL = 0  # 1018h of canopen-drive-linux
+# 1018h of canopen-drive-linux (the generic profile: boards/linux/src/profiles/generic.rs)
+VENDOR, PRODUCT, REVISION, SERIAL = 0, 0x0043_444C, 0x0000_0001, 1
 
 
 def connect(process):

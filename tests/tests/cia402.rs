@@ -1,5 +1,5 @@
 //! The CiA 402 drive profile on the virtual bus with the simulated motor. Tests are named after
-//! the items of `shared/spec/cia402-testable.md` they check (a_01 = section A, item 1); the
+//! the items of `docs/testing.md` they check (a_01 = section A, item 1); the
 //! statusword is compared through the masks of digest §3.5.
 
 mod common;

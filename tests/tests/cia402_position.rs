@@ -1,5 +1,5 @@
 //! Profile position mode, the position control function and the factor group on the virtual
-//! bus with the simulated motor: sections I, J and K of `shared/spec/cia402-testable.md` (and
+//! bus with the simulated motor: sections I, J and K of `docs/testing.md` (and
 //! the pp items of B and H). Tests are named after the items they check.
 
 mod common;

@@ -1,6 +1,6 @@
 //! Cyclic synchronous modes (csp, csv, cst) on the virtual bus with the simulated motor: the
 //! test is the master, streaming a target in a synchronous RPDO before every SYNC (1 kHz SYNC,
-//! 4 kHz tick). Section R of `shared/spec/cia402-testable.md`, the stream's loss, and limits.
+//! 4 kHz tick). Section R of `docs/testing.md`, the stream's loss, and limits.
 
 mod common;
 

@@ -1,5 +1,5 @@
 //! Homing mode on the virtual bus with the simulated motor: section L of
-//! `shared/spec/cia402-testable.md` and every method from several start positions.
+//! `docs/testing.md` and every method from several start positions.
 //!
 //! `cargo test -p canopen-drive-tests --test homing -- --nocapture` prints the table of
 //! methods × start positions × result (also kept in `docs/homing-methods.md`).

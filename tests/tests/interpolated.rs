@@ -1,5 +1,5 @@
 //! Interpolated position mode (ip) on the virtual bus with the simulated motor: items 144–148 of
-//! `shared/spec/cia402-testable.md` (149–153, the buffer itself, are unit tests of
+//! `docs/testing.md` (149–153, the buffer itself, are unit tests of
 //! `cia402::ip`), plus a ring buffer driven over the bus.
 
 mod common;

@@ -1,7 +1,7 @@
 //! Robustness (issue 9, items 2–5): fault injection on the virtual bus, a simulated-time soak
 //! across the wraps of the time bases, hostile configuration of the whole dictionary. Each
 //! test runs its section's scenarios, prints the outcomes (`--nocapture`), and the last of the
-//! three to finish writes `docs/robustness.md` (see `robustness/report.rs`).
+//! three to finish writes `target/generated-docs/robustness.md` (see `robustness/report.rs`).
 //!
 //! The soak simulates 24 h of drive time by default: run it optimised, e.g.
 //! `CARGO_PROFILE_DEV_OPT_LEVEL=2 cargo test -p canopen-drive-tests --test robustness`

@@ -1,5 +1,5 @@
 //! Touch probe 60B8h–60BDh on the virtual bus with the simulated motor: section M of
-//! `shared/spec/cia402-testable.md`, and touch-probe homing (method 36).
+//! `docs/testing.md`, and touch-probe homing (method 36).
 
 mod common;
 

@@ -1,6 +1,6 @@
 //! Velocity mode (vl) on the virtual bus with the simulated motor: the ramp function driven by
 //! controlword bits 4–6, the rpm → increments/s conversion through 608Fh, and the stops
-//! (section Q of `shared/spec/cia402-testable.md`; the ramp arithmetic itself is unit-tested in
+//! (section Q of `docs/testing.md`; the ramp arithmetic itself is unit-tested in
 //! `cia402::vl`).
 
 mod common;

@@ -37,6 +37,12 @@ OPTIONS:
     --idle-timeout SECONDS    Disconnect an SLCAN client that sends nothing for SECONDS
                               (default: never; TCP keepalive notices vanished peers anyway)
     --quiet                   No log lines on stderr (errors that end the program still)
+    -v, --verbose             Also log on stderr the drive's NMT and CiA 402 state changes,
+                              its mode of operation, every EMCY and SDO abort on the bus
+    -vv                       ... and every frame in both directions, NMT commands and the
+                              core's own log (state transitions, storage events)
+    --trace FILE              Write every frame on the bus, both directions, to FILE in the
+                              log format of `candump -l` (replay: canplayer -I FILE)
     --write-eds PATH          Write the profile's EDS to PATH and exit
     -h, --help                Print this help and exit
 
@@ -82,6 +88,10 @@ pub struct RunArgs {
     pub limits: Limits,
     /// No log lines.
     pub quiet: bool,
+    /// `-v` (1) or `-vv` (2): state changes, EMCYs, SDO aborts (and frames).
+    pub verbose: u8,
+    /// `--trace FILE`: the candump log of the bus.
+    pub trace: Option<PathBuf>,
 }
 
 /// A refused command line.
@@ -109,6 +119,10 @@ pub enum CliError {
     InvalidNumber(&'static str, String),
     /// Neither `--slcan-listen` nor `--socketcan` (nor `--write-eds`).
     NoBus,
+    /// `--quiet` together with `-v`.
+    QuietAndVerbose,
+    /// `-v` given more than twice.
+    TooVerbose,
 }
 
 impl fmt::Display for CliError {
@@ -136,6 +150,8 @@ impl fmt::Display for CliError {
             CliError::NoBus => {
                 f.write_str("nothing to connect to: give --slcan-listen HOST:PORT and/or --socketcan IFACE")
             }
+            CliError::QuietAndVerbose => f.write_str("--quiet and -v/--verbose exclude each other"),
+            CliError::TooVerbose => f.write_str("-v goes up to -vv"),
         }
     }
 }
@@ -153,6 +169,8 @@ pub fn parse(args: impl IntoIterator<Item = OsString>) -> Result<Action, CliErro
     let mut max_clients: Option<usize> = None;
     let mut idle_timeout: Option<u64> = None;
     let mut quiet = false;
+    let mut verbose: u8 = 0;
+    let mut trace: Option<PathBuf> = None;
 
     let mut args = args.into_iter();
     while let Some(arg) = args.next() {
@@ -205,6 +223,13 @@ pub fn parse(args: impl IntoIterator<Item = OsString>) -> Result<Action, CliErro
                 }
                 quiet = true;
             }
+            "-v" | "--verbose" | "-vv" if inline.is_none() => {
+                verbose = verbose.saturating_add(if name == "-vv" { 2 } else { 1 });
+                if verbose > 2 {
+                    return Err(CliError::TooVerbose);
+                }
+            }
+            "--trace" => set_once(&mut trace, PathBuf::from(value("--trace")?), "--trace")?,
             "--write-eds" => set_once(&mut write_eds, PathBuf::from(value("--write-eds")?), "--write-eds")?,
             other if other.starts_with('-') => return Err(CliError::UnknownOption(other.to_string())),
             other => return Err(CliError::UnexpectedArgument(other.to_string())),
@@ -219,12 +244,25 @@ pub fn parse(args: impl IntoIterator<Item = OsString>) -> Result<Action, CliErro
     if slcan_listen.is_none() && socketcan.is_none() {
         return Err(CliError::NoBus);
     }
+    if quiet && verbose > 0 {
+        return Err(CliError::QuietAndVerbose);
+    }
     let defaults = Limits::default();
     let limits = Limits {
         max_clients: max_clients.unwrap_or(defaults.max_clients),
         idle_timeout: idle_timeout.map(std::time::Duration::from_secs).or(defaults.idle_timeout),
     };
-    Ok(Action::Run(RunArgs { profile, node_id, slcan_listen, socketcan, storage, limits, quiet }))
+    Ok(Action::Run(RunArgs {
+        profile,
+        node_id,
+        slcan_listen,
+        socketcan,
+        storage,
+        limits,
+        quiet,
+        verbose,
+        trace,
+    }))
 }
 
 /// A whole number from 1 (a count or seconds).
@@ -291,6 +329,8 @@ mod tests {
                 storage: None,
                 limits: Limits::default(),
                 quiet: false,
+                verbose: 0,
+                trace: None,
             }))
         );
     }
@@ -310,6 +350,8 @@ mod tests {
                 "--idle-timeout",
                 "30",
                 "--quiet",
+                "--trace",
+                "bus.log",
             ]),
             Ok(Action::Run(RunArgs {
                 profile: ProfileName::Generic,
@@ -319,6 +361,8 @@ mod tests {
                 storage: Some("/tmp/p.bin".into()),
                 limits: Limits { max_clients: 4, idle_timeout: Some(std::time::Duration::from_secs(30)) },
                 quiet: true,
+                verbose: 0,
+                trace: Some("bus.log".into()),
             }))
         );
         assert_eq!(
@@ -341,11 +385,21 @@ mod tests {
         ));
         assert_eq!(parse_str(&["--slcan-listen", "x:1", "--help"]), Ok(Action::Help));
         assert_eq!(parse_str(&["-h"]), Ok(Action::Help));
+        for (args, level) in [(&["-v"][..], 1), (&["-vv"], 2), (&["-v", "--verbose"], 2), (&[], 0)] {
+            let mut all = vec!["--socketcan", "can0"];
+            all.extend_from_slice(args);
+            let Ok(Action::Run(run)) = parse_str(&all) else { panic!("{args:?}") };
+            assert_eq!(run.verbose, level, "{args:?}");
+        }
     }
 
     #[test]
     fn bad_arguments_are_refused() {
-        let cases: [(&[&str], CliError); 21] = [
+        let cases: [(&[&str], CliError); 25] = [
+            (&["-v", "--quiet", "--socketcan", "c"], CliError::QuietAndVerbose),
+            (&["-vv", "-v", "--socketcan", "c"], CliError::TooVerbose),
+            (&["--trace"], CliError::MissingValue("--trace")),
+            (&["--trace", "a", "--trace", "b"], CliError::Repeated("--trace")),
             (
                 &["--max-clients", "0", "--socketcan", "c"],
                 CliError::InvalidNumber("--max-clients", "0".into()),

@@ -28,12 +28,14 @@ mod board_objects;
 mod bus;
 mod cli;
 mod lss_store;
+mod monitor;
 mod node;
 mod output;
 mod profiles;
 mod slcan;
 mod slcan_server;
 mod socketcan_port;
+mod trace;
 
 use std::process::ExitCode;
 use std::sync::atomic::AtomicBool;
@@ -105,7 +107,23 @@ fn run(args: &RunArgs) -> Result<(), String> {
     // SLCAN over TCP has no bit rate: the one stored by LSS (or a drive's own store command)
     // is what a CAN controller would run at; 1000 kbit/s otherwise.
     let bit_rate_kbit = lss_file.as_deref().and_then(lss_store::load_bit_rate).unwrap_or(1000);
-    let board = node::Board { profile: &profile, lss_file: lss_file.as_deref(), bit_rate_kbit };
+    let trace = match &args.trace {
+        Some(path) => Some(
+            trace::Trace::create(path)
+                .map_err(|e| format!("cannot write the trace {}: {e}", path.display()))?,
+        ),
+        None => None,
+    };
+    if args.verbose > 0 {
+        CoreLog::install(args.verbose);
+    }
+    let board = node::Board {
+        profile: &profile,
+        lss_file: lss_file.as_deref(),
+        bit_rate_kbit,
+        verbose: args.verbose,
+        trace: trace.as_ref(),
+    };
     let (mut config, _) = node::config_with_eds(&profile, node_id)?;
     config.lss_store = args.storage.is_some();
     let hooks = profile.hooks(args.storage.is_some());
@@ -127,6 +145,31 @@ fn run(args: &RunArgs) -> Result<(), String> {
             serve(args, node_id, drive, &board)
         }
     }
+}
+
+/// The core's own log (its `log` feature) on stderr: warnings and errors with `-v`, every record
+/// with `-vv`.
+struct CoreLog;
+
+impl CoreLog {
+    fn install(verbose: u8) {
+        static LOGGER: CoreLog = CoreLog;
+        if log::set_logger(&LOGGER).is_ok() {
+            log::set_max_level(if verbose >= 2 { log::LevelFilter::Trace } else { log::LevelFilter::Warn });
+        }
+    }
+}
+
+impl log::Log for CoreLog {
+    fn enabled(&self, _: &log::Metadata<'_>) -> bool {
+        true
+    }
+
+    fn log(&self, record: &log::Record<'_>) {
+        log!("core {}: {}", record.level().as_str().to_lowercase(), record.args());
+    }
+
+    fn flush(&self) {}
 }
 
 /// Says on stderr, before the drive starts, when the stored parameters cannot be used: a file

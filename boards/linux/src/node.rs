@@ -25,7 +25,9 @@ use canopen_drive_sim::motor::SimMotor;
 
 use crate::board_objects::{BoardHooks, Change};
 use crate::bus::Bus;
+use crate::monitor::{Direction, Monitor};
 use crate::profiles::{Action, BoardProfile, Environment, Firmware, Update, OD_BYTES};
+use crate::trace::Trace;
 
 /// The drive of this board, with parameter storage `S` (a file, or none).
 pub type BoardDrive<S> = Drive<BoardHooks, OD_BYTES, 4, 4, S>;
@@ -72,7 +74,51 @@ pub struct Board<'a> {
     pub lss_file: Option<&'a Path>,
     /// The bit rate the program runs at, kbit/s.
     pub bit_rate_kbit: u16,
+    /// `-v`/`-vv` (0: neither).
+    pub verbose: u8,
+    /// `--trace`.
+    pub trace: Option<&'a Trace>,
 }
+
+/// Where the frames of the loop are reported: the trace file and the `-v` monitor.
+struct Observer<'a> {
+    monitor: Monitor,
+    trace: Option<&'a Trace>,
+}
+
+impl Observer<'_> {
+    fn frame(&self, direction: Direction, frame: &canopen_drive::CanFrame) {
+        if let Some(trace) = self.trace {
+            trace.record(frame);
+        }
+        if self.monitor.active() {
+            for line in self.monitor.frame(direction, frame) {
+                log!("{line}");
+            }
+        }
+    }
+
+    fn states<S: Persistence>(&mut self, drive: &BoardDrive<S>) {
+        if !self.monitor.active() {
+            return;
+        }
+        let mode = drive
+            .od()
+            .entry(MODES_OF_OPERATION_DISPLAY, 0)
+            .ok()
+            .and_then(|entry| {
+                let mut value = [0u8; 1];
+                (drive.od().read(&entry, 0, &mut value) == 1).then(|| value[0] as i8)
+            })
+            .unwrap_or(0);
+        for line in self.monitor.states(drive.nmt_state(), drive.state(), mode) {
+            log!("{line}");
+        }
+    }
+}
+
+/// 6061h, modes of operation display.
+const MODES_OF_OPERATION_DISPLAY: u16 = 0x6061;
 
 /// Runs `drive` on `bus` until `stop` is set.
 pub fn run<S: Persistence>(mut drive: BoardDrive<S>, board: &Board<'_>, bus: &Bus, stop: &AtomicBool) {
@@ -86,8 +132,10 @@ pub fn run<S: Persistence>(mut drive: BoardDrive<S>, board: &Board<'_>, bus: &Bu
     let mut last_tick = clock.now();
     let mut next_tick = last_tick + TICK_PERIOD;
     let mut tx_dropped = 0;
+    let mut observer = Observer { monitor: Monitor::new(board.verbose), trace: board.trace };
     let mut deadline = drive.poll(last_tick);
-    transmit(&mut drive, bus);
+    transmit(&mut drive, bus, &observer);
+    observer.states(&drive);
 
     while !stop.load(Ordering::Relaxed) {
         let now = clock.now();
@@ -97,8 +145,9 @@ pub fn run<S: Persistence>(mut drive: BoardDrive<S>, board: &Board<'_>, bus: &Bu
         // request is served, however fast the master asks again (`receive` returns at once
         // while frames wait, so a burst is still taken without sleeping).
         if let Some(frame) = bus.receive(timeout) {
+            observer.frame(Direction::Rx, &frame);
             drive.on_frame(&frame, clock.now());
-            transmit(&mut drive, bus);
+            transmit(&mut drive, bus, &observer);
             if drive.take_connection_event() == Some(ConnectionEvent::ResetApplication) {
                 firmware.reset(drive.od(), &env, &mut updates);
             }
@@ -136,7 +185,8 @@ pub fn run<S: Persistence>(mut drive: BoardDrive<S>, board: &Board<'_>, bus: &Bu
         }
 
         deadline = drive.poll(now);
-        transmit(&mut drive, bus);
+        transmit(&mut drive, bus, &observer);
+        observer.states(&drive);
 
         if drive.tx_dropped() != tx_dropped {
             tx_dropped = drive.tx_dropped();
@@ -201,8 +251,9 @@ fn lss_services<S: Persistence>(drive: &mut BoardDrive<S>, lss_file: Option<&Pat
 }
 
 /// Puts every frame the drive has queued on the bus.
-fn transmit<S: Persistence>(drive: &mut BoardDrive<S>, bus: &Bus) {
+fn transmit<S: Persistence>(drive: &mut BoardDrive<S>, bus: &Bus, observer: &Observer<'_>) {
     while let Some(frame) = drive.pop_tx() {
+        observer.frame(Direction::Tx, &frame);
         bus.send_from_drive(&frame);
     }
 }
@@ -267,7 +318,8 @@ mod tests {
         let runner = {
             let (bus, stop) = (bus.clone(), Arc::clone(&stop));
             thread::spawn(move || {
-                let board = Board { profile: &profile, lss_file: None, bit_rate_kbit: 1000 };
+                let board =
+                    Board { profile: &profile, lss_file: None, bit_rate_kbit: 1000, verbose: 0, trace: None };
                 run(drive, &board, &bus, &stop)
             })
         };

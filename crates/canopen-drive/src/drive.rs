@@ -94,6 +94,7 @@ pub use crate::comm::ConnectionEvent;
 
 /// State of the CAN controller, as the board reports it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum CanState {
     /// Error active: everything normal (also: recovered).
     ErrorActive,
@@ -108,6 +109,7 @@ pub enum CanState {
 /// A bit-rate change the LSS master asked for (activate bit timing): the board switches its
 /// CAN controller after `switch_delay_ms`, stays silent for another `switch_delay_ms`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct BitRateChange {
     /// The new bit timing (table 0: the CiA 305 standard rates).
     pub bit_timing: BitTiming,

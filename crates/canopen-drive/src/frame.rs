@@ -7,6 +7,10 @@
 use embedded_can::{ExtendedId, Frame, Id, StandardId};
 
 /// A classic CAN frame (data or remote), owned and `Copy`.
+///
+/// With the `defmt` feature it is logged as candump writes a frame: `605#4000100000000000`
+/// (3 hex digits for an 11-bit identifier, 8 for a 29-bit one, `R` and the length for a
+/// remote frame).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct CanFrame {
     // Word-sized fields first: a frame is 16 bytes, aligned, and copied as four words (the
@@ -133,6 +137,24 @@ impl Frame for CanFrame {
 /// Builds an extended-id data frame; `None` if `id` needs more than 29 bits.
 pub fn extended(id: u32, data: &[u8]) -> Option<CanFrame> {
     CanFrame::new(Id::Extended(ExtendedId::new(id)?), data)
+}
+
+/// Logged as candump writes a frame (see [`CanFrame`]).
+#[cfg(feature = "defmt")]
+impl defmt::Format for CanFrame {
+    fn format(&self, f: defmt::Formatter<'_>) {
+        match self.id() {
+            Id::Standard(id) => defmt::write!(f, "{=u16:03X}#", id.as_raw()),
+            Id::Extended(id) => defmt::write!(f, "{=u32:08X}#", id.as_raw()),
+        }
+        if self.is_remote_frame() {
+            defmt::write!(f, "R{=usize}", self.dlc());
+        } else {
+            for byte in self.data() {
+                defmt::write!(f, "{=u8:02X}", *byte);
+            }
+        }
+    }
 }
 
 #[cfg(test)]

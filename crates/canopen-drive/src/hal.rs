@@ -51,6 +51,7 @@ bitflags! {
 
 /// One feedback sample, taken by the board at the tick.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Sample {
     /// Position actual value in encoder increments.
     pub position: i32,
@@ -77,6 +78,7 @@ pub struct Sample {
 
 /// The set-point for the loops the board closes itself.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Setpoint {
     /// No set-point (drive function disabled, or a stop without a loop).
     #[default]
@@ -91,6 +93,7 @@ pub enum Setpoint {
 
 /// What the power stage should do until the next tick.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Demand {
     /// High-level power (DC link / mains contactor) on.
     pub high_voltage: bool,
@@ -110,6 +113,7 @@ pub struct Demand {
 
 /// Feed-forward values that come with a position or velocity set-point.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct FeedForward {
     /// Velocity in increments per second (with a position set-point).
     pub velocity: i32,
@@ -172,6 +176,7 @@ pub trait PowerStage {
 
 /// What the board knows about the instant of an edge on one trigger signal.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum EdgeCapture {
     /// Nothing better than the tick: the edge is taken at the actual position of the sample.
     #[default]
@@ -190,6 +195,7 @@ pub enum EdgeCapture {
 /// The board's more precise view of the edges of this tick, per trigger signal (the board needs
 /// not know which probe uses which signal). Only read when an edge of that signal is seen.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Capture {
     /// Velocity actual value in increments per second, for [`EdgeCapture::Before`].
     pub velocity: i32,
@@ -225,5 +231,20 @@ impl Capture {
                 at.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32
             }
         }
+    }
+}
+
+// `defmt::Format` of the bitflags types: their raw bits (a bitflags type cannot derive it).
+#[cfg(feature = "defmt")]
+impl defmt::Format for DigitalInputs {
+    fn format(&self, f: defmt::Formatter<'_>) {
+        defmt::write!(f, "DigitalInputs({=u32:#x})", self.bits());
+    }
+}
+
+#[cfg(feature = "defmt")]
+impl defmt::Format for HardwareFaults {
+    fn format(&self, f: defmt::Formatter<'_>) {
+        defmt::write!(f, "HardwareFaults({=u32:#x})", self.bits());
     }
 }

@@ -16,8 +16,18 @@
 //! - [`comm`]: the CiA 301/305 services: NMT slave, SDO server (expedited, segmented, block),
 //!   PDOs with dynamic mapping, SYNC, EMCY, heartbeat producer and consumer, node guarding,
 //!   error behaviour 1029h, LSS slave.
-//! - [`cia402`]: the drive profile (so far the process-data objects of the default mapping).
-//! - [`hal`]: what a board hands the tick (feedback) and gets back (a demand).
+//! - [`motion`]: CANopen-agnostic motion math: the exact fixed-point trapezoid and jerk-limited
+//!   trajectory planner behind profile position and homing, re-planned from any state.
+//! - [`control`]: the optional cascaded position (P) and velocity (PI, anti-windup,
+//!   feed-forward) loops, for boards that close only a current loop.
+//! - [`cia402`]: the CiA 402 drive profile: the state machine with every transition and the
+//!   option codes (605Ah–605Eh, 6007h), faults with their EMCY and 603Fh, mode switching
+//!   (6060h/6061h/6502h), the factor group and polarity, the limits applied to every demand,
+//!   the position control function, and the modes: profile position (pp), profile velocity
+//!   (pv), profile torque (tq), homing (hm), interpolated position (ip), velocity mode (vl),
+//!   cyclic synchronous position, velocity and torque (csp, csv, cst), and the touch probe.
+//! - [`hal`]: what a board hands the tick (the feedback [`hal::Sample`]) and gets back (the
+//!   [`hal::Demand`] for the power stage).
 //! - [`drive`]: [`Drive`], which composes everything behind the entry points.
 //!
 //! ## Two entry points, two rates
@@ -35,8 +45,21 @@
 //!
 //! - `names` (default): parameter and object names in the tables, for the EDS. An MCU build
 //!   that never writes its EDS turns default features off and saves some 4 KiB of flash.
+//! - `all-modes` (default): `pp`, `hm`, `ip`, `vl` and `touch-probe`. csp, csv, cst, pv and tq
+//!   are always built; a mode left out is not in 6502h, 6060h refuses it, its objects do not
+//!   exist and its code is not in the image (the drive with only the always-built modes needs
+//!   a little over half the flash of the full one).
 //! - `eds-object`: the device's EDS as object 1021h (implies `names`).
-//! - `defmt`: `defmt::Format` for the public types.
+//! - `defmt`: log through `defmt`, and `defmt::Format` for the public types a firmware logs
+//!   (frames, samples, demands, states, events, errors).
+//! - `log`: log through the `log` facade, for host programs (the Linux drive shows it with
+//!   `-vv`).
+//!
+//! ## Logging
+//!
+//! With `defmt` or `log` on, the core logs its CiA 402 state changes and modes, faults, and
+//! storage events (loads, stores, restores, damaged images). With neither, the log calls
+//! expand to nothing: no code, no strings in the image.
 //!
 //! ## Panic contract
 //!

@@ -1,6 +1,8 @@
 //! The robustness report: every scenario runs (a failing one does not stop the others), its
 //! outcome and notes are printed (`--nocapture`), and once the three sections (fault injection,
-//! soak, hostile configuration) have run in one test process, `docs/robustness.md` is written.
+//! soak, hostile configuration) have run in one test process, the report is written to
+//! `target/generated-docs/robustness.md` (`$GENERATED_DOCS`), of which `docs/robustness.md` is
+//! the committed copy (`scripts/test.sh` fails when they differ; `--bless` updates the copy).
 //! The file holds only results on the virtual clock, so it changes only when a result changes.
 
 use std::fmt::Write as _;
@@ -91,14 +93,18 @@ pub fn run_section(section: usize, scenarios: &[Scenario]) {
     if soak_hours() < FULL_SOAK_HOURS {
         if complete.is_some() {
             println!(
-                "report not written: a {} h soak (SOAK_HOURS=24 writes docs/robustness.md)",
+                "report not written: a {} h soak (SOAK_HOURS=24 writes target/generated-docs/robustness.md)",
                 soak_hours()
             );
         }
     } else if let Some(text) = complete {
-        let docs = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).parent().map(|root| root.join("docs"));
-        let path = docs.unwrap_or_default().join("robustness.md");
-        match std::fs::write(&path, text) {
+        // Into target/ (or $GENERATED_DOCS): a test run modifies no tracked file. scripts/test.sh
+        // compares it with the committed docs/robustness.md (`--bless` copies it there).
+        let docs = std::env::var_os("GENERATED_DOCS").map(std::path::PathBuf::from).unwrap_or_else(|| {
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join("target").join("generated-docs")
+        });
+        let path = docs.join("robustness.md");
+        match std::fs::create_dir_all(&docs).and_then(|()| std::fs::write(&path, text)) {
             Ok(()) => println!("report written to {}", path.display()),
             Err(e) => println!("report not written ({e})"),
         }
@@ -116,7 +122,8 @@ fn render(sections: &[(usize, Vec<Outcome>)]) -> String {
          SOAK_HOURS=24 CARGO_PROFILE_DEV_OPT_LEVEL=2 cargo test -p canopen-drive-tests --test robustness -- --nocapture\n\
          ```\n\n\
          (optimised, with debug assertions and overflow checks on; a run with a shorter soak prints\n\
-         the report without writing this file). Every number below is on the virtual clock of the\n\
+         the report without writing it). The run writes `target/generated-docs/robustness.md`;\n\
+         this file is its committed copy, which `scripts/test.sh` checks (`--bless` updates it). Every number below is on the virtual clock of the\n\
          simulated bus, so the file is the same on every run until a result changes. The invariants\n\
          each step is checked against are in `crates/canopen-drive-sim/src/invariants.rs`; fuzzing\n\
          (item 1) is `scripts/fuzz.sh` with the targets in `fuzz/`.\n"

@@ -171,6 +171,7 @@ impl StopKind {
 
 /// The option codes the FSA consults (values already validated).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Options {
     /// 605Ah quick stop option code.
     pub quick_stop: i16,
@@ -193,6 +194,7 @@ impl Default for Options {
 
 /// What happens to the FSA in one tick.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Event {
     /// Nothing new.
     None,
@@ -373,6 +375,7 @@ impl Default for Fsa {
 
 /// What one step of the FSA asks for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Step {
     /// The state to report.
     pub state: State,

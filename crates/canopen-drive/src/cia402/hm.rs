@@ -616,6 +616,7 @@ pub struct Inputs<'a, const B: usize> {
 
 /// What homing tells the profile after a tick.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Outcome {
     /// The home position was found: the encoder count at home.
     pub home: Option<i64>,

@@ -86,6 +86,7 @@ pub struct Inputs<'a, const B: usize> {
 
 /// The statusword bits pp reports.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Status {
     /// Bit 10.
     pub target_reached: bool,

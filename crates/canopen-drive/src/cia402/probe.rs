@@ -128,6 +128,7 @@ bitflags! {
 
 /// The touch probe objects after a tick.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct ProbeOutputs {
     /// 60B9h touch probe status.
     pub status: u16,
@@ -349,6 +350,14 @@ const PROBE_OFF: Probe = Probe {
     positive_count: 0,
     negative_count: 0,
 };
+
+// `defmt::Format` of the bitflags type: its raw bits.
+#[cfg(feature = "defmt")]
+impl defmt::Format for Changed {
+    fn format(&self, f: defmt::Formatter<'_>) {
+        defmt::write!(f, "Changed({=u8:#x})", self.bits());
+    }
+}
 
 #[cfg(test)]
 mod tests {

@@ -688,6 +688,13 @@ impl Profile {
             stopped,
             &options,
         );
+        #[cfg(any(feature = "defmt", feature = "log"))]
+        if step.state != before {
+            if matches!(step.state, State::FaultReactionActive) {
+                crate::fmt::warning!("cia402: fault {:#x}", self.fault.unwrap_or_default());
+            }
+            crate::fmt::info!("cia402: {:?} -> {:?}", before, step.state);
+        }
         if matches!(before, State::Fault) && !matches!(step.state, State::Fault) {
             // Transition 15: the fault is gone.
             if let Some(code) = self.fault.take() {
@@ -710,6 +717,7 @@ impl Profile {
             self.display_mode = requested;
             self.active_mode = direct.map_or(requested, DirectMode::cyclic_mode);
             self.mode_changed = true;
+            crate::fmt::info!("cia402: mode of operation {}", requested);
             self.pp.reset(actual, actual_user);
             self.homing.reset(self.pp.planner_mut(), actual);
             self.velocity = Ramp { value: i64::from(sample.velocity), remainder: 0 };

@@ -157,6 +157,7 @@ pub mod code {
 
 /// One active error.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct ActiveError {
     /// EMCY error code.
     pub code: u16,

@@ -35,6 +35,7 @@ pub enum Supervision {
 
 /// What the consumer tells the drive.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum ConsumerEvent {
     /// An active entry timed out (EMCY 0x8130, 1029h reaction).
     Timeout {
@@ -210,6 +211,7 @@ pub struct NodeGuarding {
 
 /// What a guarding request or the life-guarding timer tells the drive.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum GuardingEvent {
     /// No guarding request within the node life time (EMCY 0x8130, 1029h reaction).
     LifeGuardingFailed,

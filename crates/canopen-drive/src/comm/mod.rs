@@ -14,6 +14,7 @@ pub use crate::wire::nmt::NmtState;
 /// Events that break the connection to the master; the CiA 402 layer reacts to them as the
 /// abort connection option code 6007h says (digest 402 §6.1).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum ConnectionEvent {
     /// The CAN controller went bus-off.
     BusOff,

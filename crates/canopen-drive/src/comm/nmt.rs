@@ -11,6 +11,7 @@ use crate::wire::nmt::{NmtCommand, NmtState};
 
 /// What the node does on a command.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum NmtAction {
     /// Nothing (unknown command, or a command while still initialising).
     None,

@@ -108,6 +108,7 @@ impl SyncSlots {
 
 /// A SYNC the node processes (received, or produced by itself).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct SyncEvent {
     /// The counter, when 1019h ≠ 0.
     pub counter: Option<u8>,

@@ -305,6 +305,7 @@ impl<const BYTES: usize> Dictionary<BYTES> {
 
 /// One step of a record stream, see [`RecordParser::next`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum RecordEvent<'a> {
     /// A record begins.
     Start(RecordHeader),

@@ -257,6 +257,15 @@ pub fn device_signature(device: &DeviceInfo, layout: u16) -> u32 {
     crc.value()
 }
 
+/// The log line of a store or a restore of defaults (not built without a logging feature).
+#[cfg(any(feature = "defmt", feature = "log"))]
+fn log_write(_what: &str, _group: Group, _result: Result<(), StorageError>) {
+    match _result {
+        Ok(()) => crate::fmt::info!("storage: {} of {:?} done", _what, _group),
+        Err(_error) => crate::fmt::warning!("storage: {} of {:?} failed: {:?}", _what, _group, _error),
+    }
+}
+
 /// What a bank holds.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Bank {
@@ -497,6 +506,12 @@ impl<A: NonVolatile> Storage<A> {
         let scan = self.scan()?;
         let image = scan.state();
         let Some((bank, header)) = scan.newest() else {
+            #[cfg(any(feature = "defmt", feature = "log"))]
+            if image.is_lost() {
+                crate::fmt::warning!("storage: no usable image ({:?}): defaults kept", image);
+            } else {
+                crate::fmt::info!("storage: nothing stored: defaults kept");
+            }
             return Ok(LoadReport { image, applied: 0, skipped: 0 });
         };
         let mut loader = RecordLoader::new(group.range(), header.len as usize);
@@ -513,9 +528,17 @@ impl<A: NonVolatile> Storage<A> {
             Ok(()) => None,
         };
         if let Some(error) = failure {
+            crate::fmt::error!("storage: load of {:?} failed ({:?}): defaults restored", group, error);
             od.reset(group.range());
             return Err(error);
         }
+        crate::fmt::info!(
+            "storage: {:?} loaded from image {:?}: {} records applied, {} skipped",
+            group,
+            image,
+            stats.applied,
+            stats.skipped
+        );
         Ok(LoadReport { image, applied: stats.applied, skipped: stats.skipped })
     }
 
@@ -532,7 +555,10 @@ impl<A: NonVolatile> Storage<A> {
         od: &Dictionary<BYTES>,
         group: Group,
     ) -> Result<(), StorageError> {
-        self.write_image(Some(od), Selection::Group(group))
+        let result = self.write_image(Some(od), Selection::Group(group));
+        #[cfg(any(feature = "defmt", feature = "log"))]
+        log_write("store", group, result);
+        result
     }
 
     /// Stores the current values of single parameters (`entries`: index, sub-index) and keeps
@@ -544,7 +570,13 @@ impl<A: NonVolatile> Storage<A> {
         od: &Dictionary<BYTES>,
         entries: &[(u16, u8)],
     ) -> Result<(), StorageError> {
-        self.write_image(Some(od), Selection::Entries(entries))
+        let result = self.write_image(Some(od), Selection::Entries(entries));
+        #[cfg(any(feature = "defmt", feature = "log"))]
+        match result {
+            Ok(()) => crate::fmt::info!("storage: {} single entries stored", entries.len()),
+            Err(_error) => crate::fmt::warning!("storage: store of single entries failed: {:?}", _error),
+        }
+        result
     }
 
     /// Restores the defaults of `group` (1011h sub `group.sub()`): writes a new image without
@@ -552,7 +584,10 @@ impl<A: NonVolatile> Storage<A> {
     /// The dictionary's current values are not touched. On any error the previous image is
     /// still the one a load takes.
     pub fn restore_defaults(&mut self, group: Group) -> Result<(), StorageError> {
-        self.write_image::<0>(None, Selection::Group(group))
+        let result = self.write_image::<0>(None, Selection::Group(group));
+        #[cfg(any(feature = "defmt", feature = "log"))]
+        log_write("restore defaults", group, result);
+        result
     }
 
     fn bank_start(&self, bank: usize) -> u32 {

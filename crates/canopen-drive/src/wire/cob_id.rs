@@ -15,6 +15,7 @@ pub const EXTENDED: u32 = 1 << 29;
 
 /// A COB-ID entry split into its fields.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct CobId {
     /// Bit 31 clear.
     pub valid: bool,
@@ -26,6 +27,7 @@ pub struct CobId {
 
 /// Why a COB-ID value is refused (all map to SDO abort 0x0609_0030).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum CobIdError {
     /// Bit 29 set: this device only uses 11-bit identifiers.
     Extended,

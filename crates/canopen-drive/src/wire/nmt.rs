@@ -78,6 +78,7 @@ impl NmtCommand {
 
 /// A parsed node-control frame.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct NodeControl {
     /// The command.
     pub command: NmtCommand,

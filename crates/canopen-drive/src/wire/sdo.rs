@@ -42,6 +42,7 @@ impl Mux {
 
 /// How an initiate-download request carries its data.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Download {
     /// Expedited, with the number of valid bytes when indicated (s = 1).
     Expedited {
@@ -64,6 +65,7 @@ pub enum Download {
 /// Block-download sub-block segments carry no command specifier; they are parsed with
 /// [`BlockSegment::parse`] while a block download is in progress.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[repr(u32)]
 pub enum Request {
     /// ccs 1: initiate download.
@@ -227,6 +229,7 @@ impl Request {
 
 /// One segment of a block-download sub-block: `c sssssss` then seven data bytes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct BlockSegment {
     /// Sequence number (1..=127 when valid).
     pub seq: u8,
@@ -259,6 +262,7 @@ impl BlockSegment {
 
 /// A response of the SDO server.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[repr(u32)]
 pub enum Response {
     /// scs 3: initiate download response.
