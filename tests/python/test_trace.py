@@ -166,3 +166,23 @@ def test_session_trace_replays_with_canplayer(tmp_path):
         f"EMCY from node {NODE_ID} (this drive): error code 2310h",
     ):
         assert expected in log, f"{expected!r} not in the log:\n{log}"
+
+
+def test_very_verbose_shows_the_cores_own_log(tmp_path):
+    """`-vv` adds the core's log (the `log` feature of canopen-drive): NMT transitions, PDO
+    configuration, SDO aborts and EMCYs as the core saw them, during the same session."""
+    drive = DriveProcess(tmp_path, extra_args=("-vv",))
+    try:
+        run_session(drive)
+    finally:
+        assert drive.stop() == 0, drive.log()
+    log = drive.log()
+    for expected in (
+        f"core info: NMT: boot-up of node {NODE_ID}, Pre-operational",
+        "core debug: PDO: Rpdo 1 valid: COB-ID 205, 1 entries",
+        "core info: NMT: PreOperational -> Operational",
+        "core debug: SDO: Mux { index: 12287, sub: 0 } aborted: ObjectDoesNotExist",
+        "core info: EMCY: error 2310 raised",
+    ):
+        assert expected in log, f"{expected!r} not in the log:\n{log}"
+    assert "core trace: deregistering" not in log, "only the core's records, not its libraries'"

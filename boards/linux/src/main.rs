@@ -161,11 +161,16 @@ impl CoreLog {
 }
 
 impl log::Log for CoreLog {
-    fn enabled(&self, _: &log::Metadata<'_>) -> bool {
-        true
+    /// The core's records only (its macros log with target `canopen_drive`), not those of the
+    /// libraries the program uses.
+    fn enabled(&self, metadata: &log::Metadata<'_>) -> bool {
+        metadata.target() == "canopen_drive"
     }
 
     fn log(&self, record: &log::Record<'_>) {
+        if !self.enabled(record.metadata()) {
+            return;
+        }
         log!("core {}: {}", record.level().as_str().to_lowercase(), record.args());
     }
 

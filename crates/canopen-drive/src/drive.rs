@@ -937,6 +937,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
         let code = self.profile.config().reported_code(code);
         let info = self.emcy_bytes.iter().find(|(c, _)| *c == code).map_or(info, |(_, bytes)| *bytes);
         if self.emcy.raise(code, register, info).is_some() {
+            crate::fmt::info!("EMCY: error {:x} raised", code);
             emcy::record_history(&mut self.od, code, info);
             self.sync_error_register();
         }
@@ -950,6 +951,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
         }
         let code = self.profile.config().reported_code(code);
         if self.emcy.clear(code) {
+            crate::fmt::info!("EMCY: error {:x} cleared", code);
             self.sync_error_register();
         }
     }
@@ -1223,6 +1225,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
         // Initialisation ends with the boot-up frame; the first heartbeat follows one period
         // later (digest §3.5).
         self.send_error_control(NmtState::Initialising.heartbeat_byte());
+        crate::fmt::info!("NMT: boot-up of node {}, Pre-operational", self.node_id());
         self.nmt = NmtState::PreOperational;
         let period = self.heartbeat_period();
         self.heartbeat.restart(now + Duration::from_millis(u64::from(period)), period);
@@ -1233,6 +1236,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
             NmtAction::None => {}
             NmtAction::Enter(state) => {
                 if state != self.nmt {
+                    crate::fmt::info!("NMT: {:?} -> {:?}", self.nmt, state);
                     if state == NmtState::Stopped {
                         self.connection_lost(ConnectionEvent::NmtStopped);
                     }
@@ -1251,6 +1255,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
                 }
             }
             NmtAction::ResetApplication => {
+                crate::fmt::info!("NMT: reset application");
                 // The application restarts as at power-on: its fault and every active error
                 // are forgotten (a condition still present is raised again when detected).
                 self.emcy.reset();
@@ -1275,6 +1280,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
                 self.connection_event = Some(ConnectionEvent::ResetApplication);
             }
             NmtAction::ResetCommunication => {
+                crate::fmt::info!("NMT: reset communication");
                 self.reset_communication(now);
                 self.connection_lost(ConnectionEvent::ResetCommunication);
             }

@@ -50,6 +50,7 @@ pub const MAX_MAPPED: u8 = 8;
 
 /// Direction of a PDO.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Direction {
     /// Received by the drive.
     Rpdo,
@@ -59,6 +60,7 @@ pub enum Direction {
 
 /// Which record of which PDO an index names.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct PdoRecord {
     /// RPDO or TPDO.
     pub direction: Direction,
@@ -639,6 +641,24 @@ impl<const R: usize, const T: usize> PdoSet<R, T> {
             _ => (None, false),
         };
         let can_id = mapping.and(cob).map(|c| c.can_id);
+        if broken {
+            crate::fmt::warning!(
+                "PDO: {:?} {} has a mapping that cannot be resolved: disabled",
+                record.direction,
+                record.number + 1
+            );
+        } else if let Some(id) = can_id {
+            let entries = mapping.map_or(0, |m| m.count);
+            crate::fmt::debug!(
+                "PDO: {:?} {} valid: COB-ID {:x}, {} entries",
+                record.direction,
+                record.number + 1,
+                id,
+                entries
+            );
+        } else {
+            crate::fmt::debug!("PDO: {:?} {} invalid", record.direction, record.number + 1);
+        }
         let mapping = mapping.unwrap_or(Mapping::EMPTY);
         match record.direction {
             Direction::Rpdo => {

@@ -121,6 +121,7 @@ pub struct SdoServer<const BUF: usize> {
 type Step = (State, Option<Response>);
 
 fn abort(mux: Mux, code: AbortCode) -> Step {
+    crate::fmt::debug!("SDO: {:?} aborted: {:?}", mux, code);
     (State::Idle, Some(Response::Abort { mux, code }))
 }
 
@@ -189,6 +190,7 @@ impl<const BUF: usize> SdoServer<BUF> {
             Some(deadline) if now >= deadline => {
                 let mux = self.mux()?;
                 self.enter(State::Idle, now);
+                crate::fmt::debug!("SDO: {:?} timed out", mux);
                 Some(Response::Abort { mux, code: AbortCode::Timeout }.emit())
             }
             _ => None,
@@ -224,7 +226,10 @@ impl<const BUF: usize> SdoServer<BUF> {
         let current = self.mux().unwrap_or(Mux { index: 0, sub: 0 });
         match (self.state, request) {
             // An abort ends any transfer and is never answered.
-            (_, Request::Abort { .. }) => (State::Idle, None),
+            (_, Request::Abort { .. }) => {
+                crate::fmt::debug!("SDO: {:?} aborted by the client", current);
+                (State::Idle, None)
+            }
 
             (State::Idle, Request::InitiateDownload { mux, kind }) => self.initiate_download(mux, kind, od),
             (State::Idle, Request::InitiateUpload { mux }) => self.initiate_upload(mux, od),
