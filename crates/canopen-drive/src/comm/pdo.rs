@@ -647,17 +647,15 @@ impl<const R: usize, const T: usize> PdoSet<R, T> {
                 record.direction,
                 record.number + 1
             );
-        } else if let Some(id) = can_id {
-            let entries = mapping.map_or(0, |m| m.count);
+        } else {
             crate::fmt::debug!(
-                "PDO: {:?} {} valid: COB-ID {:x}, {} entries",
+                "PDO: {:?} {} {}: COB-ID {:x}, {} entries",
                 record.direction,
                 record.number + 1,
-                id,
-                entries
+                if can_id.is_some() { "valid" } else { "invalid" },
+                can_id.unwrap_or(0),
+                mapping.map_or(0, |m| m.count)
             );
-        } else {
-            crate::fmt::debug!("PDO: {:?} {} invalid", record.direction, record.number + 1);
         }
         let mapping = mapping.unwrap_or(Mapping::EMPTY);
         match record.direction {
