@@ -284,3 +284,23 @@ fn stored_node_id_relative_cob_ids_follow_a_new_node_id() {
     assert_eq!(read(&mut drive, 0x1800, 1), 0x4000_0187);
     assert_eq!(read(&mut drive, 0x1801, 1), 0xC000_0299);
 }
+
+/// Stored heartbeat-consumer entries (1016h) supervise from the start, as the stored producer
+/// time does: a power-on with a stored entry for node 9 reports its lost heartbeat (EMCY 8130h),
+/// without a master writing 1016h again.
+#[test]
+fn stored_heartbeat_consumer_entries_supervise_from_boot() {
+    let (mut drive, _) = power_on(blank());
+    let entry = (9u32 << 16) | 100;
+    assert_eq!(sdo(&mut drive, req(0x23, 0x1016, 1, entry.to_le_bytes())), req(0x60, 0x1016, 1, [0; 4]));
+    assert_eq!(sdo(&mut drive, req(0x23, 0x1010, 2, SAVE)), req(0x60, 0x1010, 2, [0; 4]));
+    let (mut drive, _) = power_on(flash_of(&mut drive));
+    assert_eq!(drive.od().get::<u32>(0x1016, 1), Ok(entry));
+    // Node 9's first heartbeat starts the supervision; none follows within 100 ms.
+    drive.on_frame(&frame(0x709, &[0x05]), Instant::from_millis(10));
+    drive.poll(Instant::from_millis(200));
+    let frames: Vec<_> = std::iter::from_fn(|| drive.pop_tx()).collect();
+    let timeout =
+        frames.iter().any(|f| f.standard_id() == Some(EMCY) && f.data().get(..2) == Some(&[0x30, 0x81]));
+    assert!(timeout, "no heartbeat-timeout EMCY: {frames:02X?}");
+}

@@ -567,6 +567,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
         self.pdos.inhibit_unit = config.tpdo_inhibit_unit;
         // Power-on values: the stored set where there is one (digest §3.3).
         self.load_stored(Group::All);
+        self.heartbeat_consumer.configure_all(&self.od);
         self.configure_pdos();
         self.refresh();
         Ok(())
@@ -1298,6 +1299,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
         self.refresh();
         self.sync_error_register();
         self.heartbeat_consumer = HeartbeatConsumer::default();
+        self.heartbeat_consumer.configure_all(&self.od);
         self.guarding.reset();
         self.sync.restart(now, self.sync_config().0);
         self.configure_pdos();

@@ -129,6 +129,15 @@ impl<const N: usize> HeartbeatConsumer<N> {
         }
     }
 
+    /// Every entry from the 1016h the dictionary holds (at power-on and reset communication:
+    /// the stored entries supervise as the written ones do); supervision waits for the first
+    /// heartbeat of each node.
+    pub fn configure_all<const B: usize>(&mut self, od: &Dictionary<B>) {
+        for sub in (1..=N).filter_map(|n| u8::try_from(n).ok()) {
+            self.configure(sub, od.get::<u32>(CONSUMER_HEARTBEAT_TIME, sub).unwrap_or(0));
+        }
+    }
+
     /// The state of entry `sub` (1-based).
     pub fn state(&self, sub: u8) -> Option<Supervision> {
         usize::from(sub).checked_sub(1).and_then(|i| self.entries.get(i)).map(|(_, s)| *s)
