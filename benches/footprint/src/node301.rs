@@ -264,7 +264,6 @@ impl crate::Node for Node301 {
     }
 }
 
-
 fn embedded_can_data(frame: &CanFrame) -> &[u8] {
     embedded_can::Frame::data(frame)
 }
