@@ -172,10 +172,17 @@ else
     echo "bench: peer comparison skipped ($peer_run not found: ../shared is not beside this clone)" >&2
 fi
 
+# The 301-only node's footprint: the one this run's mcu step measured (scripts/test.sh sets
+# GENERATED_DOCS), else the committed table.
+footprint=$root/docs/footprint.md
+if [ -n "${GENERATED_DOCS:-}" ] && [ -f "$GENERATED_DOCS/footprint.md" ]; then
+    footprint=$GENERATED_DOCS/footprint.md
+fi
+
 status=0
 python3 "$bench/report.py" --labels "$out/labels.tsv" --m4 "$out/m4.txt" --x86 "$out/x86.txt" \
     --repetitions "$n" --budgets "$bench/budgets.txt" --out "$out/BENCHMARKS.md" \
-    --footprint "$root/docs/footprint.md" "${peer_args[@]}" "${update[@]}" || status=1
+    --footprint "$footprint" "${peer_args[@]}" "${update[@]}" || status=1
 
 # The x86-64 column is not compared: the host binary's libc picks its memcpy by CPU features,
 # so that column may differ between machines; the Cortex-M4 counts (QEMU) may not. Nor is the
