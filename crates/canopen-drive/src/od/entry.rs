@@ -552,16 +552,14 @@ pub struct Object {
 }
 
 impl Object {
+    /// An object of `kind`: no instance number, no owner, its store offset set later by [`layout`].
+    const fn of(index: u16, name: &'static str, kind: Kind) -> Self {
+        Object { index, name: Name::new(name), kind, base: 0, number: 0, owner: Owner::Dictionary }
+    }
+
     /// A VAR object.
     pub const fn var(index: u16, name: &'static str, var: Var) -> Self {
-        Object {
-            index,
-            name: Name::new(name),
-            kind: Kind::Var(var),
-            base: 0,
-            number: 0,
-            owner: Owner::Dictionary,
-        }
+        Object::of(index, name, Kind::Var(var))
     }
     /// An ARRAY object with a read-only sub 0 holding `len`.
     /// In a `static` or `const` table `&Var::new(..)` is a `'static` reference.
@@ -569,14 +567,7 @@ impl Object {
         let sub0 = Var::new("Highest sub-index supported", DataType::Unsigned8)
             .access(Access::Const)
             .default(DefaultValue::Unsigned(len as u64));
-        Object {
-            index,
-            name: Name::new(name),
-            kind: Kind::Array { sub0, element, len },
-            base: 0,
-            number: 0,
-            owner: Owner::Dictionary,
-        }
+        Object::array_with_sub0(index, name, len, sub0, element)
     }
     /// An ARRAY object with a custom sub 0 (e.g. a writable count).
     pub const fn array_with_sub0(
@@ -586,25 +577,11 @@ impl Object {
         sub0: Var,
         element: &'static Var,
     ) -> Self {
-        Object {
-            index,
-            name: Name::new(name),
-            kind: Kind::Array { sub0, element, len },
-            base: 0,
-            number: 0,
-            owner: Owner::Dictionary,
-        }
+        Object::of(index, name, Kind::Array { sub0, element, len })
     }
     /// A RECORD object; `subs` sorted by sub-index, sub 0 included.
     pub const fn record(index: u16, name: &'static str, subs: &'static [(u8, Var)]) -> Self {
-        Object {
-            index,
-            name: Name::new(name),
-            kind: Kind::Record(subs),
-            base: 0,
-            number: 0,
-            owner: Owner::Dictionary,
-        }
+        Object::of(index, name, Kind::Record(subs))
     }
 
     /// The object name as written to the EDS ("" without the `names` feature).
