@@ -47,7 +47,7 @@ use crate::comm::heartbeat::{HeartbeatProducer, PeriodSlot};
 use crate::comm::lss::{LssHooks, LssSlave, StoreError};
 use crate::comm::nmt::{transition, NmtAction, Services};
 use crate::comm::pdo::{self, FrameSink, PdoEvent, PdoRecord, PdoSet, RpdoFrame, ValueRules};
-use crate::comm::sdo_server::{ObjectAccess, SdoServer};
+use crate::comm::sdo_server::{upload_in_two_steps, ObjectAccess, SdoServer};
 use crate::comm::sync::{self, Sync, SyncConfig, SyncPoll, SyncReception, SyncSlots};
 use crate::frame::CanFrame;
 use crate::hal::{Demand, Sample};
@@ -748,8 +748,8 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
         if let Some(response) = response {
             let _ = self.tx.send_array(SDO_TX_BASE + u16::from(node_id), response, 8);
         }
-        if let Some((owner, mux)) = written {
-            self.after_write(owner, mux, now);
+        if let Some((owner, mux, rule)) = written {
+            self.after_write(owner, mux, rule, now);
         }
         if stored {
             self.clear_error(code::DATA_SET);
@@ -1310,14 +1310,16 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
     }
 
     /// The reaction of the object's owner to a value written from the bus by SDO.
-    fn after_write(&mut self, owner: Owner, mux: Mux, now: Instant) {
+    /// The reaction of `owner` to a value the bus wrote to `mux` (`rule`: the profile's rule
+    /// of the entry, found when the write was checked).
+    fn after_write(&mut self, owner: Owner, mux: Mux, rule: Option<Rule>, now: Instant) {
         if self.profile.sdo_written(mux.index) {
             // A set-point by SDO counts for the cyclic stream as an RPDO would.
             self.cycle.rpdo_since_sync = true;
         }
         match owner {
             Owner::Profile => {
-                if let Some(rule) = self.profile.rule(mux.index, mux.sub, false) {
+                if let Some(rule) = rule {
                     self.profile.written(&mut self.od, rule, mux.index, mux.sub);
                 }
             }
@@ -1397,13 +1399,10 @@ struct Access<'a, H, S, const B: usize> {
     store_groups: &'static [Group],
     /// [`Drive::set_remap_while_valid`].
     remap_while_valid: bool,
-    /// The owner and place of the value a download stored.
-    written: Option<(Owner, Mux)>,
+    /// The owner and place of the value a download stored, with the profile's rule of it.
+    written: Option<(Owner, Mux, Option<Rule>)>,
     /// A store on command succeeded.
     stored: bool,
-    /// The entry the last lookup of this call resolved, with its owner: a transfer asks for the
-    /// same entry two or three times (size, access, value) within one frame.
-    resolved: Option<(Entry, Owner)>,
 }
 
 impl<'a, H: ObjectHooks, S: Persistence, const B: usize> Access<'a, H, S, B> {
@@ -1425,7 +1424,6 @@ impl<'a, H: ObjectHooks, S: Persistence, const B: usize> Access<'a, H, S, B> {
             remap_while_valid: false,
             written: None,
             stored: false,
-            resolved: None,
         }
     }
 
@@ -1454,20 +1452,24 @@ impl<'a, H: ObjectHooks, S: Persistence, const B: usize> Access<'a, H, S, B> {
         Ok(())
     }
 
-    /// `mux` resolved, from the call's one-entry cache when it was the last one asked for.
-    fn entry(&mut self, mux: Mux) -> Result<(Entry, Owner), AbortCode> {
-        if let Some(resolved) = self.resolved.filter(|(e, _)| e.index() == mux.index && e.sub == mux.sub) {
-            return Ok(resolved);
-        }
+    /// `mux` as the bus sees it, with the owner of its object. (The expedited transfers, nearly
+    /// all of them, resolve their entry once; a segmented one once per frame.)
+    #[inline]
+    fn entry(&self, mux: Mux) -> Result<(Entry, Owner), AbortCode> {
         let entry = self.od.bus_entry(mux.index, mux.sub)?;
-        let resolved = (entry, owner(entry.object, self.profile));
-        self.resolved = Some(resolved);
-        Ok(resolved)
+        Ok((entry, owner(entry.object, self.profile)))
     }
 
     /// The rules of the object's owner beyond type, access and limits (each service checks its
-    /// own objects).
-    fn check_owned(&self, entry: &Entry, owner: Owner, data: &[u8]) -> Result<(), AbortCode> {
+    /// own objects; `rule`: the profile's rule of a profile entry).
+    #[inline]
+    fn check_owned(
+        &self,
+        entry: &Entry,
+        owner: Owner,
+        rule: Option<Rule>,
+        data: &[u8],
+    ) -> Result<(), AbortCode> {
         let (od, index, sub) = (&*self.od, entry.index(), entry.sub);
         match owner {
             Owner::Dictionary | Owner::HeartbeatProducer | Owner::Guarding | Owner::Storage => Ok(()),
@@ -1477,13 +1479,26 @@ impl<'a, H: ObjectHooks, S: Persistence, const B: usize> Access<'a, H, S, B> {
             Owner::Sync => sync::check_write(od, index, data),
             Owner::HeartbeatConsumer => check_consumer_write(od, sub, data),
             Owner::Pdo => pdo::check_write(od, index, sub, data, self.remap_while_valid),
-            Owner::Profile => match self.profile.rule(index, sub, false) {
+            Owner::Profile => match rule {
                 Some(rule) => self.profile.check(rule, od, index, sub, data),
                 None => Ok(()),
             },
         }
     }
 
+    #[inline]
+    fn readable_entry(&mut self, mux: Mux) -> Result<(Entry, Owner), AbortCode> {
+        let (entry, owner) = self.entry(mux)?;
+        if !entry.var.access.readable() {
+            return Err(AbortCode::ReadOfWriteOnly);
+        }
+        if owner == Owner::ErrorHistory {
+            emcy::check_history_read(self.od, mux.index, mux.sub)?;
+        }
+        Ok((entry, owner))
+    }
+
+    #[inline]
     fn writable_entry(&mut self, mux: Mux) -> Result<(Entry, Owner), AbortCode> {
         let (entry, owner) = self.entry(mux)?;
         if !entry.var.access.writable() {
@@ -1503,13 +1518,7 @@ impl<'a, H: ObjectHooks, S: Persistence, const B: usize> Access<'a, H, S, B> {
 
 impl<H: ObjectHooks, S: Persistence, const B: usize> ObjectAccess for Access<'_, H, S, B> {
     fn upload_len(&mut self, mux: Mux) -> Result<usize, AbortCode> {
-        let (entry, owner) = self.entry(mux)?;
-        if !entry.var.access.readable() {
-            return Err(AbortCode::ReadOfWriteOnly);
-        }
-        if owner == Owner::ErrorHistory {
-            emcy::check_history_read(self.od, mux.index, mux.sub)?;
-        }
+        let (entry, owner) = self.readable_entry(mux)?;
         if self.command_capability(&entry, owner).is_some() {
             return Ok(4);
         }
@@ -1536,6 +1545,22 @@ impl<H: ObjectHooks, S: Persistence, const B: usize> ObjectAccess for Access<'_,
         }
     }
 
+    fn upload_expedited(&mut self, mux: Mux, buf: &mut [u8; 4]) -> Result<Option<usize>, AbortCode> {
+        let (entry, owner) = self.readable_entry(mux)?;
+        // A plain value of the store: one look-up, no second pass through the hooks.
+        let plain = self.command_capability(&entry, owner).is_none()
+            && self.hooks.read_len(mux.index, mux.sub).is_none();
+        match plain.then(|| self.od.read_small(&entry, buf)).flatten() {
+            Some(n) => Ok(Some(n)),
+            None => upload_in_two_steps(self, mux, buf),
+        }
+    }
+
+    /// `write` refuses every size `download_check` refuses, with the same codes.
+    fn download_expedited(&mut self, mux: Mux, data: &[u8]) -> Result<(), AbortCode> {
+        self.write(mux, data)
+    }
+
     fn download_check(&mut self, mux: Mux, size: Option<usize>) -> Result<Option<usize>, AbortCode> {
         let (entry, _) = self.writable_entry(mux)?;
         let fixed = entry.var.data_type.fixed_size();
@@ -1553,11 +1578,15 @@ impl<H: ObjectHooks, S: Persistence, const B: usize> ObjectAccess for Access<'_,
         if self.command_capability(&entry, owner).is_some() {
             return self.storage_command(mux, data);
         }
-        self.check_owned(&entry, owner, data)?;
+        let rule = match owner {
+            Owner::Profile => self.profile.rule(mux.index, mux.sub, false),
+            _ => None,
+        };
+        self.check_owned(&entry, owner, rule, data)?;
         self.hooks.validate(mux.index, mux.sub, data)?;
         self.od.commit(&entry, data);
         self.hooks.written(mux.index, mux.sub, data);
-        self.written = Some((owner, mux));
+        self.written = Some((owner, mux, rule));
         Ok(())
     }
 }

@@ -41,6 +41,40 @@ pub trait ObjectAccess {
     fn download_check(&mut self, mux: Mux, size: Option<usize>) -> Result<Option<usize>, AbortCode>;
     /// Writes a complete value.
     fn write(&mut self, mux: Mux, data: &[u8]) -> Result<(), AbortCode>;
+
+    /// The upload of a value of 1..=4 bytes in one call (the expedited case): `Ok(Some(n))` with
+    /// the value in `buf[..n]`, `Ok(None)` when the value has another length (the server then
+    /// starts a segmented upload with [`upload_len`](Self::upload_len)). The default is
+    /// `upload_len` then `read`; an implementation may answer both from one look-up.
+    fn upload_expedited(&mut self, mux: Mux, buf: &mut [u8; 4]) -> Result<Option<usize>, AbortCode> {
+        upload_in_two_steps(self, mux, buf)
+    }
+
+    /// The download of a complete value of the size the client indicated (the expedited case).
+    /// The default is [`download_check`](Self::download_check) then [`write`](Self::write); an
+    /// implementation whose `write` refuses every size `download_check` refuses may write
+    /// directly.
+    fn download_expedited(&mut self, mux: Mux, data: &[u8]) -> Result<(), AbortCode> {
+        self.download_check(mux, Some(data.len()))?;
+        self.write(mux, data)
+    }
+}
+
+/// [`ObjectAccess::upload_expedited`] by [`ObjectAccess::upload_len`] then
+/// [`ObjectAccess::read`] (its default, for implementations that specialise only some entries).
+pub fn upload_in_two_steps<A: ObjectAccess + ?Sized>(
+    od: &mut A,
+    mux: Mux,
+    buf: &mut [u8; 4],
+) -> Result<Option<usize>, AbortCode> {
+    let size = od.upload_len(mux)?;
+    let Some(value) = buf.get_mut(..size).filter(|_| size > 0) else {
+        return Ok(None);
+    };
+    match od.read(mux, 0, value)? {
+        0 => Err(AbortCode::NoDataAvailable),
+        n => Ok(Some(n)),
+    }
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -117,12 +151,49 @@ pub struct SdoServer<const BUF: usize> {
     buf: [u8; BUF],
 }
 
+/// The two requests of nearly every exchange, answered in place without the state machine (the
+/// server stays idle): an upload of a value of 1..=4 bytes, and an expedited download with its
+/// size indicated and all of its bytes in the frame. `None` for any other request, or when the
+/// value turns out longer: the state machine takes it from the start.
+fn expedited(data: &[u8], od: &mut impl ObjectAccess) -> Option<[u8; 8]> {
+    let &[command, lo, hi, sub, ref rest @ ..] = data else {
+        return None;
+    };
+    let mux = Mux { index: u16::from_le_bytes([lo, hi]), sub };
+    let result = match command >> 5 {
+        // Initiate upload (its other bits are reserved and ignored, as by the state machine).
+        2 => {
+            let mut value = [0u8; 4];
+            match od.upload_expedited(mux, &mut value) {
+                Ok(None) => return None,
+                Ok(Some(n)) => {
+                    let [a, b, c, d] = value;
+                    Ok([0x43 | ((4 - n.min(4) as u8) << 2), lo, hi, sub, a, b, c, d])
+                }
+                Err(code) => Err(code),
+            }
+        }
+        // Initiate download, expedited (e = 1) with the size indicated (s = 1).
+        1 if command & 0x03 == 0x03 => {
+            let value = rest.get(..4 - usize::from((command >> 2) & 0x03))?;
+            od.download_expedited(mux, value).map(|()| [0x60, lo, hi, sub, 0, 0, 0, 0])
+        }
+        _ => return None,
+    };
+    Some(result.unwrap_or_else(|code| refusal(mux, code).emit()))
+}
+
 /// What a step of the state machine produces.
 type Step = (State, Option<Response>);
 
 fn abort(mux: Mux, code: AbortCode) -> Step {
+    (State::Idle, Some(refusal(mux, code)))
+}
+
+/// The abort frame the server sends for `code`.
+fn refusal(mux: Mux, code: AbortCode) -> Response {
     crate::fmt::debug!("SDO: {:?} aborted: {:?}", mux, code);
-    (State::Idle, Some(Response::Abort { mux, code }))
+    Response::Abort { mux, code }
 }
 
 impl<const BUF: usize> SdoServer<BUF> {
@@ -156,6 +227,9 @@ impl<const BUF: usize> SdoServer<BUF> {
 
     /// Handles one request frame's data received at `now`; returns the response to send.
     pub fn on_request(&mut self, data: &[u8], now: Instant, od: &mut impl ObjectAccess) -> Option<[u8; 8]> {
+        if let (State::Idle, Some(response)) = (self.state, expedited(data, od)) {
+            return Some(response);
+        }
         let (state, response) = match self.state {
             // In a block download, every frame but an abort is a sub-block segment.
             State::BlockDownload { .. } if data.first() != Some(&0x80) => {
@@ -421,18 +495,16 @@ impl<const BUF: usize> SdoServer<BUF> {
     }
 
     fn initiate_upload(&mut self, mux: Mux, od: &mut impl ObjectAccess) -> Step {
+        let mut data = [0u8; 4];
+        match od.upload_expedited(mux, &mut data) {
+            Ok(Some(n)) => return (State::Idle, Some(Response::UploadExpedited { mux, data, len: n as u8 })),
+            Ok(None) => {}
+            Err(code) => return abort(mux, code),
+        }
         let size = match od.upload_len(mux) {
             Ok(size) => size,
             Err(code) => return abort(mux, code),
         };
-        if (1..=4).contains(&size) {
-            let mut data = [0u8; 4];
-            return match od.read(mux, 0, data.get_mut(..size).unwrap_or(&mut [])) {
-                Ok(n) if n > 0 => (State::Idle, Some(Response::UploadExpedited { mux, data, len: n as u8 })),
-                Ok(_) => abort(mux, AbortCode::NoDataAvailable),
-                Err(code) => abort(mux, code),
-            };
-        }
         let Ok(wire_size) = u32::try_from(size) else {
             return abort(mux, AbortCode::General);
         };

@@ -475,6 +475,7 @@ impl<const BYTES: usize> Dictionary<BYTES> {
     }
 
     /// [`Self::entry`] as the bus sees the dictionary: an absent object does not exist.
+    #[inline]
     pub fn bus_entry(&self, index: u16, sub: u8) -> Result<Entry, AbortCode> {
         if self.is_absent(index) {
             return Err(AbortCode::ObjectDoesNotExist);
@@ -617,9 +618,13 @@ impl<const BYTES: usize> Dictionary<BYTES> {
     pub fn object(&self, index: u16) -> Option<(&'static Object, u16)> {
         // Indexed, not zipped iterators: those made the compiler copy both arrays onto the
         // stack on every lookup (a byte-wise memcpy of 72 bytes on a Cortex-M).
+        // The ranges ascend and do not overlap (`attach` checks): the first one that ends at or
+        // after `index` is the only one that can hold it.
         let count = self.table_count.min(MAX_TABLES);
-        let i =
-            self.ranges.get(..count)?.iter().position(|&(first, last)| first <= index && index <= last)?;
+        let i = self.ranges.get(..count)?.iter().position(|&(_, last)| index <= last)?;
+        if self.ranges.get(i)?.0 > index {
+            return None;
+        }
         let (table, region) = (*self.tables.get(i)?, *self.regions.get(i)?);
         let pos = table.binary_search_by_key(&index, |o| o.index).ok()?;
         table.get(pos).map(|o| (o, region))
@@ -722,6 +727,20 @@ impl<const BYTES: usize> Dictionary<BYTES> {
         n
     }
 
+    /// Copies a stored value of 1..=4 bytes (an expedited SDO upload) into `buf`; `None` for
+    /// any other entry (longer, variable or fixed: [`read`](Self::read) serves those).
+    pub fn read_small(&self, entry: &Entry, buf: &mut [u8; 4]) -> Option<usize> {
+        let n = entry.var.data_type.fixed_size().filter(|n| (1..=4).contains(n) && !entry.var.is_fixed())?;
+        let start = usize::from(entry.offset);
+        // One word, masked to the value's bytes (a copy of 1..=4 bytes would call memcpy).
+        let value = match self.store.get(start..start + 4) {
+            Some(word) => <u32 as Scalar>::from_le(word) & (u32::MAX >> (32 - 8 * n)),
+            None => <u32 as Scalar>::from_le(self.store.get(start..start + n)?),
+        };
+        *buf = value.to_le_bytes();
+        Some(n)
+    }
+
     /// Where a stored numeric value of up to 8 bytes lives (what a PDO maps), for
     /// [`load_span`](Self::load_span) / [`store_span`](Self::store_span) without a lookup or a
     /// copy of variable length; `None` for constants and other entries.
@@ -786,13 +805,16 @@ impl<const BYTES: usize> Dictionary<BYTES> {
             None if data.len() > usize::from(var.capacity) => return Err(AbortCode::LengthTooHigh),
             None => return Ok(()),
         }
+        if !has_limits(var) {
+            return Ok(());
+        }
         check_limits(var, data)
     }
 
     /// Whether a value written to an entry described by `var` must be checked against limits
     /// beyond its type's range (its bounds, BOOLEAN's 0/1, a REAL's NaN).
     pub fn has_limits(var: &Var) -> bool {
-        var.has_bounds() || matches!(var.data_type, DataType::Boolean | DataType::Real32 | DataType::Real64)
+        has_limits(var)
     }
 
     /// Checks a numeric value of the entry's size against the limits of `var`
@@ -809,6 +831,10 @@ impl<const BYTES: usize> Dictionary<BYTES> {
         }
         let start = usize::from(entry.offset);
         match entry.var.data_type.fixed_size() {
+            // The value of a bus write (`check_write` let only its exact size through).
+            Some(n) if n == data.len() && n <= 8 => {
+                copy_small(self.store.get_mut(start..).unwrap_or(&mut []), data, n as u8);
+            }
             Some(n) => {
                 if let Some(dst) = self.store.get_mut(start..start + n) {
                     dst.fill(0);
@@ -1059,17 +1085,21 @@ fn sign_extend(raw: u64, bytes: usize) -> i64 {
     ((raw << shift) as i64) >> shift
 }
 
+/// Whether a numeric write to `var` has limits to check beyond its type's range.
+#[inline]
+fn has_limits(var: &Var) -> bool {
+    var.has_bounds() || matches!(var.data_type, DataType::Boolean | DataType::Real32 | DataType::Real64)
+}
+
 /// Value range check of a numeric write (limits of the entry and of BOOLEAN).
 fn check_limits(var: &Var, data: &[u8]) -> Result<(), AbortCode> {
     let ty = var.data_type;
     let n = data.len().min(8);
-    if n == 0 {
+    if n == 0 || !has_limits(var) {
         return Ok(());
     }
     let mut raw = [0u8; 8];
-    if let (Some(d), Some(s)) = (raw.get_mut(..n), data.get(..n)) {
-        d.copy_from_slice(s);
-    }
+    copy_small(&mut raw, data, n as u8);
     let unsigned = u64::from_le_bytes(raw);
     if ty.is_signed() {
         let value = sign_extend(unsigned, n);
