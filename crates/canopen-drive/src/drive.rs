@@ -1572,6 +1572,8 @@ impl<H: ObjectHooks, S: Persistence, const B: usize> ObjectAccess for Access<'_,
         }
     }
 
+    // One copy, for the expedited and the other transfers.
+    #[inline(never)]
     fn write(&mut self, mux: Mux, data: &[u8]) -> Result<(), AbortCode> {
         let (entry, owner) = self.writable_entry(mux)?;
         self.od.check_write(&entry, data)?;

@@ -165,12 +165,15 @@ pub struct ActiveError {
     pub register: ErrorRegister,
 }
 
-/// The EMCY producer with room for `ACTIVE` simultaneous errors and `QUEUE` pending frames.
+/// The EMCY producer with room for `ACTIVE` (at most 255) simultaneous errors and `QUEUE`
+/// pending frames.
 pub struct EmcyProducer<const ACTIVE: usize = 8, const QUEUE: usize = 8> {
-    active: Vec<ActiveError, ACTIVE>,
+    /// (A one-byte length: `ACTIVE` is at most 255.)
+    active: Vec<ActiveError, ACTIVE, u8>,
     queue: Deque<[u8; 8], QUEUE>,
     next_allowed: Instant,
-    lost: u32,
+    /// Saturates at 65 535 (two bytes: with them the producer is 120 bytes, not 128).
+    lost: u16,
 }
 
 impl<const ACTIVE: usize, const QUEUE: usize> Default for EmcyProducer<ACTIVE, QUEUE> {
@@ -205,9 +208,9 @@ impl<const ACTIVE: usize, const QUEUE: usize> EmcyProducer<ACTIVE, QUEUE> {
         self.active.iter().any(|e| e.code == code)
     }
 
-    /// Frames lost because the queue or the active set was full.
+    /// Frames lost because the queue or the active set was full (saturating at 65 535).
     pub fn lost(&self) -> u32 {
-        self.lost
+        u32::from(self.lost)
     }
 
     /// Raises `code`; returns the EMCY frame data when the error was not active yet (the frame

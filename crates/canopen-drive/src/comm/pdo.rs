@@ -34,7 +34,7 @@
 use crate::od::{
     AbortCode, Access, DataType, DefaultValue, Dictionary, Entry, Object, ObjectHooks, PdoMapping, Span, Var,
 };
-use crate::time::{Duration, Instant};
+use crate::time::{Duration, Instant, ShortDuration};
 use crate::wire::cob_id::{self, CobId};
 
 /// First RPDO communication parameter (1400h).
@@ -452,7 +452,7 @@ struct Rpdo {
     mapping: Mapping,
     latched: Option<[u8; 8]>,
     ready: Option<[u8; 8]>,
-    timeout: Duration,
+    timeout: ShortDuration,
     deadline: Option<Instant>,
 }
 
@@ -463,7 +463,7 @@ impl Rpdo {
         mapping: Mapping::EMPTY,
         latched: None,
         ready: None,
-        timeout: Duration::ZERO,
+        timeout: ShortDuration::ZERO,
         deadline: None,
     };
 }
@@ -474,17 +474,19 @@ struct Tpdo {
     rtr: bool,
     transmission: u8,
     mapping: Mapping,
-    inhibit: Duration,
-    event_timer: Duration,
+    inhibit: ShortDuration,
+    event_timer: ShortDuration,
     sync_start: u8,
     /// SYNCs counted towards the next cyclic transmission; `None` until the start value.
     sync_count: Option<u8>,
     next_allowed: Instant,
     pending: bool,
     event_deadline: Option<Instant>,
-    last: Option<[u8; 8]>,
+    /// Types 0, 254 and 255: the data last sent or compared, for change detection; type 252:
+    /// the data sampled at the last SYNC, for the next remote request (one field: the type
+    /// decides which, and a new configuration clears it).
+    data: Option<[u8; 8]>,
     changed: bool,
-    sampled: Option<[u8; 8]>,
 }
 
 impl Tpdo {
@@ -493,16 +495,15 @@ impl Tpdo {
         rtr: false,
         transmission: 255,
         mapping: Mapping::EMPTY,
-        inhibit: Duration::ZERO,
-        event_timer: Duration::ZERO,
+        inhibit: ShortDuration::ZERO,
+        event_timer: ShortDuration::ZERO,
         sync_start: 0,
         sync_count: None,
         next_allowed: Instant::ZERO,
         pending: false,
         event_deadline: None,
-        last: None,
+        data: None,
         changed: false,
-        sampled: None,
     };
 
     fn event_driven(&self) -> bool {
@@ -633,6 +634,7 @@ impl<const R: usize, const T: usize> PdoSet<R, T> {
         let communication = record.communication_index();
         let transmission = od.get::<u8>(communication, 2).unwrap_or(255);
         let event_timer = Duration::from_millis(u64::from(od.get::<u16>(communication, 5).unwrap_or(0)));
+        let event_timer = ShortDuration::saturating(event_timer);
         let (mapping, broken) = match cob {
             Some(c) if c.valid => match resolve_mapping(od, record, rules) {
                 Ok(m) => (Some(m), false),
@@ -679,7 +681,7 @@ impl<const R: usize, const T: usize> PdoSet<R, T> {
                         rtr: cob.is_some_and(|c| !c.bit30),
                         transmission,
                         mapping,
-                        inhibit: Duration::from_micros(inhibit),
+                        inhibit: ShortDuration::saturating(Duration::from_micros(inhibit)),
                         event_timer,
                         sync_start: od.get::<u8>(communication, 6).unwrap_or(0),
                         ..Tpdo::OFF
@@ -696,7 +698,7 @@ impl<const R: usize, const T: usize> PdoSet<R, T> {
         for tpdo in self.tpdos.iter_mut().filter(|t| t.can_id.is_some()) {
             tpdo.pending = tpdo.event_driven();
             tpdo.sync_count = None;
-            tpdo.last = None;
+            tpdo.data = None;
             tpdo.changed = tpdo.transmission == 0;
             tpdo.event_deadline = None;
             tpdo.next_allowed = now;
@@ -756,7 +758,7 @@ impl<const R: usize, const T: usize> PdoSet<R, T> {
         } else if core::mem::take(long) {
             events(PdoEvent::Clear(crate::comm::emcy::code::PDO_LENGTH_EXCEEDED));
         }
-        if rpdo.timeout != Duration::ZERO {
+        if rpdo.timeout != ShortDuration::ZERO {
             if rpdo.deadline.is_none() {
                 // Monitoring starts with the first reception; a timed-out RPDO recovers here.
                 events(PdoEvent::Clear(crate::comm::emcy::code::RPDO_TIMEOUT));
@@ -819,7 +821,7 @@ impl<const R: usize, const T: usize> PdoSet<R, T> {
                         tpdo.sync_count = Some(count + 1);
                     }
                 }
-                252 => tpdo.sampled = Some(sample(od, &tpdo.mapping)),
+                252 => tpdo.data = Some(sample(od, &tpdo.mapping)),
                 _ => {}
             }
         }
@@ -858,8 +860,8 @@ impl<const R: usize, const T: usize> PdoSet<R, T> {
                 continue;
             }
             let data = sample(od, &tpdo.mapping);
-            if tpdo.last != Some(data) {
-                tpdo.last = Some(data);
+            if tpdo.data != Some(data) {
+                tpdo.data = Some(data);
                 if tpdo.transmission == 0 {
                     tpdo.changed = true;
                 } else {
@@ -880,13 +882,13 @@ impl<const R: usize, const T: usize> PdoSet<R, T> {
             if (tpdo.pending || timer_due) && now >= tpdo.next_allowed {
                 let data = sample(od, &tpdo.mapping);
                 if send(tx, can_id, &data, &tpdo.mapping) {
-                    tpdo.last = Some(data);
+                    tpdo.data = Some(data);
                     tpdo.pending = false;
                     tpdo.next_allowed = now + tpdo.inhibit;
                     tpdo.event_deadline =
-                        (tpdo.event_timer != Duration::ZERO).then(|| now + tpdo.event_timer);
+                        (tpdo.event_timer != ShortDuration::ZERO).then(|| now + tpdo.event_timer);
                 }
-            } else if tpdo.event_deadline.is_none() && tpdo.event_timer != Duration::ZERO {
+            } else if tpdo.event_deadline.is_none() && tpdo.event_timer != ShortDuration::ZERO {
                 tpdo.event_deadline = Some(now + tpdo.event_timer);
             }
         }
@@ -920,7 +922,7 @@ impl<const R: usize, const T: usize> PdoSet<R, T> {
         let Some(tpdo) = self.tpdos.iter_mut().find(|t| t.can_id == Some(can_id) && t.rtr) else {
             return false;
         };
-        let data = match (tpdo.transmission, tpdo.sampled) {
+        let data = match (tpdo.transmission, tpdo.data) {
             (252, Some(sampled)) => sampled,
             (252, None) => return true,
             _ => sample(od, &tpdo.mapping),

@@ -21,7 +21,7 @@
 //! - A new initiate while a transfer is in progress aborts it with 0x0504_0001.
 //! - Timeouts (default 1 s between frames of a transfer) abort with 0x0504_0000.
 
-use super::super::time::{Duration, Instant};
+use super::super::time::{Duration, Instant, ShortDuration};
 use crate::od::AbortCode;
 use crate::wire::crc;
 use crate::wire::sdo::{BlockSegment, Download, Mux, Request, Response};
@@ -62,6 +62,7 @@ pub trait ObjectAccess {
 
 /// [`ObjectAccess::upload_expedited`] by [`ObjectAccess::upload_len`] then
 /// [`ObjectAccess::read`] (its default, for implementations that specialise only some entries).
+#[inline(never)]
 pub fn upload_in_two_steps<A: ObjectAccess + ?Sized>(
     od: &mut A,
     mux: Mux,
@@ -101,37 +102,38 @@ impl BlockUpload {
     }
 }
 
-/// Where the server is in a transfer.
+/// Where the server is in a transfer. (A `u32` tag moves the state as words, not bytes; with
+/// it the fields are laid out in the order written, so each variant lists its words first.)
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[repr(u32)]
 enum State {
     Idle,
     SegmentedDownload {
-        mux: Mux,
-        toggle: bool,
         size: Option<usize>,
         len: usize,
+        mux: Mux,
+        toggle: bool,
     },
     SegmentedUpload {
-        mux: Mux,
-        toggle: bool,
         size: usize,
         offset: usize,
+        mux: Mux,
+        toggle: bool,
     },
     BlockDownload {
-        mux: Mux,
-        crc_on: bool,
         size: Option<usize>,
         len: usize,
+        mux: Mux,
+        crc_on: bool,
         seq: u8,
         block_size: u8,
         done: bool,
     },
     BlockDownloadEnd {
-        mux: Mux,
-        crc_on: bool,
         size: Option<usize>,
         len: usize,
+        mux: Mux,
+        crc_on: bool,
     },
     BlockUploadInitiated(BlockUpload),
     BlockUploadSending(BlockUpload),
@@ -145,7 +147,7 @@ enum State {
 pub struct SdoServer<const BUF: usize> {
     state: State,
     deadline: Option<Instant>,
-    timeout: Duration,
+    timeout: ShortDuration,
     /// Block transfers offered (CiA 301 makes them optional).
     block: bool,
     buf: [u8; BUF],
@@ -199,7 +201,13 @@ fn refusal(mux: Mux, code: AbortCode) -> Response {
 impl<const BUF: usize> SdoServer<BUF> {
     /// An idle server whose transfers time out after `timeout` without a frame.
     pub const fn new(timeout: Duration) -> Self {
-        SdoServer { state: State::Idle, deadline: None, timeout, block: true, buf: [0; BUF] }
+        SdoServer {
+            state: State::Idle,
+            deadline: None,
+            timeout: ShortDuration::saturating(timeout),
+            block: true,
+            buf: [0; BUF],
+        }
     }
 
     /// The same server without block transfers: their initiate requests are answered with
@@ -622,7 +630,12 @@ impl<const BUF: usize> SdoServer<BUF> {
             if room < 7 && !segment.last {
                 return abort(mux, AbortCode::OutOfMemory);
             }
-            if let (Some(dst), Some(src)) = (self.buf.get_mut(len..len + room), segment.data.get(..room)) {
+            if let Some(dst) = self.buf.get_mut(len..).and_then(|b| b.first_chunk_mut::<7>()) {
+                // A whole segment: a fixed-size copy (no memcpy call).
+                *dst = segment.data;
+            } else if let (Some(dst), Some(src)) =
+                (self.buf.get_mut(len..len + room), segment.data.get(..room))
+            {
                 dst.copy_from_slice(src);
             }
             len += 7;

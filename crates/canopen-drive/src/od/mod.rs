@@ -405,7 +405,8 @@ pub struct Dictionary<const BYTES: usize> {
     /// The first and the last index of each table (empty tables: an empty range), so that a
     /// look-up picks its table without reading the descriptions.
     ranges: [(u16, u16); MAX_TABLES],
-    table_count: usize,
+    /// Tables attached (at most [`MAX_TABLES`]).
+    table_count: u8,
     store: [u8; BYTES],
     device: DeviceInfo,
     node_id: u8,
@@ -518,7 +519,7 @@ impl<const BYTES: usize> Dictionary<BYTES> {
         if region > BYTES || region > usize::from(u16::MAX) {
             return Err(ConfigError::StorageTooSmall { needed: region });
         }
-        self.table_count = tables.len();
+        self.table_count = tables.len() as u8;
         self.reset(0x0000..=0xFFFF);
         Ok(())
     }
@@ -605,8 +606,13 @@ impl<const BYTES: usize> Dictionary<BYTES> {
         &self.device
     }
 
+    /// Tables attached.
+    pub(crate) fn table_count(&self) -> usize {
+        usize::from(self.table_count).min(MAX_TABLES)
+    }
+
     fn tables(&self) -> impl Iterator<Item = &'static [Object]> + '_ {
-        self.tables.iter().take(self.table_count).copied()
+        self.tables.iter().take(self.table_count()).copied()
     }
 
     /// Every object, in ascending index order.
@@ -620,7 +626,7 @@ impl<const BYTES: usize> Dictionary<BYTES> {
         // stack on every lookup (a byte-wise memcpy of 72 bytes on a Cortex-M).
         // The ranges ascend and do not overlap (`attach` checks): the first one that ends at or
         // after `index` is the only one that can hold it.
-        let count = self.table_count.min(MAX_TABLES);
+        let count = self.table_count();
         let i = self.ranges.get(..count)?.iter().position(|&(_, last)| index <= last)?;
         if self.ranges.get(i)?.0 > index {
             return None;
@@ -1017,7 +1023,7 @@ impl<const BYTES: usize> Dictionary<BYTES> {
     /// Sets every stored value of the objects in `range` back to its default.
     pub fn reset(&mut self, range: RangeInclusive<u16>) {
         let tables = self.tables;
-        for (table, region) in tables.iter().take(self.table_count).zip(self.regions) {
+        for (table, region) in tables.iter().take(self.table_count()).zip(self.regions) {
             for object in table.iter().filter(|o| range.contains(&o.index)) {
                 for sub in 0..=object.highest_sub() {
                     if let Some((var, offset)) = object.sub(sub) {

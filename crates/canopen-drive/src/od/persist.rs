@@ -116,7 +116,7 @@ impl<const BYTES: usize> Iterator for Parameters<'_, BYTES> {
 
     fn next(&mut self) -> Option<Entry> {
         loop {
-            if self.table >= self.od.table_count {
+            if self.table >= self.od.table_count() {
                 return None;
             }
             let table: &'static [Object] = self.od.tables.get(self.table).copied()?;

@@ -100,8 +100,9 @@ pub enum Request {
     Abort {
         /// Entry named by the client.
         mux: Mux,
-        /// Reason.
-        code: AbortCode,
+        /// Reason, as received ([`AbortCode::from_code`] names it; the server only needs to
+        /// know that the transfer ended, and a firmware is spared the decoding table).
+        code: u32,
     },
     /// ccs 5, cs 0: initiate block upload.
     BlockUploadInitiate {
@@ -193,10 +194,7 @@ impl Request {
             }
             2 => Request::InitiateUpload { mux: Mux::parse(data)? },
             3 => Request::UploadSegment { toggle: command & 0x10 != 0 },
-            4 => Request::Abort {
-                mux: Mux::parse(data)?,
-                code: AbortCode::from_code(u32_at(data).unwrap_or(0)),
-            },
+            4 => Request::Abort { mux: Mux::parse(data)?, code: u32_at(data).unwrap_or(0) },
             5 => match command & 0x03 {
                 0 => Request::BlockUploadInitiate {
                     mux: Mux::parse(data)?,
@@ -244,10 +242,16 @@ impl BlockSegment {
     /// bytes of the last segment count).
     pub fn parse(data: &[u8]) -> Option<Self> {
         let head = *data.first()?;
-        let mut bytes = [0u8; 7];
         let body = data.get(1..).unwrap_or(&[]);
-        let n = body.len().min(7);
-        bytes.get_mut(..n)?.copy_from_slice(body.get(..n)?);
+        let bytes = match body.first_chunk::<7>() {
+            // A whole segment: a fixed-size copy (no memcpy call).
+            Some(whole) => *whole,
+            None => {
+                let mut bytes = [0u8; 7];
+                bytes.get_mut(..body.len())?.copy_from_slice(body);
+                bytes
+            }
+        };
         Some(BlockSegment { seq: head & 0x7F, last: head & 0x80 != 0, data: bytes })
     }
 
