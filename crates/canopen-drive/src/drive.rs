@@ -734,7 +734,9 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
         }
     }
 
-    /// A request to this node's SDO server.
+    /// A request to this node's SDO server. (Out of line: the process data, which take the same
+    /// dispatch, then do not pay for its registers and stack.)
+    #[inline(never)]
     fn sdo_request(&mut self, data: &[u8], now: Instant) {
         let node_id = self.node_id();
         let mut access =
@@ -1361,7 +1363,16 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
         }
     }
 
+    #[inline]
     fn drain_sdo(&mut self, now: Instant) {
+        // Idle (nearly always after a request): nothing to send, no call.
+        if self.sdo.deadline().is_none() {
+            return;
+        }
+        self.drain_sdo_due(now);
+    }
+
+    fn drain_sdo_due(&mut self, now: Instant) {
         let node_id = self.node_id();
         // The server sends on its own only what is due (block-upload segments, a timeout).
         while self.sdo.deadline().is_some_and(|due| now >= due) && !self.tx.frames.is_full() {

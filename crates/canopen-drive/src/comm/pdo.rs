@@ -765,10 +765,17 @@ impl<const R: usize, const T: usize> PdoSet<R, T> {
             }
             rpdo.deadline = Some(now + rpdo.timeout);
         }
-        let mut frame = [0u8; 8];
-        for (dst, src) in frame.iter_mut().zip(data) {
-            *dst = *src;
-        }
+        let frame = match data.first_chunk::<8>() {
+            // A full frame: a fixed-size copy.
+            Some(whole) => *whole,
+            None => {
+                let mut frame = [0u8; 8];
+                for (dst, src) in frame.iter_mut().zip(data) {
+                    *dst = *src;
+                }
+                frame
+            }
+        };
         if rpdo.synchronous {
             // Outside the synchronous window the data wait for nothing: discarded.
             if !late {
