@@ -54,7 +54,8 @@ impl Instant {
 
     /// Time elapsed from `earlier` to `self`, zero if `earlier` is later.
     pub const fn saturating_since(self, earlier: Instant) -> Duration {
-        Duration(self.as_micros().saturating_sub(earlier.as_micros()))
+        // The marks cancel out.
+        Duration(self.0.get().saturating_sub(earlier.0.get()))
     }
 }
 
@@ -100,7 +101,9 @@ impl defmt::Format for Instant {
 impl Add<Duration> for Instant {
     type Output = Instant;
     fn add(self, rhs: Duration) -> Instant {
-        Instant::from_micros(self.as_micros().saturating_add(rhs.0))
+        // Added to the stored form: the mark stays, and the sum saturates at the stored form of
+        // the latest instant (u64::MAX), as the count would at 2⁶³ − 1.
+        Instant(self.0.saturating_add(rhs.0))
     }
 }
 
