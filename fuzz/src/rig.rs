@@ -622,6 +622,22 @@ impl Rig {
         let state: State = self.drive.state();
         let od = self.drive.od();
         let limits = self.limits.get_or_insert_with(|| DemandLimits::configured(od)).at(od);
+        if cfg!(feature = "tools") && std::env::var_os("FUZZ_TRACE_TICKS").is_some() {
+            eprintln!(
+                "tick {:?} {state:?} {:?} {limits:?} sample v {}",
+                self.now, self.demand, sample.velocity
+            );
+            eprintln!(
+                "   6061h {:?} 60B1h {:?} 6062h {:?} 6064h {:?} 607Ah {:?} 6041h {:04X?} 6040h {:04X?}",
+                od.get::<i8>(0x6061, 0),
+                od.get::<i32>(0x60B1, 0),
+                od.get::<i32>(0x6062, 0),
+                od.get::<i32>(0x6064, 0),
+                od.get::<i32>(0x607A, 0),
+                od.get::<u16>(0x6041, 0),
+                od.get::<u16>(0x6040, 0)
+            );
+        }
         let demands = &mut self.demands;
         invariants::check_energy(state, &self.demand)
             .and_then(|()| demands.check(&self.demand, limits, &sample))
@@ -727,8 +743,13 @@ fn mappable_entries(drive: &Drive<RigHooks>) -> (Vec<u32>, Vec<u32>) {
 pub fn run_program(rig: &mut Rig, data: &[u8], tags: &[crate::ops::Tag], max_ops: usize) {
     let mut reader = crate::Reader::new(data);
     let mut count = 0;
+    // `replay` with FUZZ_TRACE_OPS set prints the program as it runs.
+    let trace = cfg!(feature = "tools") && std::env::var_os("FUZZ_TRACE_OPS").is_some();
     while !reader.is_empty() && count < max_ops {
         let op = Op::read(&mut reader, tags);
+        if trace {
+            eprintln!("{count:4}: {op:?}");
+        }
         if let Err(violation) = rig.run(&op) {
             panic!("invariant violated: {violation}");
         }

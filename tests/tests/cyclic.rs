@@ -360,3 +360,33 @@ fn a_stream_through_a_lossy_bus_is_bridged() {
     assert!(dropped > 100);
     assert!(worst <= 100, "{worst}");
 }
+
+/// A stop that runs when the mode becomes csp holds the axis where it stands. In Quick stop
+/// active with 605Ah = 6 (stay there after the stop) the drive is at rest, so a new mode is
+/// taken at once; the stop goes on in the new mode from the axis's position. (Fuzz finding 5:
+/// the cyclic limiter, reset by the switch, was driven towards position 0 instead, faster than
+/// the velocity limit allowed once the factor group had lowered it.)
+#[test]
+fn csp_entered_in_quick_stop_active_holds_the_axis() {
+    let mut bench = Bench::new();
+    write(&mut bench, 0x6081, &20_000u32.to_le_bytes());
+    write(&mut bench, 0x6083, &200_000u32.to_le_bytes());
+    write(&mut bench, 0x6084, &200_000u32.to_le_bytes());
+    write(&mut bench, 0x605A, &6i16.to_le_bytes());
+    enable(&mut bench, 1);
+    write(&mut bench, 0x607A, &20_000i32.to_le_bytes());
+    cw(&mut bench, 0x001F, 2);
+    cw(&mut bench, 0x000F, 1500);
+    let held = read_i32(&mut bench, 0x6064);
+    assert!(held > 19_000, "pp moved the axis away from 0: {held}");
+    cw(&mut bench, 0x000B, 200);
+    assert!(is(&mut bench, QSA));
+    write(&mut bench, 0x6060, &[CSP]);
+    for ms in 0..200 {
+        bench.advance(Duration::from_millis(1));
+        let demand = od_i32(&mut bench, 0x6062);
+        assert!((demand - held).abs() <= 1, "{ms} ms after the switch: demand {demand}, axis at {held}");
+    }
+    assert_eq!(bench.sdo1(&req(0x40, 0x6061, 0, [0; 4]))[4], CSP);
+    assert!(is(&mut bench, QSA));
+}

@@ -830,7 +830,12 @@ impl Profile {
                 self.reset_cyclic(actual, 0);
                 Setpoint::None
             }
-            Some(_) if matches!(self.active_mode, mode::CYCLIC_POSITION | mode::INTERPOLATED_POSITION) => {
+            Some(kind) if matches!(self.active_mode, mode::CYCLIC_POSITION | mode::INTERPOLATED_POSITION) => {
+                if !self.limiter.is_stopping() {
+                    // The mode was entered while the stop ran (a switch at rest resets the
+                    // limiter): the limiter stops from here, it does not chase a target.
+                    self.limiter.stop(&TickLimits::new(vmax, max_acceleration, stop_deceleration(kind), hz));
+                }
                 self.limiter.tick(0, &TickLimits::new(vmax, max_acceleration, max_deceleration, hz));
                 Setpoint::Position(self.limiter.position() as i32)
             }
