@@ -69,7 +69,7 @@ fn main() -> ExitCode {
         Ok(action) => {
             let result = match action {
                 Action::Help => {
-                    output::text(cli::USAGE);
+                    output::text(&cli::help());
                     Ok(())
                 }
                 Action::WriteEds { profile, node_id, path } => write_eds(profile, node_id, &path),
