@@ -129,6 +129,7 @@ step_no_std() {
         cargo build -p canopen-drive --target "$target" --features defmt
         cargo clippy -p canopen-drive --target "$target" -- -D warnings
         cargo clippy -p canopen-drive --target "$target" --features defmt -- -D warnings
+        cargo clippy -p canopen-drive-slcan --target "$target" -- -D warnings
     done
 }
 
@@ -238,7 +239,7 @@ else
         "modes|the core without its optional modes, and with each alone|step_modes"
         "robustness|fault injection, 24 h simulated soak, hostile configuration|step_robustness"
         "doc|cargo doc without warnings|step_doc"
-        "no-std|the core for thumbv6m, thumbv7em, riscv32imac (with and without defmt)|step_no_std"
+        "no-std|the core (with and without defmt) and the SLCAN codec for thumbv6m, thumbv7em, riscv32imac|step_no_std"
         "msrv|the library crates with the declared minimum Rust (rust-version)|step_msrv"
         "publish|cargo publish --dry-run of the library crates|step_publish"
         "python|python-canopen against canopen-drive-linux (all profiles, trace replay)|step_python"
