@@ -41,7 +41,7 @@ for crate in boards/qemu-mps2 benches/footprint boards/b-g431b-esc1; do
     (cd "$crate" && cargo fmt --check)
 done
 
-step "boards/qemu-mps2: host unit tests (SLCAN codec, motor model, board objects)"
+step "boards/qemu-mps2: host unit tests (motor model, board objects)"
 (cd boards/qemu-mps2 && CARGO_TARGET_DIR="$firmware_target/qemu-mps2-host" \
     cargo test --lib --target x86_64-unknown-linux-gnu -q)
 

@@ -113,7 +113,12 @@ step_robustness() {
     [ -f "$generated/robustness.md" ] || { echo "the robustness report was not written"; return 1; }
 }
 
-step_doc() { RUSTDOCFLAGS="-D warnings" cargo doc --no-deps -p canopen-drive -p canopen-drive-sim; }
+step_doc() {
+    RUSTDOCFLAGS="-D warnings" cargo doc --no-deps -p canopen-drive -p canopen-drive-sim -p canopen-drive-slcan
+    # As docs.rs builds the core (its [package.metadata.docs.rs]): every feature, and the
+    # feature badges of doc_cfg, which needs a nightly compiler (RUSTC_BOOTSTRAP stands in).
+    RUSTC_BOOTSTRAP=1 RUSTDOCFLAGS="--cfg docsrs -D warnings" cargo doc --no-deps -p canopen-drive --all-features
+}
 
 step_no_std() {
     for target in thumbv6m-none-eabi thumbv7em-none-eabihf riscv32imac-unknown-none-elf; do
@@ -124,7 +129,37 @@ step_no_std() {
         cargo build -p canopen-drive --target "$target" --features defmt
         cargo clippy -p canopen-drive --target "$target" -- -D warnings
         cargo clippy -p canopen-drive --target "$target" --features defmt -- -D warnings
+        cargo clippy -p canopen-drive-slcan --target "$target" -- -D warnings
     done
+}
+
+# The library crates with the oldest Rust they declare (`rust-version` of the workspace):
+# installed with rustup when missing, then checked for the host and for thumbv7em.
+step_msrv() {
+    local msrv
+    msrv=$(sed -n 's/^rust-version = "\([0-9.]*\)"$/\1/p' Cargo.toml | head -1)
+    [ -n "$msrv" ] || { echo "no rust-version in Cargo.toml"; return 1; }
+    echo "rust-version $msrv"
+    rustup run "$msrv" rustc --version >/dev/null 2>&1 || rustup toolchain install "$msrv" --profile minimal
+    rustup target add --toolchain "$msrv" thumbv7em-none-eabihf
+    cargo "+$msrv" check -p canopen-drive -p canopen-drive-sim -p canopen-drive-slcan
+    cargo "+$msrv" check -p canopen-drive -p canopen-drive-embassy -p canopen-drive-slcan \
+        --target thumbv7em-none-eabihf
+    cargo "+$msrv" check -p canopen-drive --target thumbv7em-none-eabihf --no-default-features
+    cargo "+$msrv" check -p canopen-drive --target thumbv7em-none-eabihf --all-features
+}
+
+# Every library crate as crates.io would take it: packaged (metadata, README, licences, every
+# internal dependency with a version) and built from the package against the others' packages.
+# --workspace leaves out the members with publish = false; the list says which must be in.
+step_publish() {
+    cargo publish --dry-run --workspace --allow-dirty 2>&1 | tee "$logs/publish-dry-run.txt"
+    local crate status=0
+    for crate in canopen-drive canopen-drive-sim canopen-drive-embassy canopen-drive-slcan; do
+        grep -q "Uploading $crate v" "$logs/publish-dry-run.txt" ||
+            { echo "$crate was not packaged"; status=1; }
+    done
+    return $status
 }
 
 step_python() {
@@ -204,7 +239,9 @@ else
         "modes|the core without its optional modes, and with each alone|step_modes"
         "robustness|fault injection, 24 h simulated soak, hostile configuration|step_robustness"
         "doc|cargo doc without warnings|step_doc"
-        "no-std|the core for thumbv6m, thumbv7em, riscv32imac (with and without defmt)|step_no_std"
+        "no-std|the core (with and without defmt) and the SLCAN codec for thumbv6m, thumbv7em, riscv32imac|step_no_std"
+        "msrv|the library crates with the declared minimum Rust (rust-version)|step_msrv"
+        "publish|cargo publish --dry-run of the library crates|step_publish"
         "python|python-canopen against canopen-drive-linux (all profiles, trace replay)|step_python"
         "fuzz|every cargo-fuzz target for 45 s|step_fuzz"
         "mcu|firmware in QEMU, tick bound, footprint budgets|step_mcu"

@@ -1,62 +1,123 @@
-//! Command-line arguments.
+//! Command-line arguments, parsed by clap from the declaration of [`Options`]; the values are
+//! checked by this module's own parsers, and clap's refusals become a [`CliError`] with the
+//! wording the program has always used.
 
+use std::error::Error as _;
 use std::ffi::OsString;
 use std::fmt;
 use std::path::PathBuf;
+use std::sync::OnceLock;
+
+use clap::builder::{OsStringValueParser, TypedValueParser};
+use clap::error::{ContextKind, ContextValue, ErrorKind};
+use clap::{ArgAction, CommandFactory, FromArgMatches, Parser};
 
 use crate::profiles::ProfileName;
 use crate::slcan_server::Limits;
 
-/// The text of `--help`.
-pub const USAGE: &str = "\
-canopen-drive-linux: a CANopen CiA 301/402 drive node with a simulated motor
-
-USAGE:
-    canopen-drive-linux [OPTIONS] (--slcan-listen HOST:PORT | --socketcan IFACE)...
-    canopen-drive-linux [--profile NAME] [--node-id N] --write-eds PATH
-
-OPTIONS:
-    --profile NAME            The drive to be: generic (the default: the library's CiA
-                              301/402 defaults), chieftek, trinamic-pd57, harmonic-drive
-                              (rebuilt from their manuals, on a simulated axis of their own)
-    --node-id N               Node-ID, 1..127, or 255: not configured, waiting for an LSS
-                              master (decimal or 0x hex; default 1). A node-ID stored by
-                              LSS (see --storage) takes precedence
-    --slcan-listen HOST:PORT  Serve SLCAN (Lawicel ASCII) over TCP; every connected client
-                              is a node on one shared bus (python-can:
-                              interface=\"slcan\", channel=\"socket://HOST:PORT\")
-    --socketcan IFACE         Join the SocketCAN interface IFACE (e.g. can0, vcan0)
-    --storage PATH            File of the stored parameters (1010h \"save\" / 1011h \"load\"),
-                              created if missing (a 16 KiB two-bank journal); the LSS
-                              configuration (node-ID, bit timing) goes to PATH.lss. A
-                              damaged, wrong-size or foreign file is reported, the drive
-                              runs on its defaults (EMCY 6300h) and the file is left as it
-                              is until a master stores parameters
-    --max-clients N           SLCAN clients served at once (default 32); one more is sent
-                              a line saying so and disconnected
-    --idle-timeout SECONDS    Disconnect an SLCAN client that sends nothing for SECONDS
-                              (default: never; TCP keepalive notices vanished peers anyway)
-    --quiet                   No log lines on stderr (errors that end the program still)
-    -v, --verbose             Also log on stderr the drive's NMT and CiA 402 state changes,
-                              its mode of operation, every EMCY and SDO abort on the bus
-    -vv                       ... and every frame in both directions, NMT commands and the
-                              core's own log (state transitions, storage events)
-    --trace FILE              Write every frame on the bus, both directions, to FILE in the
-                              log format of `candump -l` (replay: canplayer -I FILE)
-    --write-eds PATH          Write the profile's EDS to PATH and exit
-    -h, --help                Print this help and exit
-
---slcan-listen and --socketcan may be combined; all of them form one bus.
+/// The options, as `--help` lists them (clap renders it from the texts below, which keep their
+/// line breaks).
+#[derive(Debug, Parser)]
+#[command(
+    name = crate::NAME,
+    about = "canopen-drive-linux: a CANopen CiA 301/402 drive node with a simulated motor",
+    override_usage = "canopen-drive-linux [OPTIONS] (--slcan-listen HOST:PORT | --socketcan IFACE)...
+       canopen-drive-linux [--profile NAME] [--node-id N] --write-eds PATH",
+    after_help = "--slcan-listen and --socketcan may be combined; all of them form one bus.
 The producer heartbeat (1017h) starts at 0 (off), as CiA 301 specifies: a master sets it.
 Prints `ready` on stdout once it accepts connections, then one line
 `bit-rate <kbit/s> kbit/s (table T index I)` for each bit-rate change an LSS master activates;
-SIGINT or SIGTERM end it (status 0).
-";
+SIGINT or SIGTERM end it (status 0).",
+    disable_help_flag = true
+)]
+struct Options {
+    /// The drive to be: generic (the default: the library's CiA
+    /// 301/402 defaults), chieftek, trinamic-pd57, harmonic-drive
+    /// (rebuilt from their manuals, on a simulated axis of their own)
+    #[arg(long, value_name = "NAME", verbatim_doc_comment, allow_hyphen_values = true,
+          value_parser = text("--profile", profile))]
+    profile: Option<ProfileName>,
+
+    /// Node-ID, 1..127, or 255: not configured, waiting for an LSS
+    /// master (decimal or 0x hex; default 1). A node-ID stored by
+    /// LSS (see --storage) takes precedence
+    #[arg(long, value_name = "N", verbatim_doc_comment, allow_hyphen_values = true,
+          value_parser = text("--node-id", node_id))]
+    node_id: Option<u8>,
+
+    /// Serve SLCAN (Lawicel ASCII) over TCP; every connected client
+    /// is a node on one shared bus (python-can:
+    /// interface="slcan", channel="socket://HOST:PORT")
+    #[arg(long, value_name = "HOST:PORT", verbatim_doc_comment, allow_hyphen_values = true,
+          value_parser = text("--slcan-listen", address))]
+    slcan_listen: Option<String>,
+
+    /// Join the SocketCAN interface IFACE (e.g. can0, vcan0)
+    #[arg(long, value_name = "IFACE", allow_hyphen_values = true,
+          value_parser = text("--socketcan", interface))]
+    socketcan: Option<String>,
+
+    /// File of the stored parameters (1010h "save" / 1011h "load"),
+    /// created if missing (a 16 KiB two-bank journal); the LSS
+    /// configuration (node-ID, bit timing) goes to PATH.lss. A
+    /// damaged, wrong-size or foreign file is reported, the drive
+    /// runs on its defaults (EMCY 6300h) and the file is left as it
+    /// is until a master stores parameters
+    #[arg(long, value_name = "PATH", verbatim_doc_comment, allow_hyphen_values = true)]
+    storage: Option<PathBuf>,
+
+    /// SLCAN clients served at once (default 32); one more is sent
+    /// a line saying so and disconnected
+    #[arg(long, value_name = "N", verbatim_doc_comment, allow_hyphen_values = true,
+          value_parser = text("--max-clients", |v| positive::<usize>(v, "--max-clients")))]
+    max_clients: Option<usize>,
+
+    /// Disconnect an SLCAN client that sends nothing for SECONDS
+    /// (default: never; TCP keepalive notices vanished peers anyway)
+    #[arg(long, value_name = "SECONDS", verbatim_doc_comment, allow_hyphen_values = true,
+          value_parser = text("--idle-timeout", |v| positive::<u64>(v, "--idle-timeout")))]
+    idle_timeout: Option<u64>,
+
+    /// No log lines on stderr (errors that end the program still)
+    #[arg(long)]
+    quiet: bool,
+
+    /// Also log on stderr the drive's NMT and CiA 402 state changes,
+    /// its mode of operation, every EMCY and SDO abort on the bus;
+    /// -vv: also every frame in both directions, NMT commands and
+    /// the core's own log (state transitions, storage events)
+    #[arg(short, long, action = ArgAction::Count, verbatim_doc_comment)]
+    verbose: u8,
+
+    /// Write every frame on the bus, both directions, to FILE in the
+    /// log format of `candump -l` (replay: canplayer -I FILE)
+    #[arg(long, value_name = "FILE", verbatim_doc_comment, allow_hyphen_values = true)]
+    trace: Option<PathBuf>,
+
+    /// Write the profile's EDS to PATH and exit
+    #[arg(long, value_name = "PATH", allow_hyphen_values = true)]
+    write_eds: Option<PathBuf>,
+
+    /// Print this help and exit
+    #[arg(short, long, action = ArgAction::Help)]
+    help: Option<bool>,
+}
+
+/// The command clap parses with, built once: its arguments' names live as long as the program.
+fn command() -> &'static clap::Command {
+    static COMMAND: OnceLock<clap::Command> = OnceLock::new();
+    COMMAND.get_or_init(Options::command)
+}
+
+/// The text of `--help`.
+pub fn help() -> String {
+    command().clone().render_help().to_string()
+}
 
 /// What the command line asks for.
 #[derive(Debug, PartialEq, Eq)]
 pub enum Action {
-    /// Print [`USAGE`].
+    /// Print [`help`].
     Help,
     /// Write the EDS of a node with this ID to the path, then exit.
     WriteEds {
@@ -123,6 +184,8 @@ pub enum CliError {
     QuietAndVerbose,
     /// `-v` given more than twice.
     TooVerbose,
+    /// Any other refusal of the parser (e.g. a value given to `--quiet`), in its words.
+    Refused(String),
 }
 
 impl fmt::Display for CliError {
@@ -152,6 +215,7 @@ impl fmt::Display for CliError {
             }
             CliError::QuietAndVerbose => f.write_str("--quiet and -v/--verbose exclude each other"),
             CliError::TooVerbose => f.write_str("-v goes up to -vv"),
+            CliError::Refused(message) => f.write_str(message),
         }
     }
 }
@@ -160,109 +224,100 @@ impl std::error::Error for CliError {}
 
 /// Parses the arguments (without the program name).
 pub fn parse(args: impl IntoIterator<Item = OsString>) -> Result<Action, CliError> {
-    let mut profile: Option<ProfileName> = None;
-    let mut node_id: Option<u8> = None;
-    let mut slcan_listen: Option<String> = None;
-    let mut socketcan: Option<String> = None;
-    let mut storage: Option<PathBuf> = None;
-    let mut write_eds: Option<PathBuf> = None;
-    let mut max_clients: Option<usize> = None;
-    let mut idle_timeout: Option<u64> = None;
-    let mut quiet = false;
-    let mut verbose: u8 = 0;
-    let mut trace: Option<PathBuf> = None;
-
-    let mut args = args.into_iter();
-    while let Some(arg) = args.next() {
-        let Some(text) = arg.to_str() else {
-            return Err(CliError::UnexpectedArgument(arg.to_string_lossy().into_owned()));
-        };
-        // `--name=value` and `--name value` are both accepted.
-        let (name, inline) = match text.split_once('=') {
-            Some((name, value)) if name.starts_with("--") => (name.to_string(), Some(OsString::from(value))),
-            _ => (text.to_string(), None),
-        };
-        let mut value = |option: &'static str| {
-            inline.clone().or_else(|| args.next()).ok_or(CliError::MissingValue(option))
-        };
-        match name.as_str() {
-            "-h" | "--help" => return Ok(Action::Help),
-            "--node-id" => {
-                let v = utf8(value("--node-id")?, "--node-id")?;
-                set_once(&mut node_id, parse_node_id(&v)?, "--node-id")?;
-            }
-            "--profile" => {
-                let v = utf8(value("--profile")?, "--profile")?;
-                let name = ProfileName::parse(&v).ok_or(CliError::UnknownProfile(v))?;
-                set_once(&mut profile, name, "--profile")?;
-            }
-            "--slcan-listen" => {
-                let v = utf8(value("--slcan-listen")?, "--slcan-listen")?;
-                check_address(&v)?;
-                set_once(&mut slcan_listen, v, "--slcan-listen")?;
-            }
-            "--socketcan" => {
-                let v = utf8(value("--socketcan")?, "--socketcan")?;
-                if v.is_empty() {
-                    return Err(CliError::InvalidInterface);
-                }
-                set_once(&mut socketcan, v, "--socketcan")?;
-            }
-            "--storage" => set_once(&mut storage, PathBuf::from(value("--storage")?), "--storage")?,
-            "--max-clients" => {
-                let v = utf8(value("--max-clients")?, "--max-clients")?;
-                set_once(&mut max_clients, positive(&v, "--max-clients")?, "--max-clients")?;
-            }
-            "--idle-timeout" => {
-                let v = utf8(value("--idle-timeout")?, "--idle-timeout")?;
-                set_once(&mut idle_timeout, positive(&v, "--idle-timeout")?, "--idle-timeout")?;
-            }
-            "--quiet" if inline.is_none() => {
-                if quiet {
-                    return Err(CliError::Repeated("--quiet"));
-                }
-                quiet = true;
-            }
-            "-v" | "--verbose" | "-vv" if inline.is_none() => {
-                verbose = verbose.saturating_add(if name == "-vv" { 2 } else { 1 });
-                if verbose > 2 {
-                    return Err(CliError::TooVerbose);
-                }
-            }
-            "--trace" => set_once(&mut trace, PathBuf::from(value("--trace")?), "--trace")?,
-            "--write-eds" => set_once(&mut write_eds, PathBuf::from(value("--write-eds")?), "--write-eds")?,
-            other if other.starts_with('-') => return Err(CliError::UnknownOption(other.to_string())),
-            other => return Err(CliError::UnexpectedArgument(other.to_string())),
-        }
+    let program = std::iter::once(OsString::from(crate::NAME));
+    let matches = match command().clone().try_get_matches_from(program.chain(args)) {
+        Ok(matches) => matches,
+        Err(e) if e.kind() == ErrorKind::DisplayHelp => return Ok(Action::Help),
+        Err(e) => return Err(refusal(&e)),
+    };
+    let options = Options::from_arg_matches(&matches).map_err(|e| refusal(&e))?;
+    if options.verbose > 2 {
+        return Err(CliError::TooVerbose);
     }
-
-    let node_id = node_id.unwrap_or(1);
-    let profile = profile.unwrap_or(ProfileName::Generic);
-    if let Some(path) = write_eds {
+    let node_id = options.node_id.unwrap_or(1);
+    let profile = options.profile.unwrap_or(ProfileName::Generic);
+    if let Some(path) = options.write_eds {
         return Ok(Action::WriteEds { profile, node_id, path });
     }
-    if slcan_listen.is_none() && socketcan.is_none() {
+    if options.slcan_listen.is_none() && options.socketcan.is_none() {
         return Err(CliError::NoBus);
     }
-    if quiet && verbose > 0 {
+    if options.quiet && options.verbose > 0 {
         return Err(CliError::QuietAndVerbose);
     }
     let defaults = Limits::default();
     let limits = Limits {
-        max_clients: max_clients.unwrap_or(defaults.max_clients),
-        idle_timeout: idle_timeout.map(std::time::Duration::from_secs).or(defaults.idle_timeout),
+        max_clients: options.max_clients.unwrap_or(defaults.max_clients),
+        idle_timeout: options.idle_timeout.map(std::time::Duration::from_secs).or(defaults.idle_timeout),
     };
     Ok(Action::Run(RunArgs {
         profile,
         node_id,
-        slcan_listen,
-        socketcan,
-        storage,
+        slcan_listen: options.slcan_listen,
+        socketcan: options.socketcan,
+        storage: options.storage,
         limits,
-        quiet,
-        verbose,
-        trace,
+        quiet: options.quiet,
+        verbose: options.verbose,
+        trace: options.trace,
     }))
+}
+
+/// A refusal of clap as the program words it: a value parser's own [`CliError`], or the
+/// option or argument clap names.
+fn refusal(error: &clap::Error) -> CliError {
+    if let Some(own) = error.source().and_then(|source| source.downcast_ref::<CliError>()) {
+        return own.clone();
+    }
+    let named = match error.get(ContextKind::InvalidArg) {
+        Some(ContextValue::String(text)) => text.clone(),
+        _ => String::new(),
+    };
+    // clap names an option with its value, e.g. "--trace <FILE>".
+    let option = named.split_whitespace().next().and_then(long_name);
+    match (error.kind(), option) {
+        (ErrorKind::UnknownArgument, _) if named.starts_with('-') => {
+            CliError::UnknownOption(named.split('=').next().unwrap_or_default().to_string())
+        }
+        (ErrorKind::UnknownArgument, _) => CliError::UnexpectedArgument(named),
+        (ErrorKind::InvalidValue, Some(option)) => CliError::MissingValue(option),
+        (ErrorKind::ArgumentConflict, Some(option)) => CliError::Repeated(option),
+        _ => {
+            let text = error.to_string();
+            let first = text.lines().next().unwrap_or_default();
+            CliError::Refused(first.trim_start_matches("error: ").to_string())
+        }
+    }
+}
+
+/// `--name` as the command declares it, kept as long as the program runs (for [`CliError`]).
+fn long_name(typed: &str) -> Option<&'static str> {
+    static NAMES: OnceLock<Vec<String>> = OnceLock::new();
+    let names = NAMES.get_or_init(|| {
+        command().get_arguments().filter_map(|arg| arg.get_long()).map(|long| format!("--{long}")).collect()
+    });
+    names.iter().find(|name| *name == typed).map(String::as_str)
+}
+
+/// A value parser of one option: the value as UTF-8 text (refused as [`CliError::NotUnicode`]
+/// otherwise), then `parse`.
+fn text<T: Clone + Send + Sync + 'static>(
+    option: &'static str,
+    parse: impl Fn(&str) -> Result<T, CliError> + Clone + Send + Sync + 'static,
+) -> impl TypedValueParser<Value = T> {
+    OsStringValueParser::new()
+        .try_map(move |value| parse(&value.into_string().map_err(|_| CliError::NotUnicode(option))?))
+}
+
+fn profile(text: &str) -> Result<ProfileName, CliError> {
+    ProfileName::parse(text).ok_or_else(|| CliError::UnknownProfile(text.to_string()))
+}
+
+fn interface(text: &str) -> Result<String, CliError> {
+    if text.is_empty() {
+        return Err(CliError::InvalidInterface);
+    }
+    Ok(text.to_string())
 }
 
 /// A whole number from 1 (a count or seconds).
@@ -276,19 +331,7 @@ fn positive<T: std::str::FromStr + Default + PartialOrd>(
     }
 }
 
-fn utf8(value: OsString, option: &'static str) -> Result<String, CliError> {
-    value.into_string().map_err(|_| CliError::NotUnicode(option))
-}
-
-fn set_once<T>(slot: &mut Option<T>, value: T, option: &'static str) -> Result<(), CliError> {
-    if slot.is_some() {
-        return Err(CliError::Repeated(option));
-    }
-    *slot = Some(value);
-    Ok(())
-}
-
-fn parse_node_id(text: &str) -> Result<u8, CliError> {
+fn node_id(text: &str) -> Result<u8, CliError> {
     let number = match text.strip_prefix("0x").or_else(|| text.strip_prefix("0X")) {
         Some(hex) => u8::from_str_radix(hex, 16),
         None => text.parse::<u8>(),
@@ -301,13 +344,12 @@ fn parse_node_id(text: &str) -> Result<u8, CliError> {
 
 /// `HOST:PORT` with a non-empty host and a numeric port (`[::1]:5000` for IPv6). The host is
 /// resolved when the server binds.
-fn check_address(text: &str) -> Result<(), CliError> {
+fn address(text: &str) -> Result<String, CliError> {
     match text.rsplit_once(':') {
-        Some((host, port)) if !host.is_empty() && port.parse::<u16>().is_ok() => Ok(()),
+        Some((host, port)) if !host.is_empty() && port.parse::<u16>().is_ok() => Ok(text.to_string()),
         _ => Err(CliError::InvalidAddress(text.to_string())),
     }
 }
-
 #[cfg(test)]
 #[cfg_attr(test, allow(clippy::unwrap_used, clippy::expect_used, clippy::indexing_slicing, clippy::panic))]
 mod tests {
@@ -437,5 +479,51 @@ mod tests {
         assert!(CliError::NoBus.to_string().contains("--slcan-listen"));
         assert!(CliError::InvalidNodeId("0".into()).to_string().contains("1 to 127"));
         assert!(CliError::UnknownProfile("x".into()).to_string().contains("trinamic-pd57, harmonic-drive"));
+    }
+
+    #[test]
+    fn refusals_clap_words_and_values_that_are_not_text() {
+        use std::os::unix::ffi::OsStringExt;
+        let not_text = OsString::from_vec(vec![b'c', 0xFF]);
+        assert_eq!(
+            parse([OsString::from("--socketcan"), not_text]),
+            Err(CliError::NotUnicode("--socketcan"))
+        );
+        let Err(CliError::Refused(message)) = parse_str(&["--quiet=yes"]) else { panic!("--quiet=yes") };
+        assert!(message.contains("'yes'") && message.contains("--quiet"), "{message}");
+        assert_eq!(parse_str(&["--bogus=1"]), Err(CliError::UnknownOption("--bogus".into())));
+    }
+
+    #[test]
+    fn help_lists_every_option_its_default_and_the_notes() {
+        let help = help();
+        for text in [
+            "canopen-drive-linux [OPTIONS] (--slcan-listen HOST:PORT | --socketcan IFACE)...",
+            "canopen-drive-linux [--profile NAME] [--node-id N] --write-eds PATH",
+            "--profile <NAME>",
+            "chieftek, trinamic-pd57, harmonic-drive",
+            "--node-id <N>",
+            "default 1",
+            "--slcan-listen <HOST:PORT>",
+            "channel=\"socket://HOST:PORT\"",
+            "--socketcan <IFACE>",
+            "--storage <PATH>",
+            "PATH.lss",
+            "--max-clients <N>",
+            "default 32",
+            "--idle-timeout <SECONDS>",
+            "default: never",
+            "--quiet",
+            "-v, --verbose",
+            "-vv: also every frame",
+            "--trace <FILE>",
+            "canplayer -I FILE",
+            "--write-eds <PATH>",
+            "-h, --help",
+            "all of them form one bus",
+            "SIGINT or SIGTERM end it (status 0)",
+        ] {
+            assert!(help.contains(text), "{text:?} not in\n{help}");
+        }
     }
 }

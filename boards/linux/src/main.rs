@@ -7,9 +7,10 @@
 //!  other clients ─┘                      └─ SocketCAN ────┘
 //! ```
 //!
-//! Modules: [`cli`] (arguments), [`slcan`] (the Lawicel ASCII codec), [`bus`] (the broadcast
-//! medium), [`slcan_server`] and [`socketcan_port`] (endpoints), [`node`] (the drive's
-//! configuration, EDS and real-time loop), [`profiles`] (the drives it can be: `--profile`).
+//! Modules: [`cli`] (arguments), [`bus`] (the broadcast medium), [`slcan_server`] (with the
+//! SLCAN codec of `canopen-drive-slcan`) and [`socketcan_port`] (endpoints), [`node`] (the
+//! drive's configuration, EDS and real-time loop), [`profiles`] (the drives it can be:
+//! `--profile`).
 //!
 //! `--storage PATH` keeps the stored parameters (1010h/1011h) in PATH, a file that behaves
 //! as NOR flash under the core's two-bank journal, and the LSS configuration in `PATH.lss`.
@@ -32,7 +33,6 @@ mod monitor;
 mod node;
 mod output;
 mod profiles;
-mod slcan;
 mod slcan_server;
 mod socketcan_port;
 mod trace;
@@ -69,7 +69,7 @@ fn main() -> ExitCode {
         Ok(action) => {
             let result = match action {
                 Action::Help => {
-                    output::text(cli::USAGE);
+                    output::text(&cli::help());
                     Ok(())
                 }
                 Action::WriteEds { profile, node_id, path } => write_eds(profile, node_id, &path),

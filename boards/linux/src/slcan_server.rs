@@ -1,7 +1,7 @@
 //! SLCAN over TCP: every connected client is one endpoint of the [`Bus`].
 //!
-//! A client talks to the server as to a Lawicel USB-CAN adapter (see [`crate::slcan`]); python-can
-//! does so with `can.Bus(interface="slcan", channel="socket://HOST:PORT")`. Several clients may
+//! A client talks to the server as to a Lawicel USB-CAN adapter (see [`canopen_drive_slcan`]);
+//! python-can does so with `can.Bus(interface="slcan", channel="socket://HOST:PORT")`. Several clients may
 //! be connected at once and share the one bus: a frame a client sends reaches the drive and every
 //! other client; a frame the drive sends reaches all clients.
 //!
@@ -48,12 +48,12 @@ use std::thread;
 use std::time::{Duration, Instant};
 
 use canopen_drive::CanFrame;
+use canopen_drive_slcan::{Command, LineDecoder, BEL};
 use mio::net::{TcpListener, TcpStream};
 use mio::{Events, Interest, Poll, Token, Waker};
 use socket2::{SockRef, TcpKeepalive};
 
 use crate::bus::{Bus, Delivery, EndpointId};
-use crate::slcan::{self, Command, LineDecoder, BEL};
 
 /// Lines queued for one client before its oldest are dropped.
 pub const CLIENT_QUEUE: usize = 4096;
@@ -106,7 +106,7 @@ enum Outgoing {
 impl Outgoing {
     fn encode(&self, out: &mut Vec<u8>) {
         match self {
-            Outgoing::Frame(frame) => slcan::encode_frame(frame, out),
+            Outgoing::Frame(frame) => out.extend_from_slice(canopen_drive_slcan::encode(frame).as_bytes()),
             Outgoing::Reply(bytes) => out.extend_from_slice(bytes),
         }
     }
@@ -213,7 +213,7 @@ struct Client {
     stream: TcpStream,
     peer: String,
     id: EndpointId,
-    decoder: LineDecoder,
+    decoder: LineDecoder<CanFrame>,
     outbox: Arc<Outbox>,
     /// Encoded bytes the socket has not taken yet.
     pending: Vec<u8>,

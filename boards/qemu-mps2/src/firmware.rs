@@ -8,7 +8,7 @@ use canopen_drive_qemu_mps2::board;
 use canopen_drive_qemu_mps2::mps2::{self, uart0, Irq};
 use canopen_drive_qemu_mps2::node::{self, BoardDrive};
 use canopen_drive_qemu_mps2::objects::{exit_requested, BoardHooks, TICK_MONITOR};
-use canopen_drive_qemu_mps2::slcan::{self, Command, LineBuffer};
+use canopen_drive_slcan::{self as slcan, Command, LineDecoder};
 use cortex_m::peripheral::NVIC;
 use cortex_m_rt::{entry, exception, ExceptionFrame};
 use defmt_semihosting as _;
@@ -116,7 +116,7 @@ async fn exit_task() {
 /// here, frames are handed to the runner.
 #[derive(Default)]
 struct SlcanRx {
-    line: LineBuffer,
+    line: LineDecoder<CanFrame>,
     bytes: [u8; 32],
     start: usize,
     end: usize,
@@ -133,8 +133,8 @@ impl CanRx for SlcanRx {
                 self.start += 1;
                 match self.line.push(byte) {
                     None => {}
-                    Some(None) => uart0::write_byte(slcan::BEL),
-                    Some(Some(command)) => {
+                    Some(Err(_)) => uart0::write_byte(slcan::BEL),
+                    Some(Ok(command)) => {
                         uart0::write_all(command.reply());
                         if let Command::Frame(frame) = command {
                             return Ok(frame);
@@ -168,9 +168,7 @@ impl CanTx for SlcanTx {
     type Error = ErrorKind;
 
     async fn transmit(&mut self, frame: &CanFrame) -> Result<(), ErrorKind> {
-        let mut line = [0; slcan::MAX_ENCODED];
-        let n = slcan::encode(frame, &mut line);
-        uart0::write_all(line.get(..n).unwrap_or(&[]));
+        uart0::write_all(slcan::encode(frame).as_bytes());
         Ok(())
     }
 }

@@ -3,7 +3,8 @@
 //! The drive with a simulated motor on an emulated Cortex-M, talking CANopen to a real master
 //! over SLCAN on UART0 (QEMU exposes the UART as a TCP socket, see `run.sh`). No QEMU
 //! Cortex-M board has a CAN controller, so the UART carries the frames in the text form
-//! USB-CAN adapters use.
+//! USB-CAN adapters use; the line codec is the crate `canopen-drive-slcan`, which the Linux
+//! program serves over TCP too.
 //!
 //! Two firmwares share this library:
 //!
@@ -19,7 +20,6 @@
 //! | [`node`] | the drive's configuration (node-ID 5, identity, tick rate) |
 //! | [`objects`] | manufacturer objects 2F00h–2F11h: test exit, tick lateness, stack use, test data |
 //! | [`motor`] | a no_std motor model: inertia + friction, velocity/position loops |
-//! | [`slcan`] | the SLCAN line codec |
 //! | `mps2` | UART0, TIMER0, SysTick registers; semihosting exit (bare-metal targets only) |
 //! | `board` | the µs clock, the tick body shared by both firmwares, stack measurement |
 #![no_std]
@@ -29,7 +29,6 @@
 pub mod motor;
 pub mod node;
 pub mod objects;
-pub mod slcan;
 
 #[cfg(target_os = "none")]
 pub mod board;

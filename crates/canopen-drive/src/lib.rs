@@ -85,6 +85,7 @@
 //! assert_eq!(embedded_can::Frame::data(&response), &[0x43, 0x00, 0x10, 0x00, 0x92, 0x01, 0x02, 0x00]);
 //! ```
 #![no_std]
+#![cfg_attr(docsrs, feature(doc_cfg))]
 #![deny(missing_docs)]
 #![cfg_attr(test, allow(clippy::unwrap_used, clippy::expect_used, clippy::indexing_slicing, clippy::panic))]
 

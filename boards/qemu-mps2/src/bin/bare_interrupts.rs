@@ -29,12 +29,12 @@ mod firmware {
     use core::cell::RefCell;
     use core::sync::atomic::{AtomicBool, Ordering};
 
-    use canopen_drive::Instant;
+    use canopen_drive::{CanFrame, Instant};
     use canopen_drive_qemu_mps2::board;
     use canopen_drive_qemu_mps2::mps2::{self, uart0, Irq};
     use canopen_drive_qemu_mps2::node::{self, BoardDrive};
     use canopen_drive_qemu_mps2::objects::{exit_requested, BoardHooks};
-    use canopen_drive_qemu_mps2::slcan::{self, Command, LineBuffer};
+    use canopen_drive_slcan::{self as slcan, Command, LineDecoder};
     use cortex_m::peripheral::NVIC;
     use cortex_m_rt::{entry, exception, ExceptionFrame};
     use critical_section::Mutex;
@@ -47,7 +47,7 @@ mod firmware {
     static DRIVE_CELL: StaticCell<BoardDrive> = StaticCell::new();
 
     /// The receive handler's line buffer and its queued replies to SLCAN control lines.
-    static LINE: Mutex<RefCell<LineBuffer>> = Mutex::new(RefCell::new(LineBuffer::new()));
+    static LINE: Mutex<RefCell<LineDecoder<CanFrame>>> = Mutex::new(RefCell::new(LineDecoder::new()));
     static REPLIES: Mutex<RefCell<Deque<&'static [u8], 16>>> = Mutex::new(RefCell::new(Deque::new()));
 
     /// Set by the handlers: the main loop has work (frames to send, a poll to run).
@@ -113,9 +113,7 @@ mod firmware {
                 uart0::write_all(reply);
             }
             while let Some(frame) = with_drive(|d| d.pop_tx()).flatten() {
-                let mut line = [0; slcan::MAX_ENCODED];
-                let n = slcan::encode(&frame, &mut line);
-                uart0::write_all(line.get(..n).unwrap_or(&[]));
+                uart0::write_all(slcan::encode(&frame).as_bytes());
             }
             if let Some(code) = exit_requested() {
                 // The SDO response is out; give the master 300 ms to read it and disconnect.
@@ -137,12 +135,12 @@ mod firmware {
             let line = critical_section::with(|cs| LINE.borrow_ref_mut(cs).push(byte));
             match line {
                 None => continue,
-                Some(Some(Command::Frame(frame))) => {
+                Some(Ok(Command::Frame(frame))) => {
                     with_drive(|d| d.on_frame(&frame, now()));
                     queue_reply(Command::Frame(frame).reply());
                 }
-                Some(Some(command)) => queue_reply(command.reply()),
-                Some(None) => queue_reply(&[slcan::BEL]),
+                Some(Ok(command)) => queue_reply(command.reply()),
+                Some(Err(_)) => queue_reply(&[slcan::BEL]),
             }
             WORK.store(true, Ordering::Release);
         }
