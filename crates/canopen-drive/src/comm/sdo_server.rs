@@ -188,6 +188,8 @@ fn expedited(data: &[u8], od: &mut impl ObjectAccess) -> Option<[u8; 8]> {
 /// What a step of the state machine produces.
 type Step = (State, Option<Response>);
 
+// Out of line: a refusal is the rare path of some twenty places.
+#[inline(never)]
 fn abort(mux: Mux, code: AbortCode) -> Step {
     (State::Idle, Some(refusal(mux, code)))
 }
