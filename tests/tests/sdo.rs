@@ -94,6 +94,21 @@ fn expedited_download_with_and_without_size() {
     assert_eq!(bench.drive().hooks_mut().written.last(), Some(&(RECORD, 1, (-42i32).to_le_bytes().to_vec())));
 }
 
+/// A frame shorter than eight bytes (digest §18 item 16): an expedited download is taken when
+/// the bytes its size indicates are there, refused with "length too low" when they are not
+/// (the value keeps its old content); an upload request needs only its multiplexer.
+#[test]
+fn short_expedited_frames() {
+    let mut bench = Bench::new();
+    assert_eq!(bench.sdo1(&[0x2B, 0x17, 0x10, 0, 0xE8, 0x03]), req(0x60, 0x1017, 0, [0; 4]));
+    assert_eq!(bench.sdo1(&[0x40, 0x17, 0x10, 0]), req(0x4B, 0x1017, 0, [0xE8, 0x03, 0, 0]));
+    // 1006h is UNSIGNED32: four bytes indicated, two in the frame.
+    assert_eq!(bench.sdo1(&[0x23, 0x06, 0x10, 0, 0xD0, 0x07]), abort(0x1006, 0, TOO_SHORT));
+    assert_eq!(bench.sdo1(&[0x40, 0x06, 0x10, 0]), req(0x43, 0x1006, 0, [0; 4]));
+    // The size indicated is checked against the entry first: four bytes for 1017h are too many.
+    assert_eq!(bench.sdo1(&[0x23, 0x17, 0x10, 0, 0xD0, 0x07]), abort(0x1017, 0, TOO_LONG));
+}
+
 #[test]
 fn segmented_upload_of_strings() {
     let mut bench = Bench::new();
