@@ -100,6 +100,7 @@ pub mod frame;
 pub mod hal;
 pub mod motion;
 pub mod od;
+pub mod prelude;
 pub mod storage;
 pub mod time;
 mod wide;

@@ -82,6 +82,7 @@ pub enum StatusFlag {
 /// limits 6072h/6073h and the slope 6087h stay in ‰ whatever the unit.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
 pub enum TorqueUnit {
     /// ‰ of the rated torque (6078h: of the rated current): CiA 402, the default.
     #[default]
@@ -98,6 +99,7 @@ pub enum TorqueUnit {
 /// (6042h–604Ch) has its own units.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
 pub enum VelocityUnit {
     /// Position units (the factor group's user units) per second: CiA 402, the default.
     #[default]
@@ -110,6 +112,7 @@ pub enum VelocityUnit {
 /// The unit of the maximum motor speed 6080h.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
 pub enum MotorSpeedUnit {
     /// Revolutions of the motor per minute, through 608Fh: CiA 402, the default.
     #[default]
@@ -264,6 +267,7 @@ impl DirectMode {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[repr(u8)]
+#[non_exhaustive]
 pub enum TravelLimit {
     /// 6064h above the positive software limit 607Dh sub 2.
     PositiveSoftware = 1,

@@ -36,6 +36,7 @@ pub enum Supervision {
 /// What the consumer tells the drive.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
 pub enum ConsumerEvent {
     /// An active entry timed out (EMCY 0x8130, 1029h reaction).
     Timeout {
@@ -221,6 +222,7 @@ pub struct NodeGuarding {
 /// What a guarding request or the life-guarding timer tells the drive.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
 pub enum GuardingEvent {
     /// No guarding request within the node life time (EMCY 0x8130, 1029h reaction).
     LifeGuardingFailed,

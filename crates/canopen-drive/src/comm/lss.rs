@@ -212,6 +212,7 @@ enum Identification {
 /// Why store configuration failed; maps 1:1 to the error code of the 0x17 response.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
 pub enum StoreError {
     /// Error code 1: storing is not supported.
     NotSupported,

@@ -15,6 +15,7 @@ pub use crate::wire::nmt::NmtState;
 /// abort connection option code 6007h says (digest 402 §6.1).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
 pub enum ConnectionEvent {
     /// The CAN controller went bus-off.
     BusOff,

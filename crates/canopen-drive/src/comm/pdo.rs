@@ -426,6 +426,7 @@ pub trait FrameSink {
 /// Something the PDO layer asks the drive to report.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
 pub enum PdoEvent {
     /// Raise the EMCY `code`.
     Raise(u16),

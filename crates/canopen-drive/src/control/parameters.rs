@@ -195,6 +195,7 @@ fn u32_from(data: &[u8]) -> Result<u32, AbortCode> {
 /// Why a set of [`Parameters`] (with a tick rate) does not make a controller.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
 pub enum ParameterError {
     /// The tick rate is 0 Hz.
     TickRateZero,

@@ -383,6 +383,7 @@ impl Limits {
 /// Why a plan was refused. The planner's motion is unchanged after any of these.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
 pub enum MotionError {
     /// The velocity limit is 0: no motion is planned.
     ZeroVelocity,

@@ -263,6 +263,7 @@ impl Bound {
 /// Fields of the device description that defaults may refer to.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
 pub enum DeviceField {
     /// 1000h device type.
     DeviceType,
@@ -293,6 +294,7 @@ pub enum DeviceField {
 /// The power-on value of an entry (before stored parameters are applied).
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
 pub enum DefaultValue {
     /// Zero / empty.
     Zero,
@@ -506,6 +508,7 @@ pub enum Kind {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[repr(u8)]
+#[non_exhaustive]
 pub enum Owner {
     /// No rule beyond type, access and limits.
     #[default]

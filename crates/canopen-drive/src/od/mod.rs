@@ -147,6 +147,7 @@ impl ObjectHooks for () {
 /// Why a set of tables cannot form a dictionary.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
 pub enum ConfigError {
     /// A node-ID outside 1..=127.
     InvalidNodeId,

@@ -5,6 +5,7 @@ use embedded_storage::nor_flash::{NorFlash, NorFlashError, NorFlashErrorKind};
 /// Why the non-volatile area refused or failed an operation.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
 pub enum NvError {
     /// The range lies (partly) outside the area.
     OutOfBounds,

@@ -174,6 +174,7 @@ impl Group {
 /// Why a storage operation failed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
 pub enum StorageError {
     /// The non-volatile area failed an operation.
     Area(NvError),

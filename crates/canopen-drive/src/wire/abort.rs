@@ -6,6 +6,7 @@
 /// The reason an SDO transfer or an object access was refused.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
 pub enum AbortCode {
     /// 0x0503_0000: toggle bit not alternated (§5.4).
     ToggleBitNotAlternated,

@@ -28,6 +28,7 @@ pub struct CobId {
 /// Why a COB-ID value is refused (all map to SDO abort 0x0609_0030).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
 pub enum CobIdError {
     /// Bit 29 set: this device only uses 11-bit identifiers.
     Extended,

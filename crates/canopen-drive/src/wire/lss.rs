@@ -502,6 +502,7 @@ pub enum Request {
 /// Why a frame is not a valid LSS frame.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
 pub enum ParseError {
     /// The frame does not carry exactly eight data bytes (digest §12.1).
     Length,
