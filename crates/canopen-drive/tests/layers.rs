@@ -10,7 +10,8 @@ use std::fs;
 use std::path::{Path, PathBuf};
 
 /// The layers, lowest first. `wide` (128-bit division) and `fmt` (the logging shim) are
-/// utilities below everything; `can_io` (the embedded-can helper) sits on top of `drive`.
+/// utilities below everything; `can_io` (the embedded-can helper) and `prelude` (re-exports) sit
+/// on top of `drive`.
 const LAYERS: &[&[&str]] = &[
     &["time", "frame", "wide", "fmt"],
     &["wire", "motion"],
@@ -20,7 +21,7 @@ const LAYERS: &[&[&str]] = &[
     &["comm"],
     &["cia402"],
     &["drive"],
-    &["can_io", "lib"],
+    &["can_io", "prelude", "lib"],
 ];
 
 /// Items re-exported at the crate root, and the module they come from.
