@@ -109,6 +109,21 @@ fn short_expedited_frames() {
     assert_eq!(bench.sdo1(&[0x23, 0x17, 0x10, 0, 0xD0, 0x07]), abort(0x1017, 0, TOO_LONG));
 }
 
+/// In a block download every frame but an abort is a sub-block segment: bytes that would be
+/// an expedited download between transfers write nothing (found by the `sdo_server` fuzz
+/// target against the expedited fast path of issue 17).
+#[test]
+fn a_segment_that_reads_like_a_download_writes_nothing() {
+    let mut bench = Bench::new();
+    let before = bench.drive().od().get::<u16>(0x1017, 0).unwrap();
+    assert_eq!(bench.sdo1(&req(0xC2, TEXT, 0, [10, 0, 0, 0]))[0], 0xA4);
+    bench.sdo(&req(0x2B, 0x1017, 0, [0xE8, 0x03, 0, 0]));
+    assert_eq!(bench.drive().od().get::<u16>(0x1017, 0), Ok(before));
+    bench.sdo(&abort(TEXT, 0, GENERAL));
+    let read = bench.sdo1(&req(0x40, 0x1017, 0, [0; 4]));
+    assert_eq!(u16::from_le_bytes([read[4], read[5]]), before, "{read:02X?}");
+}
+
 #[test]
 fn segmented_upload_of_strings() {
     let mut bench = Bench::new();

@@ -237,8 +237,11 @@ impl<const BUF: usize> SdoServer<BUF> {
 
     /// Handles one request frame's data received at `now`; returns the response to send.
     pub fn on_request(&mut self, data: &[u8], now: Instant, od: &mut impl ObjectAccess) -> Option<[u8; 8]> {
-        if let (State::Idle, Some(response)) = (self.state, expedited(data, od)) {
-            return Some(response);
+        // Only between transfers: in one, the same bytes are a segment or a protocol error.
+        if matches!(self.state, State::Idle) {
+            if let Some(response) = expedited(data, od) {
+                return Some(response);
+            }
         }
         let (state, response) = match self.state {
             // In a block download, every frame but an abort is a sub-block segment.
