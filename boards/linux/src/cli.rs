@@ -25,7 +25,7 @@ use crate::slcan_server::Limits;
        canopen-drive-linux [--profile NAME] [--node-id N] --write-eds PATH",
     after_help = "--slcan-listen and --socketcan may be combined; all of them form one bus.
 The producer heartbeat (1017h) starts at 0 (off), as CiA 301 specifies: a master sets it.
-Prints `ready` on stdout once it accepts connections, then one line
+Prints `ready` on stdout once it accepts connections and has sent its boot-up, then one line
 `bit-rate <kbit/s> kbit/s (table T index I)` for each bit-rate change an LSS master activates;
 SIGINT or SIGTERM end it (status 0).",
     disable_help_flag = true

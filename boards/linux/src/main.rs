@@ -222,10 +222,9 @@ fn serve<S: Persistence>(
         log!("node {node_id} on SocketCAN {iface}");
     }
 
-    // Whoever started the program may stop reading it after this line (see `output`).
-    output::line(format_args!("ready"));
-
     log!("profile {}", board.profile.name.name());
-    node::run(drive, board, &bus, &stop);
+    // `ready` follows the boot-up frame, so what a master sees does not depend on how soon it
+    // connects. Whoever started the program may stop reading it after this line (see `output`).
+    node::run(drive, board, &bus, &stop, || output::line(format_args!("ready")));
     Ok(())
 }

@@ -120,8 +120,15 @@ impl Observer<'_> {
 /// 6061h, modes of operation display.
 const MODES_OF_OPERATION_DISPLAY: u16 = 0x6061;
 
-/// Runs `drive` on `bus` until `stop` is set.
-pub fn run<S: Persistence>(mut drive: BoardDrive<S>, board: &Board<'_>, bus: &Bus, stop: &AtomicBool) {
+/// Runs `drive` on `bus` until `stop` is set. `started` runs once the node is on the bus: its
+/// boot-up frame has been sent, so a master that connects afterwards never sees it.
+pub fn run<S: Persistence>(
+    mut drive: BoardDrive<S>,
+    board: &Board<'_>,
+    bus: &Bus,
+    stop: &AtomicBool,
+    started: impl FnOnce(),
+) {
     let clock = Clock(std::time::Instant::now());
     let mut motor = SimMotor::with_params(board.profile.axis);
     let mut firmware = (board.profile.firmware)();
@@ -136,6 +143,7 @@ pub fn run<S: Persistence>(mut drive: BoardDrive<S>, board: &Board<'_>, bus: &Bu
     let mut deadline = drive.poll(last_tick);
     transmit(&mut drive, bus, &observer);
     observer.states(&drive);
+    started();
 
     while !stop.load(Ordering::Relaxed) {
         let now = clock.now();
@@ -320,7 +328,7 @@ mod tests {
             thread::spawn(move || {
                 let board =
                     Board { profile: &profile, lss_file: None, bit_rate_kbit: 1000, verbose: 0, trace: None };
-                run(drive, &board, &bus, &stop)
+                run(drive, &board, &bus, &stop, || {})
             })
         };
         let timeout = StdDuration::from_secs(5);
