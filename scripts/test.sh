@@ -131,6 +131,8 @@ step_no_std() {
         cargo clippy -p canopen-drive --target "$target" --features defmt -- -D warnings
         cargo clippy -p canopen-drive-slcan --target "$target" -- -D warnings
     done
+    # A firmware's table generated from its EDS at build time (canopen-drive-build).
+    cargo clippy -p canopen-drive-example-eds-import --target thumbv7em-none-eabihf -- -D warnings
 }
 
 # The library crates with the oldest Rust they declare (`rust-version` of the workspace):
@@ -142,7 +144,7 @@ step_msrv() {
     echo "rust-version $msrv"
     rustup run "$msrv" rustc --version >/dev/null 2>&1 || rustup toolchain install "$msrv" --profile minimal
     rustup target add --toolchain "$msrv" thumbv7em-none-eabihf
-    cargo "+$msrv" check -p canopen-drive -p canopen-drive-sim -p canopen-drive-slcan
+    cargo "+$msrv" check -p canopen-drive -p canopen-drive-sim -p canopen-drive-slcan -p canopen-drive-build
     cargo "+$msrv" check -p canopen-drive -p canopen-drive-embassy -p canopen-drive-slcan \
         --target thumbv7em-none-eabihf
     cargo "+$msrv" check -p canopen-drive --target thumbv7em-none-eabihf --no-default-features
@@ -155,7 +157,7 @@ step_msrv() {
 step_publish() {
     cargo publish --dry-run --workspace --allow-dirty 2>&1 | tee "$logs/publish-dry-run.txt"
     local crate status=0
-    for crate in canopen-drive canopen-drive-sim canopen-drive-embassy canopen-drive-slcan; do
+    for crate in canopen-drive canopen-drive-sim canopen-drive-embassy canopen-drive-slcan canopen-drive-build; do
         grep -q "Uploading $crate v" "$logs/publish-dry-run.txt" ||
             { echo "$crate was not packaged"; status=1; }
     done

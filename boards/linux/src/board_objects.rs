@@ -2,8 +2,9 @@
 //! environment, so a remote test can exercise fault reactions and switches, and the hooks that
 //! pass every write of a manufacturer object on to the real-time loop.
 //!
-//! The three simulation objects sit at 2100h–2102h in the generic drive, and at 5E00h–5E02h in
-//! the vendor profiles (whose manuals use 2100h–2102h themselves):
+//! The three simulation objects sit at 2100h–2102h in the generic drive (whose manufacturer
+//! objects come from an EDS: `examples/eds-import`), and at 5E00h–5E02h in the vendor profiles
+//! (whose manuals use 2100h–2102h themselves):
 //!
 //! | index | name | type | meaning |
 //! |---|---|---|---|
@@ -57,13 +58,6 @@ pub const fn simulated_load(index: u16) -> Object {
             .limits_signed(-3000, 3000),
     )
 }
-
-/// The generic drive's manufacturer objects: the simulation objects at 2100h.
-pub static BOARD_OBJECTS: [Object; 3] = canopen_drive::od::layout([
-    simulated_faults(GENERIC_SIMULATION),
-    simulated_inputs(GENERIC_SIMULATION + 1),
-    simulated_load(GENERIC_SIMULATION + 2),
-]);
 
 /// A value rule of a manufacturer object beyond its type and limits: the only values it takes
 /// (a signature, a list of bit rates), and whether it needs parameter storage.
@@ -189,6 +183,23 @@ pub fn apply(change: Change, motor: &mut SimMotor) {
 #[cfg_attr(test, allow(clippy::unwrap_used, clippy::expect_used, clippy::indexing_slicing, clippy::panic))]
 mod tests {
     use super::*;
+
+    /// The generic drive's simulation objects, generated from its EDS, are the ones the vendor
+    /// profiles build at 5E00h: same names, types, access and limits.
+    #[test]
+    fn the_eds_describes_the_simulation_objects() {
+        let generated = &canopen_drive_example_eds_import::MANUFACTURER_OBJECTS;
+        let expected = [
+            simulated_faults(GENERIC_SIMULATION),
+            simulated_inputs(GENERIC_SIMULATION + 1),
+            simulated_load(GENERIC_SIMULATION + 2),
+        ];
+        for object in expected {
+            let found = generated.iter().find(|o| o.index == object.index).unwrap();
+            assert_eq!(found.kind, object.kind, "{:04X}h", object.index);
+            assert_eq!(found.name(), object.name());
+        }
+    }
 
     #[test]
     fn writes_reach_the_motor() {

@@ -1,5 +1,6 @@
-//! The generic drive: the library's CiA 301/402 defaults, the simulation objects at
-//! 2100h–2102h, and the simulated axis of the README (10 000 increments per revolution, limit
+//! The generic drive: the library's CiA 301/402 defaults, manufacturer objects generated at
+//! build time from their EDS (`examples/eds-import/generic-drive.eds`: example motor parameters
+//! at 2000h–2006h and the simulation objects at 2100h–2102h), and the simulated axis of the README (10 000 increments per revolution, limit
 //! switches beyond ±100 000, home switch 20 000..30 000, hard stops at ±120 000).
 
 use canopen_drive::od::eds::EdsInfo;
@@ -7,8 +8,9 @@ use canopen_drive::od::DeviceInfo;
 use canopen_drive_sim::motor::{MotorParams, Zone};
 
 use super::{BoardProfile, NoFirmware, ProfileName, TEMPLATE_NODE_ID};
-use crate::board_objects::{BOARD_OBJECTS, GENERIC_SIMULATION};
+use crate::board_objects::GENERIC_SIMULATION;
 use canopen_drive::Config;
+use canopen_drive_example_eds_import::MANUFACTURER_OBJECTS;
 
 /// Product code of the generic drive in 1018h sub 2: "CDL" (canopen-drive-linux) in ASCII.
 /// Stored parameters are signed with 1018h's vendor-ID and product code, so this must differ
@@ -68,7 +70,7 @@ pub fn profile() -> BoardProfile {
         name: ProfileName::Generic,
         config: Config {
             device: device_info(),
-            manufacturer_objects: &BOARD_OBJECTS,
+            manufacturer_objects: &MANUFACTURER_OBJECTS,
             ..Config::new(TEMPLATE_NODE_ID)
         },
         eds: eds_info(),
