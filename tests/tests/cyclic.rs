@@ -258,6 +258,32 @@ fn a_target_jump_is_clamped_and_flagged() {
     assert_eq!(sw(&mut bench) & 0x0800, 0, "bit 11 cleared once caught up");
 }
 
+/// A limit written as process data (an RPDO, not an SDO download: the drive is not told that
+/// a parameter changed) holds from the first tick after it arrives, as one written by SDO does.
+#[test]
+fn a_velocity_limit_from_an_rpdo_holds_at_the_next_tick() {
+    let mut bench = bench_4k();
+    stream_setup(&mut bench, CSV, 0x60FF, 0x20);
+    // RPDO2: 607Fh alone, asynchronous (applied at the next tick).
+    let rpdo2 = 0x300 + u16::from(NODE);
+    write_sub(&mut bench, 0x1401, 1, &(0x8000_0000u32 | u32::from(rpdo2)).to_le_bytes());
+    write_sub(&mut bench, 0x1601, 0, &[0]);
+    write_sub(&mut bench, 0x1601, 1, &0x607F_0020u32.to_le_bytes());
+    write_sub(&mut bench, 0x1601, 0, &[1]);
+    write_sub(&mut bench, 0x1401, 2, &[255]);
+    write_sub(&mut bench, 0x1401, 1, &u32::from(rpdo2).to_le_bytes());
+    bench.send(frame(rpdo2, &100_000u32.to_le_bytes()));
+    for _ in 0..20 {
+        period(&mut bench, 0x000F, 30_000, 4, true, true);
+    }
+    assert_eq!(od_i32(&mut bench, 0x606B), 30_000);
+    for limit in [10_000, 20_000, 5_000] {
+        bench.send(frame(rpdo2, &(limit as u32).to_le_bytes()));
+        bench.advance(Duration::from_micros(250));
+        assert_eq!(od_i32(&mut bench, 0x606B), limit, "one tick after 607Fh = {limit}");
+    }
+}
+
 #[test]
 fn lost_rpdos_and_syncs_are_bridged_then_the_connection_reaction_follows() {
     let mut bench = bench_4k();

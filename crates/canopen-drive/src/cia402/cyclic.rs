@@ -256,19 +256,20 @@ pub struct Limiter {
 /// Per-tick limits of the limiter, increments per tick (× 2³²) and per tick².
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct TickLimits {
-    velocity: i128,
-    acceleration: i128,
-    deceleration: i128,
+    velocity: u64,
+    acceleration: u64,
+    deceleration: u64,
 }
 
 impl TickLimits {
     /// From increments/s and increments/s² at `hz` ticks per second.
+    #[inline(never)]
     pub fn new(velocity: u32, acceleration: u32, deceleration: u32, hz: u32) -> Self {
         // u32 × 2³² and hz² fit 64 bits: unsigned 64-bit divisions (a 128-bit one is a library
         // call of several hundred instructions on a 32-bit MCU, and this runs every tick).
         let hz = u64::from(hz.max(1));
-        let per_tick = |v: u32| i128::from(((u64::from(v) << 32) / hz).max(1));
-        let per_tick2 = |a: u32| i128::from(((u64::from(a) << 32) / (hz * hz)).max(1));
+        let per_tick = |v: u32| ((u64::from(v) << 32) / hz).max(1);
+        let per_tick2 = |a: u32| ((u64::from(a) << 32) / (hz * hz)).max(1);
         TickLimits {
             velocity: per_tick(velocity),
             acceleration: per_tick2(acceleration),
@@ -302,7 +303,7 @@ impl Limiter {
 
     /// Stops with `deceleration` (increments per tick² × 2³², see [`TickLimits`]).
     pub fn stop(&mut self, limits: &TickLimits) {
-        self.stopping = Some(limits.deceleration);
+        self.stopping = Some(i128::from(limits.deceleration));
     }
 
     /// Ends a stop (halt released): the limiter chases the target again.
@@ -330,27 +331,28 @@ impl Limiter {
             self.last_target = self.position;
             return false;
         }
+        let (velocity_limit, acceleration, deceleration) =
+            (i128::from(limits.velocity), i128::from(limits.acceleration), i128::from(limits.deceleration));
         let target_velocity = target - self.last_target;
         self.last_target = target;
         let error = target - self.position;
         // The step that lands on the target now, within the velocity limit.
-        let wanted = error.clamp(-limits.velocity, limits.velocity);
+        let wanted = error.clamp(-velocity_limit, velocity_limit);
         let mut change = wanted - self.velocity;
         // Relative to the target's own motion: brake when the remaining gap is within the
         // stopping distance of the relative velocity.
         let relative = self.velocity - target_velocity;
         if relative != 0 && relative.signum() == error.signum() {
-            let stopping =
-                crate::wide::sdiv(relative.saturating_mul(relative), 2 * limits.deceleration.max(1));
+            let stopping = crate::wide::sdiv(relative.saturating_mul(relative), 2 * deceleration.max(1));
             if stopping >= error.abs() {
-                change = -relative.signum() * limits.deceleration;
+                change = -relative.signum() * deceleration;
             }
         }
         let speeding_up = (self.velocity + change).abs() > self.velocity.abs();
-        let rate = if speeding_up { limits.acceleration } else { limits.deceleration };
+        let rate = if speeding_up { acceleration } else { deceleration };
         let limited_change = change.clamp(-rate, rate);
         let clipped = limited_change != change || wanted != error;
-        self.velocity = (self.velocity + limited_change).clamp(-limits.velocity, limits.velocity);
+        self.velocity = (self.velocity + limited_change).clamp(-velocity_limit, velocity_limit);
         self.position += self.velocity;
         // Landed within a rounding step of the target: snap (keeps an in-limit stream exact).
         if !clipped && (target - self.position).abs() < ONE {
@@ -374,8 +376,12 @@ mod tests {
             for hz in [1u32, 250, 1000, 4000, 16_000, 65_535] {
                 let limits = TickLimits::new(v, v, v, hz);
                 let hz = i128::from(hz);
-                assert_eq!(limits.velocity, (i128::from(v) * ONE / hz).max(1), "{v} at {hz} Hz");
-                assert_eq!(limits.acceleration, (i128::from(v) * ONE / (hz * hz)).max(1), "{v} at {hz} Hz");
+                assert_eq!(i128::from(limits.velocity), (i128::from(v) * ONE / hz).max(1), "{v} at {hz} Hz");
+                assert_eq!(
+                    i128::from(limits.acceleration),
+                    (i128::from(v) * ONE / (hz * hz)).max(1),
+                    "{v} at {hz} Hz"
+                );
             }
         }
         for (from, to) in

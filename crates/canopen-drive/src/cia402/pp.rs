@@ -82,6 +82,11 @@ pub struct Inputs<'a, const B: usize> {
     pub standstill: bool,
     /// Now.
     pub now: Instant,
+    /// The profile's motion limits ([`limits`]) and end velocity 6082h, in increments.
+    pub(crate) limits: Limits,
+    pub(crate) end_velocity: u32,
+    /// The velocity limit min(607Fh, 6080h), increments/s.
+    pub(crate) velocity_cap: u32,
 }
 
 /// The statusword bits pp reports.
@@ -115,28 +120,69 @@ pub struct ProfilePosition {
     planned_velocity: u32,
 }
 
-/// The motion limits of pp and of the stops in pp, in increments (digest §9.5).
-pub(crate) fn limits<const B: usize>(od: &Dictionary<B>, s: &Slots, factors: &Factors) -> Limits {
-    let user_velocity = od.load(s.profile_velocity).min(od.load(s.max_profile_velocity));
-    let velocity = factors
-        .limit_to_internal(user_velocity)
-        .min(factors.motor_speed_to_internal(od.load(s.max_motor_speed)));
-    let acceleration = od.load(s.profile_acceleration).min(od.load(s.max_acceleration));
-    let deceleration = od.load(s.profile_deceleration).min(od.load(s.max_deceleration));
-    let limits = Limits::new(
-        velocity,
-        factors.limit_to_internal(acceleration),
-        factors.limit_to_internal(deceleration),
-    );
-    match ProfileType::from_raw(od.load(s.motion_profile_type)) {
-        Some(ProfileType::JerkLimited) => {
-            let subs = [s.profile_jerk_1, s.profile_jerk_2, s.profile_jerk_3, s.profile_jerk_4]
-                .map(|slot| factors.limit_to_internal(od.load(slot)));
-            let jerks = Jerks::from_profile_jerk(od.load(s.profile_jerk_use), &subs)
-                .unwrap_or(Jerks::uniform(subs[0]));
-            limits.with_jerks(ProfileType::JerkLimited, jerks)
+/// The objects pp's motion limits come from (digest §9.5), as read from the dictionary: the
+/// profile converts them again only when one of them has changed.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct LimitObjects {
+    /// 6081h, 607Fh, 6080h.
+    velocities: (u32, u32, u32),
+    /// 6083h, 60C5h, 6084h, 60C6h.
+    ramps: (u32, u32, u32, u32),
+    /// 60A4h subs 1–4.
+    jerks: (u32, u32, u32, u32),
+    /// 6086h, 60A3h, 6082h.
+    kind: (i16, u8, u32),
+}
+
+impl LimitObjects {
+    /// The objects' present values.
+    pub(crate) fn read<const B: usize>(od: &Dictionary<B>, s: &Slots) -> Self {
+        LimitObjects {
+            velocities: (
+                od.load(s.profile_velocity),
+                od.load(s.max_profile_velocity),
+                od.load(s.max_motor_speed),
+            ),
+            ramps: (
+                od.load(s.profile_acceleration),
+                od.load(s.max_acceleration),
+                od.load(s.profile_deceleration),
+                od.load(s.max_deceleration),
+            ),
+            jerks: (
+                od.load(s.profile_jerk_1),
+                od.load(s.profile_jerk_2),
+                od.load(s.profile_jerk_3),
+                od.load(s.profile_jerk_4),
+            ),
+            kind: (od.load(s.motion_profile_type), od.load(s.profile_jerk_use), od.load(s.end_velocity)),
         }
-        _ => limits,
+    }
+
+    /// The motion limits of pp and of the stops in pp, and the end velocity 6082h, in
+    /// increments.
+    pub(crate) fn limits(&self, factors: &Factors) -> (Limits, u32) {
+        let (profile_velocity, max_profile_velocity, max_motor_speed) = self.velocities;
+        let velocity = factors
+            .limit_to_internal(profile_velocity.min(max_profile_velocity))
+            .min(factors.motor_speed_to_internal(max_motor_speed));
+        let (acceleration, max_acceleration, deceleration, max_deceleration) = self.ramps;
+        let limits = Limits::new(
+            velocity,
+            factors.limit_to_internal(acceleration.min(max_acceleration)),
+            factors.limit_to_internal(deceleration.min(max_deceleration)),
+        );
+        let (profile_type, jerk_use, end_velocity) = self.kind;
+        let limits = match ProfileType::from_raw(profile_type) {
+            Some(ProfileType::JerkLimited) => {
+                let (j1, j2, j3, j4) = self.jerks;
+                let subs = [j1, j2, j3, j4].map(|jerk| factors.limit_to_internal(jerk));
+                let jerks = Jerks::from_profile_jerk(jerk_use, &subs).unwrap_or(Jerks::uniform(subs[0]));
+                limits.with_jerks(ProfileType::JerkLimited, jerks)
+            }
+            _ => limits,
+        };
+        (limits, factors.limit_to_internal(end_velocity))
     }
 }
 
@@ -286,9 +332,7 @@ impl ProfilePosition {
 
     /// One tick of pp in Operation enabled (no FSA stop running).
     pub fn tick<const B: usize>(&mut self, input: &Inputs<'_, B>, halt_deceleration: u32) -> MotionState {
-        let od = input.od;
-        let limits = limits(od, input.slots, input.factors);
-        let end_velocity = input.factors.limit_to_internal(od.load(input.slots.end_velocity));
+        let (limits, end_velocity) = (input.limits, input.end_velocity);
         if input.new_setpoint {
             let setpoint = self.setpoint(input);
             let immediate = input.controlword & 0x0020 != 0;
@@ -322,10 +366,7 @@ impl ProfilePosition {
         // A velocity limit (607Fh, 6080h) lowered below the running plan's velocity holds at
         // once: the set-point is re-planned from the present state (a lower 6081h alone waits
         // for the next set-point, as CiA 402 has it).
-        let cap = input
-            .factors
-            .limit_to_internal(od.load(input.slots.max_profile_velocity))
-            .min(input.factors.motor_speed_to_internal(od.load(input.slots.max_motor_speed)));
+        let cap = input.velocity_cap;
         if !self.halted && self.active.is_some() && cap < self.planned_velocity {
             // Once per lowering, even when no plan fits (the old one then runs on).
             let _ = self.plan_active(&limits, end_velocity);

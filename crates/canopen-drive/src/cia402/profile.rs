@@ -49,6 +49,7 @@ use crate::comm::emcy::ErrorRegister;
 use crate::comm::ConnectionEvent;
 use crate::control::{Actual, Cascade, Parameters, Reference};
 use crate::hal::{Demand, DigitalInputs, FeedForward, HardwareFaults, Sample, Setpoint};
+use crate::motion::Limits;
 use crate::od::{AbortCode, Dictionary};
 use crate::time::{Duration, Instant};
 
@@ -190,6 +191,16 @@ pub struct Profile {
     /// A set-point arrived while the cyclic mode was not running ([`CycleStart::SetPoint`]):
     /// it is the target once the mode runs.
     held_set_point: bool,
+    /// [`Self::motion_limits`] for the raw values last seen (emptied with the factor group).
+    limits: Memo<(u32, u32, u32, u32, u32, u32), MotionLimits>,
+    /// The motion limits of this tick (from [`Self::motion_limits`], before the mode runs).
+    motion: MotionLimits,
+    /// The cyclic limiter's per-tick limits, with the maximum deceleration and with a halt's.
+    tick_limits: Memo<LimiterInputs, (TickLimits, TickLimits)>,
+    /// (Ticks per interpolation period, SYNC jitter tolerated in ticks) for 60C2h and 1007h.
+    timing: Memo<(u8, i8, u32), (u32, u32)>,
+    /// [`Self::pp_limits`] for the raw values last seen (emptied with the factor group).
+    pp_limits: Memo<pp::LimitObjects, (Limits, u32)>,
 }
 
 fn fault_code(faults: HardwareFaults) -> Option<(u16, ErrorRegister)> {
@@ -218,11 +229,85 @@ fn saturate(value: i64) -> i32 {
     value.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32
 }
 
-/// The velocity limit min(607Fh, 6080h) in increments/s.
-fn velocity_limit<const B: usize>(od: &Dictionary<B>, slots: &Slots, factors: &Factors) -> u32 {
-    factors
-        .limit_to_internal(od.load(slots.max_profile_velocity))
-        .min(factors.motor_speed_to_internal(od.load(slots.max_motor_speed)))
+/// The last result of a function of configuration values (the motion limits, the interpolation
+/// period), kept so that a tick converts and divides again only when one of its inputs has
+/// changed: those conversions are 64-bit divisions, library calls of about a hundred
+/// instructions each on a Cortex-M, and the values change only when a master writes them.
+#[derive(Clone, Copy, Debug)]
+struct Memo<K, V>(Option<(K, V)>);
+
+impl<K: Copy + PartialEq, V: Copy> Memo<K, V> {
+    const EMPTY: Self = Memo(None);
+
+    /// The value for `key`: the kept one, or `compute`'s, kept from now on.
+    #[inline]
+    fn get(&mut self, key: K, compute: impl FnOnce() -> V) -> V {
+        match self.0 {
+            Some((kept, value)) if kept == key => value,
+            _ => {
+                let value = compute();
+                self.0 = Some((key, value));
+                value
+            }
+        }
+    }
+}
+
+/// What the cyclic limiter's per-tick limits come from: velocity, acceleration, deceleration
+/// and a halt's deceleration in increments (per second, per second²), and the tick rate.
+type LimiterInputs = (u32, u32, u32, u32, u32);
+
+/// The motion limits in increments (per second, per second²): the objects through the factor
+/// group.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct MotionLimits {
+    /// min(607Fh, 6080h).
+    velocity: u32,
+    /// 60C5h.
+    acceleration: u32,
+    /// 60C6h.
+    deceleration: u32,
+    /// 6084h, at most 60C6h.
+    profile_deceleration: u32,
+    /// 6085h, at most 60C6h.
+    quick_stop_deceleration: u32,
+}
+
+impl MotionLimits {
+    const ZERO: Self = MotionLimits {
+        velocity: 0,
+        acceleration: 0,
+        deceleration: 0,
+        profile_deceleration: 0,
+        quick_stop_deceleration: 0,
+    };
+
+    /// From the raw values of 607Fh, 6080h, 60C5h, 60C6h, 6084h, 6085h.
+    fn convert(raw: (u32, u32, u32, u32, u32, u32), factors: &Factors) -> Self {
+        let (max_profile_velocity, max_motor_speed, acceleration, deceleration, profile, quick_stop) = raw;
+        let deceleration = factors.limit_to_internal(deceleration);
+        MotionLimits {
+            velocity: factors
+                .limit_to_internal(max_profile_velocity)
+                .min(factors.motor_speed_to_internal(max_motor_speed)),
+            acceleration: factors.limit_to_internal(acceleration),
+            deceleration,
+            profile_deceleration: factors.limit_to_internal(profile).min(deceleration),
+            quick_stop_deceleration: factors.limit_to_internal(quick_stop).min(deceleration),
+        }
+    }
+
+    /// The deceleration of a stop of `kind` (unlimited, but for 60C6h, where the ramp is not
+    /// the profile's).
+    fn stop_deceleration(&self, kind: StopKind) -> u32 {
+        match kind {
+            StopKind::SlowDown => self.profile_deceleration,
+            StopKind::QuickStopRamp => self.quick_stop_deceleration,
+            StopKind::CurrentLimit | StopKind::VoltageLimit | StopKind::Coast | StopKind::DynamicBrake => {
+                self.deceleration
+            }
+        }
+    }
 }
 
 impl Profile {
@@ -275,6 +360,11 @@ impl Profile {
             resting_since: None,
             blocked: (false, false),
             held_set_point: false,
+            limits: Memo::EMPTY,
+            motion: MotionLimits::ZERO,
+            tick_limits: Memo::EMPTY,
+            timing: Memo::EMPTY,
+            pp_limits: Memo::EMPTY,
         }
     }
 
@@ -756,34 +846,22 @@ impl Profile {
                 })
                 .flatten()
         });
-        let max_deceleration = factors.limit_to_internal(od.load(self.slots.max_deceleration));
-        let stop_deceleration = |kind: StopKind| -> u32 {
-            let user = match kind {
-                StopKind::SlowDown => od.load(self.slots.profile_deceleration),
-                StopKind::QuickStopRamp => od.load(self.slots.quick_stop_deceleration),
-                StopKind::CurrentLimit
-                | StopKind::VoltageLimit
-                | StopKind::Coast
-                | StopKind::DynamicBrake => u32::MAX,
-            };
-            factors.limit_to_internal(user).min(max_deceleration)
-        };
+        let limits = self.motion_limits(od, &factors);
+        let stop_deceleration = |kind: StopKind| limits.stop_deceleration(kind);
+        let (max_deceleration, max_acceleration) = (limits.deceleration, limits.acceleration);
         let hz = self.config.tick_rate.hz();
-        let vmax = velocity_limit(od, &self.slots, &factors);
-        let max_acceleration = factors.limit_to_internal(od.load(self.slots.max_acceleration));
+        let vmax = limits.velocity;
         if let Some(kind) = stop.filter(|_| !self.stopping) {
             if super::VL && self.active_mode == vl::MODE {
                 self.vl.stop(kind);
             } else if matches!(self.active_mode, mode::CYCLIC_POSITION | mode::INTERPOLATED_POSITION) {
                 self.limiter.stop(&TickLimits::new(vmax, max_acceleration, stop_deceleration(kind), hz));
             } else if super::HM && self.active_mode == mode::HOMING {
-                self.homing.stop(
-                    self.pp.planner_mut(),
-                    stop_deceleration(kind),
-                    &pp::limits(od, &self.slots, &factors),
-                );
+                let limits = self.pp_limits(od, &factors).0;
+                self.homing.stop(self.pp.planner_mut(), stop_deceleration(kind), &limits);
             } else if super::PP && self.position_mode() {
-                self.pp.stop(stop_deceleration(kind), &pp::limits(od, &self.slots, &factors));
+                let limits = self.pp_limits(od, &factors).0;
+                self.pp.stop(stop_deceleration(kind), &limits);
             } else {
                 self.velocity = Ramp { value: i64::from(sample.velocity), remainder: 0 };
             }
@@ -839,9 +917,7 @@ impl Profile {
                 self.limiter.tick(0, &TickLimits::new(vmax, max_acceleration, max_deceleration, hz));
                 Setpoint::Position(self.limiter.position() as i32)
             }
-            Some(_) if super::VL && self.active_mode == vl::MODE => {
-                self.run_vl(od, &factors, controlword, sample, dt)
-            }
+            Some(_) if super::VL && self.active_mode == vl::MODE => self.run_vl(od, controlword, sample, dt),
             Some(_) if super::HM && self.active_mode == mode::HOMING => {
                 Setpoint::Position(self.homing.step_stop(self.pp.planner_mut()).position_demand())
             }
@@ -925,13 +1001,12 @@ impl Profile {
                 }
             }
             None if super::VL && drive_enabled && self.active_mode == vl::MODE => {
-                self.run_vl(od, &factors, controlword, sample, dt)
+                self.run_vl(od, controlword, sample, dt)
             }
             None if super::IP && drive_enabled && self.active_mode == mode::INTERPOLATED_POSITION => {
                 let halt_kind =
                     StopKind::halt_or_fault(od.load(self.slots.halt_option)).unwrap_or(StopKind::SlowDown);
-                let limits = TickLimits::new(vmax, max_acceleration, max_deceleration, hz);
-                let halt_limits = TickLimits::new(vmax, max_acceleration, stop_deceleration(halt_kind), hz);
+                let (limits, halt_limits) = self.cyclic_limits(&limits, stop_deceleration(halt_kind));
                 let input = CyclicInput { cycle, halt, factors: &factors, dt, limits, halt_limits };
                 let setpoint = self.run_ip(od, &input, controlword);
                 if self.ip_active {
@@ -947,8 +1022,7 @@ impl Profile {
             None if drive_enabled && self.cyclic_mode() => {
                 let halt_kind =
                     StopKind::halt_or_fault(od.load(self.slots.halt_option)).unwrap_or(StopKind::SlowDown);
-                let limits = TickLimits::new(vmax, max_acceleration, max_deceleration, hz);
-                let halt_limits = TickLimits::new(vmax, max_acceleration, stop_deceleration(halt_kind), hz);
+                let (limits, halt_limits) = self.cyclic_limits(&limits, stop_deceleration(halt_kind));
                 let input = CyclicInput { cycle, halt, factors: &factors, dt, limits, halt_limits };
                 self.run_cyclic(od, &input, &mut report)
             }
@@ -957,8 +1031,10 @@ impl Profile {
                 if (positive_blocked && moving > 0) || (negative_blocked && moving < 0) {
                     // Running into an active limit switch: stopped on the quick-stop ramp.
                     let deceleration = stop_deceleration(StopKind::QuickStopRamp);
-                    self.pp.stop(deceleration, &pp::limits(od, &self.slots, &factors));
+                    let limits = self.pp_limits(od, &factors).0;
+                    self.pp.stop(deceleration, &limits);
                 }
+                let (pp_limits, end_velocity) = self.pp_limits(od, &factors);
                 let inputs = pp::Inputs {
                     od,
                     factors: &factors,
@@ -975,6 +1051,9 @@ impl Profile {
                     },
                     standstill,
                     now,
+                    limits: pp_limits,
+                    end_velocity,
+                    velocity_cap: vmax,
                 };
                 let halt_kind =
                     StopKind::halt_or_fault(od.load(self.slots.halt_option)).unwrap_or(StopKind::SlowDown);
@@ -1109,11 +1188,47 @@ impl Profile {
         (demand, report)
     }
 
+    /// The motion limits in increments, converted again only when one of their objects (or
+    /// the factor group) has changed; also [`Self::motion`] for the rest of the tick.
+    fn motion_limits<const B: usize>(&mut self, od: &Dictionary<B>, factors: &Factors) -> MotionLimits {
+        let raw = (
+            od.load(self.slots.max_profile_velocity),
+            od.load(self.slots.max_motor_speed),
+            od.load(self.slots.max_acceleration),
+            od.load(self.slots.max_deceleration),
+            od.load(self.slots.profile_deceleration),
+            od.load(self.slots.quick_stop_deceleration),
+        );
+        self.motion = self.limits.get(raw, || MotionLimits::convert(raw, factors));
+        self.motion
+    }
+
+    /// pp's motion limits ([`pp::LimitObjects::limits`]) and its end velocity 6082h in increments, converted
+    /// again only when one of their objects (or the factor group) has changed.
+    fn pp_limits<const B: usize>(&mut self, od: &Dictionary<B>, factors: &Factors) -> (Limits, u32) {
+        let objects = pp::LimitObjects::read(od, &self.slots);
+        self.pp_limits.get(objects, || objects.limits(factors))
+    }
+
+    /// The cyclic limiter's per-tick limits: with the maximum deceleration, and with a halt's.
+    fn cyclic_limits(&mut self, limits: &MotionLimits, halt_deceleration: u32) -> (TickLimits, TickLimits) {
+        let hz = self.config.tick_rate.hz();
+        let key = (limits.velocity, limits.acceleration, limits.deceleration, halt_deceleration, hz);
+        self.tick_limits.get(key, || {
+            (
+                TickLimits::new(limits.velocity, limits.acceleration, limits.deceleration, hz),
+                TickLimits::new(limits.velocity, limits.acceleration, halt_deceleration, hz),
+            )
+        })
+    }
+
     /// Reads the parameters cached between writes: the factor group and the cascade's gains
     /// (the integrator is kept across a re-tuning).
     fn refresh<const B: usize>(&mut self, od: &Dictionary<B>) -> Factors {
         let factors = Factors::from_od_in(od, self.config.units);
         self.factors = Some(factors);
+        self.limits = Memo::EMPTY;
+        self.pp_limits = Memo::EMPTY;
         self.slots = Slots::resolve(od);
         if let Some(index) = self.config.cascade {
             let parameters = Parameters::from_dictionary(od, index).unwrap_or(Parameters::DEFAULT);
@@ -1162,12 +1277,14 @@ impl Profile {
         od: &mut Dictionary<B>,
         factors: &Factors,
     ) -> Setpoint {
-        let Some(cascade) = self.cascade.as_mut() else {
+        if self.cascade.is_none() {
             od.store(self.slots.control_effort, 0);
             return setpoint;
-        };
+        }
+        let velocity_limit = self.motion.velocity;
+        let Some(cascade) = self.cascade.as_mut() else { return setpoint };
         let torque_limit = od.load(self.slots.max_torque).min(od.load(self.slots.max_current));
-        cascade.set_limits(velocity_limit(od, &self.slots, factors), torque_limit);
+        cascade.set_limits(velocity_limit, torque_limit);
         let actual = Actual::from(sample);
         let output = match setpoint {
             Setpoint::Position(position) => {
@@ -1240,7 +1357,6 @@ impl Profile {
     fn run_vl<const B: usize>(
         &mut self,
         od: &mut Dictionary<B>,
-        factors: &Factors,
         controlword: u16,
         sample: &Sample,
         dt: Duration,
@@ -1250,7 +1366,7 @@ impl Profile {
             resolution: vl::Resolution::from_od(od),
             controlword,
             halt: StopKind::halt_or_fault(od.load(self.slots.halt_option)).unwrap_or(StopKind::SlowDown),
-            velocity_limit: velocity_limit(od, &self.slots, factors),
+            velocity_limit: self.motion.velocity,
             actual_velocity: i64::from(sample.velocity),
             dt,
         };
@@ -1262,15 +1378,17 @@ impl Profile {
     }
 
     /// Ticks per interpolation period (60C2h) and the SYNC jitter tolerated.
-    fn cycle_timing<const B: usize>(&self, od: &Dictionary<B>) -> (u32, u32) {
+    fn cycle_timing<const B: usize>(&mut self, od: &Dictionary<B>) -> (u32, u32) {
         let hz = u64::from(self.config.tick_rate.hz());
         let value = od.load_or(self.slots.interpolation_period_value, 1);
         let index = od.load_or(self.slots.interpolation_period_index, -3);
-        let period_us = period_micros(value, index);
-        let period_ticks = ((period_us * hz + 500_000) / 1_000_000).clamp(1, u64::from(u32::MAX)) as u32;
-        let window_us = u64::from(od.load(self.slots.sync_window));
-        let window_ticks = (window_us * hz / 1_000_000).min(u64::from(u32::MAX)) as u32;
-        (period_ticks, window_ticks.max(period_ticks / 2))
+        let window_us: u32 = od.load(self.slots.sync_window);
+        self.timing.get((value, index, window_us), || {
+            let period_us = period_micros(value, index);
+            let period_ticks = ((period_us * hz + 500_000) / 1_000_000).clamp(1, u64::from(u32::MAX)) as u32;
+            let window_ticks = (u64::from(window_us) * hz / 1_000_000).min(u64::from(u32::MAX)) as u32;
+            (period_ticks, window_ticks.max(period_ticks / 2))
+        })
     }
 
     /// One tick of interpolated position mode (digest §12): while controlword bit 4 is 1 each
@@ -1384,13 +1502,13 @@ impl Profile {
                 self.cyclic_limited = self.limiter.tick_fixed(self.interpolator.value_fixed(), &input.limits);
                 let trajectory = self.limiter.velocity(hz);
                 // (A limit lowered below the running velocity: the limiter ramps down to it.)
-                let bound = i64::from(velocity_limit(od, &self.slots, factors)).max(trajectory.abs());
+                let bound = i64::from(self.motion.velocity).max(trajectory.abs());
                 let velocity = trajectory.saturating_add(velocity_offset).clamp(-bound, bound);
                 self.feed_forward = FeedForward { velocity: saturate(velocity), torque: torque_feed_forward };
                 Setpoint::Position(self.limiter.position() as i32)
             }
             mode::CYCLIC_VELOCITY => {
-                let limit = i64::from(velocity_limit(od, &self.slots, factors));
+                let limit = i64::from(self.motion.velocity);
                 let wanted = value.saturating_add(velocity_offset);
                 let clamped = wanted.clamp(-limit, limit);
                 let speeding_up = clamped.abs() > self.velocity.value.abs();
@@ -1449,7 +1567,7 @@ impl Profile {
     ) -> Setpoint {
         match self.active_mode {
             mode::PROFILE_VELOCITY => {
-                let limit = i64::from(velocity_limit(od, &self.slots, factors));
+                let limit = i64::from(self.motion.velocity);
                 let target_user = i64::from(od.load(self.slots.target_velocity)) * factors.velocity_sign();
                 let mut target = factors.velocity_to_internal(target_user).clamp(-limit, limit);
                 let (positive_blocked, negative_blocked) = self.blocked;
