@@ -77,7 +77,7 @@ mod runner;
 mod shared;
 mod tick;
 
-pub use runner::{run, CanRx, CanTx};
+pub use runner::{run, run_until_bit_rate_change, BusState, CanRx, CanTx, RunnerHooks, BUS_STATE_PERIOD};
 pub use shared::{Endpoints, SharedDrive};
 pub use tick::{run_tick, TickMonitor};
 
