@@ -84,10 +84,10 @@ pub const BUS_STATE_PERIOD: Duration = Duration::from_millis(1);
 /// [`SharedDrive`].
 pub trait RunnerHooks {
     /// The CAN controller's error state now, when the driver can tell (e.g.
-    /// `fdcan::FdcanStatus::bus_state` with the `stm32-fdcan` feature). Asked every [`BUS_STATE_PERIOD`]; each change goes to the drive
-    /// (`Drive::on_can_state`: EMCY 8120h while error passive, the 1029h reaction at bus-off,
-    /// EMCY 8140h once recovered). The default, `None`, means the driver cannot tell: the
-    /// runner stops asking.
+    /// `fdcan::FdcanStatus::bus_state` with the `stm32-fdcan` feature). Asked every
+    /// [`BUS_STATE_PERIOD`]; each change goes to the drive (`Drive::on_can_state`: EMCY 8120h
+    /// while error passive, the 1029h reaction at bus-off, EMCY 8140h once recovered). The
+    /// default, `None`, means the driver cannot tell: the runner stops asking.
     fn bus_state(&mut self) -> Option<BusState> {
         None
     }
@@ -124,10 +124,10 @@ impl<H: RunnerHooks + ?Sized> RunnerHooks for &mut H {
 ///   a frame the driver cannot represent is dropped.
 ///
 /// Receive errors of kind [`ErrorKind::Overrun`] are reported to the drive
-/// ([`CanState::Overrun`], EMCY 8110h); others are ignored. Bit-rate changes and LSS stores
-/// stay in the drive (`Drive::take_bit_rate_change`, `Drive::take_lss_store` through
-/// [`SharedDrive::with`]) and the controller's error state is not watched: a board with a
-/// driver that can switch its bit rate or read its error state runs
+/// ([`CanState::Overrun`], EMCY 8110h); others are ignored. Transmit errors drop the frame.
+/// Bit-rate changes and LSS stores stay in the drive (`Drive::take_bit_rate_change`,
+/// `Drive::take_lss_store` through [`SharedDrive::with`]) and the controller's error state is
+/// not watched: a board with a driver that can switch its bit rate or read its error state runs
 /// [`run_until_bit_rate_change`] instead.
 pub async fn run<D: Endpoints, R: CanRx, T: CanTx>(drive: &SharedDrive<D>, mut rx: R, mut tx: T) -> ! {
     serve::<D, R, T, ()>(drive, &mut rx, &mut tx, None).await;
