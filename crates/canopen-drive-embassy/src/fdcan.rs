@@ -9,7 +9,8 @@
 //! embassy-stm32 compiles only with one chip feature, and this crate does not pick it: the
 //! firmware depends on embassy-stm32 itself with its chip (and its time driver, `defmt`, …)
 //! and cargo unifies the two. The chip must have an FDCAN (embassy-stm32's `can_fdcan_v1` or
-//! `can_fdcan_h7` peripheral, e.g. the STM32G0B/G0C, G4, H5, H7, L5 and U5 families).
+//! `can_fdcan_h7` peripheral, as on the STM32G4 and H7 families); the crate's own checks and
+//! its docs.rs page use the STM32G431CB.
 //!
 //! ```toml
 //! [dependencies]
