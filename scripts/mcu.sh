@@ -32,8 +32,13 @@ if [ ! -x .venv/bin/python ]; then
 fi
 .venv/bin/pip install --quiet --disable-pip-version-check -r tests/python/requirements.txt
 
-step "canopen-drive-embassy: docs (its tests and lints run in scripts/test.sh's workspace steps)"
+step "canopen-drive-embassy: docs (its tests and lints run in scripts/test.sh's workspace steps), and its feature stm32-fdcan for one FDCAN chip, as docs.rs builds it"
 RUSTDOCFLAGS="-D warnings" cargo doc --no-deps -p canopen-drive-embassy
+# embassy-stm32 builds only with a chip feature, which the crate leaves to the firmware.
+fdcan_features=stm32-fdcan,embassy-stm32/stm32g431cb
+cargo clippy -p canopen-drive-embassy --features "$fdcan_features" --target thumbv7em-none-eabihf -- -D warnings
+RUSTC_BOOTSTRAP=1 RUSTDOCFLAGS="--cfg docsrs -D warnings" \
+    cargo doc --no-deps -p canopen-drive-embassy --features "$fdcan_features" --target thumbv7em-none-eabihf
 
 step "rustfmt of the firmware crates"
 for crate in boards/qemu-mps2 benches/footprint boards/b-g431b-esc1; do

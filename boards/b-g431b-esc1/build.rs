@@ -4,10 +4,10 @@
 //! linker resolves cortex-m-rt's `INCLUDE memory.x` from its working directory first, so one
 //! there would win over this one.
 //!
-//! | feature | flash | RAM | parameter pages (end of flash) |
+//! | feature | flash | RAM | kept from the linker (end of flash): LSS page, parameter pages |
 //! |---|---|---|---|
-//! | `stm32g431cb` (the board's part) | 128 KiB | 32 KiB | 2 × 2 KiB |
-//! | `stm32g474ce` (pin-compatible) | 512 KiB | 128 KiB | 4 × 2 KiB (dual-bank mode) |
+//! | `stm32g431cb` (the board's part) | 128 KiB | 32 KiB | 2 KiB, 2 × 2 KiB |
+//! | `stm32g474ce` (pin-compatible) | 512 KiB | 128 KiB | 2 KiB, 4 × 2 KiB (dual-bank mode) |
 
 use std::env;
 use std::fs;
@@ -19,11 +19,14 @@ fn main() {
     // (flash KiB, RAM KiB, parameter area KiB); the RAM of both parts is contiguous from
     // 0x2000_0000 (SRAM1, SRAM2, CCM SRAM).
     let (flash, ram, parameters) = if g474 { (512, 128, 8) } else { (128, 32, 4) };
+    // The LSS configuration page, right below the parameters (src/lss.rs).
+    let lss = 2;
     let memory = format!(
         "/* Written by build.rs. The last {parameters} KiB of flash hold the stored parameters\n   \
-         (src/storage.rs) and are not given to the linker. */\n\
+         (src/storage.rs), the {lss} KiB below them the LSS configuration (src/lss.rs); neither\n   \
+         is given to the linker. */\n\
          MEMORY\n{{\n  FLASH : ORIGIN = 0x08000000, LENGTH = {}K\n  RAM   : ORIGIN = 0x20000000, LENGTH = {ram}K\n}}\n",
-        flash - parameters
+        flash - parameters - lss
     );
     let out = PathBuf::from(env::var_os("OUT_DIR").unwrap_or_default());
     if let Err(e) = fs::write(out.join("memory.x"), memory) {

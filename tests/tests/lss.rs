@@ -5,7 +5,7 @@
 use canopen_drive::comm::NmtState;
 use canopen_drive::drive::BitRateChange;
 use canopen_drive::od::DeviceInfo;
-use canopen_drive::wire::lss::BitTiming;
+use canopen_drive::wire::lss::{BitRate, BitTiming};
 use canopen_drive::{CanFrame, Config, Drive, Duration};
 use canopen_drive_sim::bus::NodeHandle;
 use canopen_drive_sim::{DriveNode, VirtualBus};
@@ -145,6 +145,26 @@ fn bit_timing_and_store_configuration() {
     let change =
         BitRateChange { bit_timing: BitTiming { table_selector: 0, table_index: 2 }, switch_delay_ms: 100 };
     assert_eq!(drive(&mut bus, with_store).take_bit_rate_change(), Some(change));
+}
+
+#[test]
+fn configure_bit_timing_accepts_only_the_rates_the_board_can_run() {
+    let mut bus = VirtualBus::new();
+    // A board whose CAN clock divides into 500 and 250 kbit/s only.
+    let config =
+        Config { device: device(3), lss_bit_rates: &[BitRate::Kbit500, BitRate::Kbit250], ..Config::new(5) };
+    let node = bus.add_node(DriveNode::new(Drive::new(config).unwrap(), Duration::from_millis(1)));
+    bus.advance(Duration::ZERO).unwrap();
+    bus.drain_received_frames();
+    lss(&mut bus, cmd(0x04, &[1]));
+    assert_eq!(lss(&mut bus, cmd(0x13, &[0, 3])).0, vec![cmd(0x13, &[0])], "250 kbit/s");
+    assert_eq!(lss(&mut bus, cmd(0x13, &[0, 1])).0, vec![cmd(0x13, &[1])], "800 kbit/s: not supported");
+    assert_eq!(lss(&mut bus, cmd(0x13, &[0, 0])).0, vec![cmd(0x13, &[1])], "1000 kbit/s: not supported");
+    assert_eq!(lss(&mut bus, cmd(0x13, &[1, 3])).0, vec![cmd(0x13, &[1])], "another table");
+    // The refusals left the accepted rate pending: activation switches to 250 kbit/s.
+    lss(&mut bus, cmd(0x15, &50u16.to_le_bytes()));
+    let change = drive(&mut bus, node).take_bit_rate_change().map(|c| c.bit_timing.standard_rate());
+    assert_eq!(change, Some(Some(BitRate::Kbit250)));
 }
 
 /// One fastscan run (digest §12.4) by a master: returns the identity found, if any.

@@ -1,66 +1,54 @@
-//! FDCAN1 in classic CAN mode, adapted to `canopen-drive-embassy`'s driver traits.
-//! embassy-stm32's FDCAN driver offers async `read`/`write` on split halves; these wrappers
-//! only map its bus errors to `embedded_can::ErrorKind`.
+//! The board's CAN: FDCAN1 on the CAN connector (PA11 RX, PB9 TX) in classic CAN mode, its
+//! kernel clock 85 MHz (PLL Q, `power::clocks`), the bit rates that clock divides into. The
+//! driver itself is `canopen-drive-embassy`'s (`fdcan`, feature `stm32-fdcan`).
 
-use embassy_stm32::can::enums::BusError;
-use embassy_stm32::can::{CanConfigurator, CanRx, CanTx, Frame, IT0InterruptHandler, IT1InterruptHandler};
-use embassy_stm32::interrupt::typelevel::{Binding, FDCAN1_IT0, FDCAN1_IT1};
+use canopen_drive::wire::lss::{BitRate, BitTiming};
+use canopen_drive_embassy::fdcan::{self, FdcanRx, FdcanStatus, FdcanTx, NoBitTiming};
 use embassy_stm32::peripherals::{FDCAN1, PA11, PB9};
-use embassy_stm32::Peri;
-use embedded_can::ErrorKind;
+use embassy_stm32::{bind_interrupts, peripherals, Peri};
 
-/// Bit rate of the bus.
-pub const BITRATE: u32 = 500_000;
+bind_interrupts!(struct Irqs {
+    FDCAN1_IT0 => embassy_stm32::can::IT0InterruptHandler<peripherals::FDCAN1>;
+    FDCAN1_IT1 => embassy_stm32::can::IT1InterruptHandler<peripherals::FDCAN1>;
+});
 
-/// The receiving half.
-pub struct FdcanRx(CanRx<'static>);
-/// The transmitting half.
-pub struct FdcanTx(CanTx<'static>);
+/// The bit rate without a stored LSS configuration, bit/s.
+pub const DEFAULT_BIT_RATE: u32 = 500_000;
 
-/// Configures FDCAN1 (classic frames, `BITRATE`, normal mode) and splits it.
-pub fn start(
-    fdcan: Peri<'static, FDCAN1>,
-    rx: Peri<'static, PA11>,
-    tx: Peri<'static, PB9>,
-    irqs: impl Binding<FDCAN1_IT0, IT0InterruptHandler<FDCAN1>>
-        + Binding<FDCAN1_IT1, IT1InterruptHandler<FDCAN1>>
-        + 'static,
-) -> (FdcanRx, FdcanTx) {
-    let mut can = CanConfigurator::new(fdcan, rx, tx, irqs);
-    can.set_bitrate(BITRATE);
-    let can = can.into_normal_mode();
-    let (tx, rx, _properties) = can.split();
-    (FdcanRx(rx), FdcanTx(tx))
+/// The rates of the CiA 305 standard table the 85 MHz kernel clock divides into exactly
+/// (`fdcan::nominal_bit_timing`): all fixed rates but 800 kbit/s (106.25 clock cycles per
+/// bit). LSS configure bit timing refuses the others (`Config::lss_bit_rates`).
+pub const BIT_RATES: [BitRate; 7] = [
+    BitRate::Kbit1000,
+    BitRate::Kbit500,
+    BitRate::Kbit250,
+    BitRate::Kbit125,
+    BitRate::Kbit50,
+    BitRate::Kbit20,
+    BitRate::Kbit10,
+];
+
+/// The controller and its pins, kept by the CAN task so that it can reopen the controller at
+/// another bit rate.
+pub struct Pins {
+    /// The controller.
+    pub fdcan: Peri<'static, FDCAN1>,
+    /// FDCAN1_RX.
+    pub rx: Peri<'static, PA11>,
+    /// FDCAN1_TX.
+    pub tx: Peri<'static, PB9>,
 }
 
-fn kind(error: BusError) -> ErrorKind {
-    match error {
-        BusError::Stuff => ErrorKind::Stuff,
-        BusError::Form => ErrorKind::Form,
-        BusError::Acknowledge => ErrorKind::Acknowledge,
-        BusError::BitRecessive | BusError::BitDominant => ErrorKind::Bit,
-        BusError::Crc => ErrorKind::Crc,
-        BusError::Software => ErrorKind::Other,
+impl Pins {
+    /// Opens FDCAN1 at `bit_rate` (classic frames, normal operation) and splits it for the
+    /// runner. Dropping both halves closes it again.
+    pub fn open(&mut self, bit_rate: u32) -> Result<(FdcanRx<'_>, FdcanTx<'_>, FdcanStatus), NoBitTiming> {
+        fdcan::start(self.fdcan.reborrow(), self.rx.reborrow(), self.tx.reborrow(), Irqs, bit_rate)
     }
 }
 
-impl canopen_drive_embassy::CanRx for FdcanRx {
-    type Frame = Frame;
-    type Error = ErrorKind;
-
-    async fn receive(&mut self) -> Result<Frame, ErrorKind> {
-        self.0.read().await.map(|envelope| envelope.frame).map_err(kind)
-    }
-}
-
-impl canopen_drive_embassy::CanTx for FdcanTx {
-    type Frame = Frame;
-    type Error = ErrorKind;
-
-    async fn transmit(&mut self, frame: &Frame) -> Result<(), ErrorKind> {
-        // A displaced lower-priority frame is the controller's policy; the drive's own queue
-        // keeps the order of what it sends.
-        let _displaced = self.0.write(frame).await;
-        Ok(())
-    }
+/// The bit rate (bit/s) of an LSS bit timing, if it is one of [`BIT_RATES`].
+pub fn bit_rate(bit_timing: BitTiming) -> Option<u32> {
+    let rate = bit_timing.standard_rate().filter(|rate| BIT_RATES.contains(rate))?;
+    rate.kbit_per_s().map(|kbit| u32::from(kbit) * 1000)
 }

@@ -1,14 +1,15 @@
 //! # canopen-drive on ST's B-G431B-ESC1
 //!
 //! The drive on a real motor-control board: STM32G431CB at 170 MHz, FDCAN1 in classic CAN
-//! mode on the board's CAN connector (PA11 RX, PB9 TX, 500 kbit/s), parameters (1010h/1011h)
-//! in the last two pages of internal flash, embassy-stm32.
+//! mode on the board's CAN connector (PA11 RX, PB9 TX, 500 kbit/s until an LSS master stores
+//! another rate), parameters (1010h/1011h) in the last two pages of internal flash and the
+//! LSS configuration in the page below, embassy-stm32.
 //!
 //! | context | priority | does |
 //! |---|---|---|
 //! | `InterruptExecutor` on UART4's (unused) interrupt | P1, above everything else the firmware runs | the 1 kHz control tick: sample the feedback, `SharedDrive::tick`, apply the demand to the power stage |
 //! | FDCAN1 interrupts | embassy-stm32's | the HAL's receive queue and transmit wakers |
-//! | thread-mode executor | lowest | the CAN runner: FDCAN ⇄ drive, `poll` at its deadline |
+//! | thread-mode executor | lowest | the CAN runner: FDCAN ⇄ drive, `poll` at its deadline, the controller's error state to the drive, an LSS store to flash, and the bit-rate switch an LSS master activates (FDCAN1 closed and reopened) |
 //!
 //! The discipline is `canopen-drive-embassy`'s (one critical section per call into the
 //! drive). What is the board's to complete is marked `BOARD STUB` in `power.rs`: the FOC
@@ -16,37 +17,37 @@
 //! `cargo run --release` (probe-rs over the on-board ST-LINK).
 //!
 //! Modes: the STM32G431CB's 128 KiB hold the drive with csp, csv, cst, pv and tq (the
-//! default build, about 109 KiB; 6502h lists those); the trajectory planner of pp and hm does
+//! default build, about 113 KiB; 6502h lists those); the trajectory planner of pp and hm does
 //! not fit besides. The feature `stm32g474ce` builds the same firmware for the pin-compatible
 //! STM32G474CE (512 KiB / 128 KiB) with every mode. README.md has the numbers.
 #![no_std]
 #![no_main]
 
 mod can;
+mod lss;
 mod power;
 mod storage;
 
 use canopen_drive::od::DeviceInfo;
+use canopen_drive::wire::lss::BitTiming;
 use canopen_drive::{Config, Drive};
-use canopen_drive_embassy::{SharedDrive, TickMonitor};
+use canopen_drive_embassy::fdcan::FdcanStatus;
+use canopen_drive_embassy::{run_until_bit_rate_change, BusState, RunnerHooks, SharedDrive, TickMonitor};
 use defmt_rtt as _;
 use embassy_executor::{InterruptExecutor, Spawner};
+use embassy_stm32::flash::Flash;
+use embassy_stm32::interrupt;
 use embassy_stm32::interrupt::{InterruptExt, Priority};
-use embassy_stm32::{bind_interrupts, interrupt, peripherals};
-use embassy_time::Duration;
+use embassy_time::{Duration, Timer};
+use lss::LssConfig;
 use panic_probe as _;
 use static_cell::StaticCell;
-
-bind_interrupts!(struct Irqs {
-    FDCAN1_IT0 => embassy_stm32::can::IT0InterruptHandler<peripherals::FDCAN1>;
-    FDCAN1_IT1 => embassy_stm32::can::IT1InterruptHandler<peripherals::FDCAN1>;
-});
 
 /// The drive of this board: no manufacturer objects yet (a dictionary store sized to the
 /// standard tables), 4 + 4 PDOs, parameters in flash.
 pub type BoardDrive = Drive<(), { canopen_drive::drive::STANDARD_OD_BYTES }, 4, 4, storage::ParameterStore>;
 
-/// Node-ID until LSS or a stored configuration says otherwise.
+/// Node-ID until an LSS master stores another (`lss.rs`).
 const NODE_ID: u8 = 5;
 /// Layout number of the stored parameters (part of the storage signature).
 const STORAGE_LAYOUT: u16 = 1;
@@ -78,8 +79,13 @@ fn device_info() -> DeviceInfo {
 }
 
 #[inline(never)]
-fn make_drive(store: storage::ParameterStore) -> Option<&'static mut BoardDrive> {
-    let config = Config { device: device_info(), ..Config::new(NODE_ID) };
+fn make_drive(store: storage::ParameterStore, node_id: u8) -> Option<&'static mut BoardDrive> {
+    let config = Config {
+        device: device_info(),
+        lss_store: true,
+        lss_bit_rates: &can::BIT_RATES,
+        ..Config::new(node_id)
+    };
     // Built in place: a drive built by value and moved would need several times its size
     // of stack, more than this part's 32 KiB of RAM.
     Drive::build_in(DRIVE_CELL.uninit(), config, (), store).ok()
@@ -88,12 +94,21 @@ fn make_drive(store: storage::ParameterStore) -> Option<&'static mut BoardDrive>
 #[embassy_executor::main]
 async fn main(spawner: Spawner) {
     let p = embassy_stm32::init(power::clocks());
-    defmt::info!("canopen-drive on B-G431B-ESC1, node {}", NODE_ID);
+    let mut flash = Flash::new_blocking(p.FLASH);
+    let stored = lss::load(&mut flash);
+    let node_id = stored.map_or(NODE_ID, |s| s.node_id);
+    let bit_rate = stored.and_then(|s| s.bit_timing).and_then(can::bit_rate).unwrap_or(can::DEFAULT_BIT_RATE);
+    defmt::info!(
+        "canopen-drive on B-G431B-ESC1, node {}, {} bit/s (LSS store: {})",
+        node_id,
+        bit_rate,
+        stored
+    );
 
-    let Some(store) = storage::open(p.FLASH, &device_info(), STORAGE_LAYOUT) else {
+    let Some(store) = storage::open(flash, &device_info(), STORAGE_LAYOUT) else {
         defmt::panic!("parameter flash area");
     };
-    let Some(drive) = make_drive(store) else {
+    let Some(drive) = make_drive(store, node_id) else {
         defmt::panic!("drive configuration");
     };
     DRIVE.put(drive);
@@ -113,7 +128,7 @@ async fn main(spawner: Spawner) {
         encoder_b: p.PB7,
     });
 
-    let (rx, tx) = can::start(p.FDCAN1, p.PA11, p.PB9, Irqs);
+    let can = can::Pins { fdcan: p.FDCAN1, rx: p.PA11, tx: p.PB9 };
 
     // The tick preempts the runner (thread mode) and every lower-priority interrupt.
     interrupt::UART4.set_priority(Priority::P1);
@@ -122,15 +137,67 @@ async fn main(spawner: Spawner) {
         Ok(token) => tick_spawner.spawn(token),
         Err(_) => defmt::panic!("tick task"),
     }
-    match can_task(rx, tx) {
+    match can_task(can, Board { status: None, stored }, bit_rate) {
         Ok(token) => spawner.spawn(token),
         Err(_) => defmt::panic!("CAN task"),
     }
 }
 
+/// The CAN runner, and the bit-rate switches an LSS master activates (CiA 305): the runner
+/// ends at the activation; the old rate is kept for a switch delay (the other nodes finish),
+/// FDCAN1 is closed and reopened at the new rate and stays silent for another switch delay.
 #[embassy_executor::task]
-async fn can_task(rx: can::FdcanRx, tx: can::FdcanTx) {
-    canopen_drive_embassy::run(&DRIVE, rx, tx).await
+async fn can_task(mut can: can::Pins, mut board: Board, mut bit_rate: u32) {
+    let mut quiet = Duration::from_ticks(0);
+    loop {
+        let (mut rx, mut tx, status) = match can.open(bit_rate) {
+            Ok(halves) => halves,
+            Err(e) => {
+                defmt::panic!("no FDCAN bit timing for {} bit/s from {} Hz", e.bit_rate, e.kernel_clock)
+            }
+        };
+        board.status = Some(status);
+        Timer::after(quiet).await;
+        let change = run_until_bit_rate_change(&DRIVE, &mut rx, &mut tx, &mut board).await;
+        // The drive accepts only rates of can::BIT_RATES (Config::lss_bit_rates).
+        let next = can::bit_rate(change.bit_timing).unwrap_or(bit_rate);
+        defmt::info!("LSS: {} bit/s in {} ms", next, change.switch_delay_ms);
+        quiet = Duration::from_millis(change.switch_delay_ms.into());
+        Timer::after(quiet).await;
+        board.status = None;
+        bit_rate = next;
+        // rx and tx are dropped here: FDCAN1 is closed.
+    }
+}
+
+/// The board's part of LSS and CAN error handling, for the runner.
+struct Board {
+    /// FDCAN1's error state, while it is open.
+    status: Option<FdcanStatus>,
+    /// The LSS configuration in flash.
+    stored: Option<LssConfig>,
+}
+
+impl RunnerHooks for Board {
+    fn bus_state(&mut self) -> Option<BusState> {
+        self.status.as_ref().map(FdcanStatus::bus_state)
+    }
+
+    fn store_lss(&mut self, node_id: u8, bit_timing: Option<BitTiming>) {
+        // No bit timing configured since start-up: the stored one stays.
+        let bit_timing = bit_timing.or(self.stored.and_then(|s| s.bit_timing));
+        let config = LssConfig { node_id, bit_timing };
+        // The drive owns the flash (the parameter storage); the page is outside its area.
+        // A page erase (once every 256 stores) holds the critical section for about 20 ms.
+        match DRIVE.with(|d| lss::store(d.storage_mut().area_mut().flash_mut(), &config)) {
+            Some(Ok(())) => {
+                defmt::info!("LSS: stored {}", config);
+                self.stored = Some(config);
+            }
+            Some(Err(e)) => defmt::error!("LSS: store failed: {}", e),
+            None => defmt::error!("LSS: store failed: drive busy"),
+        }
+    }
 }
 
 #[embassy_executor::task]

@@ -68,16 +68,56 @@
 //! }
 //! ```
 //!
+//! ## LSS and CAN errors: the board's part
+//!
+//! Some of what a CANopen node does needs the board: switching the CAN controller to the
+//! bit rate an LSS master activated, keeping an LSS "store configuration" (node-ID and bit
+//! rate) for the next start, and telling the drive when the controller goes error passive
+//! or bus-off. [`run_until_bit_rate_change`] does the runner's share and asks the board
+//! through [`RunnerHooks`] (every method has a default that does nothing):
+//!
+//! ```ignore
+//! #[embassy_executor::task]
+//! async fn can_task(mut can: CanPeripherals, mut board: Board, mut bit_rate: u32) -> ! {
+//!     let mut quiet = Duration::from_ticks(0);
+//!     loop {
+//!         let (mut rx, mut tx, status) = board::open_can(&mut can, bit_rate);
+//!         board.status = Some(status); // read by Board::bus_state
+//!         Timer::after(quiet).await; // silent for a switch delay at the new rate (CiA 305)
+//!         let change = run_until_bit_rate_change(&DRIVE, &mut rx, &mut tx, &mut board).await;
+//!         quiet = Duration::from_millis(change.switch_delay_ms.into());
+//!         Timer::after(quiet).await; // the other nodes finish at the old rate
+//!         bit_rate = board::bit_rate_of(change.bit_timing);
+//!     } // rx and tx dropped here: the controller is closed, to be reopened at the new rate
+//! }
+//! ```
+//!
+//! The drive answers a bit timing the controller cannot run "not supported" when
+//! `Config::lss_bit_rates` lists only those it can, and a store "stored" only with
+//! `Config::lss_store` set.
+//!
+//! ## Features
+//!
+//! - `stm32-fdcan`: embassy-stm32's FDCAN behind [`CanRx`]/[`CanTx`], its error state for
+//!   [`RunnerHooks::bus_state`] and bit timings from its kernel clock (module `fdcan`). The
+//!   firmware enables its chip's feature on its own embassy-stm32 dependency; this crate
+//!   picks no chip.
+//!
 //! [embassy]: https://embassy.dev
 #![no_std]
 #![deny(missing_docs)]
+#![cfg_attr(docsrs, feature(doc_cfg))]
 #![cfg_attr(test, allow(clippy::unwrap_used, clippy::expect_used, clippy::indexing_slicing, clippy::panic))]
 
+#[cfg(any(test, feature = "stm32-fdcan"))]
+mod bit_timing;
+#[cfg(feature = "stm32-fdcan")]
+pub mod fdcan;
 mod runner;
 mod shared;
 mod tick;
 
-pub use runner::{run, CanRx, CanTx};
+pub use runner::{run, run_until_bit_rate_change, BusState, CanRx, CanTx, RunnerHooks, BUS_STATE_PERIOD};
 pub use shared::{Endpoints, SharedDrive};
 pub use tick::{run_tick, TickMonitor};
 

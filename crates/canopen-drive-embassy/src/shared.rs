@@ -2,10 +2,11 @@
 
 use core::cell::RefCell;
 
-use canopen_drive::drive::{CanState, Drive};
+use canopen_drive::drive::{BitRateChange, CanState, Drive};
 use canopen_drive::hal::{Demand, Sample};
 use canopen_drive::od::ObjectHooks;
 use canopen_drive::storage::Persistence;
+use canopen_drive::wire::lss::BitTiming;
 use canopen_drive::{CanFrame, Instant};
 use critical_section::Mutex;
 use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
@@ -28,6 +29,14 @@ pub trait Endpoints {
     /// [`Drive::on_can_state`]; nodes without CAN error handling ignore it.
     fn on_can_state(&mut self, state: CanState, now: Instant) {
         let _ = (state, now);
+    }
+    /// [`Drive::take_bit_rate_change`]; nodes without LSS have none.
+    fn take_bit_rate_change(&mut self) -> Option<BitRateChange> {
+        None
+    }
+    /// [`Drive::take_lss_store`]; nodes without LSS have none.
+    fn take_lss_store(&mut self) -> Option<(u8, Option<BitTiming>)> {
+        None
     }
 }
 
@@ -57,6 +66,14 @@ impl<H: ObjectHooks, const OD: usize, const R: usize, const T: usize, S: Persist
     fn on_can_state(&mut self, state: CanState, now: Instant) {
         Drive::on_can_state(self, state, now);
     }
+
+    fn take_bit_rate_change(&mut self) -> Option<BitRateChange> {
+        Drive::take_bit_rate_change(self)
+    }
+
+    fn take_lss_store(&mut self) -> Option<(u8, Option<BitTiming>)> {
+        Drive::take_lss_store(self)
+    }
 }
 
 /// A node owned elsewhere (e.g. in a `StaticCell`, so that the shared `static` holds only a
@@ -84,6 +101,14 @@ impl<D: Endpoints + ?Sized> Endpoints for &mut D {
 
     fn on_can_state(&mut self, state: CanState, now: Instant) {
         (**self).on_can_state(state, now);
+    }
+
+    fn take_bit_rate_change(&mut self) -> Option<BitRateChange> {
+        (**self).take_bit_rate_change()
+    }
+
+    fn take_lss_store(&mut self) -> Option<(u8, Option<BitTiming>)> {
+        (**self).take_lss_store()
     }
 }
 

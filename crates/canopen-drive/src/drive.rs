@@ -44,7 +44,7 @@ use crate::comm::error_control::{
     HeartbeatConsumer, NodeGuarding,
 };
 use crate::comm::heartbeat::{HeartbeatProducer, PeriodSlot};
-use crate::comm::lss::{LssHooks, LssSlave, StoreError};
+use crate::comm::lss::{LssHooks, LssSlave, StoreError, FIXED_STANDARD_RATES};
 use crate::comm::nmt::{transition, NmtAction, Services};
 use crate::comm::pdo::{self, FrameSink, PdoEvent, PdoRecord, PdoSet, RpdoFrame, ValueRules};
 use crate::comm::sdo_server::{upload_in_two_steps, ObjectAccess, SdoServer};
@@ -60,7 +60,7 @@ use crate::od::{
 use crate::storage::{Group, Persistence, SAVE_SIGNATURE};
 use crate::time::{earliest, Duration, Instant};
 use crate::wire::lss::{
-    BitTiming, LssAddress, LSS_REQUEST_COB_ID, LSS_RESPONSE_COB_ID, NODE_ID_UNCONFIGURED,
+    BitRate, BitTiming, LssAddress, LSS_REQUEST_COB_ID, LSS_RESPONSE_COB_ID, NODE_ID_UNCONFIGURED,
 };
 use crate::wire::nmt::{NmtState, NodeControl};
 use crate::wire::sdo::Mux;
@@ -144,6 +144,11 @@ pub struct Config {
     /// The board can make an LSS "store configuration" persistent (see
     /// [`Drive::take_lss_store`]); otherwise the request is answered "not supported".
     pub lss_store: bool,
+    /// The bit rates of the standard table (CiA 305 table 0) the board's CAN controller can
+    /// run at. LSS configure bit timing accepts these and answers the others "bit rate not
+    /// supported". Default: the eight fixed rates ([`FIXED_STANDARD_RATES`]); a board whose
+    /// CAN clock does not divide into one of them leaves it out.
+    pub lss_bit_rates: &'static [BitRate],
     /// The PDO records (1400h–1BFFh): [`pdo::DEFAULT_OBJECTS`] for 4 + 4, or a table made by
     /// [`pdo::objects`] matching the drive's PDO capacity.
     pub pdo_objects: &'static [Object],
@@ -187,6 +192,7 @@ impl Config {
             sdo_block_transfer: true,
             manufacturer_objects: &[],
             lss_store: false,
+            lss_bit_rates: &FIXED_STANDARD_RATES,
             long_rpdo: pdo::LongRpdo::ApplyAndReport,
             tpdo_inhibit_unit: pdo::INHIBIT_UNIT,
             store_groups: &Group::ALL,
@@ -359,15 +365,32 @@ struct CycleFlags {
 }
 
 /// What LSS services asked of the drive during one frame.
-#[derive(Clone, Copy, Debug, Default)]
+#[derive(Clone, Copy, Debug)]
 struct LssRequests {
     store_supported: bool,
+    bit_rates: &'static [BitRate],
     start_up: bool,
     bit_rate: Option<BitRateChange>,
     store: Option<(u8, Option<BitTiming>)>,
 }
 
+impl LssRequests {
+    fn new(config: &Config) -> Self {
+        LssRequests {
+            store_supported: config.lss_store,
+            bit_rates: config.lss_bit_rates,
+            start_up: false,
+            bit_rate: None,
+            store: None,
+        }
+    }
+}
+
 impl LssHooks for LssRequests {
+    fn bit_timing_supported(&self, bit_timing: BitTiming) -> bool {
+        bit_timing.standard_rate().is_some_and(|rate| self.bit_rates.contains(&rate))
+    }
+
     fn activate_bit_timing(&mut self, bit_timing: BitTiming, switch_delay_ms: u16) {
         self.bit_rate = Some(BitRateChange { bit_timing, switch_delay_ms });
     }
@@ -523,7 +546,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
                 },
                 config.node_id,
             ),
-            lss_requests: LssRequests { store_supported: config.lss_store, ..LssRequests::default() },
+            lss_requests: LssRequests::new(config),
             profile: Profile::new(config.profile),
             error_behaviour: config.error_behaviour_values,
             store_groups: config.store_groups,

@@ -112,6 +112,19 @@ pub const fn is_valid_node_id(node_id: u8) -> bool {
     matches!(node_id, 1..=127)
 }
 
+/// The eight fixed bit rates of the standard table (index 0..=4 and 6..=8), fastest first: the
+/// rates [`is_fixed_standard_rate`] accepts.
+pub const FIXED_STANDARD_RATES: [BitRate; 8] = [
+    BitRate::Kbit1000,
+    BitRate::Kbit800,
+    BitRate::Kbit500,
+    BitRate::Kbit250,
+    BitRate::Kbit125,
+    BitRate::Kbit50,
+    BitRate::Kbit20,
+    BitRate::Kbit10,
+];
+
 /// True for the eight fixed bit rates of the standard table (index 0..=4 and 6..=8): the
 /// default of [`LssHooks::bit_timing_supported`].
 pub const fn is_fixed_standard_rate(bit_timing: BitTiming) -> bool {
