@@ -278,6 +278,8 @@ mod tests {
             let text = std::str::from_utf8(eds).unwrap();
             assert!(text.starts_with("[FileInfo]"));
             assert!(text.contains("\n[1021]\n"));
+            // Its storage format: 0, plain ASCII (CiA 301).
+            assert!(text.contains("\n[1022]\nParameterName=Store format\nObjectType=0x7\nDataType=0x0005\nAccessType=ro\nDefaultValue=0x0\n"));
             let drive = BoardDrive::<()>::create(config, profile.hooks(false)).unwrap();
             let mut again = String::new();
             drive.write_eds(&profile.eds, &mut again).unwrap();
