@@ -288,6 +288,23 @@ mod tests {
     }
 
     #[test]
+    fn the_sub_indices_of_an_object_have_names_of_their_own() {
+        // Masters look entries up by name (python-canopen: `node.sdo[0x1600]["Mapping entry 2"]`).
+        for name in ProfileName::ALL {
+            let (_, eds) = config_with_eds(&BoardProfile::of(name), 5).unwrap();
+            let mut seen = std::collections::HashSet::new();
+            for section in std::str::from_utf8(eds).unwrap().split("\n\n") {
+                let mut lines = section.trim().lines();
+                let header = lines.next().unwrap_or_default();
+                let Some((index, _)) = header.trim_start_matches('[').split_once("sub") else { continue };
+                let parameter = lines.find_map(|l| l.strip_prefix("ParameterName=")).unwrap();
+                assert!(seen.insert((index, parameter)), "{}: {header} {parameter:?} twice", name.name());
+            }
+            assert!(seen.contains(&("1600", "Mapping entry 2")), "{}", name.name());
+        }
+    }
+
+    #[test]
     fn every_profile_signs_its_stored_parameters_differently() {
         let signatures: Vec<u32> = ProfileName::ALL
             .iter()
