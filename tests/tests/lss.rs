@@ -147,6 +147,25 @@ fn bit_timing_and_store_configuration() {
     assert_eq!(drive(&mut bus, with_store).take_bit_rate_change(), Some(change));
 }
 
+#[test]
+fn bit_timing_takes_the_rates_the_board_declares() {
+    // The rates of `Config::bit_rates` and no other: the EDS lists the same.
+    let mut bus = VirtualBus::new();
+    let config = Config { device: device(1), bit_rates: &[20, 800], ..Config::new(5) };
+    let node = bus.add_node(DriveNode::new(Drive::new(config).unwrap(), Duration::from_millis(1)));
+    bus.advance(Duration::ZERO).unwrap();
+    bus.drain_received_frames();
+    lss(&mut bus, cmd(0x04, &[1]));
+    for (index, status) in [(7, 0), (1, 0), (2, 1), (0, 1), (5, 1), (9, 1)] {
+        assert_eq!(lss(&mut bus, cmd(0x13, &[0, index])).0, vec![cmd(0x13, &[status])], "index {index}");
+    }
+    let mut eds = String::new();
+    drive(&mut bus, node).write_eds(&Default::default(), &mut eds).unwrap();
+    assert!(eds.contains("BaudRate_10=0\nBaudRate_20=1\nBaudRate_50=0\nBaudRate_125=0\n"), "{eds}");
+    assert!(eds.contains("BaudRate_500=0\nBaudRate_800=1\nBaudRate_1000=0\n"), "{eds}");
+    assert!(eds.contains("\nLSS_Supported=1\n"));
+}
+
 /// One fastscan run (digest §12.4) by a master: returns the identity found, if any.
 fn fastscan(bus: &mut VirtualBus) -> Option<[u32; 4]> {
     let probe = |bus: &mut VirtualBus, id: u32, bit: u8, sub: u8, next: u8| -> bool {

@@ -89,7 +89,7 @@ fn main() -> ExitCode {
 }
 
 fn write_eds(profile: ProfileName, node_id: u8, path: &std::path::Path) -> Result<(), String> {
-    let (_, eds) = node::config_with_eds(&BoardProfile::of(profile), node_id)?;
+    let eds = node::eds(&BoardProfile::of(profile), node_id, false)?;
     std::fs::write(path, eds).map_err(|e| format!("cannot write {}: {e}", path.display()))
 }
 
@@ -124,7 +124,7 @@ fn run(args: &RunArgs) -> Result<(), String> {
         verbose: args.verbose,
         trace: trace.as_ref(),
     };
-    let (mut config, _) = node::config_with_eds(&profile, node_id)?;
+    let (mut config, _) = node::config_with_eds(&profile, node_id, args.storage.is_some())?;
     config.lss_store = args.storage.is_some();
     let hooks = profile.hooks(args.storage.is_some());
     match &args.storage {

@@ -51,7 +51,7 @@ use crate::comm::sdo_server::{upload_in_two_steps, ObjectAccess, SdoServer};
 use crate::comm::sync::{self, Sync, SyncConfig, SyncPoll, SyncReception, SyncSlots};
 use crate::frame::CanFrame;
 use crate::hal::{Demand, Sample};
-use crate::od::eds::{self, EdsInfo};
+use crate::od::eds::{self, Capabilities, EdsInfo};
 use crate::od::standard::{self, HEARTBEAT_CONSUMERS};
 use crate::od::{
     le_u32, AbortCode, ConfigError, DefaultOverride, DeviceInfo, Dictionary, Entry, EntryOverride, Object,
@@ -60,7 +60,7 @@ use crate::od::{
 use crate::storage::{Group, Persistence, SAVE_SIGNATURE};
 use crate::time::{earliest, Duration, Instant};
 use crate::wire::lss::{
-    BitTiming, LssAddress, LSS_REQUEST_COB_ID, LSS_RESPONSE_COB_ID, NODE_ID_UNCONFIGURED,
+    BitRate, BitTiming, LssAddress, LSS_REQUEST_COB_ID, LSS_RESPONSE_COB_ID, NODE_ID_UNCONFIGURED,
 };
 use crate::wire::nmt::{NmtState, NodeControl};
 use crate::wire::sdo::Mux;
@@ -144,6 +144,10 @@ pub struct Config {
     /// The board can make an LSS "store configuration" persistent (see
     /// [`Drive::take_lss_store`]); otherwise the request is answered "not supported".
     pub lss_store: bool,
+    /// The bit rates in kbit/s the board's CAN controller runs at (default 125, 250, 500 and
+    /// 1000): the LSS slave accepts these in "configure bit timing" (CiA 305 table 0; refuses
+    /// the others with error 1) and the EDS lists them (`BaudRate_n`).
+    pub bit_rates: &'static [u16],
     /// The PDO records (1400h–1BFFh): [`pdo::DEFAULT_OBJECTS`] for 4 + 4, or a table made by
     /// [`pdo::objects`] matching the drive's PDO capacity.
     pub pdo_objects: &'static [Object],
@@ -187,6 +191,7 @@ impl Config {
             sdo_block_transfer: true,
             manufacturer_objects: &[],
             lss_store: false,
+            bit_rates: &[125, 250, 500, 1000],
             long_rpdo: pdo::LongRpdo::ApplyAndReport,
             tpdo_inhibit_unit: pdo::INHIBIT_UNIT,
             store_groups: &Group::ALL,
@@ -267,6 +272,12 @@ pub struct Drive<
     tx: TxQueue,
     hooks: H,
     storage: S,
+}
+
+/// Whether the drive stores and restores `group` on command (1010h/1011h): it has storage, and
+/// the group is one of [`Config::store_groups`]. The command objects read it, the EDS states it.
+fn stores(storage: &impl Persistence, groups: &[Group], group: Group) -> bool {
+    storage.available() && groups.contains(&group)
 }
 
 /// The service that owns `object`: the one that declares its index (the CiA 301 communication
@@ -362,12 +373,19 @@ struct CycleFlags {
 #[derive(Clone, Copy, Debug, Default)]
 struct LssRequests {
     store_supported: bool,
+    /// [`Config::bit_rates`].
+    bit_rates: &'static [u16],
     start_up: bool,
     bit_rate: Option<BitRateChange>,
     store: Option<(u8, Option<BitTiming>)>,
 }
 
 impl LssHooks for LssRequests {
+    fn bit_timing_supported(&self, bit_timing: BitTiming) -> bool {
+        let kbit = bit_timing.standard_rate().and_then(BitRate::kbit_per_s);
+        kbit.is_some_and(|kbit| self.bit_rates.contains(&kbit))
+    }
+
     fn activate_bit_timing(&mut self, bit_timing: BitTiming, switch_delay_ms: u16) {
         self.bit_rate = Some(BitRateChange { bit_timing, switch_delay_ms });
     }
@@ -523,7 +541,11 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
                 },
                 config.node_id,
             ),
-            lss_requests: LssRequests { store_supported: config.lss_store, ..LssRequests::default() },
+            lss_requests: LssRequests {
+                store_supported: config.lss_store,
+                bit_rates: config.bit_rates,
+                ..LssRequests::default()
+            },
             profile: Profile::new(config.profile),
             error_behaviour: config.error_behaviour_values,
             store_groups: config.store_groups,
@@ -611,7 +633,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
     /// an automatic calibration): 0x0800_0020 without storage or for a group the drive does not
     /// store ([`Config::store_groups`]).
     pub fn store_parameters(&mut self, group: Group) -> Result<(), AbortCode> {
-        if !self.storage.available() || !self.store_groups.contains(&group) {
+        if !stores(&self.storage, self.store_groups, group) {
             return Err(AbortCode::CannotStore);
         }
         self.storage.store(&self.od, group)?;
@@ -664,9 +686,20 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
         self.tx.dropped
     }
 
-    /// Writes the EDS of this drive's dictionary.
+    /// Writes the EDS of this drive's dictionary. `[DeviceInfo]` states what the drive does: its
+    /// PDOs and mapping granularity, [`Config::bit_rates`], its LSS slave; 1010h/1011h the
+    /// groups it stores (none without storage).
     pub fn write_eds(&self, info: &EdsInfo, w: &mut impl fmt::Write) -> fmt::Result {
-        eds::write(&self.od, info, w)
+        eds::write(&self.od, info, &self.capabilities(), w)
+    }
+
+    /// What the descriptions state of the drive around its dictionary.
+    fn capabilities(&self) -> Capabilities {
+        let store_commands = Group::ALL
+            .iter()
+            .filter(|group| stores(&self.storage, self.store_groups, **group))
+            .fold(0, |bits, group| bits | 1 << group.sub());
+        Capabilities { bit_rates: self.lss_requests.bit_rates, lss: true, store_commands }
     }
 
     /// Handles one received frame. Bounded work: at most one SDO step and a transmit queue's
@@ -1441,7 +1474,7 @@ impl<'a, H: ObjectHooks, S: Persistence, const B: usize> Access<'a, H, S, B> {
     /// 1010h/1011h subs 1..=4: the read value says whether the command is supported (§11).
     fn command_capability(&self, entry: &Entry, owner: Owner) -> Option<u32> {
         let group = Group::from_sub(entry.sub).filter(|_| owner == Owner::Storage)?;
-        Some(u32::from(self.storage.available() && self.store_groups.contains(&group)))
+        Some(u32::from(stores(self.storage, self.store_groups, group)))
     }
 
     /// Store or restore on command: the signature, then the operation; nothing is written to
@@ -1450,7 +1483,7 @@ impl<'a, H: ObjectHooks, S: Persistence, const B: usize> Access<'a, H, S, B> {
         let group = Group::from_sub(mux.sub).ok_or(AbortCode::SubIndexDoesNotExist)?;
         let value = le_u32(data);
         let signature = crate::storage::signature(mux.index);
-        if value != signature || !self.storage.available() || !self.store_groups.contains(&group) {
+        if value != signature || !stores(self.storage, self.store_groups, group) {
             return Err(AbortCode::CannotStore);
         }
         if signature == SAVE_SIGNATURE {

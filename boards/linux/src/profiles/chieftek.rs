@@ -286,8 +286,6 @@ pub fn profile() -> BoardProfile {
         eds: EdsInfo {
             file_name: "chieftek.eds",
             description: "cpc DS402 servo drive interface rebuilt on canopen-drive (simulated)",
-            rpdo_count: 4,
-            tpdo_count: 4,
             ..EdsInfo::default()
         },
         simulation: PROFILE_SIMULATION,

@@ -507,14 +507,13 @@ pub fn profile() -> BoardProfile {
             long_rpdo: LongRpdo::DiscardAndReport,
             emcy_additional_bytes: &EMCY_BYTES,
             absent_objects: &ABSENT,
+            // §4.1.22 (2704h): 20, 50, 125, 250, 500 and 1000 kbit/s.
+            bit_rates: &[20, 50, 125, 250, 500, 1000],
             ..Config::new(TEMPLATE_NODE_ID)
         },
         eds: EdsInfo {
             file_name: "harmonic-drive.eds",
             description: "Harmonic Drive CANopen actuator interface rebuilt on canopen-drive (simulated)",
-            baud_rates: &[20, 50, 125, 250, 500, 1000],
-            rpdo_count: 4,
-            tpdo_count: 4,
             ..EdsInfo::default()
         },
         simulation: PROFILE_SIMULATION,

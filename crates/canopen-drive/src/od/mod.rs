@@ -13,6 +13,7 @@
 //! rights; access from the bus goes through [`Dictionary::check_write`] and friends, which answer
 //! with the exact [`AbortCode`].
 
+mod description;
 pub mod eds;
 mod entry;
 mod overrides;
