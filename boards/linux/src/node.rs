@@ -65,6 +65,13 @@ pub fn eds(profile: &BoardProfile, node_id: u8, storage: bool) -> Result<String,
         .map_err(|e| format!("cannot generate the EDS: {e}"))
 }
 
+/// The XDD (CiA 311) of `profile`'s drive at `node_id`, with parameter storage or without: the
+/// EDS's objects and facts as XML.
+pub fn xdd(profile: &BoardProfile, node_id: u8, storage: bool) -> Result<String, String> {
+    describe(profile, node_id, storage, |drive, w| drive.write_xdd(&profile.eds, w))
+        .map_err(|e| format!("cannot generate the XDD: {e}"))
+}
+
 /// What `write` writes of `profile`'s drive at `node_id` (a device description), with parameter
 /// storage or without.
 fn describe(
@@ -99,11 +106,15 @@ fn describe(
 /// A drive of this board with any storage, as far as its descriptions go.
 trait Describe {
     fn write_eds(&self, info: &EdsInfo, w: &mut String) -> std::fmt::Result;
+    fn write_xdd(&self, info: &EdsInfo, w: &mut String) -> std::fmt::Result;
 }
 
 impl<S: Persistence> Describe for BoardDrive<S> {
     fn write_eds(&self, info: &EdsInfo, w: &mut String) -> std::fmt::Result {
         Drive::write_eds(self, info, w)
+    }
+    fn write_xdd(&self, info: &EdsInfo, w: &mut String) -> std::fmt::Result {
+        Drive::write_xdd(self, info, w)
     }
 }
 
@@ -374,6 +385,8 @@ mod tests {
                     assert_eq!(sub(&without, &section), "0x0", "{section}");
                 }
             }
+            let xdd = xdd(&profile, 5, true).unwrap();
+            assert!(xdd.contains(r#"name="Store parameters 1" objectType="7" dataType="0007" accessType="rw" defaultValue="0x1""#));
         }
     }
 

@@ -53,6 +53,7 @@ use crate::frame::CanFrame;
 use crate::hal::{Demand, Sample};
 use crate::od::eds::{self, Capabilities, EdsInfo};
 use crate::od::standard::{self, HEARTBEAT_CONSUMERS};
+use crate::od::xdd;
 use crate::od::{
     le_u32, AbortCode, ConfigError, DefaultOverride, DeviceInfo, Dictionary, Entry, EntryOverride, Object,
     ObjectHooks, Owner, WriteRule,
@@ -691,6 +692,12 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
     /// groups it stores (none without storage).
     pub fn write_eds(&self, info: &EdsInfo, w: &mut impl fmt::Write) -> fmt::Result {
         eds::write(&self.od, info, &self.capabilities(), w)
+    }
+
+    /// Writes the XDD (CiA 311) of this drive's dictionary: what [`Drive::write_eds`] writes, as
+    /// XML (`info`'s file name with `.xdd` for `.eds`).
+    pub fn write_xdd(&self, info: &EdsInfo, w: &mut impl fmt::Write) -> fmt::Result {
+        xdd::write(&self.od, info, &self.capabilities(), w)
     }
 
     /// What the descriptions state of the drive around its dictionary.

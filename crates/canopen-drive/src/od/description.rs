@@ -1,5 +1,5 @@
-//! What a device description states, taken once from the dictionary and the drive: the EDS
-//! ([`super::eds`], CiA 306) writes it in its syntax.
+//! What the two device descriptions state, taken once from the dictionary and the drive: the
+//! EDS ([`super::eds`], CiA 306) and the XDD ([`super::xdd`], CiA 311) differ in syntax only.
 //!
 //! Here are the facts of `[DeviceInfo]` (PDO counts and mapping granularity from the
 //! dictionary, bit rates, LSS and the store commands from the drive's [`Capabilities`]), the

@@ -19,6 +19,7 @@ mod entry;
 mod overrides;
 pub mod persist;
 pub mod standard;
+pub mod xdd;
 
 pub use crate::wire::AbortCode;
 pub use entry::{
