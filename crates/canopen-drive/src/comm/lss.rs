@@ -59,7 +59,9 @@
 //!   entry is supported is up to [`LssHooks::bit_timing_supported`]; the default accepts the
 //!   eight fixed rates of table 0 and refuses index 5 (100 kbit/s: reserved in CiA 305 v3,
 //!   optional per digest §12.3), index 9 (automatic detection needs hardware support),
-//!   reserved indices and every other table. Refused → error 1, the pending bit timing stays.
+//!   reserved indices and every other table (a [`Drive`](crate::Drive) accepts the rates of
+//!   [`Config::bit_rates`](crate::Config::bit_rates), which its EDS lists). Refused → error 1,
+//!   the pending bit timing stays.
 //! - *Activate bit timing* is obeyed in configuration only and only once a bit timing has
 //!   been configured (before that the pending bit timing is the active one, nothing to
 //!   switch). The hook gets the bit timing and the switch delay; the board waits the delay,
