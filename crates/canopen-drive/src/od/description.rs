@@ -33,14 +33,14 @@ pub(super) struct Facts {
 impl Facts {
     /// The facts of `od` in a drive that can do what `capabilities` say.
     pub fn of<const B: usize>(od: &Dictionary<B>, capabilities: &Capabilities) -> Self {
-        let count =
+        let records =
             |range: core::ops::RangeInclusive<u16>| listed(od).filter(|o| range.contains(&o.index)).count();
         let writable_mapping = listed(od)
             .filter(|o| matches!(o.index, 0x1600..=0x17FF | 0x1A00..=0x1BFF))
-            .any(|o| o.sub(1).is_some_and(|(var, _)| var.access.writable()));
+            .any(|o| o.sub(1).is_some_and(|(var, _)| od.describe(o.index, 1, var).access.writable()));
         Facts {
-            rpdos: count(0x1400..=0x15FF),
-            tpdos: count(0x1800..=0x19FF),
+            rpdos: records(0x1400..=0x15FF),
+            tpdos: records(0x1800..=0x19FF),
             granularity: u8::from(writable_mapping),
             capabilities: *capabilities,
         }
