@@ -8,6 +8,12 @@
 //! Rules followed for the two tools that matter (python-canopen, CANopenEditor): parent sections
 //! before sub-sections, lower-case `sub`, hex always with `0x`, decimal without leading zeros,
 //! no empty numeric keys, all seven `DummyNNNN` keys, `$NODEID+0x...` for node-relative values.
+//!
+//! Nothing in it is typed in by hand: `[DeviceInfo]` comes from the dictionary (PDO counts,
+//! mapping granularity, dummy usage) and from the drive ([`Capabilities`]: bit rates, LSS), and
+//! every `DefaultValue` is what the node reads at start-up (1010h/1011h: whether the drive
+//! stores; an empty string: `DefaultValue=` with no text). The XDD ([`super::xdd`]) states the
+//! same from the same computation.
 
 use core::fmt::{self, Write};
 
