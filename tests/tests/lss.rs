@@ -152,7 +152,7 @@ fn configure_bit_timing_accepts_only_the_rates_the_board_can_run() {
     let mut bus = VirtualBus::new();
     // A board whose CAN clock divides into 500 and 250 kbit/s only.
     let config =
-        Config { device: device(3), lss_bit_rates: &[BitRate::Kbit500, BitRate::Kbit250], ..Config::new(5) };
+        Config { device: device(3), bit_rates: &[BitRate::Kbit500, BitRate::Kbit250], ..Config::new(5) };
     let node = bus.add_node(DriveNode::new(Drive::new(config).unwrap(), Duration::from_millis(1)));
     bus.advance(Duration::ZERO).unwrap();
     bus.drain_received_frames();
@@ -165,6 +165,26 @@ fn configure_bit_timing_accepts_only_the_rates_the_board_can_run() {
     lss(&mut bus, cmd(0x15, &50u16.to_le_bytes()));
     let change = drive(&mut bus, node).take_bit_rate_change().map(|c| c.bit_timing.standard_rate());
     assert_eq!(change, Some(Some(BitRate::Kbit250)));
+}
+
+#[test]
+fn bit_timing_takes_the_rates_the_board_declares() {
+    // The rates of `Config::bit_rates` and no other: the EDS lists the same.
+    let mut bus = VirtualBus::new();
+    let config =
+        Config { device: device(1), bit_rates: &[BitRate::Kbit20, BitRate::Kbit800], ..Config::new(5) };
+    let node = bus.add_node(DriveNode::new(Drive::new(config).unwrap(), Duration::from_millis(1)));
+    bus.advance(Duration::ZERO).unwrap();
+    bus.drain_received_frames();
+    lss(&mut bus, cmd(0x04, &[1]));
+    for (index, status) in [(7, 0), (1, 0), (2, 1), (0, 1), (5, 1), (9, 1)] {
+        assert_eq!(lss(&mut bus, cmd(0x13, &[0, index])).0, vec![cmd(0x13, &[status])], "index {index}");
+    }
+    let mut eds = String::new();
+    drive(&mut bus, node).write_eds(&Default::default(), &mut eds).unwrap();
+    assert!(eds.contains("BaudRate_10=0\nBaudRate_20=1\nBaudRate_50=0\nBaudRate_125=0\n"), "{eds}");
+    assert!(eds.contains("BaudRate_500=0\nBaudRate_800=1\nBaudRate_1000=0\n"), "{eds}");
+    assert!(eds.contains("\nLSS_Supported=1\n"));
 }
 
 /// One fastscan run (digest §12.4) by a master: returns the identity found, if any.

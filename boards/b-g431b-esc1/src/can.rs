@@ -17,7 +17,7 @@ pub const DEFAULT_BIT_RATE: u32 = 500_000;
 
 /// The rates of the CiA 305 standard table the 85 MHz kernel clock divides into exactly
 /// (`fdcan::nominal_bit_timing`): all fixed rates but 800 kbit/s (106.25 clock cycles per
-/// bit). LSS configure bit timing refuses the others (`Config::lss_bit_rates`).
+/// bit). LSS configure bit timing refuses the others (`Config::bit_rates`).
 pub const BIT_RATES: [BitRate; 7] = [
     BitRate::Kbit1000,
     BitRate::Kbit500,

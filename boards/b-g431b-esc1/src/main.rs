@@ -83,7 +83,7 @@ fn make_drive(store: storage::ParameterStore, node_id: u8) -> Option<&'static mu
     let config = Config {
         device: device_info(),
         lss_store: true,
-        lss_bit_rates: &can::BIT_RATES,
+        bit_rates: &can::BIT_RATES,
         ..Config::new(node_id)
     };
     // Built in place: a drive built by value and moved would need several times its size
@@ -159,7 +159,7 @@ async fn can_task(mut can: can::Pins, mut board: Board, mut bit_rate: u32) {
         board.status = Some(status);
         Timer::after(quiet).await;
         let change = run_until_bit_rate_change(&DRIVE, &mut rx, &mut tx, &mut board).await;
-        // The drive accepts only rates of can::BIT_RATES (Config::lss_bit_rates).
+        // The drive accepts only rates of can::BIT_RATES (Config::bit_rates).
         let next = can::bit_rate(change.bit_timing).unwrap_or(bit_rate);
         defmt::info!("LSS: {} bit/s in {} ms", next, change.switch_delay_ms);
         quiet = Duration::from_millis(change.switch_delay_ms.into());

@@ -22,7 +22,8 @@ use crate::slcan_server::Limits;
     name = crate::NAME,
     about = "canopen-drive-linux: a CANopen CiA 301/402 drive node with a simulated motor",
     override_usage = "canopen-drive-linux [OPTIONS] (--slcan-listen HOST:PORT | --socketcan IFACE)...
-       canopen-drive-linux [--profile NAME] [--node-id N] --write-eds PATH",
+       canopen-drive-linux [--profile NAME] [--node-id N] [--storage PATH]
+                           (--write-eds PATH | --write-xdd PATH)...",
     after_help = "--slcan-listen and --socketcan may be combined; all of them form one bus.
 The producer heartbeat (1017h) starts at 0 (off), as CiA 301 specifies: a master sets it.
 Prints `ready` on stdout once it accepts connections and has sent its boot-up, then one line
@@ -62,7 +63,9 @@ struct Options {
     /// configuration (node-ID, bit timing) goes to PATH.lss. A
     /// damaged, wrong-size or foreign file is reported, the drive
     /// runs on its defaults (EMCY 6300h) and the file is left as it
-    /// is until a master stores parameters
+    /// is until a master stores parameters. With --write-eds or
+    /// --write-xdd: describe the drive that keeps parameters (PATH
+    /// is not opened)
     #[arg(long, value_name = "PATH", verbatim_doc_comment, allow_hyphen_values = true)]
     storage: Option<PathBuf>,
 
@@ -94,9 +97,14 @@ struct Options {
     #[arg(long, value_name = "FILE", verbatim_doc_comment, allow_hyphen_values = true)]
     trace: Option<PathBuf>,
 
-    /// Write the profile's EDS to PATH and exit
+    /// Write the profile's EDS (CiA 306) to PATH and exit
     #[arg(long, value_name = "PATH", allow_hyphen_values = true)]
     write_eds: Option<PathBuf>,
+
+    /// Write the profile's XDD (CiA 311) to PATH and exit; may be
+    /// given with --write-eds
+    #[arg(long, value_name = "PATH", verbatim_doc_comment, allow_hyphen_values = true)]
+    write_xdd: Option<PathBuf>,
 
     /// Print this help and exit
     #[arg(short, long, action = ArgAction::Help)]
@@ -119,14 +127,18 @@ pub fn help() -> String {
 pub enum Action {
     /// Print [`help`].
     Help,
-    /// Write the EDS of a node with this ID to the path, then exit.
-    WriteEds {
+    /// Write the device descriptions of a node with this ID, then exit.
+    Describe {
         /// The drive.
         profile: ProfileName,
         /// Node-ID.
         node_id: u8,
-        /// Where to write.
-        path: PathBuf,
+        /// The drive keeps parameters (`--storage`).
+        storage: bool,
+        /// Where to write the EDS.
+        eds: Option<PathBuf>,
+        /// Where to write the XDD.
+        xdd: Option<PathBuf>,
     },
     /// Run the drive.
     Run(RunArgs),
@@ -178,7 +190,7 @@ pub enum CliError {
     InvalidInterface,
     /// A count or a time that is not a positive whole number.
     InvalidNumber(&'static str, String),
-    /// Neither `--slcan-listen` nor `--socketcan` (nor `--write-eds`).
+    /// Neither `--slcan-listen` nor `--socketcan` (nor `--write-eds`, `--write-xdd`).
     NoBus,
     /// `--quiet` together with `-v`.
     QuietAndVerbose,
@@ -236,8 +248,9 @@ pub fn parse(args: impl IntoIterator<Item = OsString>) -> Result<Action, CliErro
     }
     let node_id = options.node_id.unwrap_or(1);
     let profile = options.profile.unwrap_or(ProfileName::Generic);
-    if let Some(path) = options.write_eds {
-        return Ok(Action::WriteEds { profile, node_id, path });
+    if options.write_eds.is_some() || options.write_xdd.is_some() {
+        let (eds, xdd, storage) = (options.write_eds, options.write_xdd, options.storage.is_some());
+        return Ok(Action::Describe { profile, node_id, storage, eds, xdd });
     }
     if options.slcan_listen.is_none() && options.socketcan.is_none() {
         return Err(CliError::NoBus);
@@ -407,13 +420,26 @@ mod tests {
                 trace: Some("bus.log".into()),
             }))
         );
+        let describe = |profile, node_id, storage, eds: Option<&str>, xdd: Option<&str>| {
+            Ok(Action::Describe {
+                profile,
+                node_id,
+                storage,
+                eds: eds.map(Into::into),
+                xdd: xdd.map(Into::into),
+            })
+        };
         assert_eq!(
             parse_str(&["--write-eds", "out.eds", "--node-id=5"]),
-            Ok(Action::WriteEds { profile: ProfileName::Generic, node_id: 5, path: "out.eds".into() })
+            describe(ProfileName::Generic, 5, false, Some("out.eds"), None)
         );
         assert_eq!(
             parse_str(&["--write-eds", "t.eds", "--profile", "trinamic-pd57"]),
-            Ok(Action::WriteEds { profile: ProfileName::TrinamicPd57, node_id: 1, path: "t.eds".into() })
+            describe(ProfileName::TrinamicPd57, 1, false, Some("t.eds"), None)
+        );
+        assert_eq!(
+            parse_str(&["--write-xdd", "t.xdd", "--storage", "p.bin", "--write-eds", "t.eds"]),
+            describe(ProfileName::Generic, 1, true, Some("t.eds"), Some("t.xdd"))
         );
         for name in ProfileName::ALL {
             let Ok(Action::Run(args)) = parse_str(&["--profile", name.name(), "--socketcan", "can0"]) else {
@@ -499,7 +525,8 @@ mod tests {
         let help = help();
         for text in [
             "canopen-drive-linux [OPTIONS] (--slcan-listen HOST:PORT | --socketcan IFACE)...",
-            "canopen-drive-linux [--profile NAME] [--node-id N] --write-eds PATH",
+            "canopen-drive-linux [--profile NAME] [--node-id N] [--storage PATH]\n",
+            "(--write-eds PATH | --write-xdd PATH)...",
             "--profile <NAME>",
             "chieftek, trinamic-pd57, harmonic-drive",
             "--node-id <N>",
@@ -519,6 +546,8 @@ mod tests {
             "--trace <FILE>",
             "canplayer -I FILE",
             "--write-eds <PATH>",
+            "--write-xdd <PATH>",
+            "describe the drive that keeps parameters",
             "-h, --help",
             "all of them form one bus",
             "SIGINT or SIGTERM end it (status 0)",

@@ -72,7 +72,9 @@ fn main() -> ExitCode {
                     output::text(&cli::help());
                     Ok(())
                 }
-                Action::WriteEds { profile, node_id, path } => write_eds(profile, node_id, &path),
+                Action::Describe { profile, node_id, storage, eds, xdd } => {
+                    describe(profile, node_id, storage, eds.as_deref(), xdd.as_deref())
+                }
                 Action::Run(args) => run(&args),
             };
             match result {
@@ -88,9 +90,26 @@ fn main() -> ExitCode {
     status
 }
 
-fn write_eds(profile: ProfileName, node_id: u8, path: &std::path::Path) -> Result<(), String> {
-    let (_, eds) = node::config_with_eds(&BoardProfile::of(profile), node_id)?;
-    std::fs::write(path, eds).map_err(|e| format!("cannot write {}: {e}", path.display()))
+/// Writes the EDS and/or the XDD of the drive `profile` at `node_id`, with parameter storage or
+/// without.
+fn describe(
+    profile: ProfileName,
+    node_id: u8,
+    storage: bool,
+    eds: Option<&Path>,
+    xdd: Option<&Path>,
+) -> Result<(), String> {
+    let profile = BoardProfile::of(profile);
+    let write = |path: &Path, text: String| {
+        std::fs::write(path, text).map_err(|e| format!("cannot write {}: {e}", path.display()))
+    };
+    if let Some(path) = eds {
+        write(path, node::eds(&profile, node_id, storage)?)?;
+    }
+    if let Some(path) = xdd {
+        write(path, node::xdd(&profile, node_id, storage)?)?;
+    }
+    Ok(())
 }
 
 fn run(args: &RunArgs) -> Result<(), String> {
@@ -124,7 +143,7 @@ fn run(args: &RunArgs) -> Result<(), String> {
         verbose: args.verbose,
         trace: trace.as_ref(),
     };
-    let (mut config, _) = node::config_with_eds(&profile, node_id)?;
+    let (mut config, _) = node::config_with_eds(&profile, node_id, args.storage.is_some())?;
     config.lss_store = args.storage.is_some();
     let hooks = profile.hooks(args.storage.is_some());
     match &args.storage {

@@ -19,8 +19,10 @@ use std::time::Duration as StdDuration;
 use std::path::Path;
 
 use canopen_drive::drive::ConnectionEvent;
-use canopen_drive::storage::Persistence;
+use canopen_drive::od::eds::EdsInfo;
+use canopen_drive::storage::{device_signature, Persistence, Storage};
 use canopen_drive::{Config, Drive, Duration, Instant};
+use canopen_drive_sim::flash::{FileFlash, SimFlash};
 use canopen_drive_sim::motor::SimMotor;
 
 use crate::board_objects::{BoardHooks, Change};
@@ -40,20 +42,80 @@ pub const STORAGE_LAYOUT: u16 = 1;
 pub const TICK_PERIOD: Duration = Duration::from_micros(1000);
 
 /// The configuration of `profile`'s drive at `node_id` whose 1021h serves its own EDS, and
-/// that EDS.
+/// that EDS; `storage`: the drive keeps parameters (`--storage`), which its EDS states in
+/// 1010h/1011h.
 ///
 /// The EDS text does not depend on what 1021h holds, so the EDS of a first drive without it is
 /// the EDS of the final one. The text lives as long as the process (`Box::leak`), as 1021h
 /// needs a `'static` slice.
-pub fn config_with_eds(profile: &BoardProfile, node_id: u8) -> Result<(Config, &'static [u8]), String> {
+pub fn config_with_eds(
+    profile: &BoardProfile,
+    node_id: u8,
+    storage: bool,
+) -> Result<(Config, &'static [u8]), String> {
     let mut config = profile.config(node_id);
-    let probe = BoardDrive::<()>::create(config, profile.hooks(false))
-        .map_err(|e| format!("invalid drive configuration: {e:?}"))?;
-    let mut text = String::new();
-    probe.write_eds(&profile.eds, &mut text).map_err(|_| "cannot generate the EDS".to_string())?;
-    let eds: &'static [u8] = Box::leak(text.into_boxed_str()).as_bytes();
+    let eds: &'static [u8] = Box::leak(eds(profile, node_id, storage)?.into_boxed_str()).as_bytes();
     config.device.eds = eds;
     Ok((config, eds))
+}
+
+/// The EDS (CiA 306) of `profile`'s drive at `node_id`, with parameter storage or without.
+pub fn eds(profile: &BoardProfile, node_id: u8, storage: bool) -> Result<String, String> {
+    describe(profile, node_id, storage, |drive, w| drive.write_eds(&profile.eds, w))
+        .map_err(|e| format!("cannot generate the EDS: {e}"))
+}
+
+/// The XDD (CiA 311) of `profile`'s drive at `node_id`, with parameter storage or without: the
+/// EDS's objects and facts as XML.
+pub fn xdd(profile: &BoardProfile, node_id: u8, storage: bool) -> Result<String, String> {
+    describe(profile, node_id, storage, |drive, w| drive.write_xdd(&profile.eds, w))
+        .map_err(|e| format!("cannot generate the XDD: {e}"))
+}
+
+/// What `write` writes of `profile`'s drive at `node_id` (a device description), with parameter
+/// storage or without.
+fn describe(
+    profile: &BoardProfile,
+    node_id: u8,
+    storage: bool,
+    write: impl Fn(&dyn Describe, &mut String) -> std::fmt::Result,
+) -> Result<String, String> {
+    let config = profile.config(node_id);
+    let invalid = |e| format!("invalid drive configuration: {e:?}");
+    let mut text = String::new();
+    if storage {
+        // An erased flash of the file's geometry stands in for the file: only whether the drive
+        // stores parameters shows in a description.
+        let flash = SimFlash::new(
+            FileFlash::DEFAULT_CAPACITY,
+            FileFlash::DEFAULT_ERASE_SIZE,
+            FileFlash::DEFAULT_WRITE_SIZE,
+        );
+        let storage = Storage::new(flash, device_signature(&config.device, STORAGE_LAYOUT))
+            .map_err(|e| format!("storage: {e:?}"))?;
+        let drive = BoardDrive::build(config, profile.hooks(true), storage).map_err(invalid)?;
+        write(&drive, &mut text)
+    } else {
+        let drive = BoardDrive::<()>::create(config, profile.hooks(false)).map_err(invalid)?;
+        write(&drive, &mut text)
+    }
+    .map_err(|_| "the text could not be written".to_string())?;
+    Ok(text)
+}
+
+/// A drive of this board with any storage, as far as its descriptions go.
+trait Describe {
+    fn write_eds(&self, info: &EdsInfo, w: &mut String) -> std::fmt::Result;
+    fn write_xdd(&self, info: &EdsInfo, w: &mut String) -> std::fmt::Result;
+}
+
+impl<S: Persistence> Describe for BoardDrive<S> {
+    fn write_eds(&self, info: &EdsInfo, w: &mut String) -> std::fmt::Result {
+        Drive::write_eds(self, info, w)
+    }
+    fn write_xdd(&self, info: &EdsInfo, w: &mut String) -> std::fmt::Result {
+        Drive::write_xdd(self, info, w)
+    }
 }
 
 /// The monotonic clock of the loop.
@@ -281,15 +343,58 @@ mod tests {
     fn eds_is_served_and_independent_of_its_own_contents() {
         for name in ProfileName::ALL {
             let profile = BoardProfile::of(name);
-            let (config, eds) = config_with_eds(&profile, 5).unwrap();
+            let (config, eds) = config_with_eds(&profile, 5, false).unwrap();
             assert_eq!(config.device.eds, eds);
             let text = std::str::from_utf8(eds).unwrap();
             assert!(text.starts_with("[FileInfo]"));
             assert!(text.contains("\n[1021]\n"));
+            // Its storage format: 0, plain ASCII (CiA 301).
+            assert!(text.contains("\n[1022]\nParameterName=Store format\nObjectType=0x7\nDataType=0x0005\nAccessType=ro\nDefaultValue=0x0\n"));
             let drive = BoardDrive::<()>::create(config, profile.hooks(false)).unwrap();
             let mut again = String::new();
             drive.write_eds(&profile.eds, &mut again).unwrap();
             assert_eq!(again.as_bytes(), eds, "{}", name.name());
+        }
+    }
+
+    #[test]
+    fn the_sub_indices_of_an_object_have_names_of_their_own() {
+        // Masters look entries up by name (python-canopen: `node.sdo[0x1600]["Mapping entry 2"]`).
+        for name in ProfileName::ALL {
+            let (_, eds) = config_with_eds(&BoardProfile::of(name), 5, false).unwrap();
+            let mut seen = std::collections::HashSet::new();
+            for section in std::str::from_utf8(eds).unwrap().split("\n\n") {
+                let mut lines = section.trim().lines();
+                let header = lines.next().unwrap_or_default();
+                let Some((index, _)) = header.trim_start_matches('[').split_once("sub") else { continue };
+                let parameter = lines.find_map(|l| l.strip_prefix("ParameterName=")).unwrap();
+                assert!(seen.insert((index, parameter)), "{}: {header} {parameter:?} twice", name.name());
+            }
+            assert!(seen.contains(&("1600", "Mapping entry 2")), "{}", name.name());
+        }
+    }
+
+    #[test]
+    fn the_descriptions_say_whether_the_drive_stores_parameters() {
+        // 1010h/1011h subs 1-4 read 1 for the groups the drive stores, 0 without storage.
+        let sub = |text: &str, section: &str| {
+            let at = text.find(&format!("\n[{section}]\n")).unwrap();
+            text[at..].lines().find_map(|l| l.strip_prefix("DefaultValue=")).unwrap().to_string()
+        };
+        for name in ProfileName::ALL {
+            let profile = BoardProfile::of(name);
+            let (with, without) = (eds(&profile, 5, true).unwrap(), eds(&profile, 5, false).unwrap());
+            for index in ["1010", "1011"] {
+                for n in 1..=4 {
+                    let section = format!("{index}sub{n}");
+                    // The Harmonic Drive actuator does not store group 3 (`Config::store_groups`).
+                    let stored = !(name == ProfileName::HarmonicDrive && n == 3);
+                    assert_eq!(sub(&with, &section), if stored { "0x1" } else { "0x0" }, "{section}");
+                    assert_eq!(sub(&without, &section), "0x0", "{section}");
+                }
+            }
+            let xdd = xdd(&profile, 5, true).unwrap();
+            assert!(xdd.contains(r#"name="Store parameters 1" objectType="7" dataType="0007" accessType="rw" defaultValue="0x1""#));
         }
     }
 
@@ -312,7 +417,7 @@ mod tests {
     #[test]
     fn loop_boots_answers_and_stops() {
         let profile = BoardProfile::of(ProfileName::Generic);
-        let (config, _) = config_with_eds(&profile, 3).unwrap();
+        let (config, _) = config_with_eds(&profile, 3, false).unwrap();
         let drive = BoardDrive::<()>::create(config, profile.hooks(false)).unwrap();
         let bus = Bus::new();
         let (tx, rx) = sync_channel(64);

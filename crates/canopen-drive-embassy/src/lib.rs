@@ -93,7 +93,7 @@
 //! ```
 //!
 //! The drive answers a bit timing the controller cannot run "not supported" when
-//! `Config::lss_bit_rates` lists only those it can, and a store "stored" only with
+//! `Config::bit_rates` lists only those it can, and a store "stored" only with
 //! `Config::lss_store` set.
 //!
 //! ## Features

@@ -44,15 +44,16 @@ use crate::comm::error_control::{
     HeartbeatConsumer, NodeGuarding,
 };
 use crate::comm::heartbeat::{HeartbeatProducer, PeriodSlot};
-use crate::comm::lss::{LssHooks, LssSlave, StoreError, FIXED_STANDARD_RATES};
+use crate::comm::lss::{LssHooks, LssSlave, StoreError, DEFAULT_BIT_RATES};
 use crate::comm::nmt::{transition, NmtAction, Services};
 use crate::comm::pdo::{self, FrameSink, PdoEvent, PdoRecord, PdoSet, RpdoFrame, ValueRules};
 use crate::comm::sdo_server::{upload_in_two_steps, ObjectAccess, SdoServer};
 use crate::comm::sync::{self, Sync, SyncConfig, SyncPoll, SyncReception, SyncSlots};
 use crate::frame::CanFrame;
 use crate::hal::{Demand, Sample};
-use crate::od::eds::{self, EdsInfo};
+use crate::od::eds::{self, Capabilities, EdsInfo};
 use crate::od::standard::{self, HEARTBEAT_CONSUMERS};
+use crate::od::xdd;
 use crate::od::{
     le_u32, AbortCode, ConfigError, DefaultOverride, DeviceInfo, Dictionary, Entry, EntryOverride, Object,
     ObjectHooks, Owner, WriteRule,
@@ -144,11 +145,12 @@ pub struct Config {
     /// The board can make an LSS "store configuration" persistent (see
     /// [`Drive::take_lss_store`]); otherwise the request is answered "not supported".
     pub lss_store: bool,
-    /// The bit rates of the standard table (CiA 305 table 0) the board's CAN controller can
-    /// run at. LSS configure bit timing accepts these and answers the others "bit rate not
-    /// supported". Default: the eight fixed rates ([`FIXED_STANDARD_RATES`]); a board whose
-    /// CAN clock does not divide into one of them leaves it out.
-    pub lss_bit_rates: &'static [BitRate],
+    /// The bit rates of the standard table (CiA 305 table 0) the board's CAN controller runs
+    /// at (default 125, 250, 500 and 1000 kbit/s, [`DEFAULT_BIT_RATES`]): the LSS slave accepts
+    /// these in "configure bit timing" (and refuses the others with error 1, "bit rate not
+    /// supported"), and the EDS and XDD list them (`BaudRate_n`). A board whose CAN clock does
+    /// not divide into a rate leaves it out.
+    pub bit_rates: &'static [BitRate],
     /// The PDO records (1400h–1BFFh): [`pdo::DEFAULT_OBJECTS`] for 4 + 4, or a table made by
     /// [`pdo::objects`] matching the drive's PDO capacity.
     pub pdo_objects: &'static [Object],
@@ -192,7 +194,7 @@ impl Config {
             sdo_block_transfer: true,
             manufacturer_objects: &[],
             lss_store: false,
-            lss_bit_rates: &FIXED_STANDARD_RATES,
+            bit_rates: &DEFAULT_BIT_RATES,
             long_rpdo: pdo::LongRpdo::ApplyAndReport,
             tpdo_inhibit_unit: pdo::INHIBIT_UNIT,
             store_groups: &Group::ALL,
@@ -273,6 +275,12 @@ pub struct Drive<
     tx: TxQueue,
     hooks: H,
     storage: S,
+}
+
+/// Whether the drive stores and restores `group` on command (1010h/1011h): it has storage, and
+/// the group is one of [`Config::store_groups`]. The command objects read it, the EDS states it.
+fn stores(storage: &impl Persistence, groups: &[Group], group: Group) -> bool {
+    storage.available() && groups.contains(&group)
 }
 
 /// The service that owns `object`: the one that declares its index (the CiA 301 communication
@@ -368,6 +376,7 @@ struct CycleFlags {
 #[derive(Clone, Copy, Debug)]
 struct LssRequests {
     store_supported: bool,
+    /// [`Config::bit_rates`].
     bit_rates: &'static [BitRate],
     start_up: bool,
     bit_rate: Option<BitRateChange>,
@@ -378,7 +387,7 @@ impl LssRequests {
     fn new(config: &Config) -> Self {
         LssRequests {
             store_supported: config.lss_store,
-            bit_rates: config.lss_bit_rates,
+            bit_rates: config.bit_rates,
             start_up: false,
             bit_rate: None,
             store: None,
@@ -634,7 +643,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
     /// an automatic calibration): 0x0800_0020 without storage or for a group the drive does not
     /// store ([`Config::store_groups`]).
     pub fn store_parameters(&mut self, group: Group) -> Result<(), AbortCode> {
-        if !self.storage.available() || !self.store_groups.contains(&group) {
+        if !stores(&self.storage, self.store_groups, group) {
             return Err(AbortCode::CannotStore);
         }
         self.storage.store(&self.od, group)?;
@@ -687,9 +696,26 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
         self.tx.dropped
     }
 
-    /// Writes the EDS of this drive's dictionary.
+    /// Writes the EDS of this drive's dictionary. `[DeviceInfo]` states what the drive does: its
+    /// PDOs and mapping granularity, [`Config::bit_rates`], its LSS slave; 1010h/1011h the
+    /// groups it stores (none without storage).
     pub fn write_eds(&self, info: &EdsInfo, w: &mut impl fmt::Write) -> fmt::Result {
-        eds::write(&self.od, info, w)
+        eds::write(&self.od, info, &self.capabilities(), w)
+    }
+
+    /// Writes the XDD (CiA 311) of this drive's dictionary: what [`Drive::write_eds`] writes, as
+    /// XML (`info`'s file name with `.xdd` for `.eds`).
+    pub fn write_xdd(&self, info: &EdsInfo, w: &mut impl fmt::Write) -> fmt::Result {
+        xdd::write(&self.od, info, &self.capabilities(), w)
+    }
+
+    /// What the descriptions state of the drive around its dictionary.
+    fn capabilities(&self) -> Capabilities {
+        let store_commands = Group::ALL
+            .iter()
+            .filter(|group| stores(&self.storage, self.store_groups, **group))
+            .fold(0, |bits, group| bits | 1 << group.sub());
+        Capabilities { bit_rates: self.lss_requests.bit_rates, lss: true, store_commands }
     }
 
     /// Handles one received frame. Bounded work: at most one SDO step and a transmit queue's
@@ -1464,7 +1490,7 @@ impl<'a, H: ObjectHooks, S: Persistence, const B: usize> Access<'a, H, S, B> {
     /// 1010h/1011h subs 1..=4: the read value says whether the command is supported (§11).
     fn command_capability(&self, entry: &Entry, owner: Owner) -> Option<u32> {
         let group = Group::from_sub(entry.sub).filter(|_| owner == Owner::Storage)?;
-        Some(u32::from(self.storage.available() && self.store_groups.contains(&group)))
+        Some(u32::from(stores(self.storage, self.store_groups, group)))
     }
 
     /// Store or restore on command: the signature, then the operation; nothing is written to
@@ -1473,7 +1499,7 @@ impl<'a, H: ObjectHooks, S: Persistence, const B: usize> Access<'a, H, S, B> {
         let group = Group::from_sub(mux.sub).ok_or(AbortCode::SubIndexDoesNotExist)?;
         let value = le_u32(data);
         let signature = crate::storage::signature(mux.index);
-        if value != signature || !self.storage.available() || !self.store_groups.contains(&group) {
+        if value != signature || !stores(self.storage, self.store_groups, group) {
             return Err(AbortCode::CannotStore);
         }
         if signature == SAVE_SIGNATURE {

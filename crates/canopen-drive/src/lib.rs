@@ -49,7 +49,8 @@
 //!   are always built; a mode left out is not in 6502h, 6060h refuses it, its objects do not
 //!   exist and its code is not in the image (the drive with only the always-built modes needs
 //!   a little over half the flash of the full one).
-//! - `eds-object`: the device's EDS as object 1021h (implies `names`).
+//! - `eds-object`: the device's EDS as object 1021h, with its storage format 1022h (0: plain
+//!   ASCII) (implies `names`).
 //! - `defmt`: log through `defmt`, and `defmt::Format` for the public types a firmware logs
 //!   (frames, samples, demands, states, events, errors).
 //! - `log`: log through the `log` facade, for host programs (the Linux drive shows it with

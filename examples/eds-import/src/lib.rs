@@ -78,7 +78,7 @@ mod tests {
         let source =
             std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/generic-drive.eds")).unwrap();
         let mut written = String::new();
-        eds::write(&dictionary(), &eds::EdsInfo::default(), &mut written).unwrap();
+        eds::write(&dictionary(), &eds::EdsInfo::default(), &eds::Capabilities::PLAIN, &mut written).unwrap();
         let table = |eds: &str| canopen_drive_build::generate(eds, "T", 0x2000..=0x5FFF).unwrap();
         assert_eq!(table(&written), table(&source));
         assert!(table(&source).contains("; 10] ="), "all ten objects: {}", table(&source));

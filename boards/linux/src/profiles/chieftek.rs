@@ -91,15 +91,38 @@ pub const HARD_STOP_PERIOD: u16 = 0x3294;
 /// The board's record of the core's hard-stop parameters.
 pub const HARD_STOP_RECORD: u16 = 0x5E10;
 
+/// 3293h at start-up: half the peak current.
+const HARD_STOP_FRACTION: f64 = 0.5;
+/// 3294h at start-up (ms).
+const HARD_STOP_MS: u64 = 250;
+/// 6073h at start-up: 0 until the drive is commissioned (see [`DEFAULTS`]).
+const PEAK_CURRENT: u64 = 0;
+
+/// The core's hard-stop torque threshold (5E10h sub 1, ‰ of rated torque) for the fraction
+/// `fraction` (3293h) of the peak current `peak` (6073h, ‰), rounded.
+const fn hard_stop_threshold(fraction: f64, peak: u64) -> u64 {
+    let threshold = fraction * peak as f64 + 0.5;
+    if threshold < 1.0 {
+        0
+    } else if threshold >= u16::MAX as f64 {
+        u16::MAX as u64
+    } else {
+        threshold as u64
+    }
+}
+
 /// 3293h, 3294h, then the simulation objects and the hard-stop record of this board.
 pub static OBJECTS: [Object; 6] = layout([
     var(
         HARD_STOP_CURRENT,
         rw("Hard stop current", DataType::Real32)
-            .default(DefaultValue::Real(0.5))
+            .default(DefaultValue::Real(HARD_STOP_FRACTION))
             .limits(Bound::Real(0.01), Bound::Real(0.9)),
     ),
-    var(HARD_STOP_PERIOD, rw("Hard stop period", DataType::Unsigned16).default(DefaultValue::Unsigned(250))),
+    var(
+        HARD_STOP_PERIOD,
+        rw("Hard stop period", DataType::Unsigned16).default(DefaultValue::Unsigned(HARD_STOP_MS)),
+    ),
     simulated_faults(PROFILE_SIMULATION),
     simulated_inputs(PROFILE_SIMULATION + 1),
     simulated_load(PROFILE_SIMULATION + 2),
@@ -128,8 +151,9 @@ pub const STANDARD_METHODS: [i8; 32] = [
     33, 34, 35, 37,
 ];
 
-/// The manual's defaults (§2.3) where they differ from the core's.
-pub static DEFAULTS: [DefaultOverride; 24] = [
+/// The manual's defaults (§2.3) where they differ from the core's, and the start values of the
+/// hard-stop record the firmware derives from 3293h, 3294h and 6073h.
+pub static DEFAULTS: [DefaultOverride; 26] = [
     default_of(0x6007, 0, s(0)),
     default_of(0x605C, 0, s(0)),
     default_of(0x605E, 0, s(0)),
@@ -158,7 +182,10 @@ pub static DEFAULTS: [DefaultOverride; 24] = [
     default_of(0x6066, 0, u(0)),
     default_of(0x6067, 0, u(0)),
     default_of(0x6068, 0, u(0)),
-    default_of(0x6073, 0, u(0)),
+    default_of(0x6073, 0, u(PEAK_CURRENT)),
+    // What the firmware keeps the hard-stop record at (`Cpc::after_tick`).
+    default_of(HARD_STOP_RECORD, 1, u(hard_stop_threshold(HARD_STOP_FRACTION, PEAK_CURRENT))),
+    default_of(HARD_STOP_RECORD, 2, u(HARD_STOP_MS)),
 ];
 
 /// The manual's descriptions of standard entries where they differ from CiA 301/402's (same
@@ -286,8 +313,6 @@ pub fn profile() -> BoardProfile {
         eds: EdsInfo {
             file_name: "chieftek.eds",
             description: "cpc DS402 servo drive interface rebuilt on canopen-drive (simulated)",
-            rpdo_count: 4,
-            tpdo_count: 4,
             ..EdsInfo::default()
         },
         simulation: PROFILE_SIMULATION,
@@ -328,8 +353,7 @@ impl Firmware for Cpc {
     ) {
         // The threshold in ‰ of rated torque: the fraction of the peak current 6073h (‰).
         let fraction = f64::from(f32::from_bits(value_of(od, HARD_STOP_CURRENT, 0) as u32));
-        let peak = value_of(od, 0x6073, 0) as f64;
-        let threshold = (fraction * peak).round().clamp(0.0, f64::from(u16::MAX)) as u64;
+        let threshold = hard_stop_threshold(fraction, value_of(od, 0x6073, 0));
         updates.push(Update { index: HARD_STOP_RECORD, sub: 1, value: threshold });
         updates.push(Update { index: HARD_STOP_RECORD, sub: 2, value: value_of(od, HARD_STOP_PERIOD, 0) });
     }

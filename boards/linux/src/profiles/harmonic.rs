@@ -92,6 +92,7 @@ use canopen_drive::od::{
     PdoMapping, Var, WriteRule,
 };
 use canopen_drive::storage::Group;
+use canopen_drive::wire::lss::BitRate::{Kbit1000, Kbit125, Kbit20, Kbit250, Kbit50, Kbit500};
 use canopen_drive::wire::lss::BitTiming;
 use canopen_drive_sim::motor::MotorParams;
 
@@ -134,6 +135,17 @@ const fn signed(name: &'static str, data_type: DataType, low: i64, high: i64, de
 
 const HIGHEST: &str = "Highest sub-index supported";
 
+// The start values of 2020h and 2096h, which the firmware copies into the core's objects (see
+// `Actuator::after_tick`): those objects start at the same values.
+/// 2020h sub 1 max torque (mA): the peak current; 6072h/6073h (‰ = mA at the 1 A rated current).
+const MAX_TORQUE: u64 = 3252;
+/// 2020h sub 2 max velocity (rpm); 6080h.
+const MAX_VELOCITY: u64 = 10_000;
+/// 2020h sub 3 max acceleration (rpm/s); 60C5h, 60C6h.
+const MAX_ACCELERATION: u64 = 400_000;
+/// 2096h sub 1 position window (steps); the following error window 6065h.
+const POSITION_WINDOW: u64 = 50_000;
+
 const MOTOR_SUBS: [(u8, Var); 3] = [
     highest(HIGHEST, 2),
     (1, within("Motor Poles", Unsigned8, 2, 254, 10)),
@@ -142,9 +154,9 @@ const MOTOR_SUBS: [(u8, Var); 3] = [
 const BRAKE_SUBS: [(u8, Var); 2] = [highest(HIGHEST, 1), (1, within("BrakeMode", Unsigned8, 0, 2, 0))];
 const LIMITS_SUBS: [(u8, Var); 5] = [
     highest(HIGHEST, 4),
-    (1, within("MaxTorque", Unsigned32, 0, 3252, 3252)),
-    (2, within("MaxVelocity", Unsigned32, 0, 10_000, 10_000)),
-    (3, within("MaxAcceleration", Unsigned32, 0, 400_000, 400_000)),
+    (1, within("MaxTorque", Unsigned32, 0, 3252, MAX_TORQUE)),
+    (2, within("MaxVelocity", Unsigned32, 0, 10_000, MAX_VELOCITY)),
+    (3, within("MaxAcceleration", Unsigned32, 0, 400_000, MAX_ACCELERATION)),
     (4, within("DigitalInput Threshold", Unsigned32, 0, 24_000, 10_000)),
 ];
 const HOMING_SUBS: [(u8, Var); 6] = [
@@ -222,7 +234,7 @@ const VELOCITY_WINDOW_SUBS: [(u8, Var); 3] = [
 ];
 const POSITION_WINDOW_SUBS: [(u8, Var); 3] = [
     highest(HIGHEST, 2),
-    (1, rw("PositionWindow", Unsigned32).default(DefaultValue::Unsigned(50_000))),
+    (1, rw("PositionWindow", Unsigned32).default(DefaultValue::Unsigned(POSITION_WINDOW))),
     (2, within("ClearPositionWindowError", Unsigned8, 0, 255, 0)),
 ];
 const OUTPUT_SUBS: [(u8, Var); 3] = [
@@ -325,8 +337,9 @@ pub static RULES: [ValueRule; 10] = [
 ];
 
 /// The manual's defaults of standard objects (the velocities are encoder steps per second
-/// here, see the module docs) and the simulated actuator's rated current.
-pub static DEFAULTS: [DefaultOverride; 16] = [
+/// here, see the module docs), the simulated actuator's rated current, and the start values of
+/// the objects the firmware sets from 2020h and 2096h.
+pub static DEFAULTS: [DefaultOverride; 22] = [
     // §3.1.14: two error classes; the application error (the drive's Fault) keeps the state.
     default_of(0x1029, 0, u(2)),
     default_of(0x1029, 2, u(1)),
@@ -347,6 +360,14 @@ pub static DEFAULTS: [DefaultOverride; 16] = [
     // The feed per revolution equal to the encoder steps: positions stay encoder steps.
     default_of(0x6092, 1, u(STEPS_PER_REVOLUTION as u64)),
     default_of(0x6075, 0, u(1000)),
+    // What the firmware keeps them at from 2020h and 2096h sub 1 (6065h, 6072h, 6080h are
+    // absent from the bus, their values still limit the axis).
+    default_of(0x6072, 0, u(MAX_TORQUE)),
+    default_of(0x6073, 0, u(MAX_TORQUE)),
+    default_of(0x6080, 0, u(MAX_VELOCITY)),
+    default_of(0x60C5, 0, u(MAX_ACCELERATION)),
+    default_of(0x60C6, 0, u(MAX_ACCELERATION)),
+    default_of(0x6065, 0, u(POSITION_WINDOW)),
 ];
 
 /// The manual's descriptions of standard objects where they differ from CiA 301/402's: 1016h
@@ -507,14 +528,13 @@ pub fn profile() -> BoardProfile {
             long_rpdo: LongRpdo::DiscardAndReport,
             emcy_additional_bytes: &EMCY_BYTES,
             absent_objects: &ABSENT,
+            // §4.1.22 (2704h): 20, 50, 125, 250, 500 and 1000 kbit/s.
+            bit_rates: &[Kbit20, Kbit50, Kbit125, Kbit250, Kbit500, Kbit1000],
             ..Config::new(TEMPLATE_NODE_ID)
         },
         eds: EdsInfo {
             file_name: "harmonic-drive.eds",
             description: "Harmonic Drive CANopen actuator interface rebuilt on canopen-drive (simulated)",
-            baud_rates: &[20, 50, 125, 250, 500, 1000],
-            rpdo_count: 4,
-            tpdo_count: 4,
             ..EdsInfo::default()
         },
         simulation: PROFILE_SIMULATION,

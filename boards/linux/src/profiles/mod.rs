@@ -205,7 +205,7 @@ pub struct BoardProfile {
     /// CiA 301/402; what a profile leaves out is `Config::new`'s); its node-ID is replaced by
     /// the one the program runs at ([`BoardProfile::config`]).
     pub config: Config,
-    /// The facts of the EDS's `[FileInfo]` and `[DeviceInfo]`.
+    /// The facts of the EDS's `[FileInfo]` (`[DeviceInfo]` comes from the drive).
     pub eds: EdsInfo,
     /// Index of the first simulation object ([`crate::board_objects`]).
     pub simulation: u16,

@@ -88,6 +88,7 @@ use canopen_drive::od::{
     layout, AbortCode, Access, DataType, DefaultOverride, DefaultValue, DeviceInfo, EntryOverride, Object,
     PdoMapping, Var, WriteRule,
 };
+use canopen_drive::wire::lss::BitRate::{Kbit1000, Kbit125, Kbit20, Kbit250, Kbit50, Kbit500, Kbit800};
 use canopen_drive::wire::lss::BitTiming;
 use canopen_drive_sim::motor::{MotorParams, Zone};
 
@@ -505,14 +506,14 @@ pub fn profile() -> BoardProfile {
             long_rpdo: LongRpdo::DiscardAndReport,
             emcy_additional_bytes: &EMCY_BYTES,
             absent_objects: &ABSENT,
+            // §4.2.65 (2704h) without 100 kbit/s: CiA 306 has no key for it, and CiA 305 v3
+            // reserves its LSS table index 5.
+            bit_rates: &[Kbit20, Kbit50, Kbit125, Kbit250, Kbit500, Kbit800, Kbit1000],
             ..Config::new(TEMPLATE_NODE_ID)
         },
         eds: EdsInfo {
             file_name: "trinamic-pd57.eds",
             description: "PD57/60-1378 CANopen interface rebuilt on canopen-drive (simulated motor)",
-            baud_rates: &[20, 50, 125, 250, 500, 800, 1000],
-            rpdo_count: 4,
-            tpdo_count: 4,
             ..EdsInfo::default()
         },
         simulation: PROFILE_SIMULATION,

@@ -59,7 +59,9 @@
 //!   entry is supported is up to [`LssHooks::bit_timing_supported`]; the default accepts the
 //!   eight fixed rates of table 0 and refuses index 5 (100 kbit/s: reserved in CiA 305 v3,
 //!   optional per digest §12.3), index 9 (automatic detection needs hardware support),
-//!   reserved indices and every other table. Refused → error 1, the pending bit timing stays.
+//!   reserved indices and every other table (a [`Drive`](crate::Drive) accepts the rates of
+//!   [`Config::bit_rates`](crate::Config::bit_rates), which its EDS lists). Refused → error 1,
+//!   the pending bit timing stays.
 //! - *Activate bit timing* is obeyed in configuration only and only once a bit timing has
 //!   been configured (before that the pending bit timing is the active one, nothing to
 //!   switch). The hook gets the bit timing and the switch delay; the board waits the delay,
@@ -124,6 +126,11 @@ pub const FIXED_STANDARD_RATES: [BitRate; 8] = [
     BitRate::Kbit20,
     BitRate::Kbit10,
 ];
+
+/// The bit rates a drive runs at unless its configuration says otherwise
+/// ([`Config::bit_rates`](crate::Config::bit_rates)): 125, 250, 500 and 1000 kbit/s.
+pub const DEFAULT_BIT_RATES: [BitRate; 4] =
+    [BitRate::Kbit1000, BitRate::Kbit500, BitRate::Kbit250, BitRate::Kbit125];
 
 /// True for the eight fixed bit rates of the standard table (index 0..=4 and 6..=8): the
 /// default of [`LssHooks::bit_timing_supported`].

@@ -134,7 +134,10 @@ static TPDO_COMMUNICATION_SUBS: [(u8, Var); 6] = [
     (6, Var::new("SYNC start value", DataType::Unsigned8).access(Access::ReadWrite)),
 ];
 
-const MAPPING_ENTRY: Var = u32_rw("Mapping entry", DefaultValue::PdoPreset);
+/// Mapping entry `name` (each its own name: masters look entries up by name).
+const fn mapping_entry(name: &'static str) -> Var {
+    u32_rw(name, DefaultValue::PdoPreset)
+}
 
 static MAPPING_SUBS: [(u8, Var); 9] = [
     (
@@ -143,14 +146,14 @@ static MAPPING_SUBS: [(u8, Var); 9] = [
             .access(Access::ReadWrite)
             .default(DefaultValue::PdoPreset),
     ),
-    (1, MAPPING_ENTRY),
-    (2, MAPPING_ENTRY),
-    (3, MAPPING_ENTRY),
-    (4, MAPPING_ENTRY),
-    (5, MAPPING_ENTRY),
-    (6, MAPPING_ENTRY),
-    (7, MAPPING_ENTRY),
-    (8, MAPPING_ENTRY),
+    (1, mapping_entry("Mapping entry 1")),
+    (2, mapping_entry("Mapping entry 2")),
+    (3, mapping_entry("Mapping entry 3")),
+    (4, mapping_entry("Mapping entry 4")),
+    (5, mapping_entry("Mapping entry 5")),
+    (6, mapping_entry("Mapping entry 6")),
+    (7, mapping_entry("Mapping entry 7")),
+    (8, mapping_entry("Mapping entry 8")),
 ];
 
 /// The power-on value of [`DefaultValue::PdoPreset`] entries (the pre-defined connection set,

@@ -8,12 +8,22 @@
 //! Rules followed for the two tools that matter (python-canopen, CANopenEditor): parent sections
 //! before sub-sections, lower-case `sub`, hex always with `0x`, decimal without leading zeros,
 //! no empty numeric keys, all seven `DummyNNNN` keys, `$NODEID+0x...` for node-relative values.
+//!
+//! Nothing in it is typed in by hand: `[DeviceInfo]` comes from the dictionary (PDO counts,
+//! mapping granularity, dummy usage) and from the drive ([`Capabilities`]: bit rates, LSS), and
+//! every `DefaultValue` is what the node reads at start-up (1010h/1011h: whether the drive
+//! stores; an empty string: `DefaultValue=` with no text). The XDD ([`super::xdd`]) states the
+//! same from the same computation.
 
 use core::fmt::{self, Write};
 
-use super::{Access, Bound, DataType, DefaultValue, DeviceField, Dictionary, Kind, Object, PdoMapping, Var};
+use super::description::{
+    self, access_text, for_each_sub, limit_text, value_text, Facts, Filtered, List, Name,
+};
+use super::{Access, Dictionary, Kind, Object, PdoMapping, Var};
+use crate::wire::lss::BitRate::{self, Kbit1000, Kbit125, Kbit250, Kbit500};
 
-/// Facts about the device that the EDS states but the dictionary does not hold.
+/// Facts about the file that the EDS states but neither the dictionary nor the drive holds.
 #[derive(Clone, Copy, Debug)]
 pub struct EdsInfo {
     /// `[FileInfo] FileName`.
@@ -26,14 +36,6 @@ pub struct EdsInfo {
     pub time: &'static str,
     /// `CreatedBy`/`ModifiedBy`.
     pub created_by: &'static str,
-    /// Supported bit rates in kbit/s among 10, 20, 50, 125, 250, 500, 800, 1000.
-    pub baud_rates: &'static [u16],
-    /// Number of RPDOs.
-    pub rpdo_count: u16,
-    /// Number of TPDOs.
-    pub tpdo_count: u16,
-    /// LSS slave supported.
-    pub lss_supported: bool,
 }
 
 impl Default for EdsInfo {
@@ -44,265 +46,147 @@ impl Default for EdsInfo {
             date: "01-01-2026",
             time: "12:00PM",
             created_by: "canopen-drive",
-            baud_rates: &[125, 250, 500, 1000],
-            rpdo_count: 0,
-            tpdo_count: 0,
-            lss_supported: false,
         }
     }
 }
 
-const BAUD_RATES: [u16; 8] = [10, 20, 50, 125, 250, 500, 800, 1000];
+/// What the drive around the dictionary can do, as a description states it (`[DeviceInfo]`, the
+/// store commands' values). [`Drive::write_eds`](crate::Drive::write_eds) takes it from the
+/// drive's configuration and its storage, so that the EDS says what the node does; the PDO
+/// counts and the mapping granularity come from the dictionary itself.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Capabilities {
+    /// The bit rates the device runs at (`BaudRate_n`; CiA 306 has keys for 10, 20, 50, 125,
+    /// 250, 500, 800 and 1000 kbit/s).
+    pub bit_rates: &'static [BitRate],
+    /// An LSS slave answers (CiA 305; `LSS_Supported`).
+    pub lss: bool,
+    /// The sub-indices 1–4 of 1010h/1011h that read 1 (bit n for sub-index n): the parameter
+    /// groups the drive stores and restores on command. The others read 0.
+    pub store_commands: u8,
+}
 
-/// Writes the EDS of `od` into `w`.
-pub fn write<const B: usize>(od: &Dictionary<B>, info: &EdsInfo, w: &mut impl Write) -> fmt::Result {
+impl Capabilities {
+    /// A device at 125, 250, 500 and 1000 kbit/s, without LSS and without parameter storage.
+    pub const PLAIN: Capabilities =
+        Capabilities { bit_rates: &[Kbit1000, Kbit500, Kbit250, Kbit125], lss: false, store_commands: 0 };
+}
+
+/// Writes the EDS of `od`, in a drive that can do what `capabilities` say, into `w`.
+pub fn write<const B: usize>(
+    od: &Dictionary<B>,
+    info: &EdsInfo,
+    capabilities: &Capabilities,
+    w: &mut impl Write,
+) -> fmt::Result {
     let device = od.device();
+    let facts = Facts::of(od, capabilities);
     writeln!(w, "[FileInfo]")?;
-    writeln!(w, "FileName={}", Clean(info.file_name))?;
+    writeln!(w, "FileName={}", clean(info.file_name))?;
     writeln!(w, "FileVersion=1\nFileRevision=0\nEDSVersion=4.0")?;
-    writeln!(w, "Description={}", Clean(info.description))?;
+    writeln!(w, "Description={}", clean(info.description))?;
     for prefix in ["Creation", "Modification"] {
-        writeln!(w, "{prefix}Time={}\n{prefix}Date={}", Clean(info.time), Clean(info.date))?;
+        writeln!(w, "{prefix}Time={}\n{prefix}Date={}", clean(info.time), clean(info.date))?;
     }
-    writeln!(w, "CreatedBy={}\nModifiedBy={}", Clean(info.created_by), Clean(info.created_by))?;
+    writeln!(w, "CreatedBy={}\nModifiedBy={}", clean(info.created_by), clean(info.created_by))?;
     writeln!(w, "\n[DeviceInfo]")?;
-    writeln!(w, "VendorName={}", Clean(device.vendor_name))?;
+    writeln!(w, "VendorName={}", clean(device.vendor_name))?;
     writeln!(w, "VendorNumber=0x{:08X}", device.vendor_id)?;
-    writeln!(w, "ProductName={}", Clean(device.device_name))?;
+    writeln!(w, "ProductName={}", clean(device.device_name))?;
     writeln!(w, "ProductNumber=0x{:08X}", device.product_code)?;
     writeln!(w, "RevisionNumber=0x{:08X}", device.revision_number)?;
-    writeln!(w, "OrderCode={}", Clean(device.device_name))?;
-    for rate in BAUD_RATES {
-        writeln!(w, "BaudRate_{rate}={}", u8::from(info.baud_rates.contains(&rate)))?;
+    writeln!(w, "OrderCode={}", clean(device.device_name))?;
+    for rate in description::BIT_RATES {
+        writeln!(w, "BaudRate_{rate}={}", u8::from(facts.runs_at(rate)))?;
     }
-    writeln!(w, "SimpleBootUpMaster=0\nSimpleBootUpSlave=1\nGranularity=8")?;
+    writeln!(w, "SimpleBootUpMaster=0\nSimpleBootUpSlave=1\nGranularity={}", facts.granularity)?;
     writeln!(w, "DynamicChannelsSupported=0\nGroupMessaging=0")?;
-    writeln!(w, "NrOfRXPDO={}\nNrOfTXPDO={}", info.rpdo_count, info.tpdo_count)?;
-    writeln!(w, "LSS_Supported={}", u8::from(info.lss_supported))?;
+    writeln!(w, "NrOfRXPDO={}\nNrOfTXPDO={}", facts.rpdos, facts.tpdos)?;
+    writeln!(w, "LSS_Supported={}", u8::from(capabilities.lss))?;
     writeln!(w, "\n[DummyUsage]")?;
     for ty in 1..=7 {
-        // BOOLEAN (0001h) is not a dummy a byte-granular device accepts.
-        writeln!(w, "Dummy{ty:04X}={}", u8::from(ty != 1))?;
+        writeln!(w, "Dummy{ty:04X}={}", u8::from(facts.dummy(ty)))?;
     }
     writeln!(w, "\n[Comments]\nLines=1\nLine1=Generated from the firmware's object dictionary")?;
 
-    for list in [List::Mandatory, List::Optional, List::Manufacturer] {
-        writeln!(w, "\n[{}]", list.section())?;
-        let listed = |o: &&Object| List::of(o) == list && !od.is_absent(o.index);
-        writeln!(w, "SupportedObjects={}", od.objects().filter(listed).count())?;
-        for (n, object) in od.objects().filter(listed).enumerate() {
+    for list in List::ALL {
+        writeln!(w, "\n[{}]", section(list))?;
+        writeln!(w, "SupportedObjects={}", list.objects(od).count())?;
+        for (n, object) in list.objects(od).enumerate() {
             writeln!(w, "{}=0x{:04X}", n + 1, object.index)?;
         }
     }
 
-    for object in od.objects().filter(|o| !od.is_absent(o.index)) {
-        write_object(od, object, w)?;
+    for object in description::listed(od) {
+        write_object(od, capabilities, object, w)?;
     }
     Ok(())
 }
 
-/// The object lists of an EDS (CiA 306 §4.5).
-#[derive(Clone, Copy, PartialEq, Eq)]
-enum List {
-    Mandatory,
-    Optional,
-    Manufacturer,
-}
-
-impl List {
-    fn of(object: &Object) -> List {
-        match object.index {
-            0x1000 | 0x1001 | 0x1018 => List::Mandatory,
-            0x2000..=0x5FFF => List::Manufacturer,
-            _ => List::Optional,
-        }
-    }
-
-    fn section(self) -> &'static str {
-        match self {
-            List::Mandatory => "MandatoryObjects",
-            List::Optional => "OptionalObjects",
-            List::Manufacturer => "ManufacturerObjects",
-        }
-    }
-}
-
-/// An object's name with its instance number.
-struct ObjectName<'a>(&'a Object);
-
-impl fmt::Display for ObjectName<'_> {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        Clean(self.0.name()).fmt(f)?;
-        match self.0.number {
-            0 => Ok(()),
-            n => write!(f, " {n}"),
-        }
+/// The EDS section of an object list.
+fn section(list: List) -> &'static str {
+    match list {
+        List::Mandatory => "MandatoryObjects",
+        List::Optional => "OptionalObjects",
+        List::Manufacturer => "ManufacturerObjects",
     }
 }
 
 fn write_object<const B: usize>(
     od: &Dictionary<B>,
+    capabilities: &Capabilities,
     object: &'static Object,
     w: &mut impl Write,
 ) -> fmt::Result {
     let index = object.index;
-    match &object.kind {
-        Kind::Var(var) => {
-            let var = od.describe(index, 0, var);
-            writeln!(w, "\n[{index:04X}]\nParameterName={}", ObjectName(object))?;
-            write_var(od, var, od.default_of(index, 0, var), w)
-        }
-        Kind::Array { sub0, element, len } => {
-            let len =
-                &(1..=od.array_len(index, sub0, *len)).take_while(|sub| !od.hidden(object, *sub)).count();
-            let len = &u8::try_from(*len).unwrap_or(u8::MAX);
-            writeln!(w, "\n[{index:04X}]\nParameterName={}", ObjectName(object))?;
-            writeln!(w, "ObjectType=0x8\nSubNumber=0x{:X}", u16::from(*len) + 1)?;
-            let sub0 = od.describe(index, 0, sub0);
-            writeln!(w, "\n[{index:04X}sub0]\nParameterName={}", Clean(sub0.name()))?;
-            write_var(od, sub0, od.default_of(index, 0, sub0), w)?;
-            for sub in 1..=*len {
-                let element = od.describe(index, sub, element);
-                writeln!(w, "\n[{index:04X}sub{sub:X}]\nParameterName={} {sub}", Clean(element.name()))?;
-                write_var(od, element, od.default_of(index, sub, element), w)?;
-            }
-            Ok(())
-        }
-        Kind::Record(subs) => {
-            writeln!(w, "\n[{index:04X}]\nParameterName={}", ObjectName(object))?;
-            let visible = || subs.iter().filter(|(sub, _)| !od.hidden(object, *sub));
-            writeln!(w, "ObjectType=0x9\nSubNumber=0x{:X}", visible().count())?;
-            for (sub, var) in visible() {
-                let var = od.describe(index, *sub, var);
-                writeln!(w, "\n[{index:04X}sub{sub:X}]\nParameterName={}", Clean(var.name()))?;
-                write_var(od, var, od.default_of(index, *sub, var), w)?;
-            }
-            Ok(())
-        }
+    if !matches!(object.kind, Kind::Var(_)) {
+        writeln!(w, "\n[{index:04X}]\nParameterName={}", clean(Name::Object(object)))?;
+        let code = description::object_code(object);
+        writeln!(w, "ObjectType=0x{code:X}\nSubNumber=0x{:X}", description::sub_count(od, object))?;
     }
+    for_each_sub(od, capabilities, object, |entry| {
+        match object.kind {
+            Kind::Var(_) => writeln!(w, "\n[{index:04X}]")?,
+            _ => writeln!(w, "\n[{index:04X}sub{:X}]", entry.sub)?,
+        }
+        writeln!(w, "ParameterName={}", clean(entry.name))?;
+        write_var(od, entry.var, entry.default, w)
+    })
 }
 
 fn write_var<const B: usize>(
     od: &Dictionary<B>,
     var: &Var,
-    default: DefaultValue,
+    default: super::DefaultValue,
     w: &mut impl Write,
 ) -> fmt::Result {
     writeln!(w, "ObjectType=0x7\nDataType=0x{:04X}", var.data_type as u16)?;
     let access = match (var.access, var.pdo) {
-        (Access::Const, _) => "const",
-        (Access::ReadOnly, _) => "ro",
-        (Access::WriteOnly, _) => "wo",
         (Access::ReadWrite, PdoMapping::Rpdo) => "rww",
         (Access::ReadWrite, PdoMapping::Tpdo) => "rwr",
-        (Access::ReadWrite, _) => "rw",
+        (access, _) => access_text(access),
     };
     writeln!(w, "AccessType={access}")?;
-    write_default(od, var, default, w)?;
+    if let Some(text) = value_text(od, var, default) {
+        writeln!(w, "DefaultValue={}", clean(text))?;
+    }
     writeln!(w, "PDOMapping={}", u8::from(var.pdo != PdoMapping::No))?;
     for (key, bound) in [("LowLimit", var.low()), ("HighLimit", var.high())] {
-        match bound {
-            Bound::None => {}
-            Bound::Signed(v) => writeln!(w, "{key}={v}")?,
-            Bound::Unsigned(v) => writeln!(w, "{key}=0x{v:X}")?,
-            Bound::Real(v) => writeln!(w, "{key}={v}")?,
+        if let Some(text) = limit_text(bound) {
+            writeln!(w, "{key}={text}")?;
         }
     }
     Ok(())
 }
 
-fn write_default<const B: usize>(
-    od: &Dictionary<B>,
-    var: &Var,
-    default: DefaultValue,
-    w: &mut impl Write,
-) -> fmt::Result {
-    let device = od.device();
-    let number = |value: u64| -> u64 {
-        // Numbers are shown in the entry's own width (a signed default as two's complement
-        // would otherwise print 16 hex digits).
-        match var.data_type.fixed_size() {
-            Some(n) if n < 8 => value & ((1u64 << (8 * n)) - 1),
-            _ => value,
-        }
-    };
-    match default {
-        _ if var.data_type == DataType::Domain => Ok(()),
-        DefaultValue::Zero => match var.data_type {
-            DataType::VisibleString | DataType::OctetString | DataType::UnicodeString => Ok(()),
-            DataType::Real32 | DataType::Real64 => writeln!(w, "DefaultValue=0"),
-            _ => writeln!(w, "DefaultValue=0x0"),
-        },
-        DefaultValue::Unsigned(v) => writeln!(w, "DefaultValue=0x{:X}", number(v)),
-        DefaultValue::Signed(v) => writeln!(w, "DefaultValue={v}"),
-        DefaultValue::Real(v) => writeln!(w, "DefaultValue={v}"),
-        DefaultValue::Text(s) => default_text(s, w),
-        DefaultValue::Bytes(b) => {
-            if b.is_empty() {
-                return Ok(());
-            }
-            write!(w, "DefaultValue=")?;
-            for byte in b {
-                write!(w, "{byte:02X}")?;
-            }
-            writeln!(w)
-        }
-        DefaultValue::NodeIdPlus(base) => writeln!(w, "DefaultValue=$NODEID+0x{base:X}"),
-        // Resolved by `default_of`.
-        DefaultValue::PdoPreset => writeln!(w, "DefaultValue=0x0"),
-        DefaultValue::Device(field) => {
-            let value = match field {
-                DeviceField::DeviceType => device.device_type,
-                DeviceField::VendorId => device.vendor_id,
-                DeviceField::ProductCode => device.product_code,
-                DeviceField::RevisionNumber => device.revision_number,
-                DeviceField::SerialNumber => device.serial_number,
-                DeviceField::DriveModes => device.drive_modes,
-                DeviceField::DeviceName => return default_text(device.device_name, w),
-                DeviceField::HardwareVersion => return default_text(device.hardware_version, w),
-                DeviceField::SoftwareVersion => return default_text(device.software_version, w),
-                DeviceField::Eds => return Ok(()),
-                // Resolved by `default_of`.
-                DeviceField::HomingMethodCount | DeviceField::HomingMethods => 0,
-            };
-            writeln!(w, "DefaultValue=0x{value:08X}")
-        }
-    }
-}
-
-fn default_text(s: &str, w: &mut impl Write) -> fmt::Result {
-    if s.is_empty() {
-        Ok(())
-    } else {
-        writeln!(w, "DefaultValue={}", Clean(s))
-    }
-}
-
 /// Text made safe for one INI value: control characters become spaces.
-struct Clean<'a>(&'a str);
-
-impl fmt::Display for Clean<'_> {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        for c in self.0.chars() {
-            f.write_char(if c.is_control() { ' ' } else { c })?;
-        }
-        Ok(())
-    }
+fn clean<T: fmt::Display>(text: T) -> Filtered<T> {
+    Filtered(text, |c, f| f.write_char(if c.is_control() { ' ' } else { c }))
 }
 
 /// Counts the bytes [`write()`] produces (to size a buffer for 1021h).
-pub fn size<const B: usize>(od: &Dictionary<B>, info: &EdsInfo) -> usize {
-    struct Counter(usize);
-    impl Write for Counter {
-        fn write_str(&mut self, s: &str) -> fmt::Result {
-            self.0 += s.len();
-            Ok(())
-        }
-    }
-    let mut counter = Counter(0);
-    // Writing into a counter cannot fail.
-    let _ = write(od, info, &mut counter);
-    counter.0
+pub fn size<const B: usize>(od: &Dictionary<B>, info: &EdsInfo, capabilities: &Capabilities) -> usize {
+    description::count(|mut w| write(od, info, capabilities, &mut w))
 }
 
 #[cfg(test)]
@@ -312,7 +196,7 @@ mod tests {
     use std::vec::Vec;
 
     use super::*;
-    use crate::od::{layout, standard, DefaultOverride, DeviceInfo, Object};
+    use crate::od::{layout, standard, DataType, DefaultOverride, DefaultValue, DeviceInfo, Object};
 
     static VENDOR: [Object; 2] = layout([
         Object::var(
@@ -330,8 +214,8 @@ mod tests {
         let info = DeviceInfo { vendor_id: 0x1234, device_name: "Test drive", ..DeviceInfo::servo_drive() };
         let od = Dictionary::<1024>::new(&[&standard::COMMUNICATION, &VENDOR], info, 1).unwrap();
         let mut out = String::new();
-        write(&od, &EdsInfo::default(), &mut out).unwrap();
-        assert_eq!(size(&od, &EdsInfo::default()), out.len());
+        write(&od, &EdsInfo::default(), &Capabilities::PLAIN, &mut out).unwrap();
+        assert_eq!(size(&od, &EdsInfo::default(), &Capabilities::PLAIN), out.len());
         out
     }
 
@@ -377,6 +261,56 @@ mod tests {
     }
 
     #[test]
+    fn device_info_comes_from_the_dictionary_and_the_drive() {
+        // Without PDOs, LSS or storage: nothing to map, no dummies, the plain bit rates.
+        let plain = eds();
+        let device_info = section(&plain, "DeviceInfo");
+        for key in ["Granularity=0", "NrOfRXPDO=0", "NrOfTXPDO=0", "LSS_Supported=0", "BaudRate_10=0"] {
+            assert!(device_info.contains(&key), "{key}");
+        }
+        assert!(section(&plain, "DummyUsage").iter().all(|line| line.ends_with("=0")));
+        assert!(section(&plain, "1010sub1").contains(&"DefaultValue=0x0"));
+
+        // 3 RPDOs, 2 TPDOs (the crate's mapping takes single bits), LSS, groups 1 and 3 stored.
+        static PDOS: [Object; 10] = layout(crate::comm::pdo::objects::<10>(3));
+        let od = Dictionary::<4096>::new(
+            &[&standard::COMMUNICATION, &PDOS, &VENDOR],
+            DeviceInfo::servo_drive(),
+            1,
+        )
+        .unwrap();
+        let capabilities =
+            Capabilities { bit_rates: &[BitRate::Kbit10, Kbit1000], lss: true, store_commands: 0b1010 };
+        let mut text = String::new();
+        write(&od, &EdsInfo::default(), &capabilities, &mut text).unwrap();
+        let device_info = section(&text, "DeviceInfo");
+        for key in ["Granularity=1", "NrOfRXPDO=3", "NrOfTXPDO=2", "LSS_Supported=1", "BaudRate_10=1"] {
+            assert!(device_info.contains(&key), "{key}");
+        }
+        assert!(device_info.contains(&"BaudRate_125=0"));
+        assert!(section(&text, "DummyUsage").iter().all(|line| line.ends_with("=1")));
+        for (sub, value) in [(1, "0x1"), (2, "0x0"), (3, "0x1"), (4, "0x0")] {
+            let default = std::format!("DefaultValue={value}");
+            assert!(section(&text, &std::format!("1011sub{sub}")).contains(&default.as_str()), "{sub}");
+        }
+        assert!(section(&text, "1A01sub8").contains(&"ParameterName=Mapping entry 8"));
+    }
+
+    #[test]
+    fn empty_strings_have_an_empty_default() {
+        static TEXT: [Object; 1] = layout([Object::var(
+            0x2000,
+            "Catalogue number",
+            Var::new("Catalogue number", DataType::VisibleString).access(Access::ReadWrite).capacity(8),
+        )]);
+        let od = Dictionary::<1024>::new(&[&standard::COMMUNICATION, &TEXT], DeviceInfo::servo_drive(), 1)
+            .unwrap();
+        let mut text = String::new();
+        write(&od, &EdsInfo::default(), &Capabilities::PLAIN, &mut text).unwrap();
+        assert!(section(&text, "2000").contains(&"DefaultValue="));
+    }
+
+    #[test]
     fn the_firmwares_defaults_are_the_eds_defaults() {
         static OVERRIDES: [DefaultOverride; 2] = [
             DefaultOverride { index: 0x2000, sub: 0, value: DefaultValue::Signed(-3) },
@@ -387,7 +321,7 @@ mod tests {
                 .unwrap();
         od.set_default_overrides(&OVERRIDES).unwrap();
         let mut eds = String::new();
-        write(&od, &EdsInfo::default(), &mut eds).unwrap();
+        write(&od, &EdsInfo::default(), &Capabilities::PLAIN, &mut eds).unwrap();
         assert!(section(&eds, "2000").contains(&"DefaultValue=-3"));
         assert!(section(&eds, "2001sub1").contains(&"DefaultValue=0"));
         assert!(section(&eds, "2001sub2").contains(&"DefaultValue=0.5"));

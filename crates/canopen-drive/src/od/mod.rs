@@ -13,11 +13,13 @@
 //! rights; access from the bus goes through [`Dictionary::check_write`] and friends, which answer
 //! with the exact [`AbortCode`].
 
+mod description;
 pub mod eds;
 mod entry;
 mod overrides;
 pub mod persist;
 pub mod standard;
+pub mod xdd;
 
 pub use crate::wire::AbortCode;
 pub use entry::{

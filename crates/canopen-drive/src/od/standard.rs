@@ -53,6 +53,8 @@ pub const ERROR_BEHAVIOUR: u16 = 0x1029;
 pub const HEARTBEAT_CONSUMERS: u8 = 4;
 /// 1021h store EDS.
 pub const STORE_EDS: u16 = 0x1021;
+/// 1022h store format: how 1021h is stored (0 = the EDS as plain ASCII, CiA 301).
+pub const STORE_FORMAT: u16 = 0x1022;
 /// 1200h SDO server parameter.
 pub const SDO_SERVER_PARAMETER: u16 = 0x1200;
 
@@ -94,7 +96,7 @@ const SDO_SERVER_SUBS: [(u8, Var); 3] = [
 ];
 
 /// Every communication object of the crate, before the feature selection.
-const ALL_COMMUNICATION: [Object; 22] = [
+const ALL_COMMUNICATION: [Object; 23] = [
     Object::var(DEVICE_TYPE, "Device type", u32_const("Device type", DeviceField::DeviceType)),
     Object::var(
         ERROR_REGISTER,
@@ -202,6 +204,12 @@ const ALL_COMMUNICATION: [Object; 22] = [
             .access(Access::ReadOnly)
             .default(DefaultValue::Device(DeviceField::Eds)),
     ),
+    // 1021h serves the EDS uncompressed, as ASCII text (read-only, as CiA 301 lists it).
+    Object::var(
+        STORE_FORMAT,
+        "Store format",
+        Var::new("Store format", DataType::Unsigned8).access(Access::ReadOnly),
+    ),
     // Sub 1 communication errors; sub 2 the drive's Fault (CiA 402-2 §7.2: entering Fault is
     // a severe device-internal error), shown when a configuration overrides sub 0 to 2.
     Object::array_with_sub0(
@@ -216,9 +224,9 @@ const ALL_COMMUNICATION: [Object; 22] = [
     Object::record(SDO_SERVER_PARAMETER, "SDO server parameter", &SDO_SERVER_SUBS),
 ];
 
-/// Objects a build leaves out: 1021h without the `eds-object` feature.
+/// Objects a build leaves out: 1021h and its format 1022h without the `eds-object` feature.
 const fn included(object: &Object) -> bool {
-    object.index != STORE_EDS || cfg!(feature = "eds-object")
+    !matches!(object.index, STORE_EDS | STORE_FORMAT) || cfg!(feature = "eds-object")
 }
 
 // Loop indices are bounded by the array lengths; `get` is not usable in a const fn.
