@@ -256,7 +256,9 @@ The flash goals are not reached. The full drive's static RAM is within its goal 
 dictionary store is sized to the tables (`drive::STANDARD_OD_BYTES` instead of the 3 KiB
 default, −2 KiB) and pp and homing share one trajectory planner (−1.3 KiB); the 301-only
 node's since issue 17 (an optional instant in 8 bytes, not 16, through a niche of `Instant`;
-PDO and SDO timers in 4 bytes; one TPDO data buffer: 2 296 → 2 048 B). Without the optional modes (`drive-cyclic`: cargo features `pp`,
+PDO and SDO timers in 4 bytes; one TPDO data buffer: 2 296 → 2 048 B). Since issue 21 the
+profile keeps the motion limits it converted, with the values they came from (about 260 B), so
+that a tick divides again only when a master changes one. Without the optional modes (`drive-cyclic`: cargo features `pp`,
 `hm`, `ip`, `vl`, `touch-probe` off) the drive takes a little over half the full image's
 flash — the exact trajectory planner of pp and hm and the code of those modes are the
 difference — but the same static RAM (the state of every mode stays in the profile). The

@@ -80,12 +80,8 @@ fn device_info() -> DeviceInfo {
 
 #[inline(never)]
 fn make_drive(store: storage::ParameterStore, node_id: u8) -> Option<&'static mut BoardDrive> {
-    let config = Config {
-        device: device_info(),
-        lss_store: true,
-        bit_rates: &can::BIT_RATES,
-        ..Config::new(node_id)
-    };
+    let config =
+        Config { device: device_info(), lss_store: true, bit_rates: &can::BIT_RATES, ..Config::new(node_id) };
     // Built in place: a drive built by value and moved would need several times its size
     // of stack, more than this part's 32 KiB of RAM.
     Drive::build_in(DRIVE_CELL.uninit(), config, (), store).ok()
