@@ -8,8 +8,7 @@
 #![cfg_attr(test, allow(clippy::unwrap_used, clippy::expect_used, clippy::indexing_slicing, clippy::panic))]
 
 use std::cell::{Cell, RefCell};
-use std::collections::VecDeque;
-use std::future::{poll_fn, Future};
+use std::future::Future;
 use std::pin::{pin, Pin};
 use std::rc::Rc;
 use std::sync::Mutex;
@@ -19,66 +18,21 @@ use canopen_drive::drive::BitRateChange;
 use canopen_drive::wire::lss::{BitRate, BitTiming};
 use canopen_drive::{CanFrame, Config, Drive};
 use canopen_drive_embassy::{
-    run, run_until_bit_rate_change, BusState, CanRx, CanTx, RunnerHooks, SharedDrive, BUS_STATE_PERIOD,
+    run, run_until_bit_rate_change, BusState, RunnerHooks, SharedDrive, BUS_STATE_PERIOD,
 };
 use embassy_time::{Duration, MockDriver};
-use embedded_can::{ErrorKind, Frame};
 
 /// The mock clock is global: one test at a time.
 static CLOCK: Mutex<()> = Mutex::new(());
+
+mod common;
+use common::Wire;
 
 const NODE: u8 = 4;
 const LSS_REQUEST: u16 = 0x7E5;
 const LSS_RESPONSE: u16 = 0x7E4;
 const EMCY: u16 = 0x80 + NODE as u16;
 const HEARTBEAT: u16 = 0x700 + NODE as u16;
-
-/// The CAN "peripheral": frames from the master, frames to the master.
-#[derive(Clone, Default)]
-struct Wire {
-    to_drive: Rc<RefCell<VecDeque<CanFrame>>>,
-    from_drive: Rc<RefCell<Vec<CanFrame>>>,
-}
-
-impl CanRx for Wire {
-    type Frame = CanFrame;
-    type Error = ErrorKind;
-    async fn receive(&mut self) -> Result<CanFrame, ErrorKind> {
-        poll_fn(|_| match self.to_drive.borrow_mut().pop_front() {
-            Some(frame) => Poll::Ready(Ok(frame)),
-            None => Poll::Pending,
-        })
-        .await
-    }
-}
-
-impl CanTx for Wire {
-    type Frame = CanFrame;
-    type Error = ErrorKind;
-    async fn transmit(&mut self, frame: &CanFrame) -> Result<(), ErrorKind> {
-        self.from_drive.borrow_mut().push(*frame);
-        Ok(())
-    }
-}
-
-impl Wire {
-    fn send(&self, id: u16, data: &[u8]) {
-        self.to_drive.borrow_mut().push_back(CanFrame::new_standard(id, data).unwrap());
-    }
-
-    /// Frames from the drive with this CAN-ID, taken.
-    fn take(&self, id: u16) -> Vec<Vec<u8>> {
-        let mut all = self.from_drive.borrow_mut();
-        let (mine, rest): (Vec<_>, Vec<_>) = all.drain(..).partition(|f| f.standard_id() == Some(id));
-        *all = rest;
-        mine.iter().map(|f| f.data().to_vec()).collect()
-    }
-
-    /// Every frame from the drive, taken.
-    fn take_all(&self) -> Vec<CanFrame> {
-        self.from_drive.borrow_mut().drain(..).collect()
-    }
-}
 
 /// An LSS store as the board gets it: node-ID and bit timing.
 type LssStore = (u8, Option<BitTiming>);

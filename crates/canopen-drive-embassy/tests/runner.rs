@@ -6,13 +6,11 @@
 
 #![cfg_attr(test, allow(clippy::unwrap_used, clippy::expect_used, clippy::indexing_slicing, clippy::panic))]
 
-use std::cell::RefCell;
 use std::collections::VecDeque;
-use std::future::{poll_fn, Future};
+use std::future::Future;
 use std::pin::pin;
-use std::rc::Rc;
 use std::sync::Mutex;
-use std::task::{Context, Poll, Waker};
+use std::task::{Context, Waker};
 
 use canopen_drive::comm::sdo_server::MAX_BLOCK_SIZE;
 use canopen_drive::drive::TX_QUEUE;
@@ -20,12 +18,14 @@ use canopen_drive::hal::{Demand, Sample};
 use canopen_drive::od::{layout, AbortCode, DataType, Object, ObjectHooks, Var};
 use canopen_drive::wire::crc;
 use canopen_drive::{CanFrame, Config, Drive, Instant};
-use canopen_drive_embassy::{run, CanRx, CanTx, Endpoints, SharedDrive};
+use canopen_drive_embassy::{run, Endpoints, SharedDrive};
 use embassy_time::{Duration, MockDriver};
-use embedded_can::{ErrorKind, Frame};
 
 /// The mock clock is global: one test at a time.
 static CLOCK: Mutex<()> = Mutex::new(());
+
+mod common;
+use common::Wire;
 
 const NODE: u8 = 4;
 const PATTERN: u16 = 0x2F10;
@@ -115,48 +115,6 @@ impl Endpoints for Metered {
     fn tick(&mut self, now: Instant, sample: &Sample) -> Demand {
         self.ticks += 1;
         self.metered(|d| d.tick(now, sample))
-    }
-}
-
-/// The CAN "peripheral": frames from the master, frames to the master.
-#[derive(Clone, Default)]
-struct Wire {
-    to_drive: Rc<RefCell<VecDeque<CanFrame>>>,
-    from_drive: Rc<RefCell<Vec<CanFrame>>>,
-}
-
-impl CanRx for Wire {
-    type Frame = CanFrame;
-    type Error = ErrorKind;
-    async fn receive(&mut self) -> Result<CanFrame, ErrorKind> {
-        poll_fn(|_| match self.to_drive.borrow_mut().pop_front() {
-            Some(frame) => Poll::Ready(Ok(frame)),
-            None => Poll::Pending,
-        })
-        .await
-    }
-}
-
-impl CanTx for Wire {
-    type Frame = CanFrame;
-    type Error = ErrorKind;
-    async fn transmit(&mut self, frame: &CanFrame) -> Result<(), ErrorKind> {
-        self.from_drive.borrow_mut().push(*frame);
-        Ok(())
-    }
-}
-
-impl Wire {
-    fn send(&self, id: u16, data: &[u8]) {
-        self.to_drive.borrow_mut().push_back(CanFrame::new_standard(id, data).unwrap());
-    }
-
-    /// Frames from the drive with this CAN-ID, taken.
-    fn take(&self, id: u16) -> Vec<Vec<u8>> {
-        let mut all = self.from_drive.borrow_mut();
-        let (mine, rest): (Vec<_>, Vec<_>) = all.drain(..).partition(|f| f.standard_id() == Some(id));
-        *all = rest;
-        mine.iter().map(|f| f.data().to_vec()).collect()
     }
 }
 
