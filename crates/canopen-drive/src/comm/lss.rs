@@ -114,19 +114,6 @@ pub const fn is_valid_node_id(node_id: u8) -> bool {
     matches!(node_id, 1..=127)
 }
 
-/// The eight fixed bit rates of the standard table (index 0..=4 and 6..=8), fastest first: the
-/// rates [`is_fixed_standard_rate`] accepts.
-pub const FIXED_STANDARD_RATES: [BitRate; 8] = [
-    BitRate::Kbit1000,
-    BitRate::Kbit800,
-    BitRate::Kbit500,
-    BitRate::Kbit250,
-    BitRate::Kbit125,
-    BitRate::Kbit50,
-    BitRate::Kbit20,
-    BitRate::Kbit10,
-];
-
 /// The bit rates a drive runs at unless its configuration says otherwise
 /// ([`Config::bit_rates`](crate::Config::bit_rates)): 125, 250, 500 and 1000 kbit/s.
 pub const DEFAULT_BIT_RATES: [BitRate; 4] =
