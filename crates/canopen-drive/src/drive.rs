@@ -624,6 +624,8 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
     pub fn od_mut(&mut self) -> &mut Dictionary<OD_BYTES> {
         self.profile.invalidate();
         self.stale = true;
+        // Whatever the firmware writes, also through slots, is a change for the next tick.
+        self.od.touch();
         &mut self.od
     }
 
@@ -1051,6 +1053,15 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
     /// (state machine, mode, stops, statusword, actual values) and stages event-driven TPDOs
     /// whose values changed. Returns what the power stage must do until the next tick.
     pub fn tick(&mut self, now: Instant, sample: &Sample) -> Demand {
+        if self.quiet_tick(now, sample) {
+            return self.profile.quiet_demand();
+        }
+        self.full_tick(now, sample)
+    }
+
+    /// [`Self::tick`] with every input looked at.
+    #[inline(never)]
+    fn full_tick(&mut self, now: Instant, sample: &Sample) -> Demand {
         if self.nmt.serves_pdo() {
             let mut events = heapless::Vec::<PdoEvent, PDO_EVENTS>::new();
             let rules = ProcessDataRules(&self.profile);
@@ -1099,9 +1110,35 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
             }
         }
         if self.nmt.serves_pdo() {
+            // The profile's outputs (slot writes) are not in the dictionary's revision.
+            self.pdos.values_written();
             self.pdos.detect_changes(now, &self.od, &mut self.tx);
         }
         demand
+    }
+
+    /// The tick of an idle axis whose inputs are those of the last tick
+    /// ([`Profile::quiet_tick`](crate::cia402::profile::Profile::quiet_tick)): no RPDO to
+    /// apply, no SYNC or set-point since, the same sample, the dictionary unchanged. Only the
+    /// TPDOs' timers are looked at; false when a full tick is needed.
+    fn quiet_tick(&mut self, now: Instant, sample: &Sample) -> bool {
+        let serves_pdo = self.nmt.serves_pdo();
+        let set_point = match self.profile.config().cyclic.cycle_start {
+            CycleStart::Sync => false,
+            CycleStart::SetPoint => self.cycle.rpdo_since_sync,
+        };
+        if (serves_pdo && self.pdos.has_ready())
+            || self.cycle.sync.is_some()
+            || set_point
+            || !self.profile.quiet_tick(now, sample, self.od.revision())
+        {
+            return false;
+        }
+        self.cycle.last_tick = Some(now);
+        if serves_pdo {
+            self.pdos.detect_changes(now, &self.od, &mut self.tx);
+        }
+        true
     }
 
     /// Time from the last tick to the last SYNC: a board that steers its PWM timer onto SYNC

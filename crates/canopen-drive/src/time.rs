@@ -37,6 +37,9 @@ impl Instant {
     /// The epoch.
     pub const ZERO: Instant = Instant(marked(0));
 
+    /// The latest instant (where every later one saturates).
+    pub const MAX: Instant = Instant(marked(u64::MAX));
+
     /// An instant `micros` µs after the epoch.
     pub const fn from_micros(micros: u64) -> Self {
         Instant(marked(micros))

@@ -10,78 +10,13 @@
 
 use canopen_drive::cia402::objects::{mode_bit, IMPLEMENTED_MODES};
 use canopen_drive::drive::STANDARD_OD_BYTES;
-use canopen_drive::hal::{Sample, Setpoint};
+use canopen_drive::hal::Setpoint;
 use canopen_drive::od::{ConfigError, DeviceInfo};
-use canopen_drive::{CanFrame, Config, Drive, Instant};
+use canopen_drive::{CanFrame, Config, Drive};
 
-const NODE: u8 = 5;
+mod common;
 
-struct Node {
-    drive: Drive,
-    now: Instant,
-    position: i32,
-}
-
-impl Node {
-    fn new() -> Self {
-        let mut config = Config::new(NODE);
-        // A set-point written by SDO counts as the cycle's new one (as by RPDO).
-        config.profile.cyclic.sdo_set_points = true;
-        let mut node = Node { drive: Drive::new(config).unwrap(), now: Instant::from_micros(0), position: 0 };
-        node.drive.poll(node.now);
-        while node.drive.pop_tx().is_some() {}
-        node
-    }
-
-    /// One SDO request; the server's answer (8 bytes).
-    fn sdo(&mut self, request: [u8; 8]) -> [u8; 8] {
-        let frame = CanFrame::new_standard(0x600 + u16::from(NODE), &request).unwrap();
-        self.drive.on_frame(&frame, self.now);
-        let mut answer = None;
-        while let Some(frame) = self.drive.pop_tx() {
-            if frame.standard_id() == Some(0x580 + u16::from(NODE)) {
-                answer = Some(embedded_can::Frame::data(&frame).try_into().unwrap());
-            }
-        }
-        answer.expect("an SDO answer")
-    }
-
-    /// Expedited upload: the value, or the abort code.
-    fn read(&mut self, index: u16, sub: u8) -> Result<u32, u32> {
-        let [lo, hi] = index.to_le_bytes();
-        let answer = self.sdo([0x40, lo, hi, sub, 0, 0, 0, 0]);
-        let value = u32::from_le_bytes([answer[4], answer[5], answer[6], answer[7]]);
-        match answer[0] {
-            0x80 => Err(value),
-            command if command & 0xE0 == 0x40 => Ok(value),
-            other => panic!("unexpected SDO answer {other:#04x}"),
-        }
-    }
-
-    /// Expedited download of `len` bytes: Ok, or the abort code.
-    fn write(&mut self, index: u16, sub: u8, value: u32, len: usize) -> Result<(), u32> {
-        let [lo, hi] = index.to_le_bytes();
-        let command = 0x23 | (((4 - len) as u8) << 2);
-        let v = value.to_le_bytes();
-        let answer = self.sdo([command, lo, hi, sub, v[0], v[1], v[2], v[3]]);
-        match answer[0] {
-            0x60 => Ok(()),
-            0x80 => Err(u32::from_le_bytes([answer[4], answer[5], answer[6], answer[7]])),
-            other => panic!("unexpected SDO answer {other:#04x}"),
-        }
-    }
-
-    /// One 1 ms tick with the motor at `self.position`.
-    fn tick(&mut self) -> Setpoint {
-        self.now = Instant::from_micros(self.now.as_micros() + 1000);
-        let sample = Sample { position: self.position, dc_link_millivolts: 48_000, ..Sample::default() };
-        self.drive.tick(self.now, &sample).setpoint
-    }
-
-    fn statusword(&mut self) -> u16 {
-        self.read(0x6041, 0).unwrap() as u16
-    }
-}
+use common::{Node, NODE};
 
 /// (6060h value, 6502h bit, built, objects only that mode has).
 fn optional_modes() -> [(i8, u32, bool, &'static [u16]); 4] {
@@ -113,7 +48,7 @@ const ALWAYS: [(i8, u32); 5] = [
 
 #[test]
 fn supported_modes_are_the_built_ones() {
-    let mut node = Node::new();
+    let mut node = Node::with_sdo_set_points();
     let mut expected = ALWAYS.iter().fold(0, |bits, (_, bit)| bits | bit);
     for (_, bit, built, _) in optional_modes() {
         if built {
@@ -138,7 +73,7 @@ fn supported_modes_are_the_built_ones() {
 
 #[test]
 fn a_modes_objects_exist_when_it_is_built() {
-    let mut node = Node::new();
+    let mut node = Node::with_sdo_set_points();
     let probe = [0x60B8, 0x60B9, 0x60BA, 0x60BB, 0x60BC, 0x60BD, 0x60D5, 0x60D6, 0x60D7, 0x60D8];
     let groups = optional_modes().map(|(_, _, built, objects)| (built, objects));
     for (built, objects) in groups.into_iter().chain([(cfg!(feature = "touch-probe"), &probe[..])]) {
@@ -187,7 +122,7 @@ fn a_configuration_claiming_a_missing_mode_is_refused() {
 
 #[test]
 fn csp_runs_in_every_build() {
-    let mut node = Node::new();
+    let mut node = Node::with_sdo_set_points();
     node.write(0x6060, 0, 8, 1).unwrap();
     // Room to reach the target within the run (60C5h/60C6h max acceleration/deceleration).
     node.write(0x60C5, 0, u32::MAX, 4).unwrap();
@@ -205,10 +140,10 @@ fn csp_runs_in_every_build() {
         node.write(0x607A, 0, 200, 4).unwrap();
         let sync = CanFrame::new_standard(0x80, &[]).unwrap();
         node.drive.on_frame(&sync, node.now);
-        if let Setpoint::Position(p) = node.tick() {
+        if let Setpoint::Position(p) = node.tick().setpoint {
             assert!((last..=200).contains(&p), "demand {p} after {last}");
             last = p;
-            node.position = p;
+            node.sample.position = p;
         }
     }
     assert_eq!(last, 200, "the demand reaches the target");

@@ -30,6 +30,8 @@
 //! - Transition 16 (Quick stop active → Operation enabled) is allowed for 605Ah = 5–8 once at
 //!   rest, unless [`Options::transition_16`] is false.
 
+use super::words::{Controlword, Statusword};
+
 /// The states of the FSA (digest §3.1).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -85,17 +87,17 @@ pub enum Command {
 
 /// Decodes the controlword: Fault reset on the rising edge of bit 7, the other commands only
 /// while bit 7 = 0. `None` while bit 7 stays 1.
-pub fn decode(controlword: u16, previous: u16) -> Option<Command> {
-    if controlword & 0x0080 != 0 {
-        return (previous & 0x0080 == 0).then_some(Command::FaultReset);
+pub fn decode(controlword: Controlword, previous: Controlword) -> Option<Command> {
+    if controlword.contains(Controlword::FAULT_RESET) {
+        return (!previous.contains(Controlword::FAULT_RESET)).then_some(Command::FaultReset);
     }
-    Some(if controlword & 0x0002 == 0 {
+    Some(if !controlword.contains(Controlword::ENABLE_VOLTAGE) {
         Command::DisableVoltage
-    } else if controlword & 0x0004 == 0 {
+    } else if !controlword.contains(Controlword::QUICK_STOP) {
         Command::QuickStop
-    } else if controlword & 0x0001 == 0 {
+    } else if !controlword.contains(Controlword::SWITCH_ON) {
         Command::Shutdown
-    } else if controlword & 0x0008 == 0 {
+    } else if !controlword.contains(Controlword::ENABLE_OPERATION) {
         Command::SwitchOn
     } else {
         Command::EnableOperation
@@ -294,7 +296,12 @@ pub fn settle(state: State, options: &Options, stopped: bool) -> State {
 }
 
 impl State {
-    /// The state bits of the statusword (0, 1, 2, 3, 5, 6; digest §3.5).
+    /// The state bits of the statusword (0, 1, 2, 3, 5, 6; digest §3.5), typed.
+    pub const fn statusword(self) -> Statusword {
+        Statusword::from_raw(self.statusword_bits())
+    }
+
+    /// The state bits of the statusword (0, 1, 2, 3, 5, 6; digest §3.5), raw.
     pub const fn statusword_bits(self) -> u16 {
         match self {
             State::NotReadyToSwitchOn => 0x0000,
@@ -364,12 +371,12 @@ pub fn stop_in(state: State, options: &Options) -> Option<StopKind> {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Fsa {
     state: State,
-    previous_controlword: u16,
+    previous_controlword: Controlword,
 }
 
 impl Default for Fsa {
     fn default() -> Self {
-        Fsa { state: State::NotReadyToSwitchOn, previous_controlword: 0 }
+        Fsa { state: State::NotReadyToSwitchOn, previous_controlword: Controlword::empty() }
     }
 }
 
@@ -398,7 +405,13 @@ impl Fsa {
     /// One tick: the controlword (`None`: local control, no command processed), whether a fault
     /// is present (a new one triggers transition 13; one still present blocks Fault reset), and
     /// whether the stop running in the previous tick has brought the axis to rest.
-    pub fn step(&mut self, controlword: Option<u16>, fault: bool, at_rest: bool, options: &Options) -> Step {
+    pub fn step(
+        &mut self,
+        controlword: Option<Controlword>,
+        fault: bool,
+        at_rest: bool,
+        options: &Options,
+    ) -> Step {
         let before = self.state;
         let command =
             controlword.and_then(|cw| decode(cw, core::mem::replace(&mut self.previous_controlword, cw)));
@@ -430,6 +443,15 @@ impl Fsa {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// [`super::decode`] of raw words.
+    fn decode(controlword: u16, previous: u16) -> Option<Command> {
+        super::decode(Controlword::from_raw(controlword), Controlword::from_raw(previous))
+    }
+
+    fn cw(raw: u16) -> Option<Controlword> {
+        Some(Controlword::from_raw(raw))
+    }
 
     #[test]
     fn e_48_decoder_matches_the_masks_for_every_word() {
@@ -491,7 +513,7 @@ mod tests {
     }
 
     fn run(fsa: &mut Fsa, cw: u16, options: &Options) -> State {
-        fsa.step(Some(cw), false, true, options).state
+        fsa.step(Some(Controlword::from_raw(cw)), false, true, options).state
     }
 
     #[test]
@@ -512,12 +534,12 @@ mod tests {
         let o = Options::default();
         let mut fsa = Fsa::default();
         run(&mut fsa, 0x0006, &o);
-        assert_eq!(fsa.step(Some(0x0006), true, false, &o).state, State::FaultReactionActive);
-        assert_eq!(fsa.step(Some(0x0006), true, true, &o).state, State::Fault);
-        assert_eq!(fsa.step(Some(0x0080), true, true, &o).state, State::Fault, "cause present");
-        assert_eq!(fsa.step(Some(0x0080), false, true, &o).state, State::Fault, "no new edge");
-        assert_eq!(fsa.step(Some(0x0000), false, true, &o).state, State::Fault);
-        assert_eq!(fsa.step(Some(0x0080), false, true, &o).state, State::SwitchOnDisabled);
+        assert_eq!(fsa.step(cw(0x0006), true, false, &o).state, State::FaultReactionActive);
+        assert_eq!(fsa.step(cw(0x0006), true, true, &o).state, State::Fault);
+        assert_eq!(fsa.step(cw(0x0080), true, true, &o).state, State::Fault, "cause present");
+        assert_eq!(fsa.step(cw(0x0080), false, true, &o).state, State::Fault, "no new edge");
+        assert_eq!(fsa.step(cw(0x0000), false, true, &o).state, State::Fault);
+        assert_eq!(fsa.step(cw(0x0080), false, true, &o).state, State::SwitchOnDisabled);
     }
 
     /// A reference model written from the digest's state × command table (§3.4), with its own
@@ -628,7 +650,7 @@ mod tests {
                 };
                 let fault = (r >> 20) % 50 == 0;
                 let at_rest = (r >> 30) % 3 != 0;
-                let step = fsa.step(Some(cw), fault, at_rest, &o);
+                let step = fsa.step(Some(Controlword::from_raw(cw)), fault, at_rest, &o);
                 reference.tick(cw, prev, fault, at_rest, &o);
                 prev = cw;
                 steps += 1;

@@ -55,6 +55,7 @@
 //! in one tick at the zero-search speed.
 
 use super::objects::HOMING_METHOD;
+use super::words::{Controlword, Statusword};
 use crate::hal::DigitalInputs;
 use crate::motion::{Limits, PositionPlanner};
 use crate::od::{Access, DataType, DefaultValue, Dictionary, Object, Var};
@@ -559,14 +560,17 @@ pub enum Status {
 
 impl Status {
     /// Bits 10, 12, 13 of the statusword.
-    pub const fn bits(self) -> u16 {
+    pub const fn statusword(self) -> Statusword {
+        const REACHED: Statusword = Statusword::TARGET_REACHED;
+        const ATTAINED: Statusword = Statusword::HOMING_ATTAINED;
+        const ERROR: Statusword = Statusword::HOMING_ERROR;
         match self {
-            Status::InProgress => 0,
-            Status::Interrupted => 1 << 10,
-            Status::Attained => 1 << 12,
-            Status::Completed => (1 << 12) | (1 << 10),
-            Status::ErrorMoving => 1 << 13,
-            Status::ErrorAtRest => (1 << 13) | (1 << 10),
+            Status::InProgress => Statusword::empty(),
+            Status::Interrupted => REACHED,
+            Status::Attained => ATTAINED,
+            Status::Completed => ATTAINED.union(REACHED),
+            Status::ErrorMoving => ERROR,
+            Status::ErrorAtRest => ERROR.union(REACHED),
         }
     }
 }
@@ -591,7 +595,7 @@ pub struct Inputs<'a, const B: usize> {
     /// The dictionary.
     pub od: &'a Dictionary<B>,
     /// Controlword.
-    pub controlword: u16,
+    pub controlword: Controlword,
     /// Bit 4 rose (not with the enabling command).
     pub start: bool,
     /// Actual position (encoder count, increments).
@@ -805,8 +809,8 @@ impl Homing {
     ) -> (i64, Outcome) {
         let mut outcome = Outcome::default();
         let (_, _, acceleration) = input.speeds;
-        let bit4 = input.controlword & 0x0010 != 0;
-        let halt = input.controlword & 0x0100 != 0;
+        let bit4 = input.controlword.contains(Controlword::HOMING_START);
+        let halt = input.controlword.contains(Controlword::HALT);
         let inputs = input.inputs;
         let previous = core::mem::replace(&mut self.previous_inputs, inputs);
 

@@ -9,6 +9,7 @@
 //! - [`ip`]: the input buffer of interpolated position mode (60C0h–60C4h) and its value rules.
 //! - [`vl`]: velocity mode (6042h–604Ch): limit, ramp generator and factors of the inverter mode.
 //! - [`probe`]: the touch probe function (60B8h–60BDh), latching positions at probe edges.
+//! - [`words`]: the controlword and the statusword as typed bit sets.
 //! - [`objects`]: the profile objects with their defaults and value rules.
 //! - [`profile`]: the run-time of one axis: FSA, option-code stops, modes (pv, tq), statusword,
 //!   actual values and the demand for the power stage.
@@ -30,6 +31,7 @@ pub mod probe;
 pub mod profile;
 mod slots;
 pub mod vl;
+pub mod words;
 
 /// Whether this build runs profile position mode (cargo feature `pp`).
 pub const PP: bool = cfg!(feature = "pp");

@@ -38,6 +38,7 @@
 use super::config::ProfileConfig;
 use super::factor::Factors;
 use super::slots::Slots;
+use super::words::Controlword;
 use crate::motion::{Jerks, Limits, MotionState, PositionPlanner, ProfileType};
 use crate::od::Dictionary;
 use crate::time::{Duration, Instant};
@@ -67,7 +68,7 @@ pub struct Inputs<'a, const B: usize> {
     /// The per-tick entries.
     pub(crate) slots: &'a Slots,
     /// The controlword.
-    pub controlword: u16,
+    pub controlword: Controlword,
     /// Bit 4 rose since the previous tick (and the drive did not just enter Operation enabled).
     pub new_setpoint: bool,
     /// Actual position, increments (encoder count).
@@ -275,7 +276,7 @@ impl ProfilePosition {
         let od = input.od;
         let sign = input.factors.position_sign();
         let raw = i64::from(od.load(input.slots.target_position));
-        let mut user = if input.controlword & 0x0040 != 0 {
+        let mut user = if input.controlword.contains(Controlword::RELATIVE) {
             let base = match od.load(input.slots.positioning_option_code) & 0x3 {
                 0b01 => input.factors.to_user(self.planner.state().position - input.origin) * sign,
                 0b10 => input.factors.to_user(input.actual - input.origin) * sign,
@@ -299,7 +300,12 @@ impl ProfilePosition {
             }
         }
         let internal = input.factors.to_internal(user * sign).saturating_add(input.origin);
-        SetPoint { user, internal, limited, blend: input.controlword & 0x0200 != 0 }
+        SetPoint {
+            user,
+            internal,
+            limited,
+            blend: input.controlword.contains(Controlword::CHANGE_ON_SET_POINT),
+        }
     }
 
     /// Plans the executed set-point from the present state; with a waiting set-point of change
@@ -335,7 +341,7 @@ impl ProfilePosition {
         let (limits, end_velocity) = (input.limits, input.end_velocity);
         if input.new_setpoint {
             let setpoint = self.setpoint(input);
-            let immediate = input.controlword & 0x0020 != 0;
+            let immediate = input.controlword.contains(Controlword::CHANGE_SET_IMMEDIATELY);
             let accepted = if immediate || self.active.is_none() {
                 let previous = (self.active, self.queue);
                 self.queue = [None; SLOTS];
@@ -360,7 +366,7 @@ impl ProfilePosition {
                 }
             }
         }
-        if input.controlword & 0x0010 == 0 {
+        if !input.controlword.contains(Controlword::NEW_SET_POINT) {
             self.acknowledged = false;
         }
         // A velocity limit (607Fh, 6080h) lowered below the running plan's velocity holds at
@@ -373,7 +379,7 @@ impl ProfilePosition {
             self.planned_velocity = self.planned_velocity.min(limits.velocity);
         }
 
-        let halt = input.controlword & 0x0100 != 0;
+        let halt = input.controlword.contains(Controlword::HALT);
         if halt && !self.halted {
             self.halted = true;
             let _ = self.planner.stop(halt_deceleration.max(1), &limits);
@@ -396,7 +402,7 @@ impl ProfilePosition {
     /// The statusword bits of pp (bit 10 evaluated with the position window).
     pub fn status<const B: usize>(&mut self, input: &Inputs<'_, B>) -> Status {
         let od = input.od;
-        let halt = input.controlword & 0x0100 != 0;
+        let halt = input.controlword.contains(Controlword::HALT);
         let idle = self.active.is_none() && self.queued() == 0;
         let target_reached = if halt {
             // Decelerated to zero velocity: the demand and the shaft.

@@ -45,6 +45,7 @@ use super::pp::{self, ProfilePosition};
 use super::probe::{Changed, TouchProbe};
 use super::slots::Slots;
 use super::vl;
+use super::words::{Controlword, Statusword};
 use crate::comm::emcy::ErrorRegister;
 use crate::comm::ConnectionEvent;
 use crate::control::{Actual, Cascade, Parameters, Reference};
@@ -159,12 +160,12 @@ pub struct Profile {
     fault: Option<u16>,
     stopping: bool,
     mode_changed: bool,
-    previous_controlword: u16,
+    previous_controlword: Controlword,
     in_window_since: Option<Instant>,
     above_threshold_since: Option<Instant>,
     following_error_since: Option<Instant>,
     last_target_velocity: i32,
-    forced: Option<u16>,
+    forced: Option<Controlword>,
     /// The master uses a controlword function this configuration lacks (EMCY 6320h sent).
     unavailable_function: bool,
     /// When the brake was told to open (drive function enabled).
@@ -201,6 +202,39 @@ pub struct Profile {
     timing: Memo<(u8, i8, u32), (u32, u32)>,
     /// [`Self::pp_limits`] for the raw values last seen (emptied with the factor group).
     pp_limits: Memo<pp::LimitObjects, (Limits, u32)>,
+    /// The last tick left the axis idle: what it saw and answered ([`Self::quiet_tick`]).
+    quiet: Quiet,
+}
+
+/// An idle axis's last full tick: while the dictionary and the sample stay as they were, the
+/// next tick would compute the same values again ([`Profile::quiet_tick`]).
+#[derive(Clone, Copy, Debug)]
+struct Quiet {
+    /// The last tick was idle (the rest is meaningless otherwise).
+    idle: bool,
+    sample: Sample,
+    /// [`Dictionary::revision`] after the tick's own writes.
+    revision: u32,
+    demand: Demand,
+}
+
+impl Quiet {
+    const NONE: Self = Quiet {
+        idle: false,
+        sample: Sample {
+            position: 0,
+            velocity: 0,
+            torque: 0,
+            dc_link_millivolts: 0,
+            inputs: DigitalInputs::empty(),
+            faults: HardwareFaults::empty(),
+            warnings: HardwareFaults::empty(),
+            local_control: false,
+            captures: crate::hal::Capture::NONE,
+        },
+        revision: 0,
+        demand: Demand::OFF,
+    };
 }
 
 fn fault_code(faults: HardwareFaults) -> Option<(u16, ErrorRegister)> {
@@ -222,6 +256,10 @@ const FOLLOWING_ERROR: u16 = 0x8611;
 /// Communication error (8100h): the fault of a connection loss (6007h = 1, or NMT Stopped
 /// with [`ProfileConfig::nmt_stopped_fault`]).
 const COMMUNICATION_FAULT: u16 = 0x8100;
+/// The commands a connection loss forces (6007h = 2, 3): Disable voltage, Quick stop.
+const DISABLE_VOLTAGE: Controlword = Controlword::empty();
+const QUICK_STOP: Controlword = Controlword::ENABLE_VOLTAGE;
+
 /// Parameter error (6320h): a controlword function this configuration does not have.
 const PARAMETER_ERROR: u16 = 0x6320;
 
@@ -343,7 +381,7 @@ impl Profile {
             fault: None,
             stopping: false,
             mode_changed: false,
-            previous_controlword: 0,
+            previous_controlword: Controlword::empty(),
             in_window_since: None,
             above_threshold_since: None,
             following_error_since: None,
@@ -365,6 +403,7 @@ impl Profile {
             tick_limits: Memo::EMPTY,
             timing: Memo::EMPTY,
             pp_limits: Memo::EMPTY,
+            quiet: Quiet::NONE,
         }
     }
 
@@ -386,6 +425,7 @@ impl Profile {
     /// Reads the facts of the device the profile keeps (6502h, fixed once the dictionary is
     /// built: 6060h accepts only the modes it lists).
     pub fn configure<const B: usize>(&mut self, od: &Dictionary<B>) {
+        self.quiet.idle = false;
         self.supported_modes = od.get::<u32>(SUPPORTED_DRIVE_MODES, 0).unwrap_or(0);
     }
 
@@ -393,6 +433,7 @@ impl Profile {
     /// of the shaft (as after homing on the current position with 607Ch = −`user`). A profile
     /// position move in progress stops where it is.
     pub fn preset_position<const B: usize>(&mut self, od: &Dictionary<B>, user: i32) {
+        self.quiet.idle = false;
         let factors = match self.factors {
             Some(factors) => factors,
             None => self.refresh(od),
@@ -407,6 +448,7 @@ impl Profile {
     /// Parameters may have changed (an SDO write, a restore, the firmware's access): the factor
     /// group is read again at the next tick.
     pub fn invalidate(&mut self) {
+        self.quiet.idle = false;
         self.factors = None;
     }
 
@@ -414,6 +456,7 @@ impl Profile {
     /// the drive function is enabled (an idle axis has nothing to stop, and faulting it would
     /// make every NMT reset leave the drive in Fault).
     pub fn connection_lost<const B: usize>(&mut self, event: ConnectionEvent, od: &Dictionary<B>) {
+        self.quiet.idle = false;
         if !self.fsa.state().drive_function_enabled() {
             return;
         }
@@ -426,11 +469,11 @@ impl Profile {
             match od.load(self.slots.abort_connection) {
                 1 => true,
                 2 => {
-                    self.forced = Some(0x0000);
+                    self.forced = Some(DISABLE_VOLTAGE);
                     false
                 }
                 3 => {
-                    self.forced = Some(0x0002);
+                    self.forced = Some(QUICK_STOP);
                     false
                 }
                 _ => false,
@@ -615,6 +658,7 @@ impl Profile {
     /// `index`/`sub` was written under `rule` (SDO or RPDO): the ip buffer takes its records and
     /// its configuration.
     pub fn written<const B: usize>(&mut self, od: &mut Dictionary<B>, rule: Rule, index: u16, sub: u8) {
+        self.quiet.idle = false;
         if rule.reacts() {
             self.ip_written(od, index, sub);
         }
@@ -631,6 +675,7 @@ impl Profile {
 
     /// A 60C1h/60C4h entry was written (SDO or RPDO): the ip buffer takes it.
     pub fn ip_written<const B: usize>(&mut self, od: &mut Dictionary<B>, index: u16, sub: u8) {
+        self.quiet.idle = false;
         if !super::IP {
             return;
         }
@@ -643,6 +688,7 @@ impl Profile {
 
     /// Stored parameters were loaded: the ip buffer takes its configuration again.
     pub fn parameters_loaded<const B: usize>(&mut self, od: &Dictionary<B>) {
+        self.quiet.idle = false;
         self.factors = None;
         if super::IP {
             self.ip.reload(od);
@@ -652,6 +698,31 @@ impl Profile {
     /// Whether a homing run has completed (statusword bit 12 in hm).
     pub fn is_homed(&self) -> bool {
         self.homing.is_homed()
+    }
+
+    /// The tick of an idle axis whose inputs have not changed since the last tick: true when
+    /// [`Self::quiet_demand`] is what [`Self::tick`] would return (its steady outputs are in the
+    /// dictionary already), false when a full tick is needed. Idle: the drive function disabled, no
+    /// homing, no stop, no transition, no report, no timed status bit running, the last tick
+    /// without a SYNC or set-point; unchanged: the sample, and the dictionary by its
+    /// [`Dictionary::revision`] (any write to it since, from the bus or the firmware, makes the
+    /// next tick a full one, so a value written between ticks takes effect at the same tick as
+    /// without this path).
+    pub fn quiet_tick(&mut self, now: Instant, sample: &Sample, revision: u32) -> bool {
+        let quiet = &self.quiet;
+        if !quiet.idle || quiet.revision != revision || quiet.sample != *sample {
+            return false;
+        }
+        // What a full tick of an idle axis changes: the times it keeps.
+        self.last_tick = Some(now);
+        self.released_at = Some(now);
+        true
+    }
+
+    /// The demand of the last idle tick ([`Self::quiet_tick`]).
+    #[inline]
+    pub fn quiet_demand(&self) -> Demand {
+        self.quiet.demand
     }
 
     /// One control tick.
@@ -664,6 +735,7 @@ impl Profile {
     ) -> (Demand, Report) {
         let dt = self.last_tick.map_or(Duration::ZERO, |t| (now - t).min(MAX_STEP));
         self.last_tick = Some(now);
+        self.quiet.idle = false;
         let mut report = Report::default();
         let factors = match self.factors {
             Some(factors) => factors,
@@ -716,7 +788,8 @@ impl Profile {
 
         // Touch probe (digest §10.6): latched in increments, reported in user units. Probe 1's
         // latch of this tick is for touch-probe homing (method 36).
-        let probe_1 = if super::PROBE { self.tick_probe(od, sample, &factors, position_sign) } else { None };
+        let (probe_1, probe_changed) =
+            if super::PROBE { self.tick_probe(od, sample, &factors, position_sign) } else { (None, false) };
 
         // Faults: a new one is latched and reported; it stays until a fault reset succeeds.
         let hardware = fault_code(sample.faults);
@@ -742,27 +815,29 @@ impl Profile {
         };
         // In local control the controlword is not processed: no command, no mode bits.
         let local = sample.local_control;
-        let mut controlword: u16 = if local { 0 } else { od.load(self.slots.controlword) };
+        let mut controlword =
+            if local { Controlword::empty() } else { Controlword::from_raw(od.load(self.slots.controlword)) };
         let unavailable = self.active_mode == mode::PROFILE_POSITION
             && !self.config.change_on_setpoint
-            && controlword & 0x0200 != 0;
+            && controlword.contains(Controlword::CHANGE_ON_SET_POINT);
         if unavailable != self.unavailable_function {
             self.unavailable_function = unavailable;
             report.notices[0] = Some((PARAMETER_ERROR, unavailable));
         }
         if unavailable {
-            controlword &= !0x0200;
+            controlword.remove(Controlword::CHANGE_ON_SET_POINT);
         }
-        let bit4_rose = controlword & 0x0010 != 0 && self.previous_controlword & 0x0010 == 0;
+        let bit4_rose = controlword.contains(Controlword::MODE_SPECIFIC_4)
+            && !self.previous_controlword.contains(Controlword::MODE_SPECIFIC_4);
         self.previous_controlword = controlword;
         let mut commanded = self.forced.take().or((!local).then_some(controlword));
-        if let Some(command) = commanded.as_mut().filter(|c| **c & 0x0080 == 0) {
+        if let Some(command) = commanded.as_mut().filter(|c| !c.contains(Controlword::FAULT_RESET)) {
             // The board's inputs: quick stop (bit 2 = 0), interlock (disable voltage).
             if sample.inputs.contains(DigitalInputs::QUICK_STOP) {
-                *command &= !0x0004;
+                command.remove(Controlword::QUICK_STOP);
             }
             if sample.inputs.contains(DigitalInputs::INTERLOCK) {
-                *command &= !0x0002;
+                command.remove(Controlword::ENABLE_VOLTAGE);
             }
         }
         let before = self.fsa.state();
@@ -802,7 +877,8 @@ impl Profile {
         // A device without mode changes in Operation enabled keeps the mode until it is left.
         let may_switch =
             self.config.mode_change_in_operation || !matches!(step.state, State::OperationEnabled { .. });
-        if switching && may_switch && (!enabled || at_rest) {
+        let switched = switching && may_switch && (!enabled || at_rest);
+        if switched {
             let direct = self.config.manufacturer_mode(requested);
             self.display_mode = requested;
             self.active_mode = direct.map_or(requested, DirectMode::cyclic_mode);
@@ -817,7 +893,7 @@ impl Profile {
         }
         od.store(self.slots.modes_of_operation_display, self.display_mode);
 
-        let halt = controlword & 0x0100 != 0;
+        let halt = controlword.contains(Controlword::HALT);
         if step.entered_operation {
             // Transition 4 (and 16) clear the internal set-points.
             self.velocity = Ramp { value: i64::from(sample.velocity), remainder: 0 };
@@ -890,7 +966,9 @@ impl Profile {
             self.pending_edge |= bit4_rose && !step.entered_operation;
             false
         } else {
-            bit4_rose || core::mem::take(&mut self.pending_edge) && controlword & 0x0010 != 0
+            bit4_rose
+                || core::mem::take(&mut self.pending_edge)
+                    && controlword.contains(Controlword::MODE_SPECIFIC_4)
         };
         let mut setpoint = match stop {
             None if opening => {
@@ -1109,59 +1187,25 @@ impl Profile {
             report.raise = report.raise.or(Some((FOLLOWING_ERROR, ErrorRegister::DEVICE_PROFILE)));
         }
 
-        let mut statusword = self.statusword(step.state, sample, od, now, halt, standstill, options, status);
-        let following_bit = following
-            && matches!(
-                self.active_mode,
-                mode::PROFILE_POSITION | mode::CYCLIC_POSITION | mode::INTERPOLATED_POSITION
-            );
-        if self.active_mode == mode::INTERPOLATED_POSITION && self.ip_overflow {
-            // A record arrived with the buffer full and was dropped.
-            statusword |= 1 << 7;
-        }
-        if self.cyclic_mode() {
-            if self.cyclic_limited {
-                statusword |= 1 << 11;
-            }
-            // Bit 12: the target is used (Operation enabled, no halt, the stream alive).
-            if operation && !halt && !self.stream_lost && drive_enabled {
-                statusword |= 1 << 12;
-            }
-        }
-        if following_bit || (!self.position_mode() && self.slipping(od, velocity_demand, velocity_user)) {
-            statusword |= 1 << 13;
-        }
-        if self.active_mode == mode::HOMING {
-            // Bits 10, 12, 13 are the homing status in every state (digest §10.4).
-            let on_home = self.homing.run_ended() && self.rests_on_home(od, &factors, actual, now);
-            statusword = (statusword & !0x3400) | self.homing.status(self.pp.planner(), on_home).bits();
-        }
-        // The manufacturer-specific bits 14 and 15, as the configuration defines them.
-        let transition = opening || (matches!(step.state, State::QuickStopActive) && !at_rest);
-        // The shaft's motion: the velocity demand, or in the torque modes (no velocity demand)
-        // the velocity actual beyond the threshold 606Fh.
-        let motion =
-            if drive_enabled && matches!(self.active_mode, mode::PROFILE_TORQUE | mode::CYCLIC_TORQUE) {
-                let threshold = i64::from(od.load(self.slots.velocity_threshold));
-                Some(i64::from(sample.velocity)).filter(|v| v.abs() > threshold).unwrap_or(0)
-            } else {
-                self.velocity_demand()
-            };
-        for (bit, flag) in [(14, self.config.statusword_bit_14), (15, self.config.statusword_bit_15)] {
-            let on = match flag {
-                StatusFlag::Off => false,
-                StatusFlag::Moving => motion != 0,
-                StatusFlag::Negative => motion < 0,
-                StatusFlag::Transition => transition,
-            };
-            if on {
-                statusword |= 1 << bit;
-            }
-        }
-        if !self.config.warning_bit {
-            statusword &= !(1 << 7);
-        }
-        od.store(self.slots.statusword, statusword);
+        let status_input = StatusInput {
+            state: step.state,
+            sample,
+            options,
+            pp: status,
+            halt,
+            standstill,
+            operation,
+            drive_enabled,
+            following,
+            velocity_demand,
+            velocity_user,
+            opening,
+            was_at_rest: at_rest,
+            factors: &factors,
+            actual,
+        };
+        let statusword = self.statusword(&status_input, od, now);
+        od.store(self.slots.statusword, statusword.bits());
         // 60FEh: a master may engage the brake (sub 1 bit 0) where the mask (sub 2) enables it;
         // a drive described without the mask drives every output from sub 1.
         let outputs = od.load(self.slots.digital_outputs_physical)
@@ -1185,6 +1229,22 @@ impl Profile {
             setpoint,
             feed_forward: if drive_enabled { self.feed_forward } else { FeedForward::NONE },
         };
+        // An idle axis: a tick with the same inputs would give the same outputs and leave the
+        // same state (but for the times [`Self::quiet_tick`] keeps).
+        let idle = !drive_enabled
+            && step.state == before
+            && !switched
+            && self.active_mode != mode::HOMING
+            && stop.is_none()
+            && report == Report::default()
+            && cycle == SyncInput::default()
+            && !probe_changed
+            && !self.dynamic_braking
+            && self.forced.is_none()
+            && self.above_threshold_since.is_none();
+        if idle {
+            self.quiet = Quiet { idle: true, sample: *sample, revision: od.revision(), demand };
+        }
         (demand, report)
     }
 
@@ -1306,14 +1366,14 @@ impl Profile {
     }
 
     /// One tick of the touch probe: latches, 60B9h, the edge positions and counters. Returns
-    /// probe 1's latch of this tick (increments).
+    /// probe 1's latch of this tick (increments), and whether anything of the probe changed.
     fn tick_probe<const B: usize>(
         &mut self,
         od: &mut Dictionary<B>,
         sample: &Sample,
         factors: &Factors,
         position_sign: i64,
-    ) -> Option<i64> {
+    ) -> (Option<i64>, bool) {
         let probe = self.probe.tick(
             od.load(self.slots.touch_probe_function),
             sample.inputs,
@@ -1344,20 +1404,21 @@ impl Profile {
                 let _ = od.set::<u16>(index, 0, count);
             }
         }
-        if probe.changed.contains(Changed::PROBE_1_POSITIVE) {
+        let latch = if probe.changed.contains(Changed::PROBE_1_POSITIVE) {
             Some(i64::from(probe.positive[0]))
         } else if probe.changed.contains(Changed::PROBE_1_NEGATIVE) {
             Some(i64::from(probe.negative[0]))
         } else {
             None
-        }
+        };
+        (latch, !probe.changed.is_empty())
     }
 
     /// One tick of velocity mode (digest §15; [`vl`]), also while a stop ramps it down.
     fn run_vl<const B: usize>(
         &mut self,
         od: &mut Dictionary<B>,
-        controlword: u16,
+        controlword: Controlword,
         sample: &Sample,
         dt: Duration,
     ) -> Setpoint {
@@ -1398,10 +1459,10 @@ impl Profile {
         &mut self,
         od: &Dictionary<B>,
         input: &CyclicInput<'_>,
-        controlword: u16,
+        controlword: Controlword,
     ) -> Setpoint {
         let factors = input.factors;
-        let active = controlword & 0x0010 != 0 && !input.halt;
+        let active = controlword.contains(Controlword::ENABLE_IP) && !input.halt;
         if active && !self.ip_active {
             self.interpolator.reset(self.limiter.position());
         }
@@ -1485,8 +1546,8 @@ impl Profile {
                 // As a lost connection (6007h).
                 match od.load(self.slots.abort_connection) {
                     1 => self.fault = self.fault.or(Some(STREAM_LOST)),
-                    2 => self.forced = Some(0x0000),
-                    3 => self.forced = Some(0x0002),
+                    2 => self.forced = Some(DISABLE_VOLTAGE),
+                    3 => self.forced = Some(QUICK_STOP),
                     _ => {}
                 }
             }
@@ -1609,59 +1670,110 @@ impl Profile {
         }
     }
 
-    #[allow(clippy::too_many_arguments)]
+    /// The statusword 6041h of this tick, built here only: the state bits, the common bits,
+    /// the active mode's bits 10–13 and the manufacturer-specific bits 14 and 15.
     fn statusword<const B: usize>(
         &mut self,
-        state: State,
-        sample: &Sample,
+        input: &StatusInput<'_>,
         od: &Dictionary<B>,
         now: Instant,
-        halt: bool,
-        standstill: bool,
-        options: Options,
-        pp: pp::Status,
-    ) -> u16 {
-        let mut sw = state.statusword_bits();
-        if state.high_voltage() && sample.dc_link_millivolts > 0 {
-            sw |= 1 << 4;
-        }
-        if !sample.warnings.is_empty() {
-            sw |= 1 << 7;
-        }
+    ) -> Statusword {
+        let state = input.state;
+        let mut sw = state.statusword();
+        sw.set(Statusword::VOLTAGE_ENABLED, state.high_voltage() && input.sample.dc_link_millivolts > 0);
+        // Bit 7: a warning of the hardware, or in ip a record dropped with the buffer full.
+        let overflow = self.active_mode == mode::INTERPOLATED_POSITION && self.ip_overflow;
+        sw.set(
+            Statusword::WARNING,
+            self.config.warning_bit && (!input.sample.warnings.is_empty() || overflow),
+        );
         // Bit 9 remote: the controlword is processed.
-        if !sample.local_control {
-            sw |= 1 << 9;
-        }
+        sw.set(Statusword::REMOTE, !input.sample.local_control);
+
+        // Bit 10.
         let at_rest = self.velocity_demand() == 0;
         let target_reached = match state {
             State::QuickStopActive => {
-                at_rest && StopKind::quick_stop(options.quick_stop).is_some_and(|(_, stay)| stay)
+                at_rest && StopKind::quick_stop(input.options.quick_stop).is_some_and(|(_, stay)| stay)
             }
             State::OperationEnabled { .. } if self.cyclic_mode() => false,
             State::OperationEnabled { .. } if self.active_mode == vl::MODE => self.vl_bits.0,
-            State::OperationEnabled { .. } if self.position_mode() => pp.target_reached,
-            State::OperationEnabled { .. } if halt && self.active_mode == mode::PROFILE_TORQUE => {
+            State::OperationEnabled { .. } if self.position_mode() => input.pp.target_reached,
+            State::OperationEnabled { .. } if input.halt && self.active_mode == mode::PROFILE_TORQUE => {
                 self.torque.value == 0
             }
-            State::OperationEnabled { .. } if halt => at_rest && standstill,
+            State::OperationEnabled { .. } if input.halt => at_rest && input.standstill,
             State::OperationEnabled { .. } => self.mode_target_reached(od, now),
             _ => false,
         };
         if target_reached || core::mem::take(&mut self.mode_changed) {
-            sw |= 1 << 10;
+            sw |= Statusword::TARGET_REACHED;
         }
+
+        // Bit 11.
         let limit_switch = (self.blocked.0 || self.blocked.1)
             && matches!(self.active_mode, mode::PROFILE_POSITION | mode::PROFILE_VELOCITY);
-        if pp.internal_limit || limit_switch || (self.active_mode == vl::MODE && self.vl_bits.1) {
-            sw |= 1 << 11;
-        }
-        let bit12 = match self.active_mode {
+        let internal_limit = input.pp.internal_limit
+            || limit_switch
+            || (self.active_mode == vl::MODE && self.vl_bits.1)
+            || (self.cyclic_mode() && self.cyclic_limited);
+        sw.set(Statusword::INTERNAL_LIMIT_ACTIVE, internal_limit);
+
+        // Bit 12.
+        let bit_12 = match self.active_mode {
             mode::PROFILE_VELOCITY => self.speed_is_zero(od, now),
-            mode::PROFILE_POSITION | mode::INTERPOLATED_POSITION => pp.setpoint_acknowledge,
+            mode::PROFILE_POSITION | mode::INTERPOLATED_POSITION => input.pp.setpoint_acknowledge,
+            // The target is used: Operation enabled, no halt, the stream alive.
+            mode::CYCLIC_POSITION | mode::CYCLIC_VELOCITY | mode::CYCLIC_TORQUE => {
+                input.operation && !input.halt && !self.stream_lost && input.drive_enabled
+            }
             _ => false,
         };
-        if bit12 {
-            sw |= 1 << 12;
+        sw.set(Statusword::MODE_SPECIFIC_12, bit_12);
+
+        // Bit 13: the following error (pp, csp, ip) or the slippage (the velocity modes).
+        let following = input.following
+            && matches!(
+                self.active_mode,
+                mode::PROFILE_POSITION | mode::CYCLIC_POSITION | mode::INTERPOLATED_POSITION
+            );
+        if following
+            || (!self.position_mode() && self.slipping(od, input.velocity_demand, input.velocity_user))
+        {
+            sw |= Statusword::MODE_SPECIFIC_13;
+        }
+
+        if self.active_mode == mode::HOMING {
+            // Bits 10, 12, 13 are the homing status in every state (digest §10.4).
+            let on_home = self.homing.run_ended() && self.rests_on_home(od, input.factors, input.actual, now);
+            let homing = Statusword::TARGET_REACHED | Statusword::HOMING_ATTAINED | Statusword::HOMING_ERROR;
+            sw = sw.difference(homing) | self.homing.status(self.pp.planner(), on_home).statusword();
+        }
+
+        // Bits 14 and 15, as the configuration defines them.
+        let transition = input.opening || (matches!(state, State::QuickStopActive) && !input.was_at_rest);
+        // The shaft's motion: the velocity demand, or in the torque modes (no velocity demand)
+        // the velocity actual beyond the threshold 606Fh.
+        let motion = if input.drive_enabled
+            && matches!(self.active_mode, mode::PROFILE_TORQUE | mode::CYCLIC_TORQUE)
+        {
+            let threshold = i64::from(od.load(self.slots.velocity_threshold));
+            Some(i64::from(input.sample.velocity)).filter(|v| v.abs() > threshold).unwrap_or(0)
+        } else {
+            self.velocity_demand()
+        };
+        let manufacturer = [
+            (Statusword::MANUFACTURER_14, self.config.statusword_bit_14),
+            (Statusword::MANUFACTURER_15, self.config.statusword_bit_15),
+        ];
+        for (bit, flag) in manufacturer {
+            let on = match flag {
+                StatusFlag::Off => false,
+                StatusFlag::Moving => motion != 0,
+                StatusFlag::Negative => motion < 0,
+                StatusFlag::Transition => transition,
+            };
+            sw.set(bit, on);
         }
         sw
     }
@@ -1707,6 +1819,34 @@ impl Profile {
         let since = *self.above_threshold_since.get_or_insert(now);
         now - since <= Duration::from_millis(u64::from(od.load(self.slots.velocity_threshold_time)))
     }
+}
+
+/// What the statusword of a tick is built from ([`Profile::statusword`]), besides the
+/// profile's own state.
+struct StatusInput<'a> {
+    state: State,
+    sample: &'a Sample,
+    options: Options,
+    /// The bits pp or ip reported in this tick.
+    pp: pp::Status,
+    halt: bool,
+    /// The shaft rests (for a halt's target reached).
+    standstill: bool,
+    /// Operation enabled, no ramped exit running.
+    operation: bool,
+    drive_enabled: bool,
+    /// The following error is beyond its window for longer than its time.
+    following: bool,
+    /// 606Bh and 606Ch of this tick (user units).
+    velocity_demand: i64,
+    velocity_user: i64,
+    /// The brake is opening.
+    opening: bool,
+    /// The velocity demand was 0 at the start of the tick.
+    was_at_rest: bool,
+    factors: &'a Factors,
+    /// The encoder count.
+    actual: i64,
 }
 
 /// The inputs of a cyclic-mode tick.

@@ -105,6 +105,7 @@
 
 use super::fsa::StopKind;
 use super::objects::POSITION_ENCODER_RESOLUTION;
+use super::words::Controlword;
 use crate::od::{AbortCode, Access, DataType, DefaultValue, Dictionary, Object, PdoMapping, Var};
 use crate::time::Duration;
 
@@ -132,17 +133,12 @@ pub const VL_SET_POINT_FACTOR: u16 = 0x604B;
 /// 604Ch vl dimension factor (sub 1 numerator, sub 2 denominator: rpm per user unit).
 pub const VL_DIMENSION_FACTOR: u16 = 0x604C;
 
-/// Controlword bit 4: ramp function generator enable.
-pub const RAMP_FUNCTION_GENERATOR_ENABLE: u16 = 1 << 4;
-/// Controlword bit 5: ramp unlock (0 = ramp output frozen).
-pub const RAMP_UNLOCK: u16 = 1 << 5;
-/// Controlword bit 6: ramp reference (0 = ramp input 0).
-pub const RAMP_REFERENCE: u16 = 1 << 6;
-/// Controlword bit 8: halt.
-pub const HALT: u16 = 1 << 8;
-/// The controlword of a running vl drive: enable operation with bits 4, 5 and 6 set.
+/// The controlword of a running vl drive, as a master writes it: enable operation with bits 4,
+/// 5 and 6 set ([`Controlword::RAMP_FUNCTION_GENERATOR_ENABLE`] and the next two).
 pub const RUN: u16 = 0x007F;
-const RAMP_BITS: u16 = RAMP_FUNCTION_GENERATOR_ENABLE | RAMP_UNLOCK | RAMP_REFERENCE;
+const RAMP_BITS: Controlword = Controlword::RAMP_FUNCTION_GENERATOR_ENABLE
+    .union(Controlword::RAMP_UNLOCK)
+    .union(Controlword::RAMP_REFERENCE);
 
 /// One ramp slope (6048h, 6049h, 604Ah): `delta_speed` user units per `delta_time` seconds.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -443,7 +439,7 @@ pub struct Inputs {
     /// 608Fh ([`Resolution::from_od`]).
     pub resolution: Resolution,
     /// The controlword 6040h.
-    pub controlword: u16,
+    pub controlword: Controlword,
     /// The stop a halt (bit 8) makes: 605Dh through [`StopKind::halt_or_fault`].
     pub halt: StopKind,
     /// The highest velocity the demand may have, increments/s (min(607Fh, 6080h) converted).
@@ -724,14 +720,18 @@ impl Velocity {
             if self.config.ramp_bits { input.controlword } else { input.controlword | RAMP_BITS };
         let action = match self.stop {
             Some(kind) => Action::Stop(kind),
-            None if controlword & RAMP_FUNCTION_GENERATOR_ENABLE == 0 => Action::Zero,
-            None if controlword & HALT != 0 => Action::Stop(input.halt),
-            None if controlword & RAMP_UNLOCK == 0 => Action::Hold,
+            None if !controlword.contains(Controlword::RAMP_FUNCTION_GENERATOR_ENABLE) => Action::Zero,
+            None if controlword.contains(Controlword::HALT) => Action::Stop(input.halt),
+            None if !controlword.contains(Controlword::RAMP_UNLOCK) => Action::Hold,
             None => Action::Follow,
         };
         let ramp_input = match action {
             Action::Stop(_) => 0,
-            Action::Zero | Action::Hold | Action::Follow if controlword & RAMP_REFERENCE == 0 => 0,
+            Action::Zero | Action::Hold | Action::Follow
+                if !controlword.contains(Controlword::RAMP_REFERENCE) =>
+            {
+                0
+            }
             Action::Zero | Action::Hold | Action::Follow => reference,
         };
         match action {
@@ -796,11 +796,15 @@ mod tests {
         Parameters { target: 1500, acceleration: Slope::new(15_000, 37), ..Parameters::DEFAULT }
     }
 
+    /// Controlword bits as a master writes them.
+    const RAMP_UNLOCK: u16 = Controlword::RAMP_UNLOCK.bits();
+    const HALT: u16 = Controlword::HALT.bits();
+
     fn inputs(parameters: Parameters, controlword: u16) -> Inputs {
         Inputs {
             parameters,
             resolution: ENCODER,
-            controlword,
+            controlword: Controlword::from_raw(controlword),
             halt: StopKind::SlowDown,
             velocity_limit: u32::MAX,
             actual_velocity: 0,

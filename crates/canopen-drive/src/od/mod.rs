@@ -420,6 +420,8 @@ pub struct Dictionary<const BYTES: usize> {
     homing: MethodList,
     /// Objects of the tables the device does not show on the bus ([`Self::set_absent`]).
     absent: &'static [u16],
+    /// Counts the changes of the store ([`Self::revision`]).
+    revision: u32,
 }
 
 /// A default value resolved to bytes.
@@ -462,6 +464,7 @@ impl<const BYTES: usize> Dictionary<BYTES> {
             entry_overrides: &[],
             homing: MethodList::EMPTY,
             absent: &[],
+            revision: 0,
         }
     }
 
@@ -781,14 +784,16 @@ impl<const BYTES: usize> Dictionary<BYTES> {
     }
 
     /// Stores the first bytes of `data` (little-endian, as on the bus) as the value at `span`
-    /// (after the checks a bus write needs).
+    /// (after the checks a bus write needs). Not counted in [`revision`](Self::revision): the
+    /// caller counts its batch of span writes once with [`touch`](Self::touch).
     #[inline]
     pub fn fill_span(&mut self, span: Span, data: &[u8]) {
         let start = usize::from(span.offset);
         copy_small(self.store.get_mut(start..).unwrap_or(&mut []), data, span.len);
     }
 
-    /// Stores the low bytes of `value` at `span` (after the checks a bus write needs).
+    /// Stores the low bytes of `value` at `span` (after the checks a bus write needs). Not
+    /// counted in [`revision`](Self::revision), as [`fill_span`](Self::fill_span).
     #[inline]
     pub fn store_span(&mut self, span: Span, value: u64) {
         let start = usize::from(span.offset);
@@ -842,10 +847,10 @@ impl<const BYTES: usize> Dictionary<BYTES> {
         match entry.var.data_type.fixed_size() {
             // The value of a bus write (`check_write` let only its exact size through).
             Some(n) if n == data.len() && n <= 8 => {
-                copy_small(self.store.get_mut(start..).unwrap_or(&mut []), data, n as u8);
+                copy_small(self.values_mut().get_mut(start..).unwrap_or(&mut []), data, n as u8);
             }
             Some(n) => {
-                if let Some(dst) = self.store.get_mut(start..start + n) {
+                if let Some(dst) = self.values_mut().get_mut(start..start + n) {
                     dst.fill(0);
                     let k = data.len().min(n);
                     if let (Some(d), Some(s)) = (dst.get_mut(..k), data.get(..k)) {
@@ -855,7 +860,7 @@ impl<const BYTES: usize> Dictionary<BYTES> {
             }
             None => {
                 let k = data.len().min(usize::from(entry.var.capacity));
-                if let Some(dst) = self.store.get_mut(start..start + 2 + k) {
+                if let Some(dst) = self.values_mut().get_mut(start..start + 2 + k) {
                     let (len, body) = dst.split_at_mut(2);
                     len.copy_from_slice(&(k as u16).to_le_bytes());
                     if let Some(s) = data.get(..k) {
@@ -896,6 +901,33 @@ impl<const BYTES: usize> Dictionary<BYTES> {
         Ok(())
     }
 
+    /// A number that changes whenever a value may have changed: every write through this type
+    /// counts (bus, device side, storage, reset) but for two kinds of fast writes: those
+    /// through slots ([`store`](Self::store), [`store_int`](Self::store_int)), the profile's
+    /// outputs of a tick, and those through spans ([`fill_span`](Self::fill_span),
+    /// [`store_span`](Self::store_span)), an RPDO's entries, counted once per frame with
+    /// [`touch`](Self::touch). Equal revisions between two ticks mean that nobody else wrote: a
+    /// reader that derives something from the values (the profile's idle tick, TPDO change
+    /// detection) can skip the work while the revision it saw stands.
+    #[inline]
+    pub fn revision(&self) -> u32 {
+        self.revision
+    }
+
+    /// Counts a change in [`Self::revision`] (for a caller about to write through slots or spans
+    /// outside the profile's tick: an RPDO, the firmware's device-side access).
+    #[inline]
+    pub fn touch(&mut self) {
+        self.revision = self.revision.wrapping_add(1);
+    }
+
+    /// The store, for a write: counted in [`Self::revision`].
+    #[inline]
+    fn values_mut(&mut self) -> &mut [u8; BYTES] {
+        self.touch();
+        &mut self.store
+    }
+
     /// Resolves a numeric entry for [`load`](Self::load) / [`store`](Self::store).
     pub fn slot<T: Scalar>(&self, index: u16, sub: u8) -> Slot<T> {
         let offset = self
@@ -924,7 +956,8 @@ impl<const BYTES: usize> Dictionary<BYTES> {
     }
 
     /// Writes the value behind `slot` as [`set`](Self::set) does (a missing, constant or
-    /// differently sized entry is left alone).
+    /// differently sized entry is left alone). Not counted in [`revision`](Self::revision): see
+    /// there.
     #[inline]
     pub fn store<T: Scalar>(&mut self, slot: Slot<T>, value: T) {
         if slot.offset == NOT_STORED {
@@ -978,7 +1011,8 @@ impl<const BYTES: usize> Dictionary<BYTES> {
     }
 
     /// Writes `value` behind `slot`, saturated to the signed range of the entry's width (an
-    /// entry that is not a stored integer is left alone).
+    /// entry that is not a stored integer is left alone). Not counted in
+    /// [`revision`](Self::revision): see there.
     #[inline]
     pub fn store_int(&mut self, slot: IntSlot, value: i64) {
         let start = usize::from(slot.offset);

@@ -251,7 +251,7 @@ impl<const BYTES: usize> Dictionary<BYTES> {
         if at + data.len() > usize::from(entry.var.capacity) {
             return;
         }
-        if let Some(dst) = self.store.get_mut(start..start + data.len()) {
+        if let Some(dst) = self.values_mut().get_mut(start..start + data.len()) {
             dst.copy_from_slice(data);
         }
     }
@@ -259,7 +259,7 @@ impl<const BYTES: usize> Dictionary<BYTES> {
     /// Sets the length of the stored value of variable-length `entry`.
     fn set_variable_len(&mut self, entry: &Entry, len: u16) {
         let start = usize::from(entry.offset);
-        if let Some(dst) = self.store.get_mut(start..start + 2) {
+        if let Some(dst) = self.values_mut().get_mut(start..start + 2) {
             dst.copy_from_slice(&len.min(entry.var.capacity).to_le_bytes());
         }
     }
