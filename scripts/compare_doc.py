@@ -14,8 +14,9 @@ the absolute path of the core crate, which lies outside them, into its symbol na
 inlining then takes slightly different turns). A real change of the code moves the numbers by
 more, or changes the text.
 
-`--informative HEADER`: the rows of the Markdown table under HEADER are not compared (the
-largest symbols of an image: their sizes and order follow those inlining turns).
+`--informative HEADER` (repeatable): the rows of the Markdown table under HEADER are not
+compared (the largest symbols of an image, the bytes per source area: their sizes and order
+follow those inlining turns).
 """
 
 import argparse
@@ -29,7 +30,7 @@ NUMBER = re.compile(r"\d+(?:\.\d+)?")
 def lines_to_compare(text, informative):
     lines, skipping = [], False
     for line in text.splitlines():
-        if informative and line.startswith(informative):
+        if any(line.startswith(header) for header in informative):
             lines.append(line)
             skipping = True
             continue
@@ -55,7 +56,7 @@ def main():
     parser.add_argument("committed")
     parser.add_argument("fresh")
     parser.add_argument("--numbers-within", type=float, default=None, metavar="PERCENT")
-    parser.add_argument("--informative", default=None, metavar="HEADER")
+    parser.add_argument("--informative", action="append", default=[], metavar="HEADER")
     args = parser.parse_args()
     with open(args.committed) as f:
         committed = lines_to_compare(f.read(), args.informative)

@@ -73,13 +73,18 @@ def elf(target, image):
     return TARGET_DIR / target / "release" / image
 
 
-def sections(path, tool):
+def sections_of(path, tool):
     out = subprocess.run([tool, "-A", str(path)], capture_output=True, text=True, check=True).stdout
     sizes = {}
     for line in out.splitlines():
         parts = line.split()
         if len(parts) >= 2 and parts[0].startswith(".") and parts[1].isdigit():
             sizes[parts[0]] = int(parts[1])
+    return sizes
+
+
+def sections(path, tool):
+    sizes = sections_of(path, tool)
     flash = sum(sizes.get(s, 0) for s in (".vector_table", ".text", ".rodata", ".data"))
     ram = sum(sizes.get(s, 0) for s in (".data", ".bss", ".uninit"))
     return flash, ram
@@ -112,6 +117,49 @@ def top_symbols(path, count=12):
                 name = name.replace(code, text)
             rows.append((int(parts[1], 16), parts[2].lower(), name))
     return rows[-count:][::-1]
+
+
+# Where the code of an image comes from: the source file of each instruction (the innermost
+# inlined location, from the line table), grouped. First match wins; `core::…` code inlined
+# into the crate's functions counts as the library's (its share is the cost of 64/128-bit
+# arithmetic, comparisons and Option/Result plumbing that the crate's code expands to).
+AREAS = [
+    ("the run-time of one axis (`cia402/profile.rs`: `Profile::tick` and its helpers)", ["canopen-drive/src/cia402/profile.rs"]),
+    ("the CiA 402 modes and functions (`cia402/`: pp, hm, vl, ip, cyclic, touch probe, FSA, factor group, object rules)", ["canopen-drive/src/cia402/"]),
+    ("the trajectory planner (`motion/`, `wide.rs`)", ["canopen-drive/src/motion/", "canopen-drive/src/wide.rs"]),
+    ("the object dictionary (`od/`: look-up, values, rules, storage format)", ["canopen-drive/src/od/"]),
+    ("the CiA 301 services and the composer (`comm/`, `wire/`, `drive.rs`, …)", ["canopen-drive/src/"]),
+    ("`core` integer arithmetic inlined (64/128-bit multiplication, division, saturation)", ["/library/core/src/num/", "/library/core/src/intrinsics/", "/int/specialized_div_rem/"]),
+    ("`core` comparisons, `Option`/`Result`, slices, iterators and copies inlined", ["/library/core/src/"]),
+]
+
+
+def code_areas(path):
+    """Bytes of code per entry of AREAS (and the rest), from the line table of `path`."""
+    objdump = pathlib.Path(size_tool()).with_name("llvm-objdump")
+    tool = str(objdump) if objdump.exists() else "llvm-objdump"
+    out = subprocess.run([tool, "-d", "-l", "--no-show-raw-insn", str(path)], capture_output=True, text=True).stdout
+    sizes = [0] * (len(AREAS) + 1)
+    current, previous = None, None
+    for line in out.splitlines():
+        located = re.match(r"^; (/\S+):\d+", line)
+        if located:
+            current = located.group(1)
+            continue
+        insn = re.match(r"^\s+([0-9a-f]+):\s", line)
+        if not insn:
+            previous = None if not line.strip() else previous
+            continue
+        address = int(insn.group(1), 16)
+        if previous is not None and 0 < address - previous[0] < 8:
+            sizes[previous[1]] += address - previous[0]
+        area = len(AREAS)
+        for n, (_, prefixes) in enumerate(AREAS):
+            if current and any(p in current for p in prefixes):
+                area = n
+                break
+        previous = (address, area)
+    return sizes
 
 
 def read_budgets():
@@ -206,8 +254,18 @@ def main():
     symbol_rows = ["| bytes | kind | symbol |", "|---|---|---|"] + [
         f"| {size} | {'code' if kind == 't' else 'data'} | `{name.replace('|', '/')}` |" for size, kind, name in symbols
     ]
+    full = elf("thumbv7em-none-eabihf", "drive-full")
+    sizes = code_areas(full)
+    rodata = sections_of(full, tool).get(".rodata", 0)
+    area_rows = ["| where | bytes |", "|---|---|"]
+    area_rows += [f"| {label} | {size} ({kib(size)}) |" for (label, _), size in zip(AREAS, sizes)]
+    area_rows.append(f"| the rest of the code (the harness, `cortex-m-rt`, compiler built-ins) | {sizes[-1]} ({kib(sizes[-1])}) |")
+    area_rows.append(f"| `.rodata`: the dictionary's tables, names, constants | {rodata} ({kib(rodata)}) |")
+    areas = "\n".join(area_rows)
+    print()
+    print(areas)
     args.doc.parent.mkdir(parents=True, exist_ok=True)
-    args.doc.write_text(DOC_TEMPLATE.format(table=table, goals=goals, symbols="\n".join(symbol_rows)))
+    args.doc.write_text(DOC_TEMPLATE.format(table=table, goals=goals, areas=areas, symbols="\n".join(symbol_rows)))
     print(f"\nwrote {args.doc}")
     if failures:
         print("\nover budget:\n  " + "\n  ".join(failures), file=sys.stderr)
@@ -258,24 +316,30 @@ default, −2 KiB) and pp and homing share one trajectory planner (−1.3 KiB); 
 node's since issue 17 (an optional instant in 8 bytes, not 16, through a niche of `Instant`;
 PDO and SDO timers in 4 bytes; one TPDO data buffer: 2 296 → 2 048 B). Since issue 21 the
 profile keeps the motion limits it converted, with the values they came from (about 260 B), so
-that a tick divides again only when a master changes one. Without the optional modes (`drive-cyclic`: cargo features `pp`,
-`hm`, `ip`, `vl`, `touch-probe` off) the drive takes a little over half the full image's
-flash — the exact trajectory planner of pp and hm and the code of those modes are the
-difference — but the same static RAM (the state of every mode stays in the profile). The
-budgets in `benches/footprint/budgets.txt` are therefore set
-at the measured values plus 3 % (`scripts/footprint.py --update`) so that CI catches growth;
-they are not the goals. Where the bytes go:
+that a tick divides again only when a master changes one, and the inputs and demand of its
+last idle tick (about 110 B with the TPDOs' change-detection state), so that an idle tick
+repeats them while nothing changed (the dictionary's revision and the sample). Without the
+optional modes (`drive-cyclic`: cargo features `pp`, `hm`, `ip`, `vl`, `touch-probe` off) the
+drive takes a little over half the full image's flash — the exact trajectory planner of pp and
+hm and the code of those modes are the difference — but the same static RAM (the state of
+every mode stays in the profile). The budgets in `benches/footprint/budgets.txt` are therefore
+set at the measured values plus 3 % (`scripts/footprint.py --update`) so that CI catches
+growth; they are not the goals.
 
-- the object-dictionary tables: every entry is a `Var` descriptor of about 64 bytes (name for
-  the EDS, type, access, two 16-byte bounds, a 16-byte default) and every object about 88; the
-  CiA 402 table (`cia402::objects::PROFILE`) is the largest. The PDO records share one
-  description per record kind (their per-PDO defaults are computed, `DefaultValue::PdoPreset`);
-- the CiA 402 profile code: `Profile::tick` is one function of about 19 KiB after inlining
-  (every mode, the stops, the factor group), and the exact fixed-point trajectory planner
-  (`motion::solve`, `legs`, `planner`) about 30 KiB; 128-bit divisions go through one
-  out-of-line function (`crate::wide`: written out in place, each cost about a kilobyte);
-- in the 301-only node, a quarter of the flash is `.rodata` (the tables above); the rest is
-  the code of the services.
+Where the bytes of `drive-full` (thumbv7em) go, by the source file of each instruction (the
+innermost inlined location of the line table: `core` code that the crate's 64- and 128-bit
+arithmetic, comparisons and `Option`/`Result` handling expand to is counted as `core`'s):
+
+{areas}
+
+Read with the symbols below: `Profile::tick` is one function of about 20 KiB after inlining
+(every mode's conditions, the stops, the factor group, the statusword), the exact fixed-point
+trajectory planner (`motion::solve`, `legs`, `planner`, `fixed`, `shape`) about 20 KiB with
+most of the `core` integer arithmetic above (128-bit divisions go through one out-of-line
+function, `crate::wide`), and the dictionary's descriptions (40 bytes per entry without names,
+56 per object) most of `.rodata`. Reaching 48 KiB takes all three: one mode at a time (issue
+21 item 1: only the active mode's code runs, and a build holds only its modes), a planner of a
+fraction of the size (item 6), and compact descriptors (issue 17 item 2).
 
 The largest symbols of `drive-full` on thumbv7em:
 
