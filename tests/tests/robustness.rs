@@ -137,3 +137,32 @@ fn regression_pp_limits_no_ramp_can_follow_stop_the_demand() {
     }
     assert_eq!(previous, 0, "the demand stopped");
 }
+
+/// pp: a factor group written at rest after a move (here a feed constant 6092h of 100 990 976
+/// and 2³⁰ motor revolutions in 608Fh, with the position polarity reversed) scales the
+/// position actual value beyond INTEGER32 and towards the end of the 64-bit range; the check
+/// of the position window subtracted it from the target and overflowed (a panic with overflow
+/// checks, a wrong bit 10 without; the fuzzer `drive_frames` in the one-hour campaign of issue
+/// 19). Now the distance saturates: the drive goes on, target not reached, 6064h saturated.
+#[test]
+fn regression_pp_position_window_with_an_extreme_factor_group() {
+    use common::profile::{cw, enable, node, od_i32, sw, write, write_sub};
+    use common::Bench;
+    let mut bench = Bench::new();
+    write(&mut bench, 0x6081, &20_000u32.to_le_bytes());
+    write(&mut bench, 0x6083, &50_000u32.to_le_bytes());
+    write(&mut bench, 0x6084, &50_000u32.to_le_bytes());
+    enable(&mut bench, 1);
+    write(&mut bench, 0x607A, &1_000i32.to_le_bytes());
+    cw(&mut bench, 0x001F, 10);
+    cw(&mut bench, 0x000F, 1000);
+    assert_eq!(sw(&mut bench) & 0x0400, 0x0400, "target reached before the factor change");
+    write_sub(&mut bench, 0x6092, 1, &100_990_976u32.to_le_bytes());
+    write_sub(&mut bench, 0x608F, 2, &0x4000_0000u32.to_le_bytes());
+    write(&mut bench, 0x607E, &[0x80]);
+    bench.advance(canopen_drive::Duration::from_millis(10));
+    assert_eq!(sw(&mut bench) & 0x006F, 0x0027, "still Operation enabled");
+    assert_eq!(sw(&mut bench) & 0x0400, 0, "the target is far from the scaled position");
+    assert_eq!(od_i32(&mut bench, 0x6064), i32::MIN, "6064h saturated");
+    assert!(node(&mut bench).demand.drive_enabled);
+}

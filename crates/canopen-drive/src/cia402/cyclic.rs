@@ -41,6 +41,7 @@
 //! The limiter works in increments with 32 fractional bits in `i128`; interpolation is exact
 //! (`from + (to − from)·k/N` from integers each tick), so nothing drifts.
 
+use super::objects::mode::{CYCLIC_POSITION, CYCLIC_VELOCITY};
 use crate::od::{Access, DataType, DefaultValue, Object, Var};
 
 /// EMCY code when the stream is lost for longer than configured (CiA 402: sync controller).
@@ -135,6 +136,47 @@ pub struct Cycle {
     pub period_ticks: u32,
     /// Extra ticks a SYNC may be late (jitter), at least half a period.
     pub tolerance_ticks: u32,
+}
+
+/// csp, csv or cst as the running mode of a profile ([`crate::cia402::profile`]): the stream
+/// of set-points, the position limiter (csp) and a set-point held for the mode. It exists
+/// while the mode is active.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Run {
+    /// The mode (6060h value: 8, 9 or 10).
+    pub mode: i8,
+    /// The interpolated stream of set-points.
+    pub interpolator: Interpolator,
+    /// csp: the demand follows the stream within the limits.
+    pub limiter: Limiter,
+    /// A set-point arrived while the mode was not running ([`CycleStart::SetPoint`]): it is
+    /// the target once the mode runs.
+    pub held_set_point: bool,
+}
+
+impl Run {
+    /// `mode` becomes active, the axis at `actual` (increments) and `velocity` (increments/s).
+    pub fn start(mode: i8, actual: i64, velocity: i64) -> Self {
+        let mut run = Run {
+            mode,
+            interpolator: Interpolator::default(),
+            limiter: Limiter::default(),
+            held_set_point: false,
+        };
+        run.reset(actual, velocity);
+        run
+    }
+
+    /// The stream and the limiter start over from the axis as it is.
+    pub fn reset(&mut self, actual: i64, velocity: i64) {
+        self.limiter.reset(actual);
+        let start = match self.mode {
+            CYCLIC_POSITION => actual,
+            CYCLIC_VELOCITY => velocity,
+            _ => 0,
+        };
+        self.interpolator.reset(start);
+    }
 }
 
 /// The interpolation of a stream of targets, shared by csp, csv, cst and ip.

@@ -76,6 +76,7 @@
 //! decision; this module accepts it at any time. After the dictionary is reset or restored,
 //! the profile calls [`IpBuffer::reload`] (or starts from [`IpBuffer::new`]).
 
+use super::cyclic::{Interpolator, Limiter};
 pub use super::objects::INTERPOLATION_TIME_PERIOD;
 use crate::od::{AbortCode, Access, DataType, DefaultValue, Dictionary, Object, PdoMapping, Var};
 
@@ -616,6 +617,37 @@ pub fn check_write<const B: usize>(
         _ => None,
     };
     refusal.map_or(Ok(()), Err)
+}
+
+/// ip as the running mode of a profile ([`crate::cia402::profile`]): the interpolation between
+/// the data records, the position limiter, and whether interpolation is active (controlword
+/// bit 4). It exists while ip is the active mode; the buffer of data records (60C1h, 60C4h)
+/// belongs to the objects and outlives it ([`IpBuffer`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Run {
+    /// The demand between two records.
+    pub interpolator: Interpolator,
+    /// The demand within the limits.
+    pub limiter: Limiter,
+    /// Controlword bit 4 was 1 (and no halt) in the last tick.
+    pub active: bool,
+}
+
+impl Run {
+    /// ip becomes active, the axis at `actual` (increments).
+    pub fn start(actual: i64) -> Self {
+        let mut run =
+            Run { interpolator: Interpolator::default(), limiter: Limiter::default(), active: false };
+        run.reset(actual);
+        run
+    }
+
+    /// Interpolation starts over from the axis as it is, inactive.
+    pub fn reset(&mut self, actual: i64) {
+        self.limiter.reset(actual);
+        self.active = false;
+        self.interpolator.reset(actual);
+    }
 }
 
 #[cfg(test)]

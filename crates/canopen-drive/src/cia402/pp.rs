@@ -278,8 +278,10 @@ impl ProfilePosition {
         let raw = i64::from(od.load(input.slots.target_position));
         let mut user = if input.controlword.contains(Controlword::RELATIVE) {
             let base = match od.load(input.slots.positioning_option_code) & 0x3 {
-                0b01 => input.factors.to_user(self.planner.state().position - input.origin) * sign,
-                0b10 => input.factors.to_user(input.actual - input.origin) * sign,
+                0b01 => {
+                    input.factors.to_user(self.planner.state().position.saturating_sub(input.origin)) * sign
+                }
+                0b10 => input.factors.to_user(input.actual.saturating_sub(input.origin)) * sign,
                 _ => self.preceding,
             };
             base.saturating_add(raw)
@@ -290,7 +292,7 @@ impl ProfilePosition {
             (od.load(input.slots.position_range_limit_min), od.load(input.slots.position_range_limit_max));
         if min < max {
             let period = i64::from(max) - i64::from(min) + 1;
-            user = i64::from(min) + (user - i64::from(min)).rem_euclid(period);
+            user = i64::from(min) + user.saturating_sub(i64::from(min)).rem_euclid(period);
         }
         let mut limited = false;
         if let Some((low, high)) = input.target_range {
@@ -299,7 +301,7 @@ impl ProfilePosition {
                 limited = true;
             }
         }
-        let internal = input.factors.to_internal(user * sign).saturating_add(input.origin);
+        let internal = input.factors.to_internal(user.saturating_mul(sign)).saturating_add(input.origin);
         SetPoint {
             user,
             internal,
@@ -412,9 +414,12 @@ impl ProfilePosition {
             false
         } else {
             let target = self.last.map_or(self.preceding, |last| last.user);
-            let actual = input.factors.to_user(input.actual - input.origin) * input.factors.position_sign();
+            // (Positions scaled by an extreme factor group come near the ends of the 64-bit
+            // range: their distance saturates.)
+            let actual = input.factors.to_user(input.actual.saturating_sub(input.origin))
+                * input.factors.position_sign();
             let window = od.load(input.slots.position_window);
-            if window == u32::MAX || (target - actual).unsigned_abs() <= u64::from(window) {
+            if window == u32::MAX || target.abs_diff(actual) <= u64::from(window) {
                 let since = *self.in_window_since.get_or_insert(input.now);
                 let time = Duration::from_millis(u64::from(od.load(input.slots.position_window_time)));
                 window == u32::MAX || input.now - since >= time

@@ -35,7 +35,7 @@
 //! i64 µs arithmetic with the remainder carried, so a ramp does not drift.
 
 use super::config::{DirectMode, ProfileConfig, StatusFlag, TravelLimit};
-use super::cyclic::{Bridge, Cycle, CycleStart, Interpolator, Limiter, TickLimits, STREAM_LOST};
+use super::cyclic::{Bridge, Cycle, CycleStart, Limiter, TickLimits, STREAM_LOST};
 use super::factor::Factors;
 use super::fsa::{Fsa, Options, State, StopKind};
 use super::hm::{self, HomeOffset, Homing};
@@ -135,9 +135,6 @@ pub struct Profile {
     pp: ProfilePosition,
     homing: Homing,
     probe: TouchProbe,
-    /// Cyclic modes: the interpolated stream and (csp) the position limiter.
-    interpolator: Interpolator,
-    limiter: Limiter,
     /// The stream is lost beyond the bridged cycles (EMCY 8700h sent).
     stream_lost: bool,
     /// A limit acted on the cyclic demand in this tick (statusword bit 11).
@@ -148,10 +145,8 @@ pub struct Profile {
     /// whether interpolation is active (controlword bit 4).
     ip: IpBuffer,
     ip_overflow: bool,
-    ip_active: bool,
-    /// Velocity mode's ramp, and its statusword bits 10/11 of this tick.
-    vl: vl::Velocity,
-    vl_bits: (bool, bool),
+    /// The state of the active mode, for the modes that keep it in their own variant.
+    mode: Active,
     /// The encoder count at the user zero: moved by homing (digest §10.5).
     origin: i64,
     /// A homing error EMCY (8613h) is active.
@@ -189,9 +184,6 @@ pub struct Profile {
     /// The encoder directions (positive, negative) an active limit switch blocks in this tick
     /// ([`ProfileConfig::limit_switches_stop`]).
     blocked: (bool, bool),
-    /// A set-point arrived while the cyclic mode was not running ([`CycleStart::SetPoint`]):
-    /// it is the target once the mode runs.
-    held_set_point: bool,
     /// [`Self::motion_limits`] for the raw values last seen (emptied with the factor group).
     limits: Memo<(u32, u32, u32, u32, u32, u32), MotionLimits>,
     /// The motion limits of this tick (from [`Self::motion_limits`], before the mode runs).
@@ -235,6 +227,90 @@ impl Quiet {
         revision: 0,
         demand: Demand::OFF,
     };
+}
+
+/// The state of the operation mode that runs, in that mode's variant: it exists while the mode
+/// is active, is built when the mode becomes active ([`Profile::start_mode`]) and starts over
+/// when the drive enters Operation enabled ([`Active::restart`]).
+///
+/// vl, ip and the cyclic synchronous modes keep their state this way; pp, pv, tq and hm still
+/// keep theirs in fields of [`Profile`] ([`Active::Other`]) until they move into variants of
+/// their own.
+#[derive(Clone, Debug)]
+enum Active {
+    /// A mode whose state is in fields of [`Profile`] (no mode, pp, pv, tq, hm).
+    Other,
+    /// Velocity mode ([`vl`]).
+    Vl(vl::Vl),
+    /// Interpolated position mode ([`super::ip`]).
+    Ip(super::ip::Run),
+    /// csp, csv or cst ([`super::cyclic`]).
+    Cyclic(super::cyclic::Run),
+}
+
+impl Active {
+    /// Transition 4 or 16: the mode starts over from the axis at `actual` (increments) and
+    /// `velocity` (increments/s).
+    fn restart(&mut self, actual: i64, velocity: i64) {
+        match self {
+            Active::Vl(vl) if super::VL => vl.restart(velocity),
+            _ => self.reset_stream(actual, velocity),
+        }
+    }
+
+    /// The set-point streams (ip, csp, csv, cst) start over from the axis as it is.
+    fn reset_stream(&mut self, actual: i64, velocity: i64) {
+        match self {
+            Active::Ip(run) if super::IP => run.reset(actual),
+            Active::Cyclic(run) => run.reset(actual, velocity),
+            _ => {}
+        }
+    }
+
+    // The accessors of the optional modes test their feature first: a build without the mode
+    // then has none of its code, though the variant exists.
+
+    fn vl(&self) -> Option<&vl::Vl> {
+        match self {
+            Active::Vl(vl) if super::VL => Some(vl),
+            _ => None,
+        }
+    }
+
+    fn vl_mut(&mut self) -> Option<&mut vl::Vl> {
+        match self {
+            Active::Vl(vl) if super::VL => Some(vl),
+            _ => None,
+        }
+    }
+
+    fn ip_mut(&mut self) -> Option<&mut super::ip::Run> {
+        match self {
+            Active::Ip(run) if super::IP => Some(run),
+            _ => None,
+        }
+    }
+
+    fn is_ip(&self) -> bool {
+        super::IP && matches!(self, Active::Ip(_))
+    }
+
+    /// The limiter whose position is the demand (csp, ip).
+    fn position_limiter(&self) -> Option<&Limiter> {
+        match self {
+            Active::Ip(run) if super::IP => Some(&run.limiter),
+            Active::Cyclic(run) if run.mode == mode::CYCLIC_POSITION => Some(&run.limiter),
+            _ => None,
+        }
+    }
+
+    fn position_limiter_mut(&mut self) -> Option<&mut Limiter> {
+        match self {
+            Active::Ip(run) if super::IP => Some(&mut run.limiter),
+            Active::Cyclic(run) if run.mode == mode::CYCLIC_POSITION => Some(&mut run.limiter),
+            _ => None,
+        }
+    }
 }
 
 fn fault_code(faults: HardwareFaults) -> Option<(u16, ErrorRegister)> {
@@ -365,16 +441,12 @@ impl Profile {
             pp: ProfilePosition::new(&config, 0),
             homing: Homing::new(config.homing),
             probe: TouchProbe::new(),
-            interpolator: Interpolator::default(),
-            limiter: Limiter::default(),
             stream_lost: false,
             cyclic_limited: false,
             feed_forward: FeedForward::NONE,
             ip: IpBuffer::new(),
             ip_overflow: false,
-            ip_active: false,
-            vl: vl::Velocity::new(config.vl),
-            vl_bits: (false, false),
+            mode: Active::Other,
             origin: 0,
             homing_error: false,
             last_tick: None,
@@ -397,7 +469,6 @@ impl Profile {
             internal_origin: 0,
             resting_since: None,
             blocked: (false, false),
-            held_set_point: false,
             limits: Memo::EMPTY,
             motion: MotionLimits::ZERO,
             tick_limits: Memo::EMPTY,
@@ -557,8 +628,8 @@ impl Profile {
     ) -> bool {
         let home = self.pp.planner().state().position;
         let window = od.load(self.slots.position_window);
-        let in_window =
-            window == u32::MAX || factors.to_user(actual - home).unsigned_abs() <= u64::from(window);
+        let in_window = window == u32::MAX
+            || factors.to_user(actual.saturating_sub(home)).unsigned_abs() <= u64::from(window);
         // Without motion (method 35) there is nothing to settle: resting now is enough.
         let time = if self.homing.was_motionless() {
             Duration::ZERO
@@ -585,25 +656,16 @@ impl Profile {
     fn trajectory(&self) -> crate::motion::MotionState {
         match self.active_mode {
             mode::HOMING => self.homing.state(self.pp.planner()),
-            mode::CYCLIC_POSITION | mode::INTERPOLATED_POSITION => crate::motion::MotionState {
-                position: self.limiter.position(),
-                velocity: self.limiter.velocity(self.config.tick_rate.hz()),
-                acceleration: 0,
+            mode::CYCLIC_POSITION | mode::INTERPOLATED_POSITION => match self.mode.position_limiter() {
+                Some(limiter) => crate::motion::MotionState {
+                    position: limiter.position(),
+                    velocity: limiter.velocity(self.config.tick_rate.hz()),
+                    acceleration: 0,
+                },
+                None => self.pp.state(),
             },
             _ => self.pp.state(),
         }
-    }
-
-    /// Resets the cyclic modes' state to the axis as it is.
-    fn reset_cyclic(&mut self, actual: i64, velocity: i64) {
-        self.limiter.reset(actual);
-        self.ip_active = false;
-        let start = match self.active_mode {
-            mode::CYCLIC_POSITION | mode::INTERPOLATED_POSITION => actual,
-            mode::CYCLIC_VELOCITY => velocity,
-            _ => 0,
-        };
-        self.interpolator.reset(start);
     }
 
     /// Velocity demand of the running motion, increments/s.
@@ -749,7 +811,7 @@ impl Profile {
         if sample.faults.contains(HardwareFaults::ENCODER) {
             self.homing.forget();
         }
-        let mut actual_user = factors.to_user(actual - self.origin) * position_sign;
+        let mut actual_user = factors.to_user(actual.saturating_sub(self.origin)) * position_sign;
         // 6063h: the encoder count, from the zero homing on the current position may have set.
         od.store(self.slots.position_actual_internal, actual.wrapping_sub(self.internal_origin) as i32);
         od.store(self.slots.position_actual, saturate(actual_user));
@@ -887,9 +949,7 @@ impl Profile {
             self.pp.reset(actual, actual_user);
             self.homing.reset(self.pp.planner_mut(), actual);
             self.velocity = Ramp { value: i64::from(sample.velocity), remainder: 0 };
-            self.reset_cyclic(actual, i64::from(sample.velocity));
-            self.vl.reset(i64::from(sample.velocity));
-            self.held_set_point = false;
+            self.mode = self.start_mode(actual, i64::from(sample.velocity));
         }
         od.store(self.slots.modes_of_operation_display, self.display_mode);
 
@@ -900,8 +960,7 @@ impl Profile {
             self.torque = Ramp::default();
             self.pp.reset(actual, actual_user);
             self.homing.reset(self.pp.planner_mut(), actual);
-            self.reset_cyclic(actual, i64::from(sample.velocity));
-            self.vl.reset(i64::from(sample.velocity));
+            self.mode.restart(actual, i64::from(sample.velocity));
         }
         let operation = matches!(step.state, State::OperationEnabled { leaving: None });
         let stop = step.stop.or_else(|| {
@@ -928,10 +987,10 @@ impl Profile {
         let hz = self.config.tick_rate.hz();
         let vmax = limits.velocity;
         if let Some(kind) = stop.filter(|_| !self.stopping) {
-            if super::VL && self.active_mode == vl::MODE {
-                self.vl.stop(kind);
-            } else if matches!(self.active_mode, mode::CYCLIC_POSITION | mode::INTERPOLATED_POSITION) {
-                self.limiter.stop(&TickLimits::new(vmax, max_acceleration, stop_deceleration(kind), hz));
+            if let Some(vl) = self.mode.vl_mut() {
+                vl.stop(kind);
+            } else if let Some(limiter) = self.mode.position_limiter_mut() {
+                limiter.stop(&TickLimits::new(vmax, max_acceleration, stop_deceleration(kind), hz));
             } else if super::HM && self.active_mode == mode::HOMING {
                 let limits = self.pp_limits(od, &factors).0;
                 self.homing.stop(self.pp.planner_mut(), stop_deceleration(kind), &limits);
@@ -983,19 +1042,30 @@ impl Profile {
                 self.velocity = Ramp::default();
                 self.pp.reset(actual, actual_user);
                 self.homing.reset(self.pp.planner_mut(), actual);
-                self.reset_cyclic(actual, 0);
+                self.mode.reset_stream(actual, 0);
                 Setpoint::None
             }
-            Some(kind) if matches!(self.active_mode, mode::CYCLIC_POSITION | mode::INTERPOLATED_POSITION) => {
-                if !self.limiter.is_stopping() {
-                    // The mode was entered while the stop ran (a switch at rest resets the
-                    // limiter): the limiter stops from here, it does not chase a target.
-                    self.limiter.stop(&TickLimits::new(vmax, max_acceleration, stop_deceleration(kind), hz));
+            Some(kind) if self.mode.position_limiter().is_some() => {
+                match self.mode.position_limiter_mut() {
+                    Some(limiter) => {
+                        if !limiter.is_stopping() {
+                            // The mode was entered while the stop ran (a switch at rest resets
+                            // the limiter): the limiter stops from here, it does not chase a
+                            // target.
+                            limiter.stop(&TickLimits::new(
+                                vmax,
+                                max_acceleration,
+                                stop_deceleration(kind),
+                                hz,
+                            ));
+                        }
+                        limiter.tick(0, &TickLimits::new(vmax, max_acceleration, max_deceleration, hz));
+                        Setpoint::Position(limiter.position() as i32)
+                    }
+                    None => Setpoint::None,
                 }
-                self.limiter.tick(0, &TickLimits::new(vmax, max_acceleration, max_deceleration, hz));
-                Setpoint::Position(self.limiter.position() as i32)
             }
-            Some(_) if super::VL && self.active_mode == vl::MODE => self.run_vl(od, controlword, sample, dt),
+            Some(_) if self.mode.vl().is_some() => self.run_vl(od, controlword, sample, dt),
             Some(_) if super::HM && self.active_mode == mode::HOMING => {
                 Setpoint::Position(self.homing.step_stop(self.pp.planner_mut()).position_demand())
             }
@@ -1060,14 +1130,15 @@ impl Profile {
                     let limit_offset = self.limit_offset(od);
                     for (count, sub) in [(outcome.limits.0, 1u8), (outcome.limits.1, 2u8)] {
                         if let Some(count) = count {
-                            let user = factors.to_user(count - self.origin) * position_sign + limit_offset;
+                            let user = (factors.to_user(count.saturating_sub(self.origin)) * position_sign)
+                                .saturating_add(limit_offset);
                             let sub = if position_sign < 0 { 3 - sub } else { sub };
                             let _ = od.set::<i32>(SOFTWARE_POSITION_LIMIT, sub, saturate(user));
                         }
                     }
                     // The position values of this tick count from the new zero already: the
                     // statusword that says "homed" must not come before them.
-                    actual_user = factors.to_user(actual - self.origin) * position_sign;
+                    actual_user = factors.to_user(actual.saturating_sub(self.origin)) * position_sign;
                     od.store(self.slots.position_actual, saturate(actual_user));
                     let internal = actual.wrapping_sub(self.internal_origin) as i32;
                     od.store(self.slots.position_actual_internal, internal);
@@ -1078,23 +1149,14 @@ impl Profile {
                     Setpoint::None
                 }
             }
-            None if super::VL && drive_enabled && self.active_mode == vl::MODE => {
-                self.run_vl(od, controlword, sample, dt)
-            }
-            None if super::IP && drive_enabled && self.active_mode == mode::INTERPOLATED_POSITION => {
+            None if drive_enabled && self.mode.vl().is_some() => self.run_vl(od, controlword, sample, dt),
+            None if drive_enabled && self.mode.is_ip() => {
                 let halt_kind =
                     StopKind::halt_or_fault(od.load(self.slots.halt_option)).unwrap_or(StopKind::SlowDown);
                 let (limits, halt_limits) = self.cyclic_limits(&limits, stop_deceleration(halt_kind));
                 let input = CyclicInput { cycle, halt, factors: &factors, dt, limits, halt_limits };
-                let setpoint = self.run_ip(od, &input, controlword);
-                if self.ip_active {
-                    status.setpoint_acknowledge = true;
-                }
-                status.target_reached = if halt {
-                    self.limiter.velocity(hz) == 0
-                } else {
-                    self.ip.is_empty() && self.interpolator.step() == 0 && !self.cyclic_limited
-                };
+                let (setpoint, ip_status) = self.run_ip(od, &input, controlword);
+                status = ip_status;
                 setpoint
             }
             None if drive_enabled && self.cyclic_mode() => {
@@ -1148,9 +1210,11 @@ impl Profile {
             }
         };
 
-        if cycle.set_point && !(drive_enabled && stop.is_none() && !opening && self.cyclic_mode()) {
-            // Written before Operation enabled (an SDO-driven cycle): kept for the mode.
-            self.held_set_point = true;
+        if cycle.set_point && !(drive_enabled && stop.is_none() && !opening) {
+            if let Active::Cyclic(run) = &mut self.mode {
+                // Written before Operation enabled (an SDO-driven cycle): kept for the mode.
+                run.held_set_point = true;
+            }
         }
         if matches!(self.active_mode, mode::PROFILE_POSITION | mode::HOMING) && drive_enabled {
             let mut state = self.trajectory();
@@ -1168,14 +1232,14 @@ impl Profile {
 
         // Demands and the position control function (digest §11).
         let demand_internal = if self.position_mode() && drive_enabled {
-            self.trajectory().position - self.origin
+            self.trajectory().position.saturating_sub(self.origin)
         } else {
-            actual - self.origin
+            actual.saturating_sub(self.origin)
         };
         let demand_user = factors.to_user(demand_internal) * position_sign;
         od.store(self.slots.position_demand_internal, demand_internal as i32);
         od.store(self.slots.position_demand, saturate(demand_user));
-        let following_error = demand_user - actual_user;
+        let following_error = demand_user.saturating_sub(actual_user);
         od.store(self.slots.following_error_actual, saturate(following_error));
         let velocity_demand = factors.velocity_to_user(self.velocity_demand()) * velocity_sign;
         od.store(self.slots.velocity_demand, saturate(velocity_demand));
@@ -1381,7 +1445,8 @@ impl Profile {
             &sample.captures,
         );
         od.store(self.slots.touch_probe_status, probe.status);
-        let to_user = |p: i32| saturate(factors.to_user(i64::from(p) - self.origin) * position_sign);
+        let to_user =
+            |p: i32| saturate(factors.to_user(i64::from(p).saturating_sub(self.origin)) * position_sign);
         let latched = [
             (Changed::PROBE_1_POSITIVE, TOUCH_PROBE_1_POSITIVE_EDGE, probe.positive[0]),
             (Changed::PROBE_1_NEGATIVE, TOUCH_PROBE_1_NEGATIVE_EDGE, probe.negative[0]),
@@ -1422,20 +1487,30 @@ impl Profile {
         sample: &Sample,
         dt: Duration,
     ) -> Setpoint {
-        let input = vl::Inputs {
-            parameters: vl::Parameters::from_od(od),
-            resolution: vl::Resolution::from_od(od),
+        let drive = vl::DriveInputs {
             controlword,
             halt: StopKind::halt_or_fault(od.load(self.slots.halt_option)).unwrap_or(StopKind::SlowDown),
             velocity_limit: self.motion.velocity,
             actual_velocity: i64::from(sample.velocity),
             dt,
         };
-        let output = self.vl.tick(&input);
-        output.publish(od);
-        self.vl_bits = (output.target_reached, output.limit_active);
-        self.velocity = Ramp { value: output.demand, remainder: 0 };
-        Setpoint::Velocity(saturate(output.demand))
+        let Some(vl) = self.mode.vl_mut() else { return Setpoint::None };
+        let demand = vl.step(od, drive);
+        self.velocity = Ramp { value: demand, remainder: 0 };
+        Setpoint::Velocity(saturate(demand))
+    }
+
+    /// The state of the mode [`Self::active_mode`] names when it becomes active, the axis at
+    /// `actual` (increments) and `velocity` (increments/s).
+    fn start_mode(&self, actual: i64, velocity: i64) -> Active {
+        match self.active_mode {
+            vl::MODE if super::VL => Active::Vl(vl::Vl::start(self.config.vl, velocity)),
+            mode::INTERPOLATED_POSITION if super::IP => Active::Ip(super::ip::Run::start(actual)),
+            mode::CYCLIC_POSITION | mode::CYCLIC_VELOCITY | mode::CYCLIC_TORQUE => {
+                Active::Cyclic(super::cyclic::Run::start(self.active_mode, actual, velocity))
+            }
+            _ => Active::Other,
+        }
     }
 
     /// Ticks per interpolation period (60C2h) and the SYNC jitter tolerated.
@@ -1460,38 +1535,53 @@ impl Profile {
         od: &Dictionary<B>,
         input: &CyclicInput<'_>,
         controlword: Controlword,
-    ) -> Setpoint {
+    ) -> (Setpoint, pp::Status) {
         let factors = input.factors;
         let active = controlword.contains(Controlword::ENABLE_IP) && !input.halt;
-        if active && !self.ip_active {
-            self.interpolator.reset(self.limiter.position());
+        let timing = if active { Some(self.cycle_timing(od)) } else { None };
+        let record = if active && input.cycle.sync { self.ip.next() } else { None };
+        if active && !self.ip.is_full() {
+            self.ip_overflow = false;
         }
-        self.ip_active = active;
-        if input.halt && !self.limiter.is_stopping() {
-            self.limiter.stop(&input.halt_limits);
-        } else if !input.halt && self.limiter.is_stopping() {
-            self.limiter.resume();
-            self.interpolator.reset(self.limiter.position());
+        let origin = self.origin;
+        let hz = self.config.tick_rate.hz();
+        let Some(run) = self.mode.ip_mut() else { return (Setpoint::None, pp::Status::default()) };
+        if active && !run.active {
+            run.interpolator.reset(run.limiter.position());
         }
-        if active {
-            let (period_ticks, tolerance_ticks) = self.cycle_timing(od);
-            let record = if input.cycle.sync { self.ip.next() } else { None };
+        run.active = active;
+        if input.halt && !run.limiter.is_stopping() {
+            run.limiter.stop(&input.halt_limits);
+        } else if !input.halt && run.limiter.is_stopping() {
+            run.limiter.resume();
+            run.interpolator.reset(run.limiter.position());
+        }
+        if let Some((period_ticks, tolerance_ticks)) = timing {
             let target = record.map_or(0, |r| {
                 let user = i64::from(r[0]) * factors.position_sign();
-                factors.to_internal(user).saturating_add(self.origin)
+                factors.to_internal(user).saturating_add(origin)
             });
             let cycle =
                 Cycle { sync: input.cycle.sync, fresh: record.is_some(), period_ticks, tolerance_ticks };
             // Underflow holds the last point (no extrapolation, no stream-loss reaction).
-            self.interpolator.tick(&cycle, target, Bridge::Hold);
-            if !self.ip.is_full() {
-                self.ip_overflow = false;
-            }
+            run.interpolator.tick(&cycle, target, Bridge::Hold);
         }
-        self.cyclic_limited = self.limiter.tick_fixed(self.interpolator.value_fixed(), &input.limits);
-        let hz = self.config.tick_rate.hz();
-        self.feed_forward.velocity = saturate(self.limiter.velocity(hz));
-        Setpoint::Position(self.limiter.position() as i32)
+        let limited = run.limiter.tick_fixed(run.interpolator.value_fixed(), &input.limits);
+        let velocity = run.limiter.velocity(hz);
+        let status = pp::Status {
+            // Bit 12: interpolation active.
+            setpoint_acknowledge: run.active,
+            target_reached: if input.halt {
+                velocity == 0
+            } else {
+                self.ip.is_empty() && run.interpolator.step() == 0 && !limited
+            },
+            internal_limit: false,
+        };
+        let position = run.limiter.position();
+        self.cyclic_limited = limited;
+        self.feed_forward.velocity = saturate(velocity);
+        (Setpoint::Position(position as i32), status)
     }
 
     /// One tick of csp, csv or cst (digest §16–§18; [`super::cyclic`]).
@@ -1515,7 +1605,11 @@ impl Profile {
             // Never late: without a new set-point the last one holds.
             // A set-point written before the mode ran counts as arriving now.
             CycleStart::SetPoint => {
-                let sync = input.cycle.set_point || core::mem::take(&mut self.held_set_point);
+                let held = match &mut self.mode {
+                    Active::Cyclic(run) => core::mem::take(&mut run.held_set_point),
+                    _ => false,
+                };
+                let sync = input.cycle.set_point || held;
                 Cycle { sync, fresh: true, period_ticks, tolerance_ticks: u32::MAX }
             }
         };
@@ -1537,7 +1631,8 @@ impl Profile {
             ),
             _ => factors.torque_to_internal(od.load_int(self.slots.target_torque)),
         };
-        let stream = self.interpolator.tick(&cycle, target, bridge);
+        let Active::Cyclic(run) = &mut self.mode else { return Setpoint::None };
+        let stream = run.interpolator.tick(&cycle, target, bridge);
         let lost = stream.missed > u32::from(self.config.cyclic.max_missed_cycles);
         if lost != self.stream_lost {
             self.stream_lost = lost;
@@ -1552,21 +1647,21 @@ impl Profile {
                 }
             }
         }
-        let value = self.interpolator.value();
+        let value = run.interpolator.value();
         match self.active_mode {
             mode::CYCLIC_POSITION => {
-                if input.halt && !self.limiter.is_stopping() {
-                    self.limiter.stop(&input.halt_limits);
-                } else if !input.halt && self.limiter.is_stopping() {
-                    self.limiter.resume();
+                if input.halt && !run.limiter.is_stopping() {
+                    run.limiter.stop(&input.halt_limits);
+                } else if !input.halt && run.limiter.is_stopping() {
+                    run.limiter.resume();
                 }
-                self.cyclic_limited = self.limiter.tick_fixed(self.interpolator.value_fixed(), &input.limits);
-                let trajectory = self.limiter.velocity(hz);
+                self.cyclic_limited = run.limiter.tick_fixed(run.interpolator.value_fixed(), &input.limits);
+                let trajectory = run.limiter.velocity(hz);
                 // (A limit lowered below the running velocity: the limiter ramps down to it.)
                 let bound = i64::from(self.motion.velocity).max(trajectory.abs());
                 let velocity = trajectory.saturating_add(velocity_offset).clamp(-bound, bound);
                 self.feed_forward = FeedForward { velocity: saturate(velocity), torque: torque_feed_forward };
-                Setpoint::Position(self.limiter.position() as i32)
+                Setpoint::Position(run.limiter.position() as i32)
             }
             mode::CYCLIC_VELOCITY => {
                 let limit = i64::from(self.motion.velocity);
@@ -1697,7 +1792,9 @@ impl Profile {
                 at_rest && StopKind::quick_stop(input.options.quick_stop).is_some_and(|(_, stay)| stay)
             }
             State::OperationEnabled { .. } if self.cyclic_mode() => false,
-            State::OperationEnabled { .. } if self.active_mode == vl::MODE => self.vl_bits.0,
+            State::OperationEnabled { .. } if self.mode.vl().is_some() => {
+                self.mode.vl().is_some_and(vl::Vl::target_reached)
+            }
             State::OperationEnabled { .. } if self.position_mode() => input.pp.target_reached,
             State::OperationEnabled { .. } if input.halt && self.active_mode == mode::PROFILE_TORQUE => {
                 self.torque.value == 0
@@ -1715,7 +1812,7 @@ impl Profile {
             && matches!(self.active_mode, mode::PROFILE_POSITION | mode::PROFILE_VELOCITY);
         let internal_limit = input.pp.internal_limit
             || limit_switch
-            || (self.active_mode == vl::MODE && self.vl_bits.1)
+            || self.mode.vl().is_some_and(vl::Vl::limit_active)
             || (self.cyclic_mode() && self.cyclic_limited);
         sw.set(Statusword::INTERNAL_LIMIT_ACTIVE, internal_limit);
 

@@ -765,6 +765,81 @@ impl Default for Velocity {
     }
 }
 
+/// vl as the running mode of a profile ([`crate::cia402::profile`]): its ramp and the status
+/// bits of its last tick. It exists while vl is the active mode.
+#[derive(Clone, Debug)]
+pub struct Vl {
+    velocity: Velocity,
+    /// Statusword bit 10 of the last tick: the ramp output equals its input.
+    target_reached: bool,
+    /// Statusword bit 11 of the last tick: the reference is clamped.
+    limit_active: bool,
+}
+
+impl Vl {
+    /// vl becomes the mode, the ramp starting from `actual_velocity` (increments/s).
+    pub fn start(config: Config, actual_velocity: i64) -> Self {
+        let mut velocity = Velocity::new(config);
+        velocity.reset(actual_velocity);
+        Vl { velocity, target_reached: false, limit_active: false }
+    }
+
+    /// The drive enters Operation enabled: a stop is dropped, the ramp starts again from
+    /// `actual_velocity`.
+    pub fn restart(&mut self, actual_velocity: i64) {
+        self.velocity.reset(actual_velocity);
+    }
+
+    /// A stop of `kind` ([`Velocity::stop`]).
+    pub fn stop(&mut self, kind: StopKind) {
+        self.velocity.stop(kind);
+    }
+
+    /// One tick ([`Velocity::tick`] with the objects of `od`), 6043h and 6044h published: the
+    /// velocity demand in increments/s.
+    pub fn step<const B: usize>(&mut self, od: &mut Dictionary<B>, drive: DriveInputs) -> i64 {
+        let input = Inputs {
+            parameters: Parameters::from_od(od),
+            resolution: Resolution::from_od(od),
+            controlword: drive.controlword,
+            halt: drive.halt,
+            velocity_limit: drive.velocity_limit,
+            actual_velocity: drive.actual_velocity,
+            dt: drive.dt,
+        };
+        let output = self.velocity.tick(&input);
+        output.publish(od);
+        self.target_reached = output.target_reached;
+        self.limit_active = output.limit_active;
+        output.demand
+    }
+
+    /// Statusword bit 10 (in Operation enabled) of the last tick.
+    pub fn target_reached(&self) -> bool {
+        self.target_reached
+    }
+
+    /// Statusword bit 11 of the last tick.
+    pub fn limit_active(&self) -> bool {
+        self.limit_active
+    }
+}
+
+/// What the profile hands [`Vl::step`]: [`Inputs`] without the vl objects, which it reads.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct DriveInputs {
+    /// The controlword 6040h.
+    pub controlword: Controlword,
+    /// The stop a halt (bit 8) makes.
+    pub halt: StopKind,
+    /// The highest velocity the demand may have, increments/s.
+    pub velocity_limit: u32,
+    /// The actual velocity, increments/s.
+    pub actual_velocity: i64,
+    /// Time since the previous tick.
+    pub dt: Duration,
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
