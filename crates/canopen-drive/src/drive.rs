@@ -1110,8 +1110,6 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
             }
         }
         if self.nmt.serves_pdo() {
-            // The profile's outputs (slot writes) are not in the dictionary's revision.
-            self.pdos.values_written();
             self.pdos.detect_changes(now, &self.od, &mut self.tx);
         }
         demand
@@ -1136,7 +1134,8 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
         }
         self.cycle.last_tick = Some(now);
         if serves_pdo {
-            self.pdos.detect_changes(now, &self.od, &mut self.tx);
+            // The dictionary is as the last full tick's change detection left it.
+            self.pdos.send_due(now, &self.od, &mut self.tx);
         }
         true
     }

@@ -548,12 +548,9 @@ pub struct PdoSet<const R: usize, const T: usize> {
     latched: bool,
     /// Some RPDO has a frame ready for the next tick.
     ready: bool,
-    /// The dictionary's revision at the last change detection: while it stands, no mapped
-    /// value can have changed ([`Dictionary::revision`]).
-    sampled: Option<u32>,
-    /// Before this instant no event-driven TPDO is pending, due or waiting to be armed (`None`:
-    /// look again).
-    idle_until: Option<Instant>,
+    /// Before this instant no event-driven TPDO is pending, due or waiting to be armed
+    /// ([`Instant::ZERO`]: look at the next call).
+    idle_until: Instant,
     /// EMCY 8210h / 8220h raised by an RPDO and not cleared since (a correct frame clears them:
     /// then, and only then, the clear is reported).
     length_errors: (bool, bool),
@@ -571,8 +568,7 @@ impl<const R: usize, const T: usize> Default for PdoSet<R, T> {
             length_errors: (false, false),
             latched: false,
             ready: false,
-            sampled: None,
-            idle_until: None,
+            idle_until: Instant::ZERO,
             long_rpdo: LongRpdo::ApplyAndReport,
             inhibit_unit: INHIBIT_UNIT,
         }
@@ -685,8 +681,7 @@ impl<const R: usize, const T: usize> PdoSet<R, T> {
                 }
             }
             Direction::Tpdo => {
-                self.sampled = None;
-                self.idle_until = None;
+                self.idle_until = Instant::ZERO;
                 if let Some(tpdo) = self.tpdos.get_mut(record.number) {
                     let inhibit = u64::from(od.get::<u16>(communication, 3).unwrap_or(0))
                         * self.inhibit_unit.as_micros();
@@ -709,8 +704,7 @@ impl<const R: usize, const T: usize> PdoSet<R, T> {
     /// Entering Operational at `now`: event-driven TPDOs are sent once right away, cyclic
     /// counters restart, RPDO supervision waits for the first frame.
     pub fn start(&mut self, now: Instant) {
-        self.sampled = None;
-        self.idle_until = None;
+        self.idle_until = Instant::ZERO;
         for tpdo in self.tpdos.iter_mut().filter(|t| t.can_id.is_some()) {
             tpdo.pending = tpdo.event_driven();
             tpdo.sync_count = None;
@@ -875,63 +869,44 @@ impl<const R: usize, const T: usize> PdoSet<R, T> {
         }
     }
 
-    /// Mapped values may have changed without a change of the dictionary's revision (the
-    /// profile's outputs of a tick): the next [`detect_changes`](Self::detect_changes) samples.
-    #[inline]
-    pub fn values_written(&mut self) {
-        self.sampled = None;
-    }
-
     /// Detects changes of the values mapped into event-driven and acyclic TPDOs (the tick calls
     /// this last) and sends what the inhibit time allows.
-    #[inline]
     pub fn detect_changes<const B: usize>(
         &mut self,
         now: Instant,
         od: &Dictionary<B>,
         tx: &mut impl FrameSink,
     ) {
-        let revision = od.revision();
-        if self.sampled == Some(revision) && self.idle_until.is_some_and(|until| now < until) {
-            // Nothing mapped has changed, nothing is pending or due.
-            return;
-        }
-        self.detect_and_send(revision, now, od, tx);
-    }
-
-    /// [`Self::detect_changes`] when a mapped value may have changed (the dictionary's
-    /// `revision` is new) or a TPDO may be pending or due.
-    #[inline(never)]
-    fn detect_and_send<const B: usize>(
-        &mut self,
-        revision: u32,
-        now: Instant,
-        od: &Dictionary<B>,
-        tx: &mut impl FrameSink,
-    ) {
-        if self.sampled != Some(revision) {
-            self.sampled = Some(revision);
-            for tpdo in self.tpdos.iter_mut() {
-                if tpdo.can_id.is_none() || !(tpdo.event_driven() || tpdo.transmission == 0) {
-                    continue;
-                }
-                let data = sample(od, &tpdo.mapping);
-                if tpdo.data != Some(data) {
-                    tpdo.data = Some(data);
-                    if tpdo.transmission == 0 {
-                        tpdo.changed = true;
-                    } else {
-                        tpdo.pending = true;
-                        self.idle_until = None;
-                    }
+        for tpdo in self.tpdos.iter_mut() {
+            if tpdo.can_id.is_none() || !(tpdo.event_driven() || tpdo.transmission == 0) {
+                continue;
+            }
+            let data = sample(od, &tpdo.mapping);
+            if tpdo.data != Some(data) {
+                tpdo.data = Some(data);
+                if tpdo.transmission == 0 {
+                    tpdo.changed = true;
+                } else {
+                    tpdo.pending = true;
+                    self.idle_until = Instant::ZERO;
                 }
             }
         }
         self.send_pending(now, od, tx);
     }
 
+    /// What is due at `now` of the event-driven TPDOs (pending ones the inhibit time allows,
+    /// event timers), without change detection: for a tick after which no mapped value can
+    /// have changed ([`Dictionary::revision`]).
+    #[inline]
+    pub fn send_due<const B: usize>(&mut self, now: Instant, od: &Dictionary<B>, tx: &mut impl FrameSink) {
+        if now >= self.idle_until {
+            self.send_pending(now, od, tx);
+        }
+    }
+
     fn send_pending<const B: usize>(&mut self, now: Instant, od: &Dictionary<B>, tx: &mut impl FrameSink) {
-        if self.idle_until.is_some_and(|until| now < until) {
+        if now < self.idle_until {
             return;
         }
         let mut wake = Instant::MAX;
@@ -960,7 +935,7 @@ impl<const R: usize, const T: usize> PdoSet<R, T> {
                 wake = wake.min(deadline.max(tpdo.next_allowed));
             }
         }
-        self.idle_until = Some(wake);
+        self.idle_until = wake;
     }
 
     /// Timers due at `now`: event timers, inhibited transmissions, RPDO timeouts.
