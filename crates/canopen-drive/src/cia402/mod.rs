@@ -48,13 +48,3 @@ pub use config::{
     DirectMode, MotorSpeedUnit, OptionCodes, ProfileConfig, StatusFlag, TorqueUnit, TravelLimit, Units,
     VelocityUnit,
 };
-
-// `defmt::Format` of the error register 1001h (a bitflags type of `comm::emcy`, which cannot
-// derive it): its raw bits. Here rather than beside the type only because `comm/` is being
-// reworked at the time of writing; it belongs in `comm/emcy.rs`.
-#[cfg(feature = "defmt")]
-impl defmt::Format for crate::comm::emcy::ErrorRegister {
-    fn format(&self, f: defmt::Formatter<'_>) {
-        defmt::write!(f, "ErrorRegister({=u8:#x})", self.bits());
-    }
-}

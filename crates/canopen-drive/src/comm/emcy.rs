@@ -127,6 +127,14 @@ bitflags! {
     }
 }
 
+// `defmt::Format`: the raw bits (a bitflags type cannot derive it).
+#[cfg(feature = "defmt")]
+impl defmt::Format for ErrorRegister {
+    fn format(&self, f: defmt::Formatter<'_>) {
+        defmt::write!(f, "ErrorRegister({=u8:#x})", self.bits());
+    }
+}
+
 /// EMCY error codes the communication layer raises (digest §9.4).
 pub mod code {
     /// Error reset or no error.
