@@ -317,12 +317,13 @@ node's since issue 17 (an optional instant in 8 bytes, not 16, through a niche o
 PDO and SDO timers in 4 bytes; one TPDO data buffer: 2 296 → 2 048 B). Since issue 21 the
 profile keeps the motion limits it converted, with the values they came from (about 260 B), so
 that a tick divides again only when a master changes one, and the inputs and demand of its
-last idle tick (about 110 B with the TPDOs' change-detection state), so that an idle tick
-repeats them while nothing changed (the dictionary's revision and the sample). Without the
-optional modes (`drive-cyclic`: cargo features `pp`, `hm`, `ip`, `vl`, `touch-probe` off) the
-drive takes a little over half the full image's flash — the exact trajectory planner of pp and
-hm and the code of those modes are the difference — but the same static RAM (the state of
-every mode stays in the profile). The budgets in `benches/footprint/budgets.txt` are therefore
+last idle tick (some 80 B with the dictionary's revision and the TPDOs' wake time), so that an
+idle tick repeats them while nothing changed (the revision and the sample); the state of vl,
+ip and the cyclic modes shares one variant of the active mode (−48 B). Without the optional
+modes (`drive-cyclic`: cargo features `pp`, `hm`, `ip`, `vl`, `touch-probe` off) the drive
+takes a little over half the full image's flash — the exact trajectory planner of pp and hm and
+the code of those modes are the difference — but nearly the same static RAM (pp, hm, pv and
+tq still keep their state in fields of the profile). The budgets in `benches/footprint/budgets.txt` are therefore
 set at the measured values plus 3 % (`scripts/footprint.py --update`) so that CI catches
 growth; they are not the goals.
 
