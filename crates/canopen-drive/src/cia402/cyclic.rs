@@ -210,7 +210,12 @@ impl Interpolator {
 
     /// The interpolated value now.
     pub fn value(&self) -> i64 {
-        (self.value_fixed() >> 32) as i64
+        Self::whole(self.value_fixed())
+    }
+
+    /// The whole part of a [`Self::value_fixed`].
+    pub fn whole(fixed: i128) -> i64 {
+        (fixed >> 32) as i64
     }
 
     /// The interpolated value now with 32 fractional bits (for the position limiter, so a slow

@@ -682,6 +682,12 @@ impl Homing {
     /// function disabled). Whether the axis is homed is kept.
     pub fn reset(&mut self, planner: &mut PositionPlanner, position: i64) {
         planner.reset(position);
+        self.interrupt();
+    }
+
+    /// A run in progress is interrupted (mode switch, transition 4, a coasting stop); the
+    /// result of the last run is kept.
+    pub fn interrupt(&mut self) {
         if !matches!(self.phase, Phase::Done | Phase::Failed | Phase::Idle) {
             self.phase = Phase::Idle;
         }
@@ -726,10 +732,9 @@ impl Homing {
         planner.step()
     }
 
-    /// The statusword bits 10/12/13 now; `on_home`: the shaft rests on the position the
-    /// run ended at (a run is complete only then, digest §10.4; once it was, it stays so).
-    pub fn status(&mut self, planner: &PositionPlanner, on_home: bool) -> Status {
-        let moving = planner.state().velocity != 0;
+    /// The statusword bits 10/12/13 now; `moving`: the demand moves; `on_home`: the shaft
+    /// rests on the position the run ended at (a run is complete only then, digest §10.4; once it was, it stays so).
+    pub fn status(&mut self, moving: bool, on_home: bool) -> Status {
         if self.phase == Phase::Done && !moving && on_home {
             self.rested = true;
         }

@@ -4,6 +4,7 @@
 //! - [`config`]: what a drive supports (option codes, set-point buffer, tick rate).
 //! - [`factor`]: the factor group and polarity (user units ↔ increments).
 //! - [`pp`]: profile position mode.
+//! - `pv`, `tq`: profile velocity and profile torque mode.
 //! - [`hm`]: homing mode.
 //! - [`cyclic`]: cyclic synchronous position, velocity and torque modes.
 //! - [`ip`]: the input buffer of interpolated position mode (60C0h–60C4h) and its value rules.
@@ -11,7 +12,7 @@
 //! - [`probe`]: the touch probe function (60B8h–60BDh), latching positions at probe edges.
 //! - [`words`]: the controlword and the statusword as typed bit sets.
 //! - [`objects`]: the profile objects with their defaults and value rules.
-//! - [`profile`]: the run-time of one axis: FSA, option-code stops, modes (pv, tq), statusword,
+//! - [`profile`]: the run-time of one axis: FSA, option-code stops, the active mode, statusword,
 //!   actual values and the demand for the power stage.
 //!
 //! pv, tq, csp, csv and cst are in every build; pp, hm, ip, vl and the touch probe are cargo
@@ -29,7 +30,9 @@ pub mod objects;
 pub mod pp;
 pub mod probe;
 pub mod profile;
+mod pv;
 mod slots;
+mod tq;
 pub mod vl;
 pub mod words;
 

@@ -267,6 +267,13 @@ impl TouchProbe {
         capture: &Capture,
     ) -> ProbeOutputs {
         let function = function & !RESERVED_FUNCTION_BITS;
+        let enabled = |function: u16| function & u16::from_le_bytes([ENABLE, ENABLE]) != 0;
+        if !enabled(function) && !enabled(self.function) {
+            // Both probes off in this tick and the last: nothing to latch, 60B9h stays 0.
+            self.function = function;
+            self.inputs = Some(inputs);
+            return self.outputs();
+        }
         let counts_before = self.counts();
         let previous = self.inputs.unwrap_or(inputs);
         let index = inputs.contains(DigitalInputs::INDEX);

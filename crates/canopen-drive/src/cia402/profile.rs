@@ -35,7 +35,7 @@
 //! i64 µs arithmetic with the remainder carried, so a ramp does not drift.
 
 use super::config::{DirectMode, ProfileConfig, StatusFlag, TravelLimit};
-use super::cyclic::{Bridge, Cycle, CycleStart, Limiter, TickLimits, STREAM_LOST};
+use super::cyclic::{Bridge, Cycle, CycleStart, Interpolator, Limiter, TickLimits, STREAM_LOST};
 use super::factor::Factors;
 use super::fsa::{Fsa, Options, State, StopKind};
 use super::hm::{self, HomeOffset, Homing};
@@ -43,14 +43,16 @@ use super::ip::{IpBuffer, Written};
 use super::objects::*;
 use super::pp::{self, ProfilePosition};
 use super::probe::{Changed, TouchProbe};
+use super::pv;
 use super::slots::Slots;
+use super::tq;
 use super::vl;
 use super::words::{Controlword, Statusword};
 use crate::comm::emcy::ErrorRegister;
 use crate::comm::ConnectionEvent;
 use crate::control::{Actual, Cascade, Parameters, Reference};
 use crate::hal::{Demand, DigitalInputs, FeedForward, HardwareFaults, Sample, Setpoint};
-use crate::motion::Limits;
+use crate::motion::{Limits, MotionState, PositionPlanner};
 use crate::od::{AbortCode, Dictionary};
 use crate::time::{Duration, Instant};
 
@@ -132,7 +134,8 @@ pub struct Profile {
     velocity: Ramp,
     /// Torque demand (‰).
     torque: Ramp,
-    pp: ProfilePosition,
+    /// The homing procedure and the axis's homing result, which outlive homing mode (the run's
+    /// trajectory is [`Active::Hm`]'s).
     homing: Homing,
     probe: TouchProbe,
     /// The stream is lost beyond the bridged cycles (EMCY 8700h sent).
@@ -156,10 +159,7 @@ pub struct Profile {
     stopping: bool,
     mode_changed: bool,
     previous_controlword: Controlword,
-    in_window_since: Option<Instant>,
-    above_threshold_since: Option<Instant>,
     following_error_since: Option<Instant>,
-    last_target_velocity: i32,
     forced: Option<Controlword>,
     /// The master uses a controlword function this configuration lacks (EMCY 6320h sent).
     unavailable_function: bool,
@@ -233,13 +233,20 @@ impl Quiet {
 /// is active, is built when the mode becomes active ([`Profile::start_mode`]) and starts over
 /// when the drive enters Operation enabled ([`Active::restart`]).
 ///
-/// vl, ip and the cyclic synchronous modes keep their state this way; pp, pv, tq and hm still
-/// keep theirs in fields of [`Profile`] ([`Active::Other`]) until they move into variants of
-/// their own.
+/// What outlives a mode stays in [`Profile`]: the velocity and torque demands (the stop ramps
+/// continue them), the homing result, an active EMCY of a mode (stream lost, homing error).
 #[derive(Clone, Debug)]
 enum Active {
-    /// A mode whose state is in fields of [`Profile`] (no mode, pp, pv, tq, hm).
-    Other,
+    /// No mode (6060h = 0), or one this build does not run: the axis holds still.
+    Idle,
+    /// Profile position mode ([`pp`]).
+    Pp(ProfilePosition),
+    /// Profile velocity mode ([`pv`]).
+    Pv(pv::Run),
+    /// Profile torque mode ([`tq`]).
+    Tq,
+    /// Homing mode ([`hm`]): the trajectory of the run.
+    Hm(PositionPlanner),
     /// Velocity mode ([`vl`]).
     Vl(vl::Vl),
     /// Interpolated position mode ([`super::ip`]).
@@ -249,26 +256,64 @@ enum Active {
 }
 
 impl Active {
-    /// Transition 4 or 16: the mode starts over from the axis at `actual` (increments) and
-    /// `velocity` (increments/s).
-    fn restart(&mut self, actual: i64, velocity: i64) {
+    /// Transition 4 or 16: the mode starts over from the axis at `actual` (increments, `user`
+    /// in user units) and `velocity` (increments/s).
+    fn restart(&mut self, actual: i64, user: i64, velocity: i64) {
         match self {
             Active::Vl(vl) if super::VL => vl.restart(velocity),
-            _ => self.reset_stream(actual, velocity),
+            _ => self.coast(actual, user, velocity),
         }
     }
 
-    /// The set-point streams (ip, csp, csv, cst) start over from the axis as it is.
-    fn reset_stream(&mut self, actual: i64, velocity: i64) {
+    /// The trajectories and streams start over from the axis as it is (a coasting stop with
+    /// `velocity` 0).
+    fn coast(&mut self, actual: i64, user: i64, velocity: i64) {
         match self {
+            Active::Hm(planner) if super::HM => planner.reset(actual),
             Active::Ip(run) if super::IP => run.reset(actual),
             Active::Cyclic(run) => run.reset(actual, velocity),
-            _ => {}
+            _ => self.hold(actual, user),
+        }
+    }
+
+    /// pp holds at `actual` and drops its set-points (the drive function disabled, the brake
+    /// opening).
+    fn hold(&mut self, actual: i64, user: i64) {
+        if let Some(pp) = self.pp_mut() {
+            pp.reset(actual, user);
         }
     }
 
     // The accessors of the optional modes test their feature first: a build without the mode
     // then has none of its code, though the variant exists.
+
+    fn pp_mut(&mut self) -> Option<&mut ProfilePosition> {
+        match self {
+            Active::Pp(pp) if super::PP => Some(pp),
+            _ => None,
+        }
+    }
+
+    fn is_hm(&self) -> bool {
+        super::HM && matches!(self, Active::Hm(_))
+    }
+
+    /// The trajectory planner of pp or hm.
+    fn planner(&self) -> Option<&PositionPlanner> {
+        match self {
+            Active::Pp(pp) if super::PP => Some(pp.planner()),
+            Active::Hm(planner) if super::HM => Some(planner),
+            _ => None,
+        }
+    }
+
+    fn planner_mut(&mut self) -> Option<&mut PositionPlanner> {
+        match self {
+            Active::Pp(pp) if super::PP => Some(pp.planner_mut()),
+            Active::Hm(planner) if super::HM => Some(planner),
+            _ => None,
+        }
+    }
 
     fn vl(&self) -> Option<&vl::Vl> {
         match self {
@@ -314,6 +359,9 @@ impl Active {
 }
 
 fn fault_code(faults: HardwareFaults) -> Option<(u16, ErrorRegister)> {
+    if faults.is_empty() {
+        return None;
+    }
     let table = [
         (HardwareFaults::OVER_CURRENT, 0x2310, ErrorRegister::CURRENT),
         (HardwareFaults::OVER_VOLTAGE, 0x3210, ErrorRegister::VOLTAGE),
@@ -346,21 +394,34 @@ fn saturate(value: i64) -> i32 {
 /// The last result of a function of configuration values (the motion limits, the interpolation
 /// period), kept so that a tick converts and divides again only when one of its inputs has
 /// changed: those conversions are 64-bit divisions, library calls of about a hundred
-/// instructions each on a Cortex-M, and the values change only when a master writes them.
+/// instructions each on a Cortex-M, and the values change only when a master writes them. While
+/// the dictionary's [`revision`](Dictionary::revision) is the one the key was read at, nothing
+/// was written since, and the value holds without reading the key again.
 #[derive(Clone, Copy, Debug)]
-struct Memo<K, V>(Option<(K, V)>);
+struct Memo<K, V> {
+    kept: Option<(K, V)>,
+    /// The revision the key was last read at.
+    revision: u32,
+}
 
 impl<K: Copy + PartialEq, V: Copy> Memo<K, V> {
-    const EMPTY: Self = Memo(None);
+    const EMPTY: Self = Memo { kept: None, revision: 0 };
 
-    /// The value for `key`: the kept one, or `compute`'s, kept from now on.
+    /// The kept value if the dictionary is still at `revision` since its key was read.
     #[inline]
-    fn get(&mut self, key: K, compute: impl FnOnce() -> V) -> V {
-        match self.0 {
+    fn kept(&self, revision: u32) -> Option<V> {
+        self.kept.filter(|_| self.revision == revision).map(|(_, value)| value)
+    }
+
+    /// The value for `key`, read at `revision`: the kept one, or `compute`'s, kept from now on.
+    #[inline]
+    fn get(&mut self, key: K, revision: u32, compute: impl FnOnce() -> V) -> V {
+        self.revision = revision;
+        match self.kept {
             Some((kept, value)) if kept == key => value,
             _ => {
                 let value = compute();
-                self.0 = Some((key, value));
+                self.kept = Some((key, value));
                 value
             }
         }
@@ -438,7 +499,6 @@ impl Profile {
             display_mode: 0,
             velocity: Ramp::default(),
             torque: Ramp::default(),
-            pp: ProfilePosition::new(&config, 0),
             homing: Homing::new(config.homing),
             probe: TouchProbe::new(),
             stream_lost: false,
@@ -446,7 +506,7 @@ impl Profile {
             feed_forward: FeedForward::NONE,
             ip: IpBuffer::new(),
             ip_overflow: false,
-            mode: Active::Other,
+            mode: Active::Idle,
             origin: 0,
             homing_error: false,
             last_tick: None,
@@ -454,10 +514,7 @@ impl Profile {
             stopping: false,
             mode_changed: false,
             previous_controlword: Controlword::empty(),
-            in_window_since: None,
-            above_threshold_since: None,
             following_error_since: None,
-            last_target_velocity: 0,
             forced: None,
             unavailable_function: false,
             released_at: None,
@@ -513,7 +570,7 @@ impl Profile {
         let actual =
             i64::from(od.load(self.slots.position_actual_internal)).wrapping_add(self.internal_origin);
         self.origin = actual.saturating_sub(factors.to_internal(i64::from(user) * factors.position_sign()));
-        self.pp.reset(actual, i64::from(user));
+        self.mode.hold(actual, i64::from(user));
     }
 
     /// Parameters may have changed (an SDO write, a restore, the firmware's access): the factor
@@ -626,7 +683,7 @@ impl Profile {
         actual: i64,
         now: Instant,
     ) -> bool {
-        let home = self.pp.planner().state().position;
+        let home = self.mode.planner().map_or(actual, |planner| planner.state().position);
         let window = od.load(self.slots.position_window);
         let in_window = window == u32::MAX
             || factors.to_user(actual.saturating_sub(home)).unsigned_abs() <= u64::from(window);
@@ -652,26 +709,27 @@ impl Profile {
         matches!(self.active_mode, mode::CYCLIC_POSITION | mode::CYCLIC_VELOCITY | mode::CYCLIC_TORQUE)
     }
 
-    /// The trajectory state of the position modes.
-    fn trajectory(&self) -> crate::motion::MotionState {
-        match self.active_mode {
-            mode::HOMING => self.homing.state(self.pp.planner()),
-            mode::CYCLIC_POSITION | mode::INTERPOLATED_POSITION => match self.mode.position_limiter() {
-                Some(limiter) => crate::motion::MotionState {
-                    position: limiter.position(),
-                    velocity: limiter.velocity(self.config.tick_rate.hz()),
-                    acceleration: 0,
-                },
-                None => self.pp.state(),
-            },
-            _ => self.pp.state(),
+    /// The trajectory state of the position modes (pp, hm, csp, ip).
+    fn trajectory(&self) -> Option<MotionState> {
+        if let Some(planner) = self.mode.planner() {
+            return Some(planner.state());
         }
+        self.mode.position_limiter().map(|limiter| MotionState {
+            position: limiter.position(),
+            velocity: limiter.velocity(self.config.tick_rate.hz()),
+            acceleration: 0,
+        })
     }
 
     /// Velocity demand of the running motion, increments/s.
     fn velocity_demand(&self) -> i64 {
+        self.velocity_of(self.trajectory())
+    }
+
+    /// [`Self::velocity_demand`] with the [`Self::trajectory`] of this moment.
+    fn velocity_of(&self, trajectory: Option<MotionState>) -> i64 {
         if self.position_mode() {
-            self.trajectory().velocity
+            trajectory.map_or(0, |state| state.velocity)
         } else {
             self.velocity.value
         }
@@ -946,10 +1004,9 @@ impl Profile {
             self.active_mode = direct.map_or(requested, DirectMode::cyclic_mode);
             self.mode_changed = true;
             crate::fmt::info!("cia402: mode of operation {}", requested);
-            self.pp.reset(actual, actual_user);
-            self.homing.reset(self.pp.planner_mut(), actual);
+            self.homing.interrupt();
             self.velocity = Ramp { value: i64::from(sample.velocity), remainder: 0 };
-            self.mode = self.start_mode(actual, i64::from(sample.velocity));
+            self.mode = self.start_mode(actual, actual_user, i64::from(sample.velocity));
         }
         od.store(self.slots.modes_of_operation_display, self.display_mode);
 
@@ -958,9 +1015,8 @@ impl Profile {
             // Transition 4 (and 16) clear the internal set-points.
             self.velocity = Ramp { value: i64::from(sample.velocity), remainder: 0 };
             self.torque = Ramp::default();
-            self.pp.reset(actual, actual_user);
-            self.homing.reset(self.pp.planner_mut(), actual);
-            self.mode.restart(actual, i64::from(sample.velocity));
+            self.homing.interrupt();
+            self.mode.restart(actual, actual_user, i64::from(sample.velocity));
         }
         let operation = matches!(step.state, State::OperationEnabled { leaving: None });
         let stop = step.stop.or_else(|| {
@@ -987,18 +1043,18 @@ impl Profile {
         let hz = self.config.tick_rate.hz();
         let vmax = limits.velocity;
         if let Some(kind) = stop.filter(|_| !self.stopping) {
-            if let Some(vl) = self.mode.vl_mut() {
-                vl.stop(kind);
-            } else if let Some(limiter) = self.mode.position_limiter_mut() {
-                limiter.stop(&TickLimits::new(vmax, max_acceleration, stop_deceleration(kind), hz));
-            } else if super::HM && self.active_mode == mode::HOMING {
-                let limits = self.pp_limits(od, &factors).0;
-                self.homing.stop(self.pp.planner_mut(), stop_deceleration(kind), &limits);
-            } else if super::PP && self.position_mode() {
-                let limits = self.pp_limits(od, &factors).0;
-                self.pp.stop(stop_deceleration(kind), &limits);
-            } else {
-                self.velocity = Ramp { value: i64::from(sample.velocity), remainder: 0 };
+            let deceleration = stop_deceleration(kind);
+            let planner_limits = self.mode.planner().is_some().then(|| self.pp_limits(od, &factors).0);
+            match (&mut self.mode, planner_limits) {
+                (Active::Vl(vl), _) if super::VL => vl.stop(kind),
+                (Active::Hm(planner), Some(limits)) if super::HM => {
+                    self.homing.stop(planner, deceleration, &limits)
+                }
+                (Active::Pp(pp), Some(limits)) if super::PP => pp.stop(deceleration, &limits),
+                (mode, _) => match mode.position_limiter_mut() {
+                    Some(limiter) => limiter.stop(&TickLimits::new(vmax, max_acceleration, deceleration, hz)),
+                    None => self.velocity = Ramp { value: i64::from(sample.velocity), remainder: 0 },
+                },
             }
         }
         self.stopping = stop.is_some();
@@ -1031,7 +1087,7 @@ impl Profile {
         };
         let mut setpoint = match stop {
             None if opening => {
-                self.pp.reset(actual, actual_user);
+                self.mode.hold(actual, actual_user);
                 self.velocity = Ramp::default();
                 self.torque = Ramp::default();
                 Setpoint::Position(sample.position)
@@ -1040,9 +1096,8 @@ impl Profile {
                 drive_enabled = false;
                 self.dynamic_braking |= kind == StopKind::DynamicBrake;
                 self.velocity = Ramp::default();
-                self.pp.reset(actual, actual_user);
-                self.homing.reset(self.pp.planner_mut(), actual);
-                self.mode.reset_stream(actual, 0);
+                self.homing.interrupt();
+                self.mode.coast(actual, actual_user, 0);
                 Setpoint::None
             }
             Some(kind) if self.mode.position_limiter().is_some() => {
@@ -1066,17 +1121,18 @@ impl Profile {
                 }
             }
             Some(_) if self.mode.vl().is_some() => self.run_vl(od, controlword, sample, dt),
-            Some(_) if super::HM && self.active_mode == mode::HOMING => {
-                Setpoint::Position(self.homing.step_stop(self.pp.planner_mut()).position_demand())
-            }
-            Some(_) if super::PP && self.position_mode() => {
-                Setpoint::Position(self.pp.step_stop().position_demand())
-            }
+            Some(_) if self.mode.planner().is_some() => match &mut self.mode {
+                Active::Hm(planner) if super::HM => {
+                    Setpoint::Position(self.homing.step_stop(planner).position_demand())
+                }
+                Active::Pp(pp) if super::PP => Setpoint::Position(pp.step_stop().position_demand()),
+                _ => Setpoint::None,
+            },
             Some(kind) => {
                 self.velocity.toward(0, stop_deceleration(kind), dt);
                 Setpoint::Velocity(self.velocity.value as i32)
             }
-            None if super::HM && self.active_mode == mode::HOMING => {
+            None if self.mode.is_hm() => {
                 // 607Fh/6080h and 60C5h/60C6h limit homing as every mode (digest §9.5).
                 let speeds = (
                     factors.limit_to_internal(od.load(self.slots.homing_speed_switch)).min(vmax),
@@ -1106,8 +1162,10 @@ impl Profile {
                 };
                 let halt_kind =
                     StopKind::halt_or_fault(od.load(self.slots.halt_option)).unwrap_or(StopKind::SlowDown);
-                let (position, outcome) =
-                    self.homing.tick(self.pp.planner_mut(), &inputs, stop_deceleration(halt_kind));
+                let (position, outcome) = match &mut self.mode {
+                    Active::Hm(planner) => self.homing.tick(planner, &inputs, stop_deceleration(halt_kind)),
+                    _ => (actual, hm::Outcome::default()),
+                };
                 if let Some(home) = outcome.home {
                     let home_offset = i64::from(od.load(self.slots.home_offset));
                     // 6064h reads −607Ch at home (CiA 402), or +607Ch ([`HomeOffset::HomeValue`]).
@@ -1166,46 +1224,54 @@ impl Profile {
                 let input = CyclicInput { cycle, halt, factors: &factors, dt, limits, halt_limits };
                 self.run_cyclic(od, &input, &mut report)
             }
-            None if super::PP && drive_enabled && self.position_mode() => {
-                let moving = if positive_blocked || negative_blocked { self.pp.state().velocity } else { 0 };
-                if (positive_blocked && moving > 0) || (negative_blocked && moving < 0) {
-                    // Running into an active limit switch: stopped on the quick-stop ramp.
-                    let deceleration = stop_deceleration(StopKind::QuickStopRamp);
-                    let limits = self.pp_limits(od, &factors).0;
-                    self.pp.stop(deceleration, &limits);
-                }
+            None if drive_enabled && self.mode.pp_mut().is_some() => {
                 let (pp_limits, end_velocity) = self.pp_limits(od, &factors);
-                let inputs = pp::Inputs {
-                    od,
-                    factors: &factors,
-                    slots: &self.slots,
-                    controlword,
-                    new_setpoint: bit4_rose && operation && !step.entered_operation && !self.mode_changed,
-                    actual,
-                    origin: self.origin,
-                    // (Needed only by a new set-point.)
-                    target_range: if bit4_rose {
-                        self.target_range(od, actual_user, sample.inputs, position_sign)
-                    } else {
-                        None
-                    },
-                    standstill,
-                    now,
-                    limits: pp_limits,
-                    end_velocity,
-                    velocity_cap: vmax,
+                // (Needed only by a new set-point.)
+                let target_range = if bit4_rose {
+                    self.target_range(od, actual_user, sample.inputs, position_sign)
+                } else {
+                    None
                 };
                 let halt_kind =
                     StopKind::halt_or_fault(od.load(self.slots.halt_option)).unwrap_or(StopKind::SlowDown);
-                let state = self.pp.tick(&inputs, stop_deceleration(halt_kind));
-                status = self.pp.status(&inputs);
-                Setpoint::Position(state.position_demand())
+                match self.mode.pp_mut() {
+                    Some(pp) => {
+                        let moving =
+                            if positive_blocked || negative_blocked { pp.state().velocity } else { 0 };
+                        if (positive_blocked && moving > 0) || (negative_blocked && moving < 0) {
+                            // Running into an active limit switch: stopped on the quick-stop ramp.
+                            pp.stop(stop_deceleration(StopKind::QuickStopRamp), &pp_limits);
+                        }
+                        let inputs = pp::Inputs {
+                            od,
+                            factors: &factors,
+                            slots: &self.slots,
+                            controlword,
+                            new_setpoint: bit4_rose
+                                && operation
+                                && !step.entered_operation
+                                && !self.mode_changed,
+                            actual,
+                            origin: self.origin,
+                            target_range,
+                            standstill,
+                            now,
+                            limits: pp_limits,
+                            end_velocity,
+                            velocity_cap: vmax,
+                        };
+                        let state = pp.tick(&inputs, stop_deceleration(halt_kind));
+                        status = pp.status(&inputs);
+                        Setpoint::Position(state.position_demand())
+                    }
+                    None => Setpoint::None,
+                }
             }
             None if drive_enabled => self.run_mode(od, &factors, dt, halt),
             None => {
                 self.velocity = Ramp::default();
                 self.torque = Ramp::default();
-                self.pp.reset(actual, actual_user);
+                self.mode.hold(actual, actual_user);
                 Setpoint::None
             }
         };
@@ -1216,14 +1282,14 @@ impl Profile {
                 run.held_set_point = true;
             }
         }
-        if matches!(self.active_mode, mode::PROFILE_POSITION | mode::HOMING) && drive_enabled {
-            let mut state = self.trajectory();
+        if let Some(planner) = self.mode.planner_mut().filter(|_| drive_enabled) {
+            let mut state = planner.state();
             let velocity = state.velocity.unsigned_abs();
             if velocity > u64::from(vmax) && velocity > previous_velocity.unsigned_abs() {
                 // A velocity limit lowered below the running motion with ramps no plan can
                 // follow (a factor group that turns them into 0 increments/s²): rather than run
                 // on faster than the limit (DESIGN invariant 2), the demand stops where it is.
-                self.pp.planner_mut().reset(state.position);
+                planner.reset(state.position);
                 setpoint = Setpoint::Position(saturate(state.position));
                 state.velocity = 0;
             }
@@ -1231,17 +1297,16 @@ impl Profile {
         }
 
         // Demands and the position control function (digest §11).
-        let demand_internal = if self.position_mode() && drive_enabled {
-            self.trajectory().position.saturating_sub(self.origin)
-        } else {
-            actual.saturating_sub(self.origin)
-        };
+        let trajectory = self.trajectory();
+        let demand_position = trajectory.filter(|_| drive_enabled).map(|state| state.position);
+        let demand_internal = demand_position.unwrap_or(actual).saturating_sub(self.origin);
         let demand_user = factors.to_user(demand_internal) * position_sign;
         od.store(self.slots.position_demand_internal, demand_internal as i32);
         od.store(self.slots.position_demand, saturate(demand_user));
         let following_error = demand_user.saturating_sub(actual_user);
         od.store(self.slots.following_error_actual, saturate(following_error));
-        let velocity_demand = factors.velocity_to_user(self.velocity_demand()) * velocity_sign;
+        let velocity_demand_internal = self.velocity_of(trajectory);
+        let velocity_demand = factors.velocity_to_user(velocity_demand_internal) * velocity_sign;
         od.store(self.slots.velocity_demand, saturate(velocity_demand));
         od.store_int(self.slots.torque_demand, factors.torque_to_user(self.torque.value));
         let following =
@@ -1261,6 +1326,7 @@ impl Profile {
             operation,
             drive_enabled,
             following,
+            velocity_demand_internal,
             velocity_demand,
             velocity_user,
             opening,
@@ -1305,7 +1371,7 @@ impl Profile {
             && !probe_changed
             && !self.dynamic_braking
             && self.forced.is_none()
-            && self.above_threshold_since.is_none();
+            && !matches!(&self.mode, Active::Pv(run) if run.timing());
         if idle {
             self.quiet = Quiet { idle: true, sample: *sample, revision: od.revision(), demand };
         }
@@ -1315,6 +1381,10 @@ impl Profile {
     /// The motion limits in increments, converted again only when one of their objects (or
     /// the factor group) has changed; also [`Self::motion`] for the rest of the tick.
     fn motion_limits<const B: usize>(&mut self, od: &Dictionary<B>, factors: &Factors) -> MotionLimits {
+        if let Some(kept) = self.limits.kept(od.revision()) {
+            self.motion = kept;
+            return kept;
+        }
         let raw = (
             od.load(self.slots.max_profile_velocity),
             od.load(self.slots.max_motor_speed),
@@ -1323,22 +1393,26 @@ impl Profile {
             od.load(self.slots.profile_deceleration),
             od.load(self.slots.quick_stop_deceleration),
         );
-        self.motion = self.limits.get(raw, || MotionLimits::convert(raw, factors));
+        self.motion = self.limits.get(raw, od.revision(), || MotionLimits::convert(raw, factors));
         self.motion
     }
 
     /// pp's motion limits ([`pp::LimitObjects::limits`]) and its end velocity 6082h in increments, converted
     /// again only when one of their objects (or the factor group) has changed.
     fn pp_limits<const B: usize>(&mut self, od: &Dictionary<B>, factors: &Factors) -> (Limits, u32) {
+        if let Some(kept) = self.pp_limits.kept(od.revision()) {
+            return kept;
+        }
         let objects = pp::LimitObjects::read(od, &self.slots);
-        self.pp_limits.get(objects, || objects.limits(factors))
+        self.pp_limits.get(objects, od.revision(), || objects.limits(factors))
     }
 
     /// The cyclic limiter's per-tick limits: with the maximum deceleration, and with a halt's.
     fn cyclic_limits(&mut self, limits: &MotionLimits, halt_deceleration: u32) -> (TickLimits, TickLimits) {
         let hz = self.config.tick_rate.hz();
         let key = (limits.velocity, limits.acceleration, limits.deceleration, halt_deceleration, hz);
-        self.tick_limits.get(key, || {
+        // (Its key is derived from values the tick has just read: never kept by revision.)
+        self.tick_limits.get(key, 0, || {
             (
                 TickLimits::new(limits.velocity, limits.acceleration, limits.deceleration, hz),
                 TickLimits::new(limits.velocity, limits.acceleration, halt_deceleration, hz),
@@ -1412,8 +1486,10 @@ impl Profile {
         let actual = Actual::from(sample);
         let output = match setpoint {
             Setpoint::Position(position) => {
-                let velocity =
-                    if self.active_mode == mode::PROFILE_POSITION { self.pp.state().velocity } else { 0 };
+                let velocity = match &self.mode {
+                    Active::Pp(pp) if super::PP => pp.state().velocity,
+                    _ => 0,
+                };
                 let reference = Reference { position, velocity: saturate(velocity), torque: 0 };
                 cascade.step(reference, actual)
             }
@@ -1445,6 +1521,9 @@ impl Profile {
             &sample.captures,
         );
         od.store(self.slots.touch_probe_status, probe.status);
+        if probe.changed.is_empty() {
+            return (None, false);
+        }
         let to_user =
             |p: i32| saturate(factors.to_user(i64::from(p).saturating_sub(self.origin)) * position_sign);
         let latched = [
@@ -1502,24 +1581,35 @@ impl Profile {
 
     /// The state of the mode [`Self::active_mode`] names when it becomes active, the axis at
     /// `actual` (increments) and `velocity` (increments/s).
-    fn start_mode(&self, actual: i64, velocity: i64) -> Active {
+    fn start_mode(&self, actual: i64, user: i64, velocity: i64) -> Active {
         match self.active_mode {
+            mode::PROFILE_POSITION if super::PP => {
+                let mut pp = ProfilePosition::new(&self.config, actual);
+                pp.reset(actual, user);
+                Active::Pp(pp)
+            }
+            mode::PROFILE_VELOCITY => Active::Pv(pv::Run::start()),
+            mode::PROFILE_TORQUE => Active::Tq,
+            mode::HOMING if super::HM => Active::Hm(PositionPlanner::new(self.config.tick_rate, actual)),
             vl::MODE if super::VL => Active::Vl(vl::Vl::start(self.config.vl, velocity)),
             mode::INTERPOLATED_POSITION if super::IP => Active::Ip(super::ip::Run::start(actual)),
             mode::CYCLIC_POSITION | mode::CYCLIC_VELOCITY | mode::CYCLIC_TORQUE => {
                 Active::Cyclic(super::cyclic::Run::start(self.active_mode, actual, velocity))
             }
-            _ => Active::Other,
+            _ => Active::Idle,
         }
     }
 
     /// Ticks per interpolation period (60C2h) and the SYNC jitter tolerated.
     fn cycle_timing<const B: usize>(&mut self, od: &Dictionary<B>) -> (u32, u32) {
+        if let Some(kept) = self.timing.kept(od.revision()) {
+            return kept;
+        }
         let hz = u64::from(self.config.tick_rate.hz());
         let value = od.load_or(self.slots.interpolation_period_value, 1);
         let index = od.load_or(self.slots.interpolation_period_index, -3);
         let window_us: u32 = od.load(self.slots.sync_window);
-        self.timing.get((value, index, window_us), || {
+        self.timing.get((value, index, window_us), od.revision(), || {
             let period_us = period_micros(value, index);
             let period_ticks = ((period_us * hz + 500_000) / 1_000_000).clamp(1, u64::from(u32::MAX)) as u32;
             let window_ticks = (u64::from(window_us) * hz / 1_000_000).min(u64::from(u32::MAX)) as u32;
@@ -1647,7 +1737,8 @@ impl Profile {
                 }
             }
         }
-        let value = run.interpolator.value();
+        let fixed = run.interpolator.value_fixed();
+        let value = Interpolator::whole(fixed);
         match self.active_mode {
             mode::CYCLIC_POSITION => {
                 if input.halt && !run.limiter.is_stopping() {
@@ -1655,7 +1746,7 @@ impl Profile {
                 } else if !input.halt && run.limiter.is_stopping() {
                     run.limiter.resume();
                 }
-                self.cyclic_limited = run.limiter.tick_fixed(run.interpolator.value_fixed(), &input.limits);
+                self.cyclic_limited = run.limiter.tick_fixed(fixed, &input.limits);
                 let trajectory = run.limiter.velocity(hz);
                 // (A limit lowered below the running velocity: the limiter ramps down to it.)
                 let bound = i64::from(self.motion.velocity).max(trajectory.abs());
@@ -1707,13 +1798,7 @@ impl Profile {
         now - since > Duration::from_millis(u64::from(od.load(self.slots.following_error_time_out)))
     }
 
-    /// pv bit 13 (max slippage, 60F8h): here the difference between the velocity demand and the
-    /// actual velocity, when 60F8h is positive.
-    fn slipping<const B: usize>(&self, od: &Dictionary<B>, demand: i64, actual: i64) -> bool {
-        let max: i32 = od.load(self.slots.max_slippage);
-        self.active_mode == mode::PROFILE_VELOCITY && max > 0 && (demand - actual).abs() >= i64::from(max)
-    }
-
+    /// One tick of pv, tq or no mode with the drive function enabled.
     fn run_mode<const B: usize>(
         &mut self,
         od: &Dictionary<B>,
@@ -1721,34 +1806,16 @@ impl Profile {
         dt: Duration,
         halt: bool,
     ) -> Setpoint {
-        match self.active_mode {
-            mode::PROFILE_VELOCITY => {
-                let limit = i64::from(self.motion.velocity);
-                let target_user = i64::from(od.load(self.slots.target_velocity)) * factors.velocity_sign();
-                let mut target = factors.velocity_to_internal(target_user).clamp(-limit, limit);
-                let (positive_blocked, negative_blocked) = self.blocked;
-                if (positive_blocked && target > 0) || (negative_blocked && target < 0) {
-                    // No velocity towards an active limit switch.
-                    target = 0;
-                }
+        match self.mode {
+            Active::Pv(_) => {
                 let current = self.velocity.value;
-                // Accelerating away from zero uses 6083h, approaching zero 6084h.
-                let accelerating = (target - current).signum() == current.signum() || current == 0;
-                let rate = if accelerating {
-                    od.load(self.slots.profile_acceleration).min(od.load(self.slots.max_acceleration))
-                } else {
-                    od.load(self.slots.profile_deceleration).min(od.load(self.slots.max_deceleration))
-                };
-                self.velocity.toward(target, factors.limit_to_internal(rate), dt);
+                let aim = pv::Run::aim(od, &self.slots, factors, self.motion.velocity, self.blocked, current);
+                self.velocity.toward(aim.velocity, aim.rate, dt);
                 Setpoint::Velocity(self.velocity.value as i32)
             }
-            mode::PROFILE_TORQUE => {
-                let max = i64::from(od.load(self.slots.max_torque).min(od.load(self.slots.max_current)));
-                let target = if halt {
-                    0
-                } else {
-                    factors.torque_to_internal(od.load_int(self.slots.target_torque)).clamp(-max, max)
-                };
+            Active::Tq => {
+                let max = tq::torque_limit(od, &self.slots);
+                let target = if halt { 0 } else { tq::target(od, &self.slots, factors) };
                 self.torque.toward(target, od.load(self.slots.torque_slope), dt);
                 // The slope (6087h) shapes changes of the target; a limit lowered below the
                 // running torque holds at once (DESIGN invariant 2).
@@ -1786,7 +1853,7 @@ impl Profile {
         sw.set(Statusword::REMOTE, !input.sample.local_control);
 
         // Bit 10.
-        let at_rest = self.velocity_demand() == 0;
+        let at_rest = input.velocity_demand_internal == 0;
         let target_reached = match state {
             State::QuickStopActive => {
                 at_rest && StopKind::quick_stop(input.options.quick_stop).is_some_and(|(_, stay)| stay)
@@ -1800,7 +1867,7 @@ impl Profile {
                 self.torque.value == 0
             }
             State::OperationEnabled { .. } if input.halt => at_rest && input.standstill,
-            State::OperationEnabled { .. } => self.mode_target_reached(od, now),
+            State::OperationEnabled { .. } => self.mode_target_reached(od, input.factors, now),
             _ => false,
         };
         if target_reached || core::mem::take(&mut self.mode_changed) {
@@ -1818,7 +1885,10 @@ impl Profile {
 
         // Bit 12.
         let bit_12 = match self.active_mode {
-            mode::PROFILE_VELOCITY => self.speed_is_zero(od, now),
+            mode::PROFILE_VELOCITY => match &mut self.mode {
+                Active::Pv(run) => run.speed_is_zero(od, &self.slots, now),
+                _ => false,
+            },
             mode::PROFILE_POSITION | mode::INTERPOLATED_POSITION => input.pp.setpoint_acknowledge,
             // The target is used: Operation enabled, no halt, the stream alive.
             mode::CYCLIC_POSITION | mode::CYCLIC_VELOCITY | mode::CYCLIC_TORQUE => {
@@ -1835,7 +1905,8 @@ impl Profile {
                 mode::PROFILE_POSITION | mode::CYCLIC_POSITION | mode::INTERPOLATED_POSITION
             );
         if following
-            || (!self.position_mode() && self.slipping(od, input.velocity_demand, input.velocity_user))
+            || (matches!(self.mode, Active::Pv(_))
+                && pv::Run::slipping(od, &self.slots, input.velocity_demand, input.velocity_user))
         {
             sw |= Statusword::MODE_SPECIFIC_13;
         }
@@ -1844,7 +1915,8 @@ impl Profile {
             // Bits 10, 12, 13 are the homing status in every state (digest §10.4).
             let on_home = self.homing.run_ended() && self.rests_on_home(od, input.factors, input.actual, now);
             let homing = Statusword::TARGET_REACHED | Statusword::HOMING_ATTAINED | Statusword::HOMING_ERROR;
-            sw = sw.difference(homing) | self.homing.status(self.pp.planner(), on_home).statusword();
+            let moving = self.mode.planner().is_some_and(|planner| planner.state().velocity != 0);
+            sw = sw.difference(homing) | self.homing.status(moving, on_home).statusword();
         }
 
         // Bits 14 and 15, as the configuration defines them.
@@ -1857,7 +1929,7 @@ impl Profile {
             let threshold = i64::from(od.load(self.slots.velocity_threshold));
             Some(i64::from(input.sample.velocity)).filter(|v| v.abs() > threshold).unwrap_or(0)
         } else {
-            self.velocity_demand()
+            input.velocity_demand_internal
         };
         let manufacturer = [
             (Statusword::MANUFACTURER_14, self.config.statusword_bit_14),
@@ -1875,46 +1947,18 @@ impl Profile {
         sw
     }
 
-    fn mode_target_reached<const B: usize>(&mut self, od: &Dictionary<B>, now: Instant) -> bool {
-        match self.active_mode {
-            mode::PROFILE_VELOCITY => {
-                let target: i32 = od.load(self.slots.target_velocity);
-                if target != self.last_target_velocity {
-                    self.last_target_velocity = target;
-                    self.in_window_since = None;
-                }
-                let actual: i32 = od.load(self.slots.velocity_actual);
-                let window = i64::from(od.load(self.slots.velocity_window));
-                if (i64::from(target) - i64::from(actual)).abs() <= window {
-                    let since = *self.in_window_since.get_or_insert(now);
-                    let time = Duration::from_millis(u64::from(od.load(self.slots.velocity_window_time)));
-                    now - since >= time
-                } else {
-                    self.in_window_since = None;
-                    false
-                }
-            }
-            mode::PROFILE_TORQUE => {
-                let max = i64::from(od.load(self.slots.max_torque).min(od.load(self.slots.max_current)));
-                let target = self
-                    .factors
-                    .unwrap_or_default()
-                    .torque_to_internal(od.load_int(self.slots.target_torque));
-                self.torque.value == target.clamp(-max, max)
-            }
+    /// Bit 10 of pv and tq in Operation enabled without halt.
+    fn mode_target_reached<const B: usize>(
+        &mut self,
+        od: &Dictionary<B>,
+        factors: &Factors,
+        now: Instant,
+    ) -> bool {
+        match &mut self.mode {
+            Active::Pv(run) => run.target_reached(od, &self.slots, now),
+            Active::Tq => self.torque.value == tq::target(od, &self.slots, factors),
             _ => false,
         }
-    }
-
-    /// pv bit 12: |606Ch| ≤ 606Fh, or above it for no longer than 6070h ms.
-    fn speed_is_zero<const B: usize>(&mut self, od: &Dictionary<B>, now: Instant) -> bool {
-        let threshold = i64::from(od.load(self.slots.velocity_threshold));
-        if i64::from(od.load(self.slots.velocity_actual)).abs() <= threshold {
-            self.above_threshold_since = None;
-            return true;
-        }
-        let since = *self.above_threshold_since.get_or_insert(now);
-        now - since <= Duration::from_millis(u64::from(od.load(self.slots.velocity_threshold_time)))
     }
 }
 
@@ -1934,6 +1978,8 @@ struct StatusInput<'a> {
     drive_enabled: bool,
     /// The following error is beyond its window for longer than its time.
     following: bool,
+    /// The velocity demand of this tick (increments/s).
+    velocity_demand_internal: i64,
     /// 606Bh and 606Ch of this tick (user units).
     velocity_demand: i64,
     velocity_user: i64,
