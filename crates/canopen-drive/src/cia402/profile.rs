@@ -315,13 +315,6 @@ impl Active {
         }
     }
 
-    fn vl(&self) -> Option<&vl::Vl> {
-        match self {
-            Active::Vl(vl) if super::VL => Some(vl),
-            _ => None,
-        }
-    }
-
     fn vl_mut(&mut self) -> Option<&mut vl::Vl> {
         match self {
             Active::Vl(vl) if super::VL => Some(vl),
@@ -334,10 +327,6 @@ impl Active {
             Active::Ip(run) if super::IP => Some(run),
             _ => None,
         }
-    }
-
-    fn is_ip(&self) -> bool {
-        super::IP && matches!(self, Active::Ip(_))
     }
 
     /// The limiter whose position is the demand (csp, ip).
@@ -704,11 +693,6 @@ impl Profile {
         )
     }
 
-    /// The cyclic synchronous modes.
-    fn cyclic_mode(&self) -> bool {
-        matches!(self.active_mode, mode::CYCLIC_POSITION | mode::CYCLIC_VELOCITY | mode::CYCLIC_TORQUE)
-    }
-
     /// The trajectory state of the position modes (pp, hm, csp, ip).
     fn trajectory(&self) -> Option<MotionState> {
         if let Some(planner) = self.mode.planner() {
@@ -891,7 +875,6 @@ impl Profile {
             true
         };
         self.blocked = self.blocked_directions(sample.inputs);
-        let (positive_blocked, negative_blocked) = self.blocked;
         let torque_user = factors.torque_to_user(i64::from(sample.torque));
         od.store_int(self.slots.torque_actual, torque_user);
         od.store_int(self.slots.current_actual, torque_user);
@@ -1006,7 +989,7 @@ impl Profile {
             crate::fmt::info!("cia402: mode of operation {}", requested);
             self.homing.interrupt();
             self.velocity = Ramp { value: i64::from(sample.velocity), remainder: 0 };
-            self.mode = self.start_mode(actual, actual_user, i64::from(sample.velocity));
+            self.start_mode(actual, actual_user, i64::from(sample.velocity));
         }
         od.store(self.slots.modes_of_operation_display, self.display_mode);
 
@@ -1038,24 +1021,9 @@ impl Profile {
                 .flatten()
         });
         let limits = self.motion_limits(od, &factors);
-        let stop_deceleration = |kind: StopKind| limits.stop_deceleration(kind);
-        let (max_deceleration, max_acceleration) = (limits.deceleration, limits.acceleration);
-        let hz = self.config.tick_rate.hz();
         let vmax = limits.velocity;
         if let Some(kind) = stop.filter(|_| !self.stopping) {
-            let deceleration = stop_deceleration(kind);
-            let planner_limits = self.mode.planner().is_some().then(|| self.pp_limits(od, &factors).0);
-            match (&mut self.mode, planner_limits) {
-                (Active::Vl(vl), _) if super::VL => vl.stop(kind),
-                (Active::Hm(planner), Some(limits)) if super::HM => {
-                    self.homing.stop(planner, deceleration, &limits)
-                }
-                (Active::Pp(pp), Some(limits)) if super::PP => pp.stop(deceleration, &limits),
-                (mode, _) => match mode.position_limiter_mut() {
-                    Some(limiter) => limiter.stop(&TickLimits::new(vmax, max_acceleration, deceleration, hz)),
-                    None => self.velocity = Ramp { value: i64::from(sample.velocity), remainder: 0 },
-                },
-            }
+            self.start_stop(od, &factors, kind, i64::from(sample.velocity));
         }
         self.stopping = stop.is_some();
 
@@ -1085,6 +1053,27 @@ impl Profile {
                 || core::mem::take(&mut self.pending_edge)
                     && controlword.contains(Controlword::MODE_SPECIFIC_4)
         };
+        let halt_kind =
+            StopKind::halt_or_fault(od.load(self.slots.halt_option)).unwrap_or(StopKind::SlowDown);
+        let input = ModeInput {
+            now,
+            dt,
+            sample,
+            factors: &factors,
+            controlword,
+            cycle,
+            halt,
+            halt_kind,
+            bit4_rose,
+            operation,
+            entered_operation: step.entered_operation,
+            enabled: drive_enabled,
+            actual,
+            actual_user,
+            standstill,
+            probe: probe_1,
+            limits,
+        };
         let mut setpoint = match stop {
             None if opening => {
                 self.mode.hold(actual, actual_user);
@@ -1100,174 +1089,17 @@ impl Profile {
                 self.mode.coast(actual, actual_user, 0);
                 Setpoint::None
             }
-            Some(kind) if self.mode.position_limiter().is_some() => {
-                match self.mode.position_limiter_mut() {
-                    Some(limiter) => {
-                        if !limiter.is_stopping() {
-                            // The mode was entered while the stop ran (a switch at rest resets
-                            // the limiter): the limiter stops from here, it does not chase a
-                            // target.
-                            limiter.stop(&TickLimits::new(
-                                vmax,
-                                max_acceleration,
-                                stop_deceleration(kind),
-                                hz,
-                            ));
-                        }
-                        limiter.tick(0, &TickLimits::new(vmax, max_acceleration, max_deceleration, hz));
-                        Setpoint::Position(limiter.position() as i32)
-                    }
-                    None => Setpoint::None,
-                }
-            }
-            Some(_) if self.mode.vl().is_some() => self.run_vl(od, controlword, sample, dt),
-            Some(_) if self.mode.planner().is_some() => match &mut self.mode {
-                Active::Hm(planner) if super::HM => {
-                    Setpoint::Position(self.homing.step_stop(planner).position_demand())
-                }
-                Active::Pp(pp) if super::PP => Setpoint::Position(pp.step_stop().position_demand()),
-                _ => Setpoint::None,
-            },
-            Some(kind) => {
-                self.velocity.toward(0, stop_deceleration(kind), dt);
-                Setpoint::Velocity(self.velocity.value as i32)
-            }
+            Some(kind) => self.step_stop(od, &input, kind),
             None if self.mode.is_hm() => {
-                // 607Fh/6080h and 60C5h/60C6h limit homing as every mode (digest §9.5).
-                let speeds = (
-                    factors.limit_to_internal(od.load(self.slots.homing_speed_switch)).min(vmax),
-                    factors.limit_to_internal(od.load(self.slots.homing_speed_zero)).min(vmax),
-                    factors
-                        .limit_to_internal(od.load(self.slots.homing_acceleration))
-                        .min(max_acceleration)
-                        .min(max_deceleration),
-                );
-                let inputs = hm::Inputs {
-                    od,
-                    controlword,
-                    // Method 35 may start outside Operation enabled (digest §10.2).
-                    start: bit4_rose && !step.entered_operation && !self.mode_changed,
-                    actual,
-                    torque: sample.torque,
-                    velocity: sample.velocity,
-                    inputs: sample.inputs,
-                    enabled: drive_enabled,
-                    speeds,
-                    probe: probe_1,
-                    following_error: self.following_error_since.is_some_and(|since| {
-                        let time = u64::from(od.load(self.slots.following_error_time_out));
-                        now - since > Duration::from_millis(time)
-                    }),
-                    now,
-                };
-                let halt_kind =
-                    StopKind::halt_or_fault(od.load(self.slots.halt_option)).unwrap_or(StopKind::SlowDown);
-                let (position, outcome) = match &mut self.mode {
-                    Active::Hm(planner) => self.homing.tick(planner, &inputs, stop_deceleration(halt_kind)),
-                    _ => (actual, hm::Outcome::default()),
-                };
-                if let Some(home) = outcome.home {
-                    let home_offset = i64::from(od.load(self.slots.home_offset));
-                    // 6064h reads −607Ch at home (CiA 402), or +607Ch ([`HomeOffset::HomeValue`]).
-                    let offset = factors.to_internal(home_offset * position_sign);
-                    self.origin = match self.config.homing.home_offset {
-                        HomeOffset::ZeroBeforeHome => home.saturating_add(offset),
-                        HomeOffset::HomeValue => home.saturating_sub(offset),
-                    };
-                    if self.config.homing.rebase_internal_position && self.homing.was_motionless() {
-                        self.internal_origin = self.origin;
-                    }
-                }
-                if outcome.error != self.homing_error || (inputs.start && self.homing_error) {
-                    self.homing_error = outcome.error;
-                    report.notices[1] = Some((hm::HOMING_ERROR, outcome.error));
-                }
-                if outcome.home.is_some() {
-                    // Limits a method found become 607Dh (compared after the 607Ch correction):
-                    // what 607Ch adds to a position value read as 6064h.
-                    let limit_offset = self.limit_offset(od);
-                    for (count, sub) in [(outcome.limits.0, 1u8), (outcome.limits.1, 2u8)] {
-                        if let Some(count) = count {
-                            let user = (factors.to_user(count.saturating_sub(self.origin)) * position_sign)
-                                .saturating_add(limit_offset);
-                            let sub = if position_sign < 0 { 3 - sub } else { sub };
-                            let _ = od.set::<i32>(SOFTWARE_POSITION_LIMIT, sub, saturate(user));
-                        }
-                    }
-                    // The position values of this tick count from the new zero already: the
-                    // statusword that says "homed" must not come before them.
-                    actual_user = factors.to_user(actual.saturating_sub(self.origin)) * position_sign;
-                    od.store(self.slots.position_actual, saturate(actual_user));
-                    let internal = actual.wrapping_sub(self.internal_origin) as i32;
-                    od.store(self.slots.position_actual_internal, internal);
-                }
-                if drive_enabled {
-                    Setpoint::Position(position as i32)
-                } else {
-                    Setpoint::None
-                }
-            }
-            None if drive_enabled && self.mode.vl().is_some() => self.run_vl(od, controlword, sample, dt),
-            None if drive_enabled && self.mode.is_ip() => {
-                let halt_kind =
-                    StopKind::halt_or_fault(od.load(self.slots.halt_option)).unwrap_or(StopKind::SlowDown);
-                let (limits, halt_limits) = self.cyclic_limits(&limits, stop_deceleration(halt_kind));
-                let input = CyclicInput { cycle, halt, factors: &factors, dt, limits, halt_limits };
-                let (setpoint, ip_status) = self.run_ip(od, &input, controlword);
-                status = ip_status;
+                let (setpoint, homed) = self.run_homing(od, &input, &mut report);
+                actual_user = homed.unwrap_or(actual_user);
                 setpoint
             }
-            None if drive_enabled && self.cyclic_mode() => {
-                let halt_kind =
-                    StopKind::halt_or_fault(od.load(self.slots.halt_option)).unwrap_or(StopKind::SlowDown);
-                let (limits, halt_limits) = self.cyclic_limits(&limits, stop_deceleration(halt_kind));
-                let input = CyclicInput { cycle, halt, factors: &factors, dt, limits, halt_limits };
-                self.run_cyclic(od, &input, &mut report)
+            None if drive_enabled => {
+                let (setpoint, mode_status) = self.run_active(od, &input, &mut report);
+                status = mode_status;
+                setpoint
             }
-            None if drive_enabled && self.mode.pp_mut().is_some() => {
-                let (pp_limits, end_velocity) = self.pp_limits(od, &factors);
-                // (Needed only by a new set-point.)
-                let target_range = if bit4_rose {
-                    self.target_range(od, actual_user, sample.inputs, position_sign)
-                } else {
-                    None
-                };
-                let halt_kind =
-                    StopKind::halt_or_fault(od.load(self.slots.halt_option)).unwrap_or(StopKind::SlowDown);
-                match self.mode.pp_mut() {
-                    Some(pp) => {
-                        let moving =
-                            if positive_blocked || negative_blocked { pp.state().velocity } else { 0 };
-                        if (positive_blocked && moving > 0) || (negative_blocked && moving < 0) {
-                            // Running into an active limit switch: stopped on the quick-stop ramp.
-                            pp.stop(stop_deceleration(StopKind::QuickStopRamp), &pp_limits);
-                        }
-                        let inputs = pp::Inputs {
-                            od,
-                            factors: &factors,
-                            slots: &self.slots,
-                            controlword,
-                            new_setpoint: bit4_rose
-                                && operation
-                                && !step.entered_operation
-                                && !self.mode_changed,
-                            actual,
-                            origin: self.origin,
-                            target_range,
-                            standstill,
-                            now,
-                            limits: pp_limits,
-                            end_velocity,
-                            velocity_cap: vmax,
-                        };
-                        let state = pp.tick(&inputs, stop_deceleration(halt_kind));
-                        status = pp.status(&inputs);
-                        Setpoint::Position(state.position_demand())
-                    }
-                    None => Setpoint::None,
-                }
-            }
-            None if drive_enabled => self.run_mode(od, &factors, dt, halt),
             None => {
                 self.velocity = Ramp::default();
                 self.torque = Ramp::default();
@@ -1408,8 +1240,10 @@ impl Profile {
     }
 
     /// The cyclic limiter's per-tick limits: with the maximum deceleration, and with a halt's.
-    fn cyclic_limits(&mut self, limits: &MotionLimits, halt_deceleration: u32) -> (TickLimits, TickLimits) {
+    fn cyclic_limits(&mut self, input: &ModeInput<'_>) -> (TickLimits, TickLimits) {
         let hz = self.config.tick_rate.hz();
+        let limits = input.limits;
+        let halt_deceleration = limits.stop_deceleration(input.halt_kind);
         let key = (limits.velocity, limits.acceleration, limits.deceleration, halt_deceleration, hz);
         // (Its key is derived from values the tick has just read: never kept by revision.)
         self.tick_limits.get(key, 0, || {
@@ -1558,20 +1392,238 @@ impl Profile {
         (latch, !probe.changed.is_empty())
     }
 
-    /// One tick of velocity mode (digest §15; [`vl`]), also while a stop ramps it down.
-    fn run_vl<const B: usize>(
+    /// A stop of `kind` starts in the active mode, the shaft at `velocity` (increments/s): pp and
+    /// hm plan it on their trajectory, csp and ip stop their limiter, vl its ramp; the others
+    /// ramp the velocity demand down from the actual velocity.
+    fn start_stop<const B: usize>(
+        &mut self,
+        od: &Dictionary<B>,
+        factors: &Factors,
+        kind: StopKind,
+        velocity: i64,
+    ) {
+        let limits = self.motion;
+        let deceleration = limits.stop_deceleration(kind);
+        let planner_limits = self.mode.planner().is_some().then(|| self.pp_limits(od, factors).0);
+        match (&mut self.mode, planner_limits) {
+            (Active::Vl(vl), _) if super::VL => vl.stop(kind),
+            (Active::Hm(planner), Some(planner_limits)) if super::HM => {
+                self.homing.stop(planner, deceleration, &planner_limits)
+            }
+            (Active::Pp(pp), Some(planner_limits)) if super::PP => pp.stop(deceleration, &planner_limits),
+            (mode, _) => match mode.position_limiter_mut() {
+                Some(limiter) => {
+                    let hz = self.config.tick_rate.hz();
+                    limiter.stop(&TickLimits::new(limits.velocity, limits.acceleration, deceleration, hz))
+                }
+                None => self.velocity = Ramp { value: velocity, remainder: 0 },
+            },
+        }
+    }
+
+    /// One tick of a ramped stop (not a coasting one) in the active mode: pp and hm stop on
+    /// their trajectory, csp and ip with the limiter, vl with its ramp, the others ramp the
+    /// velocity demand down.
+    fn step_stop<const B: usize>(
         &mut self,
         od: &mut Dictionary<B>,
-        controlword: Controlword,
-        sample: &Sample,
-        dt: Duration,
+        input: &ModeInput<'_>,
+        kind: StopKind,
     ) -> Setpoint {
-        let drive = vl::DriveInputs {
+        let limits = input.limits;
+        let hz = self.config.tick_rate.hz();
+        if let Some(limiter) = self.mode.position_limiter_mut() {
+            if !limiter.is_stopping() {
+                // The mode was entered while the stop ran (a switch at rest resets the
+                // limiter): the limiter stops from here, it does not chase a target.
+                let deceleration = limits.stop_deceleration(kind);
+                limiter.stop(&TickLimits::new(limits.velocity, limits.acceleration, deceleration, hz));
+            }
+            limiter.tick(0, &TickLimits::new(limits.velocity, limits.acceleration, limits.deceleration, hz));
+            return Setpoint::Position(limiter.position() as i32);
+        }
+        match &mut self.mode {
+            Active::Vl(_) if super::VL => self.run_vl(od, input),
+            Active::Hm(planner) if super::HM => {
+                Setpoint::Position(self.homing.step_stop(planner).position_demand())
+            }
+            Active::Pp(pp) if super::PP => Setpoint::Position(pp.step_stop().position_demand()),
+            _ => {
+                self.velocity.toward(0, limits.stop_deceleration(kind), input.dt);
+                Setpoint::Velocity(self.velocity.value as i32)
+            }
+        }
+    }
+
+    /// One tick of the active mode other than hm, the drive function enabled and no stop
+    /// running; with the bits pp or ip report.
+    fn run_active<const B: usize>(
+        &mut self,
+        od: &mut Dictionary<B>,
+        input: &ModeInput<'_>,
+        report: &mut Report,
+    ) -> (Setpoint, pp::Status) {
+        match self.mode {
+            Active::Vl(_) if super::VL => (self.run_vl(od, input), pp::Status::default()),
+            Active::Ip(_) if super::IP => self.run_ip(od, input),
+            Active::Cyclic(_) => (self.run_cyclic(od, input, report), pp::Status::default()),
+            Active::Pp(_) if super::PP => self.run_pp(od, input),
+            _ => (self.run_mode(od, input), pp::Status::default()),
+        }
+    }
+
+    /// One tick of homing mode (digest §10), also with the drive function disabled (method 35
+    /// completes there). Returns the demand and, when home was found, 6064h from the new zero.
+    fn run_homing<const B: usize>(
+        &mut self,
+        od: &mut Dictionary<B>,
+        input: &ModeInput<'_>,
+        report: &mut Report,
+    ) -> (Setpoint, Option<i64>) {
+        let ModeInput { now, sample, factors, controlword, actual, limits, .. } = *input;
+        let position_sign = factors.position_sign();
+        let (vmax, max_acceleration, max_deceleration) =
+            (limits.velocity, limits.acceleration, limits.deceleration);
+        let drive_enabled = input.enabled;
+        let mut homed = None;
+        // 607Fh/6080h and 60C5h/60C6h limit homing as every mode (digest §9.5).
+        let speeds = (
+            factors.limit_to_internal(od.load(self.slots.homing_speed_switch)).min(vmax),
+            factors.limit_to_internal(od.load(self.slots.homing_speed_zero)).min(vmax),
+            factors
+                .limit_to_internal(od.load(self.slots.homing_acceleration))
+                .min(max_acceleration)
+                .min(max_deceleration),
+        );
+        let inputs = hm::Inputs {
+            od,
             controlword,
-            halt: StopKind::halt_or_fault(od.load(self.slots.halt_option)).unwrap_or(StopKind::SlowDown),
-            velocity_limit: self.motion.velocity,
-            actual_velocity: i64::from(sample.velocity),
-            dt,
+            // Method 35 may start outside Operation enabled (digest §10.2).
+            start: input.bit4_rose && !input.entered_operation && !self.mode_changed,
+            actual,
+            torque: sample.torque,
+            velocity: sample.velocity,
+            inputs: sample.inputs,
+            enabled: drive_enabled,
+            speeds,
+            probe: input.probe,
+            following_error: self.following_error_since.is_some_and(|since| {
+                let time = u64::from(od.load(self.slots.following_error_time_out));
+                now - since > Duration::from_millis(time)
+            }),
+            now,
+        };
+        let (position, outcome) = match &mut self.mode {
+            Active::Hm(planner) => {
+                self.homing.tick(planner, &inputs, limits.stop_deceleration(input.halt_kind))
+            }
+            _ => (actual, hm::Outcome::default()),
+        };
+        if let Some(home) = outcome.home {
+            let home_offset = i64::from(od.load(self.slots.home_offset));
+            // 6064h reads −607Ch at home (CiA 402), or +607Ch ([`HomeOffset::HomeValue`]).
+            let offset = factors.to_internal(home_offset * position_sign);
+            self.origin = match self.config.homing.home_offset {
+                HomeOffset::ZeroBeforeHome => home.saturating_add(offset),
+                HomeOffset::HomeValue => home.saturating_sub(offset),
+            };
+            if self.config.homing.rebase_internal_position && self.homing.was_motionless() {
+                self.internal_origin = self.origin;
+            }
+        }
+        if outcome.error != self.homing_error || (inputs.start && self.homing_error) {
+            self.homing_error = outcome.error;
+            report.notices[1] = Some((hm::HOMING_ERROR, outcome.error));
+        }
+        if outcome.home.is_some() {
+            // Limits a method found become 607Dh (compared after the 607Ch correction):
+            // what 607Ch adds to a position value read as 6064h.
+            let limit_offset = self.limit_offset(od);
+            for (count, sub) in [(outcome.limits.0, 1u8), (outcome.limits.1, 2u8)] {
+                if let Some(count) = count {
+                    let user = (factors.to_user(count.saturating_sub(self.origin)) * position_sign)
+                        .saturating_add(limit_offset);
+                    let sub = if position_sign < 0 { 3 - sub } else { sub };
+                    let _ = od.set::<i32>(SOFTWARE_POSITION_LIMIT, sub, saturate(user));
+                }
+            }
+            // The position values of this tick count from the new zero already: the
+            // statusword that says "homed" must not come before them.
+            let actual_user = factors.to_user(actual.saturating_sub(self.origin)) * position_sign;
+            od.store(self.slots.position_actual, saturate(actual_user));
+            homed = Some(actual_user);
+            let internal = actual.wrapping_sub(self.internal_origin) as i32;
+            od.store(self.slots.position_actual_internal, internal);
+        }
+        let setpoint = if drive_enabled { Setpoint::Position(position as i32) } else { Setpoint::None };
+        (setpoint, homed)
+    }
+
+    /// One tick of profile position mode ([`pp`]); with its status bits.
+    fn run_pp<const B: usize>(
+        &mut self,
+        od: &mut Dictionary<B>,
+        input: &ModeInput<'_>,
+    ) -> (Setpoint, pp::Status) {
+        let ModeInput {
+            now,
+            sample,
+            factors,
+            controlword,
+            actual,
+            actual_user,
+            standstill,
+            limits,
+            bit4_rose,
+            ..
+        } = *input;
+        let position_sign = factors.position_sign();
+        let (positive_blocked, negative_blocked) = self.blocked;
+        let (pp_limits, end_velocity) = self.pp_limits(od, factors);
+        // (Needed only by a new set-point.)
+        let target_range =
+            if bit4_rose { self.target_range(od, actual_user, sample.inputs, position_sign) } else { None };
+        match self.mode.pp_mut() {
+            Some(pp) => {
+                let moving = if positive_blocked || negative_blocked { pp.state().velocity } else { 0 };
+                if (positive_blocked && moving > 0) || (negative_blocked && moving < 0) {
+                    // Running into an active limit switch: stopped on the quick-stop ramp.
+                    pp.stop(limits.stop_deceleration(StopKind::QuickStopRamp), &pp_limits);
+                }
+                let inputs = pp::Inputs {
+                    od,
+                    factors,
+                    slots: &self.slots,
+                    controlword,
+                    new_setpoint: bit4_rose
+                        && input.operation
+                        && !input.entered_operation
+                        && !self.mode_changed,
+                    actual,
+                    origin: self.origin,
+                    target_range,
+                    standstill,
+                    now,
+                    limits: pp_limits,
+                    end_velocity,
+                    velocity_cap: limits.velocity,
+                };
+                let state = pp.tick(&inputs, limits.stop_deceleration(input.halt_kind));
+                let status = pp.status(&inputs);
+                (Setpoint::Position(state.position_demand()), status)
+            }
+            None => (Setpoint::None, pp::Status::default()),
+        }
+    }
+
+    /// One tick of velocity mode (digest §15; [`vl`]), also while a stop ramps it down.
+    fn run_vl<const B: usize>(&mut self, od: &mut Dictionary<B>, input: &ModeInput<'_>) -> Setpoint {
+        let drive = vl::DriveInputs {
+            controlword: input.controlword,
+            halt: input.halt_kind,
+            velocity_limit: input.limits.velocity,
+            actual_velocity: i64::from(input.sample.velocity),
+            dt: input.dt,
         };
         let Some(vl) = self.mode.vl_mut() else { return Setpoint::None };
         let demand = vl.step(od, drive);
@@ -1579,15 +1631,13 @@ impl Profile {
         Setpoint::Velocity(saturate(demand))
     }
 
-    /// The state of the mode [`Self::active_mode`] names when it becomes active, the axis at
-    /// `actual` (increments) and `velocity` (increments/s).
-    fn start_mode(&self, actual: i64, user: i64, velocity: i64) -> Active {
-        match self.active_mode {
-            mode::PROFILE_POSITION if super::PP => {
-                let mut pp = ProfilePosition::new(&self.config, actual);
-                pp.reset(actual, user);
-                Active::Pp(pp)
-            }
+    /// The mode [`Self::active_mode`] names becomes active: its variant starts from the axis at
+    /// `actual` (increments; `user` in user units) and `velocity` (increments/s). Out of line, so
+    /// the variant (pp's is 1.5 KiB) is built here and not in the tick's stack frame.
+    #[inline(never)]
+    fn start_mode(&mut self, actual: i64, user: i64, velocity: i64) {
+        self.mode = match self.active_mode {
+            mode::PROFILE_POSITION if super::PP => Active::Pp(ProfilePosition::new(&self.config, actual)),
             mode::PROFILE_VELOCITY => Active::Pv(pv::Run::start()),
             mode::PROFILE_TORQUE => Active::Tq,
             mode::HOMING if super::HM => Active::Hm(PositionPlanner::new(self.config.tick_rate, actual)),
@@ -1597,7 +1647,9 @@ impl Profile {
                 Active::Cyclic(super::cyclic::Run::start(self.active_mode, actual, velocity))
             }
             _ => Active::Idle,
-        }
+        };
+        // pp's relative moves count from here.
+        self.mode.hold(actual, user);
     }
 
     /// Ticks per interpolation period (60C2h) and the SYNC jitter tolerated.
@@ -1623,11 +1675,11 @@ impl Profile {
     fn run_ip<const B: usize>(
         &mut self,
         od: &Dictionary<B>,
-        input: &CyclicInput<'_>,
-        controlword: Controlword,
+        input: &ModeInput<'_>,
     ) -> (Setpoint, pp::Status) {
         let factors = input.factors;
-        let active = controlword.contains(Controlword::ENABLE_IP) && !input.halt;
+        let (limits, halt_limits) = self.cyclic_limits(input);
+        let active = input.controlword.contains(Controlword::ENABLE_IP) && !input.halt;
         let timing = if active { Some(self.cycle_timing(od)) } else { None };
         let record = if active && input.cycle.sync { self.ip.next() } else { None };
         if active && !self.ip.is_full() {
@@ -1641,7 +1693,7 @@ impl Profile {
         }
         run.active = active;
         if input.halt && !run.limiter.is_stopping() {
-            run.limiter.stop(&input.halt_limits);
+            run.limiter.stop(&halt_limits);
         } else if !input.halt && run.limiter.is_stopping() {
             run.limiter.resume();
             run.interpolator.reset(run.limiter.position());
@@ -1656,7 +1708,7 @@ impl Profile {
             // Underflow holds the last point (no extrapolation, no stream-loss reaction).
             run.interpolator.tick(&cycle, target, Bridge::Hold);
         }
-        let limited = run.limiter.tick_fixed(run.interpolator.value_fixed(), &input.limits);
+        let limited = run.limiter.tick_fixed(run.interpolator.value_fixed(), &limits);
         let velocity = run.limiter.velocity(hz);
         let status = pp::Status {
             // Bit 12: interpolation active.
@@ -1678,10 +1730,11 @@ impl Profile {
     fn run_cyclic<const B: usize>(
         &mut self,
         od: &Dictionary<B>,
-        input: &CyclicInput<'_>,
+        input: &ModeInput<'_>,
         report: &mut Report,
     ) -> Setpoint {
         let factors = input.factors;
+        let (limits, halt_limits) = self.cyclic_limits(input);
         let hz = self.config.tick_rate.hz();
         let (period_ticks, tolerance_ticks) = self.cycle_timing(od);
         let cycle = match self.config.cyclic.cycle_start {
@@ -1742,11 +1795,11 @@ impl Profile {
         match self.active_mode {
             mode::CYCLIC_POSITION => {
                 if input.halt && !run.limiter.is_stopping() {
-                    run.limiter.stop(&input.halt_limits);
+                    run.limiter.stop(&halt_limits);
                 } else if !input.halt && run.limiter.is_stopping() {
                     run.limiter.resume();
                 }
-                self.cyclic_limited = run.limiter.tick_fixed(fixed, &input.limits);
+                self.cyclic_limited = run.limiter.tick_fixed(fixed, &limits);
                 let trajectory = run.limiter.velocity(hz);
                 // (A limit lowered below the running velocity: the limiter ramps down to it.)
                 let bound = i64::from(self.motion.velocity).max(trajectory.abs());
@@ -1799,13 +1852,8 @@ impl Profile {
     }
 
     /// One tick of pv, tq or no mode with the drive function enabled.
-    fn run_mode<const B: usize>(
-        &mut self,
-        od: &Dictionary<B>,
-        factors: &Factors,
-        dt: Duration,
-        halt: bool,
-    ) -> Setpoint {
+    fn run_mode<const B: usize>(&mut self, od: &Dictionary<B>, input: &ModeInput<'_>) -> Setpoint {
+        let ModeInput { factors, dt, halt, .. } = *input;
         match self.mode {
             Active::Pv(_) => {
                 let current = self.velocity.value;
@@ -1852,66 +1900,56 @@ impl Profile {
         // Bit 9 remote: the controlword is processed.
         sw.set(Statusword::REMOTE, !input.sample.local_control);
 
-        // Bit 10.
+        // Bits 10 to 13: the active mode's (bit 10 in Operation enabled; homing's below).
         let at_rest = input.velocity_demand_internal == 0;
+        let enabled = matches!(state, State::OperationEnabled { .. });
+        // Halt in a velocity mode: the demand has stopped (and the shaft rests).
+        let halted = input.halt && at_rest && input.standstill;
+        let switch = self.blocked.0 || self.blocked.1;
+        let pp = input.pp;
+        let (reached, limited, bit_12, bit_13) = match &mut self.mode {
+            Active::Pp(_) if super::PP => {
+                (pp.target_reached, pp.internal_limit || switch, pp.setpoint_acknowledge, input.following)
+            }
+            Active::Ip(_) if super::IP => {
+                (pp.target_reached, pp.internal_limit, pp.setpoint_acknowledge, input.following)
+            }
+            Active::Cyclic(run) => {
+                // Bit 12: the target is used (Operation enabled, no halt, the stream alive).
+                let used = input.operation && !input.halt && !self.stream_lost && input.drive_enabled;
+                (false, self.cyclic_limited, used, input.following && run.mode == mode::CYCLIC_POSITION)
+            }
+            Active::Vl(vl) if super::VL => (vl.target_reached(), vl.limit_active(), false, false),
+            Active::Pv(run) => {
+                let reached =
+                    if input.halt { halted } else { enabled && run.target_reached(od, &self.slots, now) };
+                let slipping = pv::Run::slipping(od, &self.slots, input.velocity_demand, input.velocity_user);
+                (reached, switch, run.speed_is_zero(od, &self.slots, now), slipping)
+            }
+            Active::Tq => {
+                let reached = if input.halt {
+                    self.torque.value == 0
+                } else {
+                    self.torque.value == tq::target(od, &self.slots, input.factors)
+                };
+                (reached, false, false, false)
+            }
+            // Homing sets bits 10, 12 and 13 itself.
+            Active::Hm(_) => (false, false, false, false),
+            _ => (halted, false, false, false),
+        };
         let target_reached = match state {
             State::QuickStopActive => {
                 at_rest && StopKind::quick_stop(input.options.quick_stop).is_some_and(|(_, stay)| stay)
             }
-            State::OperationEnabled { .. } if self.cyclic_mode() => false,
-            State::OperationEnabled { .. } if self.mode.vl().is_some() => {
-                self.mode.vl().is_some_and(vl::Vl::target_reached)
-            }
-            State::OperationEnabled { .. } if self.position_mode() => input.pp.target_reached,
-            State::OperationEnabled { .. } if input.halt && self.active_mode == mode::PROFILE_TORQUE => {
-                self.torque.value == 0
-            }
-            State::OperationEnabled { .. } if input.halt => at_rest && input.standstill,
-            State::OperationEnabled { .. } => self.mode_target_reached(od, input.factors, now),
-            _ => false,
+            _ => enabled && reached,
         };
-        if target_reached || core::mem::take(&mut self.mode_changed) {
-            sw |= Statusword::TARGET_REACHED;
-        }
-
-        // Bit 11.
-        let limit_switch = (self.blocked.0 || self.blocked.1)
-            && matches!(self.active_mode, mode::PROFILE_POSITION | mode::PROFILE_VELOCITY);
-        let internal_limit = input.pp.internal_limit
-            || limit_switch
-            || self.mode.vl().is_some_and(vl::Vl::limit_active)
-            || (self.cyclic_mode() && self.cyclic_limited);
-        sw.set(Statusword::INTERNAL_LIMIT_ACTIVE, internal_limit);
-
-        // Bit 12.
-        let bit_12 = match self.active_mode {
-            mode::PROFILE_VELOCITY => match &mut self.mode {
-                Active::Pv(run) => run.speed_is_zero(od, &self.slots, now),
-                _ => false,
-            },
-            mode::PROFILE_POSITION | mode::INTERPOLATED_POSITION => input.pp.setpoint_acknowledge,
-            // The target is used: Operation enabled, no halt, the stream alive.
-            mode::CYCLIC_POSITION | mode::CYCLIC_VELOCITY | mode::CYCLIC_TORQUE => {
-                input.operation && !input.halt && !self.stream_lost && input.drive_enabled
-            }
-            _ => false,
-        };
+        sw.set(Statusword::TARGET_REACHED, target_reached || core::mem::take(&mut self.mode_changed));
+        sw.set(Statusword::INTERNAL_LIMIT_ACTIVE, limited);
         sw.set(Statusword::MODE_SPECIFIC_12, bit_12);
+        sw.set(Statusword::MODE_SPECIFIC_13, bit_13);
 
-        // Bit 13: the following error (pp, csp, ip) or the slippage (the velocity modes).
-        let following = input.following
-            && matches!(
-                self.active_mode,
-                mode::PROFILE_POSITION | mode::CYCLIC_POSITION | mode::INTERPOLATED_POSITION
-            );
-        if following
-            || (matches!(self.mode, Active::Pv(_))
-                && pv::Run::slipping(od, &self.slots, input.velocity_demand, input.velocity_user))
-        {
-            sw |= Statusword::MODE_SPECIFIC_13;
-        }
-
-        if self.active_mode == mode::HOMING {
+        if self.mode.is_hm() {
             // Bits 10, 12, 13 are the homing status in every state (digest §10.4).
             let on_home = self.homing.run_ended() && self.rests_on_home(od, input.factors, input.actual, now);
             let homing = Statusword::TARGET_REACHED | Statusword::HOMING_ATTAINED | Statusword::HOMING_ERROR;
@@ -1946,20 +1984,6 @@ impl Profile {
         }
         sw
     }
-
-    /// Bit 10 of pv and tq in Operation enabled without halt.
-    fn mode_target_reached<const B: usize>(
-        &mut self,
-        od: &Dictionary<B>,
-        factors: &Factors,
-        now: Instant,
-    ) -> bool {
-        match &mut self.mode {
-            Active::Pv(run) => run.target_reached(od, &self.slots, now),
-            Active::Tq => self.torque.value == tq::target(od, &self.slots, factors),
-            _ => false,
-        }
-    }
 }
 
 /// What the statusword of a tick is built from ([`Profile::statusword`]), besides the
@@ -1992,14 +2016,37 @@ struct StatusInput<'a> {
     actual: i64,
 }
 
-/// The inputs of a cyclic-mode tick.
-struct CyclicInput<'a> {
-    cycle: SyncInput,
-    halt: bool,
-    factors: &'a Factors,
+/// The tick's inputs as the active mode's step sees them ([`Profile::run_active`],
+/// [`Profile::step_stop`], [`Profile::run_homing`]).
+#[derive(Clone, Copy)]
+struct ModeInput<'a> {
+    now: Instant,
     dt: Duration,
-    limits: TickLimits,
-    halt_limits: TickLimits,
+    sample: &'a Sample,
+    factors: &'a Factors,
+    controlword: Controlword,
+    cycle: SyncInput,
+    /// Controlword bit 8.
+    halt: bool,
+    /// The stop a halt makes (605Dh).
+    halt_kind: StopKind,
+    /// Controlword bit 4 rose since the last tick (once the brake is open).
+    bit4_rose: bool,
+    /// Operation enabled, no ramped exit running.
+    operation: bool,
+    /// This tick entered Operation enabled.
+    entered_operation: bool,
+    /// The drive function is enabled.
+    enabled: bool,
+    /// The encoder count, and 6064h.
+    actual: i64,
+    actual_user: i64,
+    /// The shaft rests as a halt needs it.
+    standstill: bool,
+    /// Probe 1's latch of this tick (increments).
+    probe: Option<i64>,
+    /// The motion limits in increments.
+    limits: MotionLimits,
 }
 
 /// 60C2h as µs: `value × 10^index` s, at least 1 µs, at most an hour.
