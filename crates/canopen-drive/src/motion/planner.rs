@@ -40,6 +40,9 @@ fn ramp_to(
 pub struct PositionPlanner {
     hz: u32,
     trajectory: Trajectory,
+    /// The demand in whole units, converted once per change of the state (the profile asks for
+    /// it several times a tick).
+    state: MotionState,
     target: i64,
     closing_error: i128,
     method: Method,
@@ -51,6 +54,7 @@ impl PositionPlanner {
         PositionPlanner {
             hz: rate.hz(),
             trajectory: Trajectory::at_rest((position as i128) << FRAC),
+            state: MotionState { position, velocity: 0, acceleration: 0 },
             target: position,
             closing_error: 0,
             method: Method::Shape,
@@ -61,6 +65,7 @@ impl PositionPlanner {
     /// enters Operation enabled).
     pub fn reset(&mut self, position: i64) {
         self.trajectory.hold(i128::from(position) << FRAC);
+        self.state = state_of(&self.trajectory.now, self.hz);
         self.target = position;
         self.closing_error = 0;
         self.method = Method::Shape;
@@ -73,6 +78,18 @@ impl PositionPlanner {
     /// The present position, velocity and (jerk-limited) acceleration carry over, so
     /// re-planning mid-move is continuous. On error the present motion continues unchanged.
     pub fn plan(&mut self, target: i64, end_velocity: u32, limits: &Limits) -> Result<u32, MotionError> {
+        let ticks = self.plan_from_here(target, end_velocity, limits);
+        self.state = state_of(&self.trajectory.now, self.hz);
+        ticks
+    }
+
+    /// [`Self::plan`] but for [`Self::state`], which the caller converts after it.
+    fn plan_from_here(
+        &mut self,
+        target: i64,
+        end_velocity: u32,
+        limits: &Limits,
+    ) -> Result<u32, MotionError> {
         if !(-POSITION_RANGE..=POSITION_RANGE).contains(&target) {
             return Err(MotionError::OutOfRange);
         }
@@ -120,6 +137,7 @@ impl PositionPlanner {
         }
         let stop_limits = Limits { acceleration: deceleration, deceleration, ..*limits };
         let (ticks, method) = ramp_to(&mut self.trajectory, 0, &stop_limits, self.hz)?;
+        self.state = state_of(&self.trajectory.now, self.hz);
         self.closing_error = 0;
         self.method = method;
         Ok(ticks)
@@ -128,12 +146,13 @@ impl PositionPlanner {
     /// Advances one tick and returns the new demand.
     pub fn step(&mut self) -> MotionState {
         self.trajectory.step();
-        self.state()
+        self.state = state_of(&self.trajectory.now, self.hz);
+        self.state
     }
 
     /// The present demand.
     pub fn state(&self) -> MotionState {
-        state_of(&self.trajectory.now, self.hz)
+        self.state
     }
 
     /// True when the plan is complete: the target reached (or the stop complete). With a
