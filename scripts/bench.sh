@@ -2,7 +2,9 @@
 # Instruction counts of canopen-drive's entry points (issue 8): the control tick in every mode,
 # on_frame (+ pop_tx) for the SDO, PDO, NMT, heartbeat and SYNC paths, and object dictionary
 # look-ups, on a Cortex-M4 (thumbv7em-none-eabihf in QEMU mps2-an386, counted by the project's
-# plugin tools/qemu-plugins/insncount.c) and on x86-64 (callgrind). The scenarios are in
+# plugin tools/qemu-plugins/insncount.c), on a core without FPU and without the v7-M
+# instructions (thumbv6m-none-eabi, the Cortex-M0 instruction set, run by the Cortex-M3 of QEMU
+# mps2-an385) and on x86-64 (callgrind). The scenarios are in
 # benches/drive-bench (see its README.md); both back-ends run the same scenario code.
 #
 #   scripts/bench.sh                   measure, print the table, write BENCHMARKS.md
@@ -85,7 +87,7 @@ fi
 if [ ${#missing[@]} -gt 0 ]; then
     install "${missing[@]}"
 fi
-rustup target add thumbv7em-none-eabihf >/dev/null 2>&1 || true
+rustup target add thumbv7em-none-eabihf thumbv6m-none-eabi >/dev/null 2>&1 || true
 
 mkdir -p "$out"
 plugin=$CARGO_TARGET_DIR/libinsncount.so
@@ -93,40 +95,48 @@ if [[ ! -f $plugin || $insncount_src -nt $plugin ]]; then
     gcc -O2 -shared -fPIC -fvisibility=hidden -o "$plugin" "$insncount_src"
 fi
 
-echo "building benches/drive-bench (host, then thumbv7em-none-eabihf)" >&2
+echo "building benches/drive-bench (host, thumbv7em-none-eabihf, thumbv6m-none-eabi)" >&2
 (cd "$bench" && cargo build --quiet --release)
 (cd "$bench" && cargo build --quiet --release --target thumbv7em-none-eabihf)
+(cd "$bench" && cargo build --quiet --release --target thumbv6m-none-eabi)
 host=$CARGO_TARGET_DIR/release/drive-bench
 firmware=$CARGO_TARGET_DIR/thumbv7em-none-eabihf/release/drive-bench
+firmware_v6m=$CARGO_TARGET_DIR/thumbv6m-none-eabi/release/drive-bench
 
 "$host" list >"$out/labels.tsv"
 mapfile -t names < <(cut -f1 "$out/labels.tsv")
 
 # --- x86-64: one callgrind run, four dumps per measurement, in the background -----------------
-rm -rf "$out/callgrind" "$out/m4"
-mkdir -p "$out/callgrind" "$out/m4"
+rm -rf "$out/callgrind" "$out/m4" "$out/m0"
+mkdir -p "$out/callgrind" "$out/m4" "$out/m0"
 valgrind --tool=callgrind --collect-atstart=no --compress-strings=no --compress-pos=no \
     --toggle-collect=drive_bench::run_repetitions --dump-after=drive_bench::run_repetitions \
     --callgrind-out-file="$out/callgrind/run.out" \
     "$host" run "$n" >"$out/callgrind/order.txt" 2>"$out/callgrind/valgrind.log" &
 callgrind_pid=$!
 
-# --- Cortex-M4: four QEMU runs per measurement, two at a time ---------------------------------
+# --- Cortex-M4 and v6-M: four QEMU runs per measurement each, two at a time ------------------
 qemu_run() {
-    local name=$1 mode=$2 reps=$3 log
-    log=$(timeout 300 qemu-system-arm -machine mps2-an386 -cpu cortex-m4 -nographic \
+    local arch=$1 name=$2 mode=$3 reps=$4 log machine
+    case $arch in
+        m4) machine=(-machine mps2-an386 -cpu cortex-m4 -kernel "$FIRMWARE") ;;
+        *) machine=(-machine mps2-an385 -cpu cortex-m3 -kernel "$FIRMWARE_V6M") ;;
+    esac
+    log=$(timeout 300 qemu-system-arm "${machine[@]}" -nographic \
         -semihosting-config "enable=on,target=native,arg=drive-bench,arg=$name,arg=$reps,arg=$mode" \
-        -kernel "$FIRMWARE" -plugin "$PLUGIN" -d plugin 2>&1) || {
-        echo "QEMU $name $mode $reps failed: $log" >&2
+        -plugin "$PLUGIN" -d plugin 2>&1) || {
+        echo "QEMU $arch $name $mode $reps failed: $log" >&2
         return 1
     }
-    sed -n 's/^insncount: total \([0-9]*\) .*/\1/p' <<<"$log" >"$OUT/m4/$name.$mode.$reps"
+    sed -n 's/^insncount: total \([0-9]*\) .*/\1/p' <<<"$log" >"$OUT/$arch/$name.$mode.$reps"
 }
 export -f qemu_run
-export FIRMWARE=$firmware PLUGIN=$plugin OUT=$out
-for name in "${names[@]}"; do
-    for mode in base measured; do
-        printf '%s %s %s\n%s %s %s\n' "$name" "$mode" "$n" "$name" "$mode" "$((2 * n))"
+export FIRMWARE=$firmware FIRMWARE_V6M=$firmware_v6m PLUGIN=$plugin OUT=$out
+for arch in m4 m0; do
+    for name in "${names[@]}"; do
+        for mode in base measured; do
+            printf '%s %s %s %s\n%s %s %s %s\n' "$arch" "$name" "$mode" "$n" "$arch" "$name" "$mode" "$((2 * n))"
+        done
     done
 done | xargs -P 2 -L 1 bash -c 'qemu_run "$@"' _ || { kill "$callgrind_pid" 2>/dev/null; exit 1; }
 
@@ -134,14 +144,16 @@ wait "$callgrind_pid" || { cat "$out/callgrind/valgrind.log" >&2; exit 1; }
 
 # --- Raw counts -> report ---------------------------------------------------------------------
 runs=("base.$n" "base.$((2 * n))" "measured.$n" "measured.$((2 * n))")
-: >"$out/m4.txt"
-for name in "${names[@]}"; do
-    row=$name
-    for run in "${runs[@]}"; do
-        value=$(cat "$out/m4/$name.$run" 2>/dev/null || true)
-        row+=" ${value:-0}"
+for arch in m4 m0; do
+    : >"$out/$arch.txt"
+    for name in "${names[@]}"; do
+        row=$name
+        for run in "${runs[@]}"; do
+            value=$(cat "$out/$arch/$name.$run" 2>/dev/null || true)
+            row+=" ${value:-0}"
+        done
+        echo "$row" >>"$out/$arch.txt"
     done
-    echo "$row" >>"$out/m4.txt"
 done
 
 # Dump k (from 1) is call (k-1) mod 4 of measurement (k-1) / 4; kept as <name>.<run>.out.
@@ -180,16 +192,16 @@ if [ -n "${GENERATED_DOCS:-}" ] && [ -f "$GENERATED_DOCS/footprint.md" ]; then
 fi
 
 status=0
-python3 "$bench/report.py" --labels "$out/labels.tsv" --m4 "$out/m4.txt" --x86 "$out/x86.txt" \
+python3 "$bench/report.py" --labels "$out/labels.tsv" --m4 "$out/m4.txt" --m0 "$out/m0.txt" --x86 "$out/x86.txt" \
     --repetitions "$n" --budgets "$bench/budgets.txt" --out "$out/BENCHMARKS.md" \
     --footprint "$footprint" "${peer_args[@]}" "${update[@]}" || status=1
 
 # The x86-64 column is not compared: the host binary's libc picks its memcpy by CPU features,
-# so that column may differ between machines; the Cortex-M4 counts (QEMU) may not. Nor is the
-# peer (columns 5 and 6 and the section "The peer"): a clone without ../shared has none.
+# so that column may differ between machines; the Cortex-M4 and v6-M counts (QEMU) may not. Nor
+# is the peer (columns 6 and 7 and the section "The peer"): a clone without ../shared has none.
 without_x86() {
     awk -F'|' 'BEGIN { OFS = "|" } /^## The peer/ { peer = 1 } peer { next }
-        /^\|/ && NF >= 9 { $4 = ""; $5 = ""; $6 = "" } { print }' "$1"
+        /^\|/ && NF >= 10 { $5 = ""; $6 = ""; $7 = "" } { print }' "$1"
 }
 if $check; then
     if ! diff -u <(without_x86 "$root/BENCHMARKS.md") <(without_x86 "$out/BENCHMARKS.md") >&2; then
