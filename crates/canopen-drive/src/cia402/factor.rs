@@ -34,6 +34,7 @@ use super::config::{MotorSpeedUnit, TorqueUnit, Units, VelocityUnit};
 use super::objects::{
     FEED_CONSTANT, GEAR_RATIO, POLARITY, POSITION_ENCODER_RESOLUTION, VELOCITY_ENCODER_RESOLUTION,
 };
+use super::Axis;
 use crate::od::{AbortCode, Dictionary};
 
 /// 607Eh bit 7: position polarity.
@@ -143,9 +144,14 @@ impl Factors {
 
     /// The factors the dictionary holds now, for objects in `units`.
     pub fn from_od_in<const B: usize>(od: &Dictionary<B>, units: Units) -> Self {
-        let (increments, revolutions) = pair(od, POSITION_ENCODER_RESOLUTION);
-        let (motor, shaft) = pair(od, GEAR_RATIO);
-        let (feed, feed_shaft) = pair(od, FEED_CONSTANT);
+        Factors::from_axis(od, units, Axis::FIRST)
+    }
+
+    /// [`Self::from_od_in`] from the objects of `axis`.
+    pub fn from_axis<const B: usize>(od: &Dictionary<B>, units: Units, axis: Axis) -> Self {
+        let (increments, revolutions) = pair(od, axis.index(POSITION_ENCODER_RESOLUTION));
+        let (motor, shaft) = pair(od, axis.index(GEAR_RATIO));
+        let (feed, feed_shaft) = pair(od, axis.index(FEED_CONSTANT));
         let (numerator, denominator) = reduced(
             u128::from(feed) * u128::from(revolutions) * u128::from(shaft),
             u128::from(feed_shaft) * u128::from(increments) * u128::from(motor),
@@ -161,10 +167,10 @@ impl Factors {
             velocity_denominator,
             increments,
             revolutions,
-            polarity: od.get::<u8>(POLARITY, 0).unwrap_or(0),
+            polarity: od.get::<u8>(axis.index(POLARITY), 0).unwrap_or(0),
             torque_unit: units.torque,
             motor_speed_unit: units.motor_speed,
-            rated_current: od.get::<u32>(MOTOR_RATED_CURRENT, 0).unwrap_or(0),
+            rated_current: od.get::<u32>(axis.index(MOTOR_RATED_CURRENT), 0).unwrap_or(0),
         }
     }
 

@@ -616,6 +616,8 @@ pub struct Inputs<'a, const B: usize> {
     pub following_error: bool,
     /// Now.
     pub now: Instant,
+    /// The axis whose objects these are.
+    pub axis: super::Axis,
 }
 
 /// What homing tells the profile after a tick.
@@ -886,7 +888,7 @@ impl Homing {
         input: &Inputs<'_, B>,
         outcome: &mut Outcome,
     ) {
-        let method: i8 = input.od.get(HOMING_METHOD, 0).unwrap_or(0);
+        let method: i8 = input.od.get(input.axis.index(HOMING_METHOD), 0).unwrap_or(0);
         self.homed = false;
         self.home = None;
         self.first_mark = None;

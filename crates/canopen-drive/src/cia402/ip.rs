@@ -78,6 +78,7 @@
 
 use super::cyclic::{Interpolator, Limiter};
 pub use super::objects::INTERPOLATION_TIME_PERIOD;
+use super::Axis;
 use crate::od::{AbortCode, Access, DataType, DefaultValue, Dictionary, Object, PdoMapping, Var};
 
 /// 60C0h interpolation sub mode select.
@@ -312,6 +313,8 @@ pub struct IpBuffer {
     /// Ring: bit n set = slot n holds a record.
     occupied: u32,
     overflows: u32,
+    /// The axis whose 60C1h/60C4h these are.
+    axis: Axis,
 }
 
 impl Default for IpBuffer {
@@ -334,6 +337,11 @@ impl IpBuffer {
     /// The power-on buffer, matching the objects' defaults: FIFO over the whole capacity,
     /// one word per record, access enabled, empty.
     pub const fn new() -> Self {
+        Self::for_axis(Axis::FIRST)
+    }
+
+    /// [`Self::new`] for the objects of `axis`.
+    pub const fn for_axis(axis: Axis) -> Self {
         IpBuffer {
             records: [[0; RECORD_ENTRIES]; MAX_RECORDS],
             organisation: Organisation::Fifo,
@@ -344,7 +352,13 @@ impl IpBuffer {
             count: 0,
             occupied: 0,
             overflows: 0,
+            axis,
         }
+    }
+
+    /// This buffer's 60C4h.
+    fn configuration(&self) -> u16 {
+        self.axis.index(INTERPOLATION_DATA_CONFIGURATION)
     }
 
     /// Takes the configuration 60C4h.2, .3, .5 and .6 from the dictionary (e.g. after a reset
@@ -352,7 +366,7 @@ impl IpBuffer {
     /// should never hold (set from the device side) fall back to the power-on meaning.
     pub fn reload<const B: usize>(&mut self, od: &Dictionary<B>) {
         self.configure(od);
-        let clear = od.get::<u8>(INTERPOLATION_DATA_CONFIGURATION, config_sub::BUFFER_CLEAR);
+        let clear = od.get::<u8>(self.configuration(), config_sub::BUFFER_CLEAR);
         self.enabled = clear != Ok(CLEAR_AND_DISABLE);
         self.clear();
     }
@@ -453,7 +467,8 @@ impl IpBuffer {
     /// or an RPDO). Writes of other objects are [`Written::Ignored`].
     pub fn written<const B: usize>(&mut self, od: &mut Dictionary<B>, index: u16, sub: u8) -> Written {
         use config_sub::*;
-        match (index, sub) {
+        let configuration = self.configuration();
+        match (self.axis.relative(index).unwrap_or(0), sub) {
             (INTERPOLATION_DATA_RECORD, sub) => self.word_written(od, sub),
             (
                 INTERPOLATION_DATA_CONFIGURATION,
@@ -461,17 +476,17 @@ impl IpBuffer {
             ) => {
                 self.configure(od);
                 self.clear();
-                let _ = od.set::<u16>(INTERPOLATION_DATA_CONFIGURATION, BUFFER_POSITION, 0);
+                let _ = od.set::<u16>(configuration, BUFFER_POSITION, 0);
                 Written::Reorganised
             }
             (INTERPOLATION_DATA_CONFIGURATION, BUFFER_CLEAR) => {
-                match od.get::<u8>(INTERPOLATION_DATA_CONFIGURATION, BUFFER_CLEAR) {
+                match od.get::<u8>(configuration, BUFFER_CLEAR) {
                     Ok(CLEAR_AND_DISABLE) => {
                         self.clear();
                         self.enabled = false;
-                        let _ = od.set::<u16>(INTERPOLATION_DATA_CONFIGURATION, BUFFER_POSITION, 0);
+                        let _ = od.set::<u16>(configuration, BUFFER_POSITION, 0);
                         for word in 1..=RECORD_ENTRIES as u8 {
-                            let _ = od.set::<i32>(INTERPOLATION_DATA_RECORD, word, 0);
+                            let _ = od.set::<i32>(self.axis.index(INTERPOLATION_DATA_RECORD), word, 0);
                         }
                         Written::Cleared
                     }
@@ -500,13 +515,13 @@ impl IpBuffer {
         }
         let mut record = [0; RECORD_ENTRIES];
         for (sub, value) in (1u8..).zip(record.iter_mut().take(self.entries)) {
-            *value = od.get::<i32>(INTERPOLATION_DATA_RECORD, sub).unwrap_or(0);
+            *value = od.get::<i32>(self.axis.index(INTERPOLATION_DATA_RECORD), sub).unwrap_or(0);
         }
         let slot = match self.organisation {
             Organisation::Fifo => {
                 (self.count < self.capacity).then(|| wrap(self.head + self.count, MAX_RECORDS))
             }
-            Organisation::Ring => Some(ring_position(od)).filter(|slot| *slot < self.capacity),
+            Organisation::Ring => Some(ring_position(od, self.axis)).filter(|slot| *slot < self.capacity),
         };
         match slot.and_then(|slot| self.records.get_mut(slot).map(|r| (slot, r))) {
             Some((slot, stored)) => {
@@ -527,21 +542,22 @@ impl IpBuffer {
     /// Takes size, organisation and record size from the dictionary.
     fn configure<const B: usize>(&mut self, od: &Dictionary<B>) {
         use config_sub::*;
-        let size = od.get::<u32>(INTERPOLATION_DATA_CONFIGURATION, ACTUAL_BUFFER_SIZE).unwrap_or(0);
+        let configuration = self.configuration();
+        let size = od.get::<u32>(configuration, ACTUAL_BUFFER_SIZE).unwrap_or(0);
         self.capacity = match usize::try_from(size) {
             Ok(n) if (1..=MAX_RECORDS).contains(&n) => n,
             _ => MAX_RECORDS,
         };
-        let organisation = od.get::<u8>(INTERPOLATION_DATA_CONFIGURATION, BUFFER_ORGANISATION).unwrap_or(0);
+        let organisation = od.get::<u8>(configuration, BUFFER_ORGANISATION).unwrap_or(0);
         self.organisation = Organisation::from_raw(organisation).unwrap_or(Organisation::Fifo);
-        let bytes = od.get::<u8>(INTERPOLATION_DATA_CONFIGURATION, SIZE_OF_DATA_RECORD).unwrap_or(0);
+        let bytes = od.get::<u8>(configuration, SIZE_OF_DATA_RECORD).unwrap_or(0);
         self.entries = record_entries(bytes).unwrap_or(1);
     }
 }
 
-/// 60C4h.4 as a slot number.
-fn ring_position<const B: usize>(od: &Dictionary<B>) -> usize {
-    let position = od.get::<u16>(INTERPOLATION_DATA_CONFIGURATION, config_sub::BUFFER_POSITION);
+/// `axis`'s 60C4h.4 as a slot number.
+fn ring_position<const B: usize>(od: &Dictionary<B>, axis: Axis) -> usize {
+    let position = od.get::<u16>(axis.index(INTERPOLATION_DATA_CONFIGURATION), config_sub::BUFFER_POSITION);
     usize::from(position.unwrap_or(0))
 }
 
@@ -573,7 +589,7 @@ pub fn check_write<const B: usize>(
 ) -> Result<(), AbortCode> {
     use config_sub::*;
     let raw = le_unsigned(data);
-    let refusal = match (index, sub) {
+    let refusal = match (buffer.axis.relative(index).unwrap_or(0), sub) {
         (INTERPOLATION_SUB_MODE_SELECT, 0) => {
             (raw as u16 as i16 != LINEAR).then_some(AbortCode::InvalidValue)
         }
@@ -581,7 +597,7 @@ pub fn check_write<const B: usize>(
             let last = usize::from(word) == buffer.entries;
             let placeable = match buffer.organisation {
                 Organisation::Fifo => !buffer.is_full(),
-                Organisation::Ring => ring_position(od) < buffer.capacity,
+                Organisation::Ring => ring_position(od, buffer.axis) < buffer.capacity,
             };
             if !buffer.enabled {
                 Some(AbortCode::CannotStoreDeviceState)

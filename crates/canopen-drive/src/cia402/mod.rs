@@ -47,6 +47,8 @@ pub const VL: bool = cfg!(feature = "vl");
 /// Whether this build has the touch probe function (cargo feature `touch-probe`).
 pub const PROBE: bool = cfg!(feature = "touch-probe");
 
+pub use objects::Axis;
+
 pub use config::{
     DirectMode, MotorSpeedUnit, OptionCodes, ProfileConfig, StatusFlag, TorqueUnit, TravelLimit, Units,
     VelocityUnit,

@@ -17,6 +17,56 @@ use crate::od::{
 /// profile rules ([`rule`]) wherever their descriptions come from.
 pub const PROFILE_AREA: core::ops::RangeInclusive<u16> = 0x6000..=0x67FF;
 
+/// One logical device (axis) of a CiA 402 node. Axis n (0–7) has the objects of the profile
+/// area at `6000h + n × 800h … 67FFh + n × 800h`: the same description, shifted. The constants of
+/// this module name the first axis's objects; [`Axis::index`] gives another axis's.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Axis(u8);
+
+impl Axis {
+    /// The first axis (objects at 6000h–67FFh), the only one of a single-axis drive.
+    pub const FIRST: Axis = Axis(0);
+    /// How many axes a node may have.
+    pub const MAX: u8 = 8;
+    /// Distance between the profile areas of two neighbouring axes.
+    pub const STRIDE: u16 = 0x800;
+
+    /// Axis `n` (0–7); `None` beyond the eighth.
+    pub const fn new(n: u8) -> Option<Axis> {
+        if n < Self::MAX {
+            Some(Axis(n))
+        } else {
+            None
+        }
+    }
+
+    /// The axis number, 0–7.
+    pub const fn number(self) -> u8 {
+        self.0
+    }
+
+    /// This axis's index of `index`, an index of the first axis's profile area; an index outside
+    /// that area (communication, manufacturer-specific) is the same for every axis.
+    pub const fn index(self, index: u16) -> u16 {
+        if index >= *PROFILE_AREA.start() && index <= *PROFILE_AREA.end() {
+            index + self.0 as u16 * Self::STRIDE
+        } else {
+            index
+        }
+    }
+
+    /// The first axis's index of `index` when it is an index of this axis's profile area.
+    pub const fn relative(self, index: u16) -> Option<u16> {
+        let start = *PROFILE_AREA.start() + self.0 as u16 * Self::STRIDE;
+        if index >= start && index - start <= *PROFILE_AREA.end() - *PROFILE_AREA.start() {
+            Some(index - self.0 as u16 * Self::STRIDE)
+        } else {
+            None
+        }
+    }
+}
+
 /// 6007h abort connection option code.
 pub const ABORT_CONNECTION_OPTION_CODE: u16 = 0x6007;
 /// 603Fh error code.

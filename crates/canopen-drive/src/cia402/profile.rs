@@ -48,6 +48,7 @@ use super::slots::Slots;
 use super::tq;
 use super::vl;
 use super::words::{Controlword, Statusword};
+use super::Axis;
 use crate::comm::emcy::ErrorRegister;
 use crate::comm::ConnectionEvent;
 use crate::control::{Actual, Cascade, Parameters, Reference};
@@ -117,6 +118,8 @@ impl Ramp {
 #[derive(Clone, Debug)]
 pub struct Profile {
     config: ProfileConfig,
+    /// The logical device whose objects this profile runs ([`Profile::for_axis`]).
+    axis: Axis,
     /// 6502h, a fact of the device ([`Profile::set_supported_modes`]).
     supported_modes: u32,
     fsa: Fsa,
@@ -475,11 +478,18 @@ impl MotionLimits {
 }
 
 impl Profile {
-    /// A profile at power-on.
+    /// A profile at power-on, of the first axis (objects at 6000h–67FFh).
     pub fn new(config: ProfileConfig) -> Self {
+        Profile::for_axis(config, Axis::FIRST)
+    }
+
+    /// A profile at power-on for `axis`: every profile object it reads and writes is that axis's
+    /// ([`Axis::index`]), the same description shifted by n × 800h.
+    pub fn for_axis(config: ProfileConfig, axis: Axis) -> Self {
         Profile {
-            slots: Slots::UNRESOLVED,
+            slots: Slots::unresolved(axis),
             config,
+            axis,
             supported_modes: 0,
             fsa: Fsa::default(),
             factors: None,
@@ -493,7 +503,7 @@ impl Profile {
             stream_lost: false,
             cyclic_limited: false,
             feed_forward: FeedForward::NONE,
-            ip: IpBuffer::new(),
+            ip: IpBuffer::for_axis(axis),
             ip_overflow: false,
             mode: Active::Idle,
             origin: 0,
@@ -529,6 +539,11 @@ impl Profile {
         &self.config
     }
 
+    /// The axis whose objects the profile runs.
+    pub fn axis(&self) -> Axis {
+        self.axis
+    }
+
     /// The FSA state.
     pub fn state(&self) -> State {
         self.fsa.state()
@@ -536,14 +551,15 @@ impl Profile {
 
     /// Back to power-on (reset application).
     pub fn reset(&mut self) {
-        *self = Profile { supported_modes: self.supported_modes, ..Profile::new(self.config) };
+        *self =
+            Profile { supported_modes: self.supported_modes, ..Profile::for_axis(self.config, self.axis) };
     }
 
     /// Reads the facts of the device the profile keeps (6502h, fixed once the dictionary is
     /// built: 6060h accepts only the modes it lists).
     pub fn configure<const B: usize>(&mut self, od: &Dictionary<B>) {
         self.quiet.idle = false;
-        self.supported_modes = od.get::<u32>(SUPPORTED_DRIVE_MODES, 0).unwrap_or(0);
+        self.supported_modes = od.get::<u32>(self.axis.index(SUPPORTED_DRIVE_MODES), 0).unwrap_or(0);
     }
 
     /// Presets the position: from the next tick on 6064h reads `user` at the present position
@@ -727,7 +743,18 @@ impl Profile {
     /// The value rule of the profile's object `index`/`sub` ([`Rule`]); `pdo`: as an RPDO
     /// writes it.
     pub fn rule(&self, index: u16, sub: u8, pdo: bool) -> Option<Rule> {
-        super::objects::rule(&self.config, index, sub, pdo)
+        super::objects::rule(&self.config, self.first_axis_index(index), sub, pdo)
+    }
+
+    /// The first axis's index of `index` when it is one of this axis's profile objects (the
+    /// rules are written for 6000h–67FFh); an index outside the profile areas as it is.
+    fn first_axis_index(&self, index: u16) -> u16 {
+        match self.axis.relative(index) {
+            Some(relative) => relative,
+            // Another axis's object: none of this profile's rules.
+            None if index.wrapping_sub(*PROFILE_AREA.start()) < Axis::STRIDE * u16::from(Axis::MAX) => 0,
+            None => index,
+        }
     }
 
     /// Checks `data` as the new value of `index`/`sub` under `rule`: the configuration's rules
@@ -755,7 +782,10 @@ impl Profile {
             }
             Rule::InterpolationRecordPdo => Ok(()),
             Rule::Cascade => crate::control::check_write(od, index, sub, data, self.config.tick_rate.hz()),
-            rule => super::objects::check(rule, &self.config, self.supported_modes, index, sub, data),
+            rule => {
+                let index = self.first_axis_index(index);
+                super::objects::check(rule, &self.config, self.supported_modes, index, sub, data)
+            }
         }
     }
 
@@ -774,7 +804,7 @@ impl Profile {
     pub fn sdo_written(&mut self, index: u16) -> bool {
         self.invalidate();
         self.config.cyclic.sdo_set_points
-            && matches!(index, TARGET_POSITION | TARGET_VELOCITY | TARGET_TORQUE)
+            && matches!(self.axis.relative(index), Some(TARGET_POSITION | TARGET_VELOCITY | TARGET_TORQUE))
     }
 
     /// A 60C1h/60C4h entry was written (SDO or RPDO): the ip buffer takes it.
@@ -1257,11 +1287,11 @@ impl Profile {
     /// Reads the parameters cached between writes: the factor group and the cascade's gains
     /// (the integrator is kept across a re-tuning).
     fn refresh<const B: usize>(&mut self, od: &Dictionary<B>) -> Factors {
-        let factors = Factors::from_od_in(od, self.config.units);
+        let factors = Factors::from_axis(od, self.config.units, self.axis);
         self.factors = Some(factors);
         self.limits = Memo::EMPTY;
         self.pp_limits = Memo::EMPTY;
-        self.slots = Slots::resolve(od);
+        self.slots = Slots::resolve(od, self.axis);
         if let Some(index) = self.config.cascade {
             let parameters = Parameters::from_dictionary(od, index).unwrap_or(Parameters::DEFAULT);
             let hz = self.config.tick_rate.hz();
@@ -1368,7 +1398,7 @@ impl Profile {
         ];
         for (flag, index, position) in latched {
             if probe.changed.contains(flag) {
-                let _ = od.set::<i32>(index, 0, to_user(position));
+                let _ = od.set::<i32>(self.axis.index(index), 0, to_user(position));
             }
         }
         if probe.changed.contains(Changed::COUNTERS) {
@@ -1379,7 +1409,7 @@ impl Profile {
                 TOUCH_PROBE_2_NEGATIVE_EDGE_COUNTER,
             ];
             for (index, count) in counters.into_iter().zip(self.probe.counts()) {
-                let _ = od.set::<u16>(index, 0, count);
+                let _ = od.set::<u16>(self.axis.index(index), 0, count);
             }
         }
         let latch = if probe.changed.contains(Changed::PROBE_1_POSITIVE) {
@@ -1512,6 +1542,7 @@ impl Profile {
                 now - since > Duration::from_millis(time)
             }),
             now,
+            axis: self.axis,
         };
         let (position, outcome) = match &mut self.mode {
             Active::Hm(planner) => {
@@ -1544,7 +1575,7 @@ impl Profile {
                     let user = (factors.to_user(count.saturating_sub(self.origin)) * position_sign)
                         .saturating_add(limit_offset);
                     let sub = if position_sign < 0 { 3 - sub } else { sub };
-                    let _ = od.set::<i32>(SOFTWARE_POSITION_LIMIT, sub, saturate(user));
+                    let _ = od.set::<i32>(self.axis.index(SOFTWARE_POSITION_LIMIT), sub, saturate(user));
                 }
             }
             // The position values of this tick count from the new zero already: the
@@ -1624,6 +1655,7 @@ impl Profile {
             velocity_limit: input.limits.velocity,
             actual_velocity: i64::from(input.sample.velocity),
             dt: input.dt,
+            axis: self.axis,
         };
         let Some(vl) = self.mode.vl_mut() else { return Setpoint::None };
         let demand = vl.step(od, drive);
@@ -2085,5 +2117,105 @@ mod tests {
         assert_eq!(ticks, 3004);
         r.toward(-5, 2_000_000, Duration::from_millis(1));
         assert_eq!(r.value, -5);
+    }
+}
+
+/// A profile of another axis than the first runs the same description shifted by n × 800h.
+#[cfg(test)]
+mod axis_tests {
+    use super::*;
+    use crate::od::{DeviceInfo, Object};
+
+    const SECOND: Axis = match Axis::new(1) {
+        Some(axis) => axis,
+        None => Axis::FIRST,
+    };
+
+    const fn shifted<const N: usize>(table: &[Object; N], axis: Axis) -> [Object; N] {
+        let mut out = *table;
+        let mut k = 0;
+        while k < N {
+            out[k].index = axis.index(out[k].index);
+            k += 1;
+        }
+        out
+    }
+
+    /// The profile objects of the second axis only (6800h–6FFFh): nothing at 6000h–67FFh.
+    static SECOND_AXIS: [Object; PROFILE_LEN] = shifted(&PROFILE, SECOND);
+
+    fn tick(profile: &mut Profile, od: &mut Dictionary<4096>, ms: u64) -> Demand {
+        let sample = Sample { dc_link_millivolts: 48_000, ..Sample::default() };
+        profile.tick(Instant::from_millis(ms), &sample, od, SyncInput::default()).0
+    }
+
+    #[test]
+    fn axis_numbers_and_indices() {
+        assert_eq!(Axis::new(7).map(Axis::number), Some(7));
+        assert_eq!(Axis::new(8), None);
+        assert_eq!(SECOND.index(CONTROLWORD), 0x6840);
+        assert_eq!(Axis::new(7).map(|a| a.index(0x67FF)), Some(0x9FFF));
+        assert_eq!(SECOND.index(0x1007), 0x1007, "communication objects are the node's");
+        assert_eq!(SECOND.index(0x2000), 0x2000, "manufacturer objects are the firmware's");
+        assert_eq!(SECOND.relative(0x6841), Some(STATUSWORD));
+        assert_eq!(SECOND.relative(0x6041), None);
+        assert_eq!(SECOND.relative(0x7000), None);
+        assert_eq!(Axis::FIRST.relative(0x67FF), Some(0x67FF));
+        assert_eq!(Axis::FIRST.relative(0x6800), None);
+    }
+
+    #[test]
+    #[cfg(feature = "ip")]
+    fn the_second_axis_has_its_own_ip_buffer() {
+        let mut od = Dictionary::<4096>::new(&[&SECOND_AXIS], DeviceInfo::servo_drive(), 1).unwrap();
+        let mut buffer = IpBuffer::for_axis(SECOND);
+        buffer.reload(&od);
+        od.set::<i32>(0x68C1, 1, 1234).unwrap();
+        assert_eq!(buffer.written(&mut od, 0x60C1, 1), Written::Ignored, "the first axis's record");
+        assert_eq!(buffer.written(&mut od, 0x68C1, 1), Written::Stored);
+        assert_eq!(buffer.next().map(|record| record[0]), Some(1234));
+        let size = [0u8, 0, 0, 0];
+        assert_eq!(
+            super::super::ip::check_write(&od, &buffer, 0x68C4, 5, &size),
+            Err(AbortCode::ValueTooLow),
+            "68C4h.5 = 0 is refused as 60C4h.5 = 0 is"
+        );
+    }
+
+    #[test]
+    fn the_second_axis_runs_its_own_objects() {
+        let mut od = Dictionary::<4096>::new(&[&SECOND_AXIS], DeviceInfo::servo_drive(), 1).unwrap();
+        let mut profile = Profile::for_axis(ProfileConfig::default(), SECOND);
+        profile.configure(&od);
+        assert_eq!(profile.axis(), SECOND);
+        assert_eq!(tick(&mut profile, &mut od, 0), Demand::OFF);
+        assert_eq!(od.get::<u16>(0x6841, 0).map(|sw| sw & 0x6F), Ok(0x40), "Switch on disabled");
+        assert_eq!(od.get::<u16>(STATUSWORD, 0), Err(AbortCode::ObjectDoesNotExist));
+
+        // The rules of 6060h, at 6860h: pv is a mode of 6502h (at 6D02h); 77 is none.
+        let rule = profile.rule(0x6860, 0, false);
+        assert_eq!(rule, Some(Rule::Mode));
+        assert_eq!(rule.map(|r| profile.check(r, &od, 0x6860, 0, &[77])), Some(Err(AbortCode::InvalidValue)));
+        assert_eq!(rule.map(|r| profile.check(r, &od, 0x6860, 0, &[3])), Some(Ok(())));
+        assert_eq!(profile.rule(MODES_OF_OPERATION, 0, false), None, "the first axis's 6060h is not its own");
+
+        od.set::<i8>(0x6860, 0, 3).unwrap();
+        od.set::<u32>(0x6883, 0, 100_000).unwrap();
+        od.set::<i32>(0x68FF, 0, 5_000).unwrap();
+        for (ms, controlword, state) in [(1, 0x06, 0x21), (2, 0x07, 0x23), (3, 0x0F, 0x27)] {
+            od.set::<u16>(0x6840, 0, controlword).unwrap();
+            tick(&mut profile, &mut od, ms);
+            assert_eq!(od.get::<u16>(0x6841, 0).map(|sw| sw & 0x6F), Ok(state), "{controlword:#x}");
+        }
+        assert_eq!(od.get::<i8>(0x6861, 0), Ok(3));
+        // pv ramps at 6883h = 100 000 increments/s² from the enabling tick (3 ms) on: 100
+        // increments/s per 1 ms tick, reported in 686Bh.
+        for ms in 4..14 {
+            let demand = tick(&mut profile, &mut od, ms);
+            let expected = 100 * (ms as i32 - 2);
+            assert!(demand.drive_enabled);
+            assert_eq!(demand.setpoint, Setpoint::Velocity(expected), "{ms} ms");
+            assert_eq!(od.get::<i32>(0x686B, 0), Ok(expected), "606Bh of the second axis");
+        }
     }
 }

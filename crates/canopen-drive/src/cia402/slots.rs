@@ -5,9 +5,10 @@
 //! [`od::Slot`](crate::od::Slot) (its offset in the value store), so a per-tick access is a bounds
 //! check and a byte copy. The profile resolves them with its factors (first tick, and whenever
 //! the factors are refreshed); until then every slot falls back to a lookup, so the answers are
-//! the same either way.
+//! the same either way. The entries are the profile's axis's ([`Axis::index`]).
 
 use super::objects::*;
+use super::Axis;
 use crate::od::{Dictionary, IntSlot, Slot};
 
 /// The slot type of an entry: `int` for a signed integer of the entry's own width (an entry a
@@ -44,12 +45,14 @@ macro_rules! slots {
         }
 
         impl Slots {
-            /// Slots that look their entry up on every access.
-            pub const UNRESOLVED: Slots = Slots { $($field: slot_lookup!($t, $index, $sub),)* };
+            /// Slots of `axis`'s entries that look their entry up on every access.
+            pub const fn unresolved(axis: Axis) -> Slots {
+                Slots { $($field: slot_lookup!($t, axis.index($index), $sub),)* }
+            }
 
-            /// Every slot resolved in `od`.
-            pub fn resolve<const B: usize>(od: &Dictionary<B>) -> Slots {
-                Slots { $($field: slot_resolve!($t, od, $index, $sub),)* }
+            /// Every slot of `axis`'s entries resolved in `od`.
+            pub fn resolve<const B: usize>(od: &Dictionary<B>, axis: Axis) -> Slots {
+                Slots { $($field: slot_resolve!($t, od, axis.index($index), $sub),)* }
             }
 
             /// Whether every slot resolved to a stored value of its type (a test of the
@@ -153,9 +156,9 @@ mod tests {
     #[test]
     fn every_slot_resolves_to_a_stored_value_of_its_type() {
         let drive = Drive::new(Config::new(5)).unwrap();
-        let slots = Slots::resolve(drive.od());
+        let slots = Slots::resolve(drive.od(), Axis::FIRST);
         assert!(slots.all_stored(), "{slots:?}");
-        let unresolved = Slots::UNRESOLVED;
+        let unresolved = Slots::unresolved(Axis::FIRST);
         assert!(!unresolved.controlword.is_stored());
         assert_eq!(drive.od().load(unresolved.controlword), drive.od().load(slots.controlword));
     }

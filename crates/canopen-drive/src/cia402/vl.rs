@@ -106,6 +106,7 @@
 use super::fsa::StopKind;
 use super::objects::POSITION_ENCODER_RESOLUTION;
 use super::words::Controlword;
+use super::Axis;
 use crate::od::{AbortCode, Access, DataType, DefaultValue, Dictionary, Object, PdoMapping, Var};
 use crate::time::Duration;
 
@@ -326,27 +327,36 @@ impl Parameters {
     /// The values the dictionary holds now. An optional object the dictionary lacks counts as
     /// absent: 6049h and 604Ah fall back (delta speed 0), 604Bh and 604Ch are 1/1.
     pub fn from_od<const B: usize>(od: &Dictionary<B>) -> Self {
+        Self::from_axis(od, Axis::FIRST)
+    }
+
+    /// [`Self::from_od`] from the objects of `axis`.
+    pub fn from_axis<const B: usize>(od: &Dictionary<B>, axis: Axis) -> Self {
         let slope = |index: u16, absent: Slope| {
             Slope::new(
-                od.get::<u32>(index, 1).unwrap_or(absent.delta_speed),
-                od.get::<u16>(index, 2).unwrap_or(absent.delta_time),
+                od.get::<u32>(axis.index(index), 1).unwrap_or(absent.delta_speed),
+                od.get::<u16>(axis.index(index), 2).unwrap_or(absent.delta_time),
             )
         };
         let absent = Slope::new(0, 1);
         Parameters {
-            target: od.get::<i16>(VL_TARGET_VELOCITY, 0).unwrap_or(0),
-            min_amount: od.get::<u32>(VL_VELOCITY_MIN_MAX_AMOUNT, 1).unwrap_or(DEFAULT_MIN_AMOUNT),
-            max_amount: od.get::<u32>(VL_VELOCITY_MIN_MAX_AMOUNT, 2).unwrap_or(DEFAULT_MAX_AMOUNT),
+            target: od.get::<i16>(axis.index(VL_TARGET_VELOCITY), 0).unwrap_or(0),
+            min_amount: od
+                .get::<u32>(axis.index(VL_VELOCITY_MIN_MAX_AMOUNT), 1)
+                .unwrap_or(DEFAULT_MIN_AMOUNT),
+            max_amount: od
+                .get::<u32>(axis.index(VL_VELOCITY_MIN_MAX_AMOUNT), 2)
+                .unwrap_or(DEFAULT_MAX_AMOUNT),
             acceleration: slope(VL_VELOCITY_ACCELERATION, DEFAULT_ACCELERATION),
             deceleration: slope(VL_VELOCITY_DECELERATION, absent),
             quick_stop: slope(VL_VELOCITY_QUICK_STOP, absent),
             setpoint_factor: (
-                od.get::<i16>(VL_SET_POINT_FACTOR, 1).unwrap_or(1),
-                od.get::<i16>(VL_SET_POINT_FACTOR, 2).unwrap_or(1),
+                od.get::<i16>(axis.index(VL_SET_POINT_FACTOR), 1).unwrap_or(1),
+                od.get::<i16>(axis.index(VL_SET_POINT_FACTOR), 2).unwrap_or(1),
             ),
             dimension_factor: (
-                od.get::<i32>(VL_DIMENSION_FACTOR, 1).unwrap_or(1),
-                od.get::<i32>(VL_DIMENSION_FACTOR, 2).unwrap_or(1),
+                od.get::<i32>(axis.index(VL_DIMENSION_FACTOR), 1).unwrap_or(1),
+                od.get::<i32>(axis.index(VL_DIMENSION_FACTOR), 2).unwrap_or(1),
             ),
         }
     }
@@ -405,7 +415,13 @@ impl Resolution {
 
     /// 608Fh as the dictionary holds it (a 0, or an absent object, counts as 1).
     pub fn from_od<const B: usize>(od: &Dictionary<B>) -> Self {
-        let sub = |s| od.get::<u32>(POSITION_ENCODER_RESOLUTION, s).ok().filter(|v| *v != 0).unwrap_or(1);
+        Self::from_axis(od, Axis::FIRST)
+    }
+
+    /// [`Self::from_od`] from `axis`'s 608Fh.
+    pub fn from_axis<const B: usize>(od: &Dictionary<B>, axis: Axis) -> Self {
+        let index = axis.index(POSITION_ENCODER_RESOLUTION);
+        let sub = |s| od.get::<u32>(index, s).ok().filter(|v| *v != 0).unwrap_or(1);
         Resolution::new(sub(1), sub(2))
     }
 }
@@ -469,8 +485,13 @@ pub struct Output {
 impl Output {
     /// Writes 6043h and 6044h (a dictionary without them is left alone).
     pub fn publish<const B: usize>(&self, od: &mut Dictionary<B>) {
-        let _ = od.set::<i16>(VL_VELOCITY_DEMAND, 0, self.demand_value);
-        let _ = od.set::<i16>(VL_VELOCITY_ACTUAL_VALUE, 0, self.actual_value);
+        self.publish_to(od, Axis::FIRST);
+    }
+
+    /// [`Self::publish`] to the objects of `axis`.
+    pub fn publish_to<const B: usize>(&self, od: &mut Dictionary<B>, axis: Axis) {
+        let _ = od.set::<i16>(axis.index(VL_VELOCITY_DEMAND), 0, self.demand_value);
+        let _ = od.set::<i16>(axis.index(VL_VELOCITY_ACTUAL_VALUE), 0, self.actual_value);
     }
 }
 
@@ -799,8 +820,8 @@ impl Vl {
     /// velocity demand in increments/s.
     pub fn step<const B: usize>(&mut self, od: &mut Dictionary<B>, drive: DriveInputs) -> i64 {
         let input = Inputs {
-            parameters: Parameters::from_od(od),
-            resolution: Resolution::from_od(od),
+            parameters: Parameters::from_axis(od, drive.axis),
+            resolution: Resolution::from_axis(od, drive.axis),
             controlword: drive.controlword,
             halt: drive.halt,
             velocity_limit: drive.velocity_limit,
@@ -808,7 +829,7 @@ impl Vl {
             dt: drive.dt,
         };
         let output = self.velocity.tick(&input);
-        output.publish(od);
+        output.publish_to(od, drive.axis);
         self.target_reached = output.target_reached;
         self.limit_active = output.limit_active;
         output.demand
@@ -838,6 +859,8 @@ pub struct DriveInputs {
     pub actual_velocity: i64,
     /// Time since the previous tick.
     pub dt: Duration,
+    /// The axis whose objects these are.
+    pub axis: Axis,
 }
 
 #[cfg(test)]
