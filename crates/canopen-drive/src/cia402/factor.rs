@@ -31,11 +31,14 @@
 //! directions (digest §8.2); torque modes ignore it.
 
 use super::config::{MotorSpeedUnit, TorqueUnit, Units, VelocityUnit};
+use super::objects::parameter;
+use super::objects::Rule;
 use super::objects::{
     FEED_CONSTANT, GEAR_RATIO, POLARITY, POSITION_ENCODER_RESOLUTION, VELOCITY_ENCODER_RESOLUTION,
 };
 use super::Axis;
 use crate::od::{AbortCode, Dictionary};
+use crate::od::{Access, DataType, DefaultValue, Object, Var};
 
 /// 607Eh bit 7: position polarity.
 pub const POSITION_POLARITY: u8 = 0x80;
@@ -275,6 +278,44 @@ pub fn check_write(index: u16, sub: u8, raw: u32) -> Result<(), AbortCode> {
         POLARITY if raw & 0x3F != 0 => Err(AbortCode::InvalidValue),
         _ => Ok(()),
     }
+}
+
+/// A two-entry ratio of the factor group (608Fh–6092h), both entries 1 by default (digest §8.1:
+/// never 0).
+const fn ratio(index: u16, name: &'static str, element: &'static Var) -> Object {
+    Object::array(index, name, 2, element)
+}
+
+/// The element of a ratio (in the table, `&ratio_entry(..)` is a `'static` reference).
+const fn ratio_entry(name: &'static str) -> Var {
+    Var::new(name, DataType::Unsigned32).access(Access::ReadWrite).default(DefaultValue::Unsigned(1))
+}
+
+/// The factor group's objects (607Eh, 608Fh–6092h), in every build.
+pub(crate) const OBJECTS: [Object; 5] = [
+    parameter(POLARITY, "Polarity", DataType::Unsigned8, DefaultValue::Zero),
+    ratio(
+        POSITION_ENCODER_RESOLUTION,
+        "Position encoder resolution",
+        &ratio_entry("Position encoder resolution"),
+    ),
+    ratio(
+        VELOCITY_ENCODER_RESOLUTION,
+        "Velocity encoder resolution",
+        &ratio_entry("Velocity encoder resolution"),
+    ),
+    ratio(GEAR_RATIO, "Gear ratio", &ratio_entry("Gear ratio")),
+    ratio(FEED_CONSTANT, "Feed constant", &ratio_entry("Feed constant")),
+];
+
+/// The value rule of the factor group's object `index` ([`super::objects::rule`]):
+/// [`check_write`].
+pub(crate) fn rule(index: u16) -> Option<Rule> {
+    matches!(
+        index,
+        POSITION_ENCODER_RESOLUTION | VELOCITY_ENCODER_RESOLUTION | GEAR_RATIO | FEED_CONSTANT | POLARITY
+    )
+    .then_some(Rule::Factor)
 }
 
 #[cfg(test)]

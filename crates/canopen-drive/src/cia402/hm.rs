@@ -54,11 +54,14 @@
 //! flag of [`crate::hal::Sample::inputs`]), so the home position is exact to the distance moved
 //! in one tick at the zero-search speed.
 
+use super::objects::Rule;
 use super::objects::HOMING_METHOD;
+use super::objects::{highest_sub, setting, HOMING_ACCELERATION, HOMING_SPEEDS, SUPPORTED_HOMING_METHODS};
 use super::words::{Controlword, Statusword};
 use crate::hal::DigitalInputs;
 use crate::motion::{Limits, PositionPlanner};
 use crate::od::{Access, DataType, DefaultValue, Dictionary, Object, Var};
+use crate::od::{DeviceField, PdoMapping};
 use crate::time::{Duration, Instant};
 
 /// EMCY code of a homing error (digest §10.4).
@@ -1025,6 +1028,55 @@ impl Homing {
         let since = *self.above_threshold_since.get_or_insert(input.now);
         input.now - since >= Duration::from_millis(u64::from(time))
     }
+}
+
+/// 6099h.
+const HOMING_SPEED_SUBS: [(u8, Var); 3] = [
+    (0, highest_sub(2)),
+    (
+        1,
+        Var::new("Speed during search for switch", DataType::Unsigned32)
+            .access(Access::ReadWrite)
+            .pdo(PdoMapping::Rpdo)
+            .default(DefaultValue::Unsigned(10_000)),
+    ),
+    (
+        2,
+        Var::new("Speed during search for zero", DataType::Unsigned32)
+            .access(Access::ReadWrite)
+            .pdo(PdoMapping::Rpdo)
+            .default(DefaultValue::Unsigned(1_000)),
+    ),
+];
+
+/// Homing's objects (6098h, 6099h, 609Ah, 60E3h) with their CiA 402 defaults, in
+/// [`super::objects::PROFILE`] when the build runs hm.
+pub(crate) const OBJECTS: [Object; 4] = [
+    setting(HOMING_METHOD, "Homing method", DataType::Integer8, DefaultValue::Zero),
+    Object::record(HOMING_SPEEDS, "Homing speeds", &HOMING_SPEED_SUBS),
+    setting(
+        HOMING_ACCELERATION,
+        "Homing acceleration",
+        DataType::Unsigned32,
+        DefaultValue::Unsigned(100_000),
+    ),
+    Object::array_with_sub0(
+        SUPPORTED_HOMING_METHODS,
+        "Supported homing methods",
+        MAX_LISTED_METHODS,
+        Var::new("Highest sub-index supported", DataType::Unsigned8)
+            .access(Access::Const)
+            .default(DefaultValue::Device(DeviceField::HomingMethodCount)),
+        &Var::new("Supported homing method", DataType::Integer8)
+            .access(Access::Const)
+            .default(DefaultValue::Device(DeviceField::HomingMethods)),
+    ),
+];
+
+/// The value rule of homing's object `index` ([`super::objects::rule`]): 6098h takes the methods
+/// the configuration supports ([`HomingConfig::supports`]).
+pub(crate) fn rule(index: u16) -> Option<Rule> {
+    (super::HM && index == HOMING_METHOD).then_some(Rule::HomingMethod)
 }
 
 #[cfg(test)]

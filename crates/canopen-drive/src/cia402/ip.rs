@@ -77,6 +77,7 @@
 //! the profile calls [`IpBuffer::reload`] (or starts from [`IpBuffer::new`]).
 
 use super::cyclic::{Interpolator, Limiter};
+use super::objects::Rule;
 pub use super::objects::INTERPOLATION_TIME_PERIOD;
 use super::Axis;
 use crate::od::{AbortCode, Access, DataType, DefaultValue, Dictionary, Object, PdoMapping, Var};
@@ -663,6 +664,24 @@ impl Run {
         self.limiter.reset(actual);
         self.active = false;
         self.interpolator.reset(actual);
+    }
+}
+
+/// ip's objects (60C0h, 60C1h, 60C4h), in [`super::objects::PROFILE`] when the build runs ip
+/// (the interpolation time period 60C2h, which every cyclic mode reads, is in every build).
+pub(crate) const OBJECTS: [Object; 3] =
+    [SUB_MODE_SELECT_OBJECT, DATA_RECORD_OBJECT, DATA_CONFIGURATION_OBJECT];
+
+/// The value rule of `index`/`sub` among ip's objects and 60C2h ([`super::objects::rule`]);
+/// `pdo`: as an RPDO writes it (a record is then taken or dropped, never refused).
+pub(crate) fn rule(index: u16, sub: u8, pdo: bool) -> Option<Rule> {
+    match index {
+        INTERPOLATION_DATA_RECORD if sub == 0 => None,
+        INTERPOLATION_DATA_RECORD if pdo => Some(Rule::InterpolationRecordPdo),
+        INTERPOLATION_DATA_RECORD => Some(Rule::InterpolationRecord),
+        INTERPOLATION_DATA_CONFIGURATION => Some(Rule::InterpolationConfiguration),
+        INTERPOLATION_SUB_MODE_SELECT | INTERPOLATION_TIME_PERIOD => Some(Rule::Interpolation),
+        _ => None,
     }
 }
 

@@ -302,12 +302,12 @@ impl Default for DeviceInfo {
 }
 
 /// A value the master commands (rw, RPDO-mappable).
-const fn command(index: u16, name: &'static str, data_type: DataType) -> Object {
+pub(super) const fn command(index: u16, name: &'static str, data_type: DataType) -> Object {
     Object::var(index, name, Var::new(name, data_type).access(Access::ReadWrite).pdo(PdoMapping::Rpdo))
 }
 
 /// A value the drive reports (ro, TPDO-mappable).
-const fn actual(index: u16, name: &'static str, data_type: DataType) -> Object {
+pub(super) const fn actual(index: u16, name: &'static str, data_type: DataType) -> Object {
     Object::var(index, name, Var::new(name, data_type).pdo(PdoMapping::Tpdo))
 }
 
@@ -315,7 +315,7 @@ const fn actual(index: u16, name: &'static str, data_type: DataType) -> Object {
 /// INTEGER32 ([`Var::capacity`](crate::od::Var#structfield.capacity): 4 bytes of storage), as
 /// drives with torques in mA do: a set-point the master commands (rw, RPDO-mappable) or a
 /// value the drive reports (ro, TPDO-mappable).
-const fn torque(index: u16, name: &'static str, command: bool) -> Object {
+pub(super) const fn torque(index: u16, name: &'static str, command: bool) -> Object {
     let var = Var::new(name, DataType::Integer16).capacity(4);
     let var =
         if command { var.access(Access::ReadWrite).pdo(PdoMapping::Rpdo) } else { var.pdo(PdoMapping::Tpdo) };
@@ -323,7 +323,12 @@ const fn torque(index: u16, name: &'static str, command: bool) -> Object {
 }
 
 /// A parameter the master may also map into an RPDO (rw), with its default.
-const fn setting(index: u16, name: &'static str, data_type: DataType, default: DefaultValue) -> Object {
+pub(super) const fn setting(
+    index: u16,
+    name: &'static str,
+    data_type: DataType,
+    default: DefaultValue,
+) -> Object {
     Object::var(
         index,
         name,
@@ -332,36 +337,30 @@ const fn setting(index: u16, name: &'static str, data_type: DataType, default: D
 }
 
 /// A parameter (rw, not mappable) with its default.
-const fn parameter(index: u16, name: &'static str, data_type: DataType, default: DefaultValue) -> Object {
+pub(super) const fn parameter(
+    index: u16,
+    name: &'static str,
+    data_type: DataType,
+    default: DefaultValue,
+) -> Object {
     Object::var(index, name, Var::new(name, data_type).access(Access::ReadWrite).default(default))
 }
 
-const fn option_code(index: u16, name: &'static str, default: i64) -> Object {
+pub(super) const fn option_code(index: u16, name: &'static str, default: i64) -> Object {
     parameter(index, name, DataType::Integer16, DefaultValue::Signed(default))
 }
 
-const fn text(index: u16, name: &'static str) -> Object {
+pub(super) const fn text(index: u16, name: &'static str) -> Object {
     Object::var(index, name, Var::new(name, DataType::VisibleString).access(Access::ReadWrite).capacity(32))
 }
 
-const fn highest_sub(n: u64) -> Var {
+pub(super) const fn highest_sub(n: u64) -> Var {
     Var::new("Highest sub-index supported", DataType::Unsigned8)
         .access(Access::Const)
         .default(DefaultValue::Unsigned(n))
 }
 
-/// A two-entry ratio of the factor group (608Fh–6092h), both entries 1 by default (digest §8.1:
-/// never 0).
-const fn ratio(index: u16, name: &'static str, element: &'static Var) -> Object {
-    Object::array(index, name, 2, element)
-}
-
-/// The element of a ratio (in the table, `&ratio_entry(..)` is a `'static` reference).
-const fn ratio_entry(name: &'static str) -> Var {
-    Var::new(name, DataType::Unsigned32).access(Access::ReadWrite).default(DefaultValue::Unsigned(1))
-}
-
-const fn bound(name: &'static str, default: i32) -> Var {
+pub(super) const fn bound(name: &'static str, default: i32) -> Var {
     Var::new(name, DataType::Integer32)
         .access(Access::ReadWrite)
         .default(DefaultValue::Signed(default as i64))
@@ -372,25 +371,6 @@ const POSITION_RANGE_SUBS: [(u8, Var); 3] = [
     (0, highest_sub(2)),
     (1, bound("Min position range limit", i32::MIN)),
     (2, bound("Max position range limit", i32::MAX)),
-];
-/// 6099h.
-#[cfg(feature = "hm")]
-const HOMING_SPEED_SUBS: [(u8, Var); 3] = [
-    (0, highest_sub(2)),
-    (
-        1,
-        Var::new("Speed during search for switch", DataType::Unsigned32)
-            .access(Access::ReadWrite)
-            .pdo(PdoMapping::Rpdo)
-            .default(DefaultValue::Unsigned(10_000)),
-    ),
-    (
-        2,
-        Var::new("Speed during search for zero", DataType::Unsigned32)
-            .access(Access::ReadWrite)
-            .pdo(PdoMapping::Rpdo)
-            .default(DefaultValue::Unsigned(1_000)),
-    ),
 ];
 /// 607Dh: no limit within the i32 range by default.
 const SOFTWARE_LIMIT_SUBS: [(u8, Var); 3] = [
@@ -410,40 +390,16 @@ const DIGITAL_OUTPUT_SUBS: [(u8, Var); 3] = [
     (2, Var::new("Bit mask", DataType::Unsigned32).access(Access::ReadWrite)),
 ];
 
-/// How many objects [`PROFILE`] has in this build (104 with every mode, 72 with none of the
-/// optional ones).
-pub const PROFILE_LEN: usize = 72
-    + if super::PP { 6 } else { 0 }
-    + if super::HM { 4 } else { 0 }
-    + if super::IP { 3 } else { 0 }
-    + if super::VL { 9 } else { 0 }
-    + if super::PROBE { 10 } else { 0 };
-
-/// The profile objects, ascending: those of the modes this build runs (cargo features `pp`,
-/// `hm`, `ip`, `vl`, `touch-probe`).
-pub static PROFILE: [Object; PROFILE_LEN] = layout([
+/// The objects every build has that no single mode owns: the state machine's words and option
+/// codes, the modes, the actual and demand values, the limits, windows and ramps several modes
+/// share, the identification. The modes' own objects are in their modules (`OBJECTS` of
+/// [`super::pp`], [`super::hm`], [`super::ip`], [`super::vl`], [`super::probe`],
+/// [`super::factor`]).
+const COMMON: [Object; 67] = [
     option_code(ABORT_CONNECTION_OPTION_CODE, "Abort connection option code", 1),
     actual(ERROR_CODE, "Error code", DataType::Unsigned16),
     command(CONTROLWORD, "Controlword", DataType::Unsigned16),
     actual(STATUSWORD, "Statusword", DataType::Unsigned16),
-    #[cfg(feature = "vl")]
-    super::vl::VL_TARGET_VELOCITY_OBJECT,
-    #[cfg(feature = "vl")]
-    super::vl::VL_VELOCITY_DEMAND_OBJECT,
-    #[cfg(feature = "vl")]
-    super::vl::VL_VELOCITY_ACTUAL_VALUE_OBJECT,
-    #[cfg(feature = "vl")]
-    super::vl::VL_VELOCITY_MIN_MAX_AMOUNT_OBJECT,
-    #[cfg(feature = "vl")]
-    super::vl::VL_VELOCITY_ACCELERATION_OBJECT,
-    #[cfg(feature = "vl")]
-    super::vl::VL_VELOCITY_DECELERATION_OBJECT,
-    #[cfg(feature = "vl")]
-    super::vl::VL_VELOCITY_QUICK_STOP_OBJECT,
-    #[cfg(feature = "vl")]
-    super::vl::VL_SET_POINT_FACTOR_OBJECT,
-    #[cfg(feature = "vl")]
-    super::vl::VL_DIMENSION_FACTOR_OBJECT,
     option_code(QUICK_STOP_OPTION_CODE, "Quick stop option code", 2),
     option_code(SHUTDOWN_OPTION_CODE, "Shutdown option code", 0),
     option_code(DISABLE_OPERATION_OPTION_CODE, "Disable operation option code", 1),
@@ -488,7 +444,6 @@ pub static PROFILE: [Object; PROFILE_LEN] = layout([
     Object::record(POSITION_RANGE_LIMIT, "Position range limit", &POSITION_RANGE_SUBS),
     parameter(HOME_OFFSET, "Home offset", DataType::Integer32, DefaultValue::Zero),
     Object::record(SOFTWARE_POSITION_LIMIT, "Software position limit", &SOFTWARE_LIMIT_SUBS),
-    parameter(POLARITY, "Polarity", DataType::Unsigned8, DefaultValue::Zero),
     setting(
         MAX_PROFILE_VELOCITY,
         "Max profile velocity",
@@ -501,10 +456,6 @@ pub static PROFILE: [Object; PROFILE_LEN] = layout([
         DataType::Unsigned32,
         DefaultValue::Unsigned(u32::MAX as u64),
     ),
-    #[cfg(feature = "pp")]
-    setting(PROFILE_VELOCITY, "Profile velocity", DataType::Unsigned32, DefaultValue::Unsigned(10_000)),
-    #[cfg(feature = "pp")]
-    setting(END_VELOCITY, "End velocity", DataType::Unsigned32, DefaultValue::Zero),
     setting(
         PROFILE_ACCELERATION,
         "Profile acceleration",
@@ -523,90 +474,14 @@ pub static PROFILE: [Object; PROFILE_LEN] = layout([
         DataType::Unsigned32,
         DefaultValue::Unsigned(50_000),
     ),
-    #[cfg(feature = "pp")]
-    parameter(MOTION_PROFILE_TYPE, "Motion profile type", DataType::Integer16, DefaultValue::Zero),
     setting(TORQUE_SLOPE, "Torque slope", DataType::Unsigned32, DefaultValue::Unsigned(10_000)),
     parameter(TORQUE_PROFILE_TYPE, "Torque profile type", DataType::Integer16, DefaultValue::Zero),
-    ratio(
-        POSITION_ENCODER_RESOLUTION,
-        "Position encoder resolution",
-        &ratio_entry("Position encoder resolution"),
-    ),
-    ratio(
-        VELOCITY_ENCODER_RESOLUTION,
-        "Velocity encoder resolution",
-        &ratio_entry("Velocity encoder resolution"),
-    ),
-    ratio(GEAR_RATIO, "Gear ratio", &ratio_entry("Gear ratio")),
-    ratio(FEED_CONSTANT, "Feed constant", &ratio_entry("Feed constant")),
-    #[cfg(feature = "hm")]
-    setting(HOMING_METHOD, "Homing method", DataType::Integer8, DefaultValue::Zero),
-    #[cfg(feature = "hm")]
-    Object::record(HOMING_SPEEDS, "Homing speeds", &HOMING_SPEED_SUBS),
-    #[cfg(feature = "hm")]
-    setting(
-        HOMING_ACCELERATION,
-        "Homing acceleration",
-        DataType::Unsigned32,
-        DefaultValue::Unsigned(100_000),
-    ),
-    #[cfg(feature = "pp")]
-    parameter(PROFILE_JERK_USE, "Profile jerk use", DataType::Unsigned8, DefaultValue::Unsigned(1)),
-    #[cfg(feature = "pp")]
-    Object::array(
-        PROFILE_JERK,
-        "Profile jerk",
-        4,
-        &Var::new("Profile jerk", DataType::Unsigned32)
-            .access(Access::ReadWrite)
-            .default(DefaultValue::Unsigned(1_000_000)),
-    ),
     command(0x60B0, "Position offset", DataType::Integer32),
     command(0x60B1, "Velocity offset", DataType::Integer32),
     torque(TORQUE_OFFSET, "Torque offset", true),
-    #[cfg(feature = "touch-probe")]
-    parameter(TOUCH_PROBE_FUNCTION, "Touch probe function", DataType::Unsigned16, DefaultValue::Zero),
-    #[cfg(feature = "touch-probe")]
-    actual(TOUCH_PROBE_STATUS, "Touch probe status", DataType::Unsigned16),
-    #[cfg(feature = "touch-probe")]
-    actual(TOUCH_PROBE_1_POSITIVE_EDGE, "Touch probe 1 positive edge", DataType::Integer32),
-    #[cfg(feature = "touch-probe")]
-    actual(TOUCH_PROBE_1_NEGATIVE_EDGE, "Touch probe 1 negative edge", DataType::Integer32),
-    #[cfg(feature = "touch-probe")]
-    actual(TOUCH_PROBE_2_POSITIVE_EDGE, "Touch probe 2 positive edge", DataType::Integer32),
-    #[cfg(feature = "touch-probe")]
-    actual(TOUCH_PROBE_2_NEGATIVE_EDGE, "Touch probe 2 negative edge", DataType::Integer32),
-    #[cfg(feature = "ip")]
-    super::ip::SUB_MODE_SELECT_OBJECT,
-    #[cfg(feature = "ip")]
-    super::ip::DATA_RECORD_OBJECT,
     super::ip::TIME_PERIOD_OBJECT,
-    #[cfg(feature = "ip")]
-    super::ip::DATA_CONFIGURATION_OBJECT,
     setting(MAX_ACCELERATION, "Max acceleration", DataType::Unsigned32, DefaultValue::Unsigned(100_000)),
     setting(MAX_DECELERATION, "Max deceleration", DataType::Unsigned32, DefaultValue::Unsigned(100_000)),
-    #[cfg(feature = "touch-probe")]
-    actual(TOUCH_PROBE_1_POSITIVE_EDGE_COUNTER, "Touch probe 1 positive edge counter", DataType::Unsigned16),
-    #[cfg(feature = "touch-probe")]
-    actual(TOUCH_PROBE_1_NEGATIVE_EDGE_COUNTER, "Touch probe 1 negative edge counter", DataType::Unsigned16),
-    #[cfg(feature = "touch-probe")]
-    actual(TOUCH_PROBE_2_POSITIVE_EDGE_COUNTER, "Touch probe 2 positive edge counter", DataType::Unsigned16),
-    #[cfg(feature = "touch-probe")]
-    actual(TOUCH_PROBE_2_NEGATIVE_EDGE_COUNTER, "Touch probe 2 negative edge counter", DataType::Unsigned16),
-    #[cfg(feature = "hm")]
-    Object::array_with_sub0(
-        SUPPORTED_HOMING_METHODS,
-        "Supported homing methods",
-        super::hm::MAX_LISTED_METHODS,
-        Var::new("Highest sub-index supported", DataType::Unsigned8)
-            .access(Access::Const)
-            .default(DefaultValue::Device(DeviceField::HomingMethodCount)),
-        &Var::new("Supported homing method", DataType::Integer8)
-            .access(Access::Const)
-            .default(DefaultValue::Device(DeviceField::HomingMethods)),
-    ),
-    #[cfg(feature = "pp")]
-    parameter(POSITIONING_OPTION_CODE, "Positioning option code", DataType::Unsigned16, DefaultValue::Zero),
     actual(FOLLOWING_ERROR_ACTUAL_VALUE, "Following error actual value", DataType::Integer32),
     parameter(MAX_SLIPPAGE, "Max slippage", DataType::Integer32, DefaultValue::Zero),
     actual(CONTROL_EFFORT, "Control effort", DataType::Integer32),
@@ -630,7 +505,55 @@ pub static PROFILE: [Object; PROFILE_LEN] = layout([
     ),
     text(0x6503, "Drive catalogue number"),
     text(0x6505, "http drive catalogue address"),
-]);
+];
+
+/// How many objects [`PROFILE`] has in this build (104 with every mode, 72 with none of the
+/// optional ones).
+pub const PROFILE_LEN: usize =
+    COMMON.len() + super::factor::OBJECTS.len() + PP.len() + HM.len() + IP.len() + VL.len() + PROBE.len();
+
+// A mode's objects are in the table when the build runs the mode.
+const PP: &[Object] = if super::PP { &super::pp::OBJECTS } else { &[] };
+const HM: &[Object] = if super::HM { &super::hm::OBJECTS } else { &[] };
+const IP: &[Object] = if super::IP { &super::ip::OBJECTS } else { &[] };
+const VL: &[Object] = if super::VL { &super::vl::OBJECTS } else { &[] };
+const PROBE: &[Object] = if super::PROBE { &super::probe::OBJECTS } else { &[] };
+
+/// The profile objects, ascending: the common ones and those of the modes this build runs
+/// (cargo features `pp`, `hm`, `ip`, `vl`, `touch-probe`), each declared by its module.
+pub static PROFILE: [Object; PROFILE_LEN] =
+    layout(merged(&[&COMMON, &super::factor::OBJECTS, PP, HM, IP, VL, PROBE]));
+
+/// The objects of `parts` in one table ascending by index (at compile time). `N` must be
+/// their number, and no index may come twice.
+// Evaluated at compile time only (`PROFILE`): a `while` over the lengths (a const fn has no
+// iterators); an index beyond `N` or a failed assertion fails the build.
+#[allow(clippy::indexing_slicing)]
+const fn merged<const N: usize>(parts: &[&[Object]]) -> [Object; N] {
+    let mut out = [Object::var(0, "", Var::new("", DataType::Unsigned8)); N];
+    let mut n = 0;
+    let mut p = 0;
+    while p < parts.len() {
+        let part = parts[p];
+        let mut k = 0;
+        while k < part.len() {
+            let object = part[k];
+            // Insertion: the objects above it move up one place.
+            let mut at = n;
+            while at > 0 && out[at - 1].index > object.index {
+                out[at] = out[at - 1];
+                at -= 1;
+            }
+            assert!(at == 0 || out[at - 1].index != object.index, "an object declared twice");
+            out[at] = object;
+            n += 1;
+            k += 1;
+        }
+        p += 1;
+    }
+    assert!(n == N, "PROFILE_LEN is not the number of objects");
+    out
+}
 
 /// The value rule of a profile object beyond type and limits (digest §6–§9), decided from the
 /// index once: per SDO write, or once when a PDO mapping is validated (an RPDO's entries without
@@ -724,48 +647,29 @@ impl Rule {
 
 /// The rule of `index`/`sub` (an object of the profile's tables, or the cascade's record);
 /// `pdo`: as an RPDO writes it. `None`: type, access and limits are all there is to check.
+/// The state machine's and the modes' common objects are ruled here; each mode rules its own
+/// objects (`rule` of [`super::pp`], [`super::hm`], [`super::probe`], [`super::vl`],
+/// [`super::factor`], [`super::ip`]).
 pub fn rule(config: &ProfileConfig, index: u16, sub: u8, pdo: bool) -> Option<Rule> {
-    use super::ip::{
-        INTERPOLATION_DATA_CONFIGURATION, INTERPOLATION_DATA_RECORD, INTERPOLATION_SUB_MODE_SELECT,
+    let common = match index {
+        ABORT_CONNECTION_OPTION_CODE => Some(Rule::AbortConnectionOption),
+        QUICK_STOP_OPTION_CODE => Some(Rule::QuickStopOption),
+        SHUTDOWN_OPTION_CODE => Some(Rule::ShutdownOption),
+        DISABLE_OPERATION_OPTION_CODE => Some(Rule::DisableOperationOption),
+        HALT_OPTION_CODE => Some(Rule::HaltOption),
+        FAULT_REACTION_OPTION_CODE => Some(Rule::FaultReactionOption),
+        MODES_OF_OPERATION => Some(Rule::Mode),
+        TORQUE_PROFILE_TYPE => Some(Rule::TorqueProfileType),
+        _ => None,
     };
-    use super::vl::{
-        VL_DIMENSION_FACTOR, VL_SET_POINT_FACTOR, VL_VELOCITY_ACCELERATION, VL_VELOCITY_DECELERATION,
-        VL_VELOCITY_QUICK_STOP,
-    };
-    Some(match index {
-        ABORT_CONNECTION_OPTION_CODE => Rule::AbortConnectionOption,
-        QUICK_STOP_OPTION_CODE => Rule::QuickStopOption,
-        SHUTDOWN_OPTION_CODE => Rule::ShutdownOption,
-        DISABLE_OPERATION_OPTION_CODE => Rule::DisableOperationOption,
-        HALT_OPTION_CODE => Rule::HaltOption,
-        FAULT_REACTION_OPTION_CODE => Rule::FaultReactionOption,
-        MODES_OF_OPERATION => Rule::Mode,
-        MOTION_PROFILE_TYPE => Rule::MotionProfileType,
-        TORQUE_PROFILE_TYPE => Rule::TorqueProfileType,
-        PROFILE_JERK_USE => Rule::JerkUse,
-        HOMING_METHOD => Rule::HomingMethod,
-        TOUCH_PROBE_FUNCTION => Rule::TouchProbe,
-        POSITIONING_OPTION_CODE => Rule::PositioningOption,
-        VL_VELOCITY_ACCELERATION
-        | VL_VELOCITY_DECELERATION
-        | VL_VELOCITY_QUICK_STOP
-        | VL_SET_POINT_FACTOR
-        | VL_DIMENSION_FACTOR
-            if super::VL =>
-        {
-            Rule::Velocity
-        }
-        POSITION_ENCODER_RESOLUTION | VELOCITY_ENCODER_RESOLUTION | GEAR_RATIO | FEED_CONSTANT | POLARITY => {
-            Rule::Factor
-        }
-        INTERPOLATION_DATA_RECORD if sub == 0 => return None,
-        INTERPOLATION_DATA_RECORD if pdo => Rule::InterpolationRecordPdo,
-        INTERPOLATION_DATA_RECORD => Rule::InterpolationRecord,
-        INTERPOLATION_DATA_CONFIGURATION => Rule::InterpolationConfiguration,
-        INTERPOLATION_SUB_MODE_SELECT | INTERPOLATION_TIME_PERIOD => Rule::Interpolation,
-        index if config.cascade == Some(index) => Rule::Cascade,
-        _ => return None,
-    })
+    common
+        .or_else(|| super::pp::rule(index))
+        .or_else(|| super::hm::rule(index))
+        .or_else(|| super::probe::rule(index))
+        .or_else(|| super::vl::rule(index))
+        .or_else(|| super::factor::rule(index))
+        .or_else(|| super::ip::rule(index, sub, pdo))
+        .or_else(|| (config.cascade == Some(index)).then_some(Rule::Cascade))
 }
 
 /// Checks `data` against the rules of the configuration (the option codes it supports, the modes
@@ -797,15 +701,10 @@ pub fn check(
                 || (1..=10).contains(&mode) && supported_modes & IMPLEMENTED_MODES & (1 << (mode - 1)) != 0
                 || config.manufacturer_mode(mode).is_some()
         }
-        // Trapezoidal and jerk-limited profiles (motion::ProfileType).
-        Rule::MotionProfileType => crate::motion::ProfileType::from_raw(value).is_some(),
         Rule::TorqueProfileType => value == 0,
-        Rule::JerkUse => matches!(raw, 1 | 2 | 4),
+        Rule::MotionProfileType | Rule::JerkUse | Rule::PositioningOption => super::pp::check(rule, raw),
         Rule::HomingMethod => config.homing.supports(raw as u8 as i8),
         Rule::TouchProbe => return super::probe::check_write(raw as u16),
-        // Relative option 00/01/10 only; change-immediately and request-response options are not
-        // implemented (testable item 100).
-        Rule::PositioningOption => raw & !0x0003 == 0 && raw & 0x0003 != 0x0003,
         Rule::Velocity => return super::vl::check_write(index, sub, data),
         Rule::Factor => return super::factor::check_write(index, sub, raw),
         Rule::Interpolation

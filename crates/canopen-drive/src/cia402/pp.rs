@@ -37,10 +37,16 @@
 
 use super::config::ProfileConfig;
 use super::factor::Factors;
+use super::objects::Rule;
+use super::objects::{
+    parameter, setting, END_VELOCITY, MOTION_PROFILE_TYPE, POSITIONING_OPTION_CODE, PROFILE_JERK,
+    PROFILE_JERK_USE, PROFILE_VELOCITY,
+};
 use super::slots::Slots;
 use super::words::Controlword;
 use crate::motion::{Jerks, Limits, MotionState, PositionPlanner, ProfileType};
 use crate::od::Dictionary;
+use crate::od::{Access, DataType, DefaultValue, Object, Var};
 use crate::time::{Duration, Instant};
 
 /// Largest set-point buffer.
@@ -434,5 +440,45 @@ impl ProfilePosition {
             internal_limit: executed.is_some_and(|s| s.limited),
             setpoint_acknowledge: self.acknowledged || self.queued() >= self.depth,
         }
+    }
+}
+/// pp's objects (6081h, 6082h, 6086h, 60A3h, 60A4h, 60F2h) with their CiA 402 defaults, in
+/// [`super::objects::PROFILE`] when the build runs pp (cargo feature `pp`).
+pub(crate) const OBJECTS: [Object; 6] = [
+    setting(PROFILE_VELOCITY, "Profile velocity", DataType::Unsigned32, DefaultValue::Unsigned(10_000)),
+    setting(END_VELOCITY, "End velocity", DataType::Unsigned32, DefaultValue::Zero),
+    parameter(MOTION_PROFILE_TYPE, "Motion profile type", DataType::Integer16, DefaultValue::Zero),
+    parameter(PROFILE_JERK_USE, "Profile jerk use", DataType::Unsigned8, DefaultValue::Unsigned(1)),
+    Object::array(
+        PROFILE_JERK,
+        "Profile jerk",
+        4,
+        &Var::new("Profile jerk", DataType::Unsigned32)
+            .access(Access::ReadWrite)
+            .default(DefaultValue::Unsigned(1_000_000)),
+    ),
+    parameter(POSITIONING_OPTION_CODE, "Positioning option code", DataType::Unsigned16, DefaultValue::Zero),
+];
+
+/// The value rule of pp's object `index` ([`super::objects::rule`]).
+pub(crate) fn rule(index: u16) -> Option<Rule> {
+    match index {
+        MOTION_PROFILE_TYPE if super::PP => Some(Rule::MotionProfileType),
+        PROFILE_JERK_USE if super::PP => Some(Rule::JerkUse),
+        POSITIONING_OPTION_CODE if super::PP => Some(Rule::PositioningOption),
+        _ => None,
+    }
+}
+
+/// Whether `raw` is a value pp takes under `rule`: the motion profile types of
+/// [`ProfileType`] (trapezoidal, jerk-limited), jerk use 1, 2 or 4, the relative options
+/// 00/01/10 of 60F2h (change-immediately and request-response options are not implemented,
+/// testable item 100).
+pub(crate) fn check(rule: Rule, raw: u32) -> bool {
+    match rule {
+        Rule::MotionProfileType => ProfileType::from_raw(raw as u16 as i16).is_some(),
+        Rule::JerkUse => matches!(raw, 1 | 2 | 4),
+        Rule::PositioningOption => raw & !0x0003 == 0 && raw & 0x0003 != 0x0003,
+        _ => true,
     }
 }

@@ -56,8 +56,10 @@
 //!   counter, so it reads 0 until the edge is stored and 1 after. While the probe is off they keep
 //!   their last values.
 
+use super::objects::Rule;
+use super::objects::{actual, parameter};
 use crate::hal::DigitalInputs;
-use crate::od::AbortCode;
+use crate::od::{AbortCode, DataType, DefaultValue, Object};
 use bitflags::bitflags;
 
 /// 60B8h touch probe function (UNSIGNED16, rw).
@@ -364,6 +366,27 @@ impl defmt::Format for Changed {
     fn format(&self, f: defmt::Formatter<'_>) {
         defmt::write!(f, "Changed({=u8:#x})", self.bits());
     }
+}
+
+/// The touch probe's objects (60B8h–60BDh, 60D5h–60D8h), in [`super::objects::PROFILE`] when
+/// the build has the touch probe.
+pub(crate) const OBJECTS: [Object; 10] = [
+    parameter(TOUCH_PROBE_FUNCTION, "Touch probe function", DataType::Unsigned16, DefaultValue::Zero),
+    actual(TOUCH_PROBE_STATUS, "Touch probe status", DataType::Unsigned16),
+    actual(TOUCH_PROBE_1_POSITIVE_EDGE, "Touch probe 1 positive edge", DataType::Integer32),
+    actual(TOUCH_PROBE_1_NEGATIVE_EDGE, "Touch probe 1 negative edge", DataType::Integer32),
+    actual(TOUCH_PROBE_2_POSITIVE_EDGE, "Touch probe 2 positive edge", DataType::Integer32),
+    actual(TOUCH_PROBE_2_NEGATIVE_EDGE, "Touch probe 2 negative edge", DataType::Integer32),
+    actual(TOUCH_PROBE_1_POSITIVE_EDGE_COUNTER, "Touch probe 1 positive edge counter", DataType::Unsigned16),
+    actual(TOUCH_PROBE_1_NEGATIVE_EDGE_COUNTER, "Touch probe 1 negative edge counter", DataType::Unsigned16),
+    actual(TOUCH_PROBE_2_POSITIVE_EDGE_COUNTER, "Touch probe 2 positive edge counter", DataType::Unsigned16),
+    actual(TOUCH_PROBE_2_NEGATIVE_EDGE_COUNTER, "Touch probe 2 negative edge counter", DataType::Unsigned16),
+];
+
+/// The value rule of the touch probe's object `index` ([`super::objects::rule`]): 60B8h
+/// ([`check_write`]).
+pub(crate) fn rule(index: u16) -> Option<Rule> {
+    (super::PROBE && index == TOUCH_PROBE_FUNCTION).then_some(Rule::TouchProbe)
 }
 
 #[cfg(test)]

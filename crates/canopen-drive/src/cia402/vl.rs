@@ -104,6 +104,7 @@
 //! bottom of an unsigned range, as for the factor group's ratios).
 
 use super::fsa::StopKind;
+use super::objects::Rule;
 use super::objects::POSITION_ENCODER_RESOLUTION;
 use super::words::Controlword;
 use super::Axis;
@@ -861,6 +862,20 @@ pub struct DriveInputs {
     pub dt: Duration,
     /// The axis whose objects these are.
     pub axis: Axis,
+}
+
+/// The value rule of vl's object `index` ([`super::objects::rule`]): the factors and ramps
+/// ([`check_write`]).
+pub(crate) fn rule(index: u16) -> Option<Rule> {
+    let ruled = matches!(
+        index,
+        VL_VELOCITY_ACCELERATION
+            | VL_VELOCITY_DECELERATION
+            | VL_VELOCITY_QUICK_STOP
+            | VL_SET_POINT_FACTOR
+            | VL_DIMENSION_FACTOR
+    );
+    (super::VL && ruled).then_some(Rule::Velocity)
 }
 
 #[cfg(test)]
