@@ -45,10 +45,8 @@ macro_rules! slots {
         }
 
         impl Slots {
-            /// Slots of `axis`'s entries that look their entry up on every access.
-            pub const fn unresolved(axis: Axis) -> Slots {
-                Slots { $($field: slot_lookup!($t, axis.index($index), $sub),)* }
-            }
+            /// Slots of the first axis's entries that look their entry up on every access.
+            pub const UNRESOLVED: Slots = Slots { $($field: slot_lookup!($t, $index, $sub),)* };
 
             /// Every slot of `axis`'s entries resolved in `od`.
             pub fn resolve<const B: usize>(od: &Dictionary<B>, axis: Axis) -> Slots {
@@ -158,7 +156,7 @@ mod tests {
         let drive = Drive::new(Config::new(5)).unwrap();
         let slots = Slots::resolve(drive.od(), Axis::FIRST);
         assert!(slots.all_stored(), "{slots:?}");
-        let unresolved = Slots::unresolved(Axis::FIRST);
+        let unresolved = Slots::UNRESOLVED;
         assert!(!unresolved.controlword.is_stored());
         assert_eq!(drive.od().load(unresolved.controlword), drive.od().load(slots.controlword));
     }
