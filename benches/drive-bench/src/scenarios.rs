@@ -26,6 +26,7 @@ pub(crate) static ALL: &[Measurement] = &[
     m("tick-pp-s-curve", "tick: pp moving, S-curve (jerk phase)", tick_pp_s_curve),
     m("tick-pv", "tick: pv ramping", tick_pv),
     m("tick-tq", "tick: tq ramping (torque slope)", tick_tq),
+    m("tick-vl", "tick: vl ramping (velocity mode of inverters)", tick_vl),
     m("tick-hm", "tick: hm searching (method 17)", tick_hm),
     m("tick-csp-sync", "tick: csp + cascade, SYNC tick (RPDO applied)", tick_csp_sync),
     m("tick-csp", "tick: csp + cascade, interpolating", tick_csp),
@@ -152,6 +153,19 @@ fn tick_tq() -> Result<Prepared, SetupError> {
         _ => 0,
     };
     check(torque > 0 && torque < 500, "tq ramping")?;
+    Ok(tick_state(rig))
+}
+
+/// vl (6060h = 2) ramping to 6042h = 1 000 with the default ramp 6048h (controlword 007Fh: the
+/// ramp function generator enabled, unlocked, on the reference).
+fn tick_vl() -> Result<Prepared, SetupError> {
+    let mut rig = operational(false)?;
+    rig.enable(2)?;
+    rig.write(0x6042, 0, &1000i16.to_le_bytes())?;
+    rig.controlword(0x007F)?;
+    rig.run(25);
+    let demand = rig.read(0x6043, 0)? as i16;
+    check(demand > 0 && demand < 1000, "vl ramping")?;
     Ok(tick_state(rig))
 }
 

@@ -108,7 +108,7 @@ use super::objects::Rule;
 use super::objects::POSITION_ENCODER_RESOLUTION;
 use super::words::Controlword;
 use super::Axis;
-use crate::od::{AbortCode, Access, DataType, DefaultValue, Dictionary, Object, PdoMapping, Var};
+use crate::od::{AbortCode, Access, DataType, DefaultValue, Dictionary, Object, PdoMapping, Slot, Var};
 use crate::time::Duration;
 
 /// 6060h value of velocity mode.
@@ -526,7 +526,14 @@ fn fine(value: i128) -> i64 {
 fn rescale(value: i128, numerator: i128, denominator: i128) -> i128 {
     let negative = (value < 0) ^ (numerator < 0) ^ (denominator < 0);
     let divisor = denominator.unsigned_abs().max(1);
-    let magnitude = match value.unsigned_abs().checked_mul(numerator.unsigned_abs()) {
+    let (value, numerator) = (value.unsigned_abs(), numerator.unsigned_abs());
+    // Factors within 64 bits (the usual case) multiply without the overflow check of a
+    // 128 × 128-bit product, a library call on a 32-bit MCU.
+    let product = match (u64::try_from(value), u64::try_from(numerator)) {
+        (Ok(value), Ok(numerator)) => Some(u128::from(value) * u128::from(numerator)),
+        _ => value.checked_mul(numerator),
+    };
+    let magnitude = match product {
         Some(product) => {
             let (quotient, remainder) = crate::wide::udivrem(product, divisor);
             if remainder >= divisor - remainder {
@@ -796,6 +803,11 @@ pub struct Vl {
     target_reached: bool,
     /// Statusword bit 11 of the last tick: the reference is clamped.
     limit_active: bool,
+    /// The objects as last read, and the dictionary's revision then: read again only after a
+    /// write (each is a look-up of a few hundred instructions).
+    kept: Option<(u32, Parameters, Resolution)>,
+    /// 6043h and 6044h, resolved at the first step.
+    outputs: Option<(Slot<i16>, Slot<i16>)>,
 }
 
 impl Vl {
@@ -803,7 +815,7 @@ impl Vl {
     pub fn start(config: Config, actual_velocity: i64) -> Self {
         let mut velocity = Velocity::new(config);
         velocity.reset(actual_velocity);
-        Vl { velocity, target_reached: false, limit_active: false }
+        Vl { velocity, target_reached: false, limit_active: false, kept: None, outputs: None }
     }
 
     /// The drive enters Operation enabled: a stop is dropped, the ramp starts again from
@@ -820,9 +832,18 @@ impl Vl {
     /// One tick ([`Velocity::tick`] with the objects of `od`), 6043h and 6044h published: the
     /// velocity demand in increments/s.
     pub fn step<const B: usize>(&mut self, od: &mut Dictionary<B>, drive: DriveInputs) -> i64 {
+        let revision = od.revision();
+        let (parameters, resolution) = match self.kept {
+            Some((kept, parameters, resolution)) if kept == revision => (parameters, resolution),
+            _ => {
+                let read = (Parameters::from_axis(od, drive.axis), Resolution::from_axis(od, drive.axis));
+                self.kept = Some((revision, read.0, read.1));
+                read
+            }
+        };
         let input = Inputs {
-            parameters: Parameters::from_axis(od, drive.axis),
-            resolution: Resolution::from_axis(od, drive.axis),
+            parameters,
+            resolution,
             controlword: drive.controlword,
             halt: drive.halt,
             velocity_limit: drive.velocity_limit,
@@ -830,7 +851,15 @@ impl Vl {
             dt: drive.dt,
         };
         let output = self.velocity.tick(&input);
-        output.publish_to(od, drive.axis);
+        // Through slots, which do not count as writes: the next step keeps the parameters.
+        let (demand, actual) = *self.outputs.get_or_insert_with(|| {
+            (
+                od.slot(drive.axis.index(VL_VELOCITY_DEMAND), 0),
+                od.slot(drive.axis.index(VL_VELOCITY_ACTUAL_VALUE), 0),
+            )
+        });
+        od.store(demand, output.demand_value);
+        od.store(actual, output.actual_value);
         self.target_reached = output.target_reached;
         self.limit_active = output.limit_active;
         output.demand
