@@ -159,36 +159,36 @@
 //!
 //! | call | Cortex-M4F (`thumbv7em-none-eabihf`) | no FPU (`thumbv6m-none-eabi`) |
 //! |---|---:|---:|
-//! | plan, trapezoid, from standstill | 50 395 | 120 721 |
-//! | plan, jerk-limited, from standstill | 131 687 | 319 768 |
-//! | plan, trapezoid, from standstill, too short to cruise | 51 584 | 152 284 |
-//! | plan, jerk-limited, from standstill, too short to cruise | 141 798 | 723 564 |
-//! | plan, trapezoid, re-plan while accelerating | 54 982 | 128 854 |
-//! | plan, jerk-limited, re-plan while accelerating | 181 942 | 445 567 |
-//! | plan, trapezoid, re-plan that takes the fallback | 120 804 | 377 043 |
-//! | plan, jerk-limited, re-plan that takes the fallback | 317 661 | 1 578 085 |
-//! | step, trapezoid | 256 | 1 023 |
-//! | step, jerk-limited | 256 | 1 022 |
+//! | plan, trapezoid, from standstill | 57 562 | 133 079 |
+//! | plan, jerk-limited, from standstill | 116 320 | 305 252 |
+//! | plan, trapezoid, from standstill, too short to cruise | 58 741 | 164 545 |
+//! | plan, jerk-limited, from standstill, too short to cruise | 126 427 | 708 924 |
+//! | plan, trapezoid, re-plan while accelerating | 58 468 | 136 157 |
+//! | plan, jerk-limited, re-plan while accelerating | 134 664 | 391 426 |
+//! | plan, trapezoid, re-plan that takes the fallback | 126 216 | 382 080 |
+//! | plan, jerk-limited, re-plan that takes the fallback | 254 427 | 1 494 522 |
+//! | step, trapezoid | 265 | 1 035 |
+//! | step, jerk-limited | 265 | 1 034 |
 //!
 //! The M4F runs on QEMU's `mps2-an386`, the v6-M code on `mps2-an385` (a Cortex-M3 running the
 //! Cortex-M0 instruction set); counts are instructions, not cycles.
 //!
-//! - On the M4F the planning is about 0.05–0.3 M instructions (0.3–2 ms at 170 MHz); on the
-//!   M0 0.1–0.7 M (typical), 1.6 M in the worst case measured (the fallback), i.e. up to some
-//!   30 ms at 48 MHz. Plan outside a fast tick interrupt (when a set-point arrives, in the
+//! - On the M4F the planning is about 0.05–0.25 M instructions (0.3–1.5 ms at 170 MHz); on
+//!   the M0 0.1–0.7 M (typical), 1.5 M in the worst case measured (the fallback), i.e. up to
+//!   some 30 ms at 48 MHz. Plan outside a fast tick interrupt (when a set-point arrives, in the
 //!   communication context), or let the tick absorb the overrun once per set-point.
 //! - The `f32` shape search is not what dominates on the M0 for moves that reach the velocity
 //!   limit (one or two evaluations, under 10 % of a plan). For shorter moves its 24-step
 //!   bisection is about half of a jerk-limited plan on the M0 (about 0.35 M instructions, some
 //!   15 000 per evaluation of soft-float); acceptable for a plan per set-point, not per tick.
 //!   Otherwise the 128-bit fixed-point fitting dominates: 64-bit multiplication helpers (the
-//!   M0 has no 32×32→64 multiply) and 128-bit divisions (done in 32-bit digits; no divide
-//!   instruction at all on the M0).
+//!   M0 has no 32×32→64 multiply) and 128-bit divisions (done in 32-bit digits, or in 64 bits
+//!   when both operands fit; no divide instruction at all on the M0).
 //! - A step is about 250 instructions on the M4F and 1 000 on the M0; of these, the stepping
 //!   itself is about 125 and 200, the rest converts the state to the whole units of
 //!   [`MotionState`] (three 32×32-bit products each for velocity and acceleration, through a
-//!   helper on the M0). At 16 kHz that is some 3 % of a 170 MHz M4F, and a third of a 48 MHz
-//!   M0.
+//!   helper on the M0), once per step: [`PositionPlanner::state`] returns that value. At 16 kHz
+//!   that is some 3 % of a 170 MHz M4F, and a third of a 48 MHz M0.
 //!
 //! # Example
 //!
