@@ -312,18 +312,19 @@ with a granularity of a few dozen bytes.
 
 The flash goals are not reached. The full drive's static RAM is within its goal since the
 dictionary store is sized to the tables (`drive::STANDARD_OD_BYTES` instead of the 3 KiB
-default, −2 KiB) and pp and homing share one trajectory planner (−1.3 KiB); the 301-only
+default, −2 KiB) and every mode keeps its state in one variant of the active mode: pp's (its
+1.3 KiB trajectory planner), homing's (its own planner), vl's, ip's and the cyclic modes' share
+the same bytes; the 301-only
 node's since issue 17 (an optional instant in 8 bytes, not 16, through a niche of `Instant`;
 PDO and SDO timers in 4 bytes; one TPDO data buffer: 2 296 → 2 048 B). Since issue 21 the
 profile keeps the motion limits it converted, with the values they came from (about 260 B), so
 that a tick divides again only when a master changes one, and the inputs and demand of its
 last idle tick (some 80 B with the dictionary's revision and the TPDOs' wake time), so that an
-idle tick repeats them while nothing changed (the revision and the sample); the state of vl,
-ip and the cyclic modes shares one variant of the active mode (−48 B). Without the optional
-modes (`drive-cyclic`: cargo features `pp`, `hm`, `ip`, `vl`, `touch-probe` off) the drive
-takes a little over half the full image's flash — the exact trajectory planner of pp and hm and
-the code of those modes are the difference — but nearly the same static RAM (pp, hm, pv and
-tq still keep their state in fields of the profile). The budgets in `benches/footprint/budgets.txt` are therefore
+idle tick repeats them while nothing changed (the revision and the sample). Without the
+optional modes (`drive-cyclic`: cargo features `pp`, `hm`, `ip`, `vl`, `touch-probe` off) the
+drive takes a little over half the full image's flash — the exact trajectory planner of pp and
+hm and the code of those modes are the difference — and some 1.4 KiB less static RAM: the
+variants of pp and hm, with their planners, exist only in the builds that run them. The budgets in `benches/footprint/budgets.txt` are therefore
 set at the measured values plus 3 % (`scripts/footprint.py --update`) so that CI catches
 growth; they are not the goals.
 
@@ -333,14 +334,16 @@ arithmetic, comparisons and `Option`/`Result` handling expand to is counted as `
 
 {areas}
 
-Read with the symbols below: `Profile::tick` is one function of about 20 KiB after inlining
-(every mode's conditions, the stops, the factor group, the statusword), the exact fixed-point
+Read with the symbols below: `Profile::tick` is one function of about 27 KiB after inlining
+(the common part, and each mode's step, which it inlines as its only caller: one mode runs at a
+time, but every mode of the build is in the image), the exact fixed-point
 trajectory planner (`motion::solve`, `legs`, `planner`, `fixed`, `shape`) about 20 KiB with
 most of the `core` integer arithmetic above (128-bit divisions go through one out-of-line
 function, `crate::wide`), and the dictionary's descriptions (40 bytes per entry without names,
-56 per object) most of `.rodata`. Reaching 48 KiB takes all three: one mode at a time (issue
-21 item 1: only the active mode's code runs, and a build holds only its modes), a planner of a
-fraction of the size (item 6), and compact descriptors (issue 17 item 2).
+56 per object) most of `.rodata`. Reaching 48 KiB takes all three: a build that holds only its
+modes (issue 21 item 1 made each mode one variant and one step; the cargo features leave a
+mode out), a planner of a fraction of the size (item 6), and compact descriptors (issue 17
+item 2).
 
 The largest symbols of `drive-full` on thumbv7em:
 

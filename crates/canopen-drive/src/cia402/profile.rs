@@ -238,17 +238,22 @@ impl Quiet {
 ///
 /// What outlives a mode stays in [`Profile`]: the velocity and torque demands (the stop ramps
 /// continue them), the homing result, an active EMCY of a mode (stream lost, homing error).
+// A variant's state is the mode's whole state, and the core has no allocator to box it into: pp's
+// and homing's planners make their variants the large ones.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Debug)]
 enum Active {
     /// No mode (6060h = 0), or one this build does not run: the axis holds still.
     Idle,
     /// Profile position mode ([`pp`]).
+    #[cfg(feature = "pp")]
     Pp(ProfilePosition),
     /// Profile velocity mode ([`pv`]).
     Pv(pv::Run),
     /// Profile torque mode ([`tq`]).
     Tq,
     /// Homing mode ([`hm`]): the trajectory of the run.
+    #[cfg(feature = "hm")]
     Hm(PositionPlanner),
     /// Velocity mode ([`vl`]).
     Vl(vl::Vl),
@@ -272,6 +277,7 @@ impl Active {
     /// `velocity` 0).
     fn coast(&mut self, actual: i64, user: i64, velocity: i64) {
         match self {
+            #[cfg(feature = "hm")]
             Active::Hm(planner) if super::HM => planner.reset(actual),
             Active::Ip(run) if super::IP => run.reset(actual),
             Active::Cyclic(run) => run.reset(actual, velocity),
@@ -292,19 +298,26 @@ impl Active {
 
     fn pp_mut(&mut self) -> Option<&mut ProfilePosition> {
         match self {
+            #[cfg(feature = "pp")]
             Active::Pp(pp) if super::PP => Some(pp),
             _ => None,
         }
     }
 
     fn is_hm(&self) -> bool {
-        super::HM && matches!(self, Active::Hm(_))
+        match self {
+            #[cfg(feature = "hm")]
+            Active::Hm(_) => true,
+            _ => false,
+        }
     }
 
     /// The trajectory planner of pp or hm.
     fn planner(&self) -> Option<&PositionPlanner> {
         match self {
+            #[cfg(feature = "pp")]
             Active::Pp(pp) if super::PP => Some(pp.planner()),
+            #[cfg(feature = "hm")]
             Active::Hm(planner) if super::HM => Some(planner),
             _ => None,
         }
@@ -312,7 +325,9 @@ impl Active {
 
     fn planner_mut(&mut self) -> Option<&mut PositionPlanner> {
         match self {
+            #[cfg(feature = "pp")]
             Active::Pp(pp) if super::PP => Some(pp.planner_mut()),
+            #[cfg(feature = "hm")]
             Active::Hm(planner) if super::HM => Some(planner),
             _ => None,
         }
@@ -649,6 +664,7 @@ impl Profile {
     /// The range a pp target may take (user units): the software limits, narrowed to the
     /// present position on the side of an active limit switch
     /// ([`ProfileConfig::limit_switches_stop`]).
+    #[cfg(feature = "pp")]
     fn target_range<const B: usize>(
         &self,
         od: &Dictionary<B>,
@@ -1361,6 +1377,7 @@ impl Profile {
         let output = match setpoint {
             Setpoint::Position(position) => {
                 let velocity = match &self.mode {
+                    #[cfg(feature = "pp")]
                     Active::Pp(pp) if super::PP => pp.state().velocity,
                     _ => 0,
                 };
@@ -1447,9 +1464,11 @@ impl Profile {
         let planner_limits = self.mode.planner().is_some().then(|| self.pp_limits(od, factors).0);
         match (&mut self.mode, planner_limits) {
             (Active::Vl(vl), _) if super::VL => vl.stop(kind),
+            #[cfg(feature = "hm")]
             (Active::Hm(planner), Some(planner_limits)) if super::HM => {
                 self.homing.stop(planner, deceleration, &planner_limits)
             }
+            #[cfg(feature = "pp")]
             (Active::Pp(pp), Some(planner_limits)) if super::PP => pp.stop(deceleration, &planner_limits),
             (mode, _) => match mode.position_limiter_mut() {
                 Some(limiter) => {
@@ -1484,9 +1503,11 @@ impl Profile {
         }
         match &mut self.mode {
             Active::Vl(_) if super::VL => self.run_vl(od, input),
+            #[cfg(feature = "hm")]
             Active::Hm(planner) if super::HM => {
                 Setpoint::Position(self.homing.step_stop(planner).position_demand())
             }
+            #[cfg(feature = "pp")]
             Active::Pp(pp) if super::PP => Setpoint::Position(pp.step_stop().position_demand()),
             _ => {
                 self.velocity.toward(0, limits.stop_deceleration(kind), input.dt);
@@ -1507,6 +1528,7 @@ impl Profile {
             Active::Vl(_) if super::VL => (self.run_vl(od, input), pp::Status::default()),
             Active::Ip(_) if super::IP => self.run_ip(od, input),
             Active::Cyclic(_) => (self.run_cyclic(od, input, report), pp::Status::default()),
+            #[cfg(feature = "pp")]
             Active::Pp(_) if super::PP => self.run_pp(od, input),
             _ => (self.run_mode(od, input), pp::Status::default()),
         }
@@ -1555,6 +1577,7 @@ impl Profile {
             axis: self.axis,
         };
         let (position, outcome) = match &mut self.mode {
+            #[cfg(feature = "hm")]
             Active::Hm(planner) => {
                 self.homing.tick(planner, &inputs, limits.stop_deceleration(input.halt_kind))
             }
@@ -1601,6 +1624,7 @@ impl Profile {
     }
 
     /// One tick of profile position mode ([`pp`]); with its status bits.
+    #[cfg(feature = "pp")]
     fn run_pp<const B: usize>(
         &mut self,
         od: &mut Dictionary<B>,
@@ -1679,9 +1703,11 @@ impl Profile {
     #[inline(never)]
     fn start_mode(&mut self, actual: i64, user: i64, velocity: i64) {
         self.mode = match self.active_mode {
+            #[cfg(feature = "pp")]
             mode::PROFILE_POSITION if super::PP => Active::Pp(ProfilePosition::new(&self.config, actual)),
             mode::PROFILE_VELOCITY => Active::Pv(pv::Run::start()),
             mode::PROFILE_TORQUE => Active::Tq,
+            #[cfg(feature = "hm")]
             mode::HOMING if super::HM => Active::Hm(PositionPlanner::new(self.config.tick_rate, actual)),
             vl::MODE if super::VL => Active::Vl(vl::Vl::start(self.config.vl, velocity)),
             mode::INTERPOLATED_POSITION if super::IP => Active::Ip(super::ip::Run::start(actual)),
@@ -1950,6 +1976,7 @@ impl Profile {
         let switch = self.blocked.0 || self.blocked.1;
         let pp = input.pp;
         let (reached, limited, bit_12, bit_13) = match &mut self.mode {
+            #[cfg(feature = "pp")]
             Active::Pp(_) if super::PP => {
                 (pp.target_reached, pp.internal_limit || switch, pp.setpoint_acknowledge, input.following)
             }
@@ -1977,6 +2004,7 @@ impl Profile {
                 (reached, false, false, false)
             }
             // Homing sets bits 10, 12 and 13 itself.
+            #[cfg(feature = "hm")]
             Active::Hm(_) => (false, false, false, false),
             _ => (halted, false, false, false),
         };
@@ -2075,6 +2103,7 @@ struct ModeInput<'a> {
     /// Controlword bit 4 rose since the last tick (once the brake is open).
     bit4_rose: bool,
     /// Operation enabled, no ramped exit running.
+    #[cfg_attr(not(feature = "pp"), allow(dead_code))]
     operation: bool,
     /// This tick entered Operation enabled.
     entered_operation: bool,
@@ -2082,8 +2111,10 @@ struct ModeInput<'a> {
     enabled: bool,
     /// The encoder count, and 6064h.
     actual: i64,
+    #[cfg_attr(not(feature = "pp"), allow(dead_code))]
     actual_user: i64,
     /// The shaft rests as a halt needs it.
+    #[cfg_attr(not(feature = "pp"), allow(dead_code))]
     standstill: bool,
     /// Probe 1's latch of this tick (increments).
     probe: Option<i64>,
