@@ -38,6 +38,7 @@ pub(crate) fn from_si(value: f32, hz: u32, k: u32) -> i128 {
 }
 
 /// `⌊num / den⌋`; 0 if `den <= 0`.
+#[inline(never)]
 pub(crate) fn div_floor(num: i128, den: i128) -> i128 {
     if den <= 0 {
         return 0;
@@ -51,6 +52,7 @@ pub(crate) fn div_floor(num: i128, den: i128) -> i128 {
 }
 
 /// `⌈num / den⌉`; 0 if `den <= 0`.
+#[inline(never)]
 pub(crate) fn div_ceil(num: i128, den: i128) -> i128 {
     if den <= 0 {
         return 0;
@@ -139,7 +141,7 @@ pub(crate) fn to_whole_si(value: i128, hz: u32, k: u32) -> i64 {
             return whole;
         }
     }
-    let whole = round_to_int(value.saturating_mul(scale));
+    let whole = round_to_int(crate::wide::saturating_mul(value, scale));
     whole.clamp(i128::from(i64::MIN), i128::from(i64::MAX)) as i64
 }
 

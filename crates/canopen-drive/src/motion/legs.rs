@@ -29,6 +29,7 @@ pub(crate) const JERK_ROUNDING: i128 = 6;
 /// A limit less a small margin (2⁻²⁰ of it and 4096 units, never below half of it). Tick
 /// counts are chosen for the margined limits, so the rounding of the final fit (which lies
 /// between two checked fits) stays within the exact ones.
+#[inline(never)]
 pub(crate) fn margin(limit: i128) -> i128 {
     (limit - (limit >> 20) - 4096).max(limit / 2)
 }
@@ -120,7 +121,7 @@ impl Allowance {
             acceleration = start.a.checked_abs().unwrap_or(i128::MAX);
             let ticks = i128::from(ramp_ticks(start, limits).unwrap_or(u32::MAX));
             // The ramp's velocity change is a·n/2 (its two jerks are placed to change less).
-            let reached = start.v.saturating_add((start.a / 2).saturating_mul(ticks));
+            let reached = start.v.saturating_add(crate::wide::saturating_mul(start.a / 2, ticks));
             let reached = reached.checked_abs().unwrap_or(i128::MAX);
             if reached > limits.velocity {
                 allowed = allowed.max(reached.saturating_add(64));
@@ -302,7 +303,7 @@ impl<'s> Builder<'s> {
                 let span = n1.checked_mul(2)?.checked_add(n2.checked_mul(2)?)?.checked_add(n3)?;
                 let a_span = match u32::try_from(span) {
                     Ok(span) => mul_small(a, span)?,
-                    Err(_) => a.checked_mul(span)?,
+                    Err(_) => crate::wide::mul(a, span)?,
                 };
                 let num = aim.checked_sub(v)?.checked_mul(2)?.checked_sub(a_span)?;
                 let den = span.checked_sub(n1)?.checked_mul(6)?;
@@ -351,8 +352,8 @@ fn velocity_range(start: &Exact, end: &Exact, ticks: u32, jerk6: i128) -> Option
             if k > 0 && k < i128::from(ticks) {
                 let v = start
                     .v
-                    .checked_add(k.checked_mul(start.a)?)?
-                    .checked_add(jerk6.checked_mul(3)?.checked_mul(k.checked_mul(k)?)?)?;
+                    .checked_add(crate::wide::mul(k, start.a)?)?
+                    .checked_add(crate::wide::mul(jerk6.checked_mul(3)?, crate::wide::mul(k, k)?)?)?;
                 low = low.min(v);
                 high = high.max(v);
             }
@@ -397,7 +398,7 @@ pub(crate) fn flat_ticks(dv: i128, mode: Mode, limits: &TickLimits) -> Option<[u
         n2 += div_ceil(needed - sum(n1, n2, n3), 2);
     }
     let needed = div_ceil(two_dv, jerk_up);
-    if n1.checked_mul(sum(n1, n2, n3))? < needed {
+    if crate::wide::mul(n1, sum(n1, n2, n3))? < needed {
         n1 = div_ceil(needed, sum(n1, n2, n3));
     }
     n3 = n3.max(div_ceil(div_ceil(two_dv, sum(n1, n2, n3)), jerk_down));

@@ -173,6 +173,33 @@ struct Problem<'a> {
 }
 
 impl Problem<'_> {
+    /// `x` along the peak's direction (`x·sign`, the sign being ±1).
+    fn signed(&self, x: i128) -> i128 {
+        if self.sign < 0 {
+            x.wrapping_neg()
+        } else {
+            x
+        }
+    }
+
+    /// [`Self::signed`], `None` on overflow.
+    fn checked_signed(&self, x: i128) -> Option<i128> {
+        if self.sign < 0 {
+            x.checked_neg()
+        } else {
+            Some(x)
+        }
+    }
+
+    /// [`Self::signed`], saturating.
+    fn saturating_signed(&self, x: i128) -> i128 {
+        if self.sign < 0 {
+            x.saturating_neg()
+        } else {
+            x
+        }
+    }
+
     fn aim(&self, aim: Aim, peak: i128) -> i128 {
         match aim {
             Aim::Zero => 0,
@@ -212,7 +239,7 @@ impl Problem<'_> {
 
     /// The signed displacement of a run along the peak's direction.
     fn along(&self, run: &Run) -> Option<i128> {
-        run.end.p.checked_sub(self.start.p)?.checked_mul(self.sign)
+        self.checked_signed(run.end.p.checked_sub(self.start.p)?)
     }
 
     /// Sizes every leg of `layout` for the signed peaks `peaks` (the window's ends). The first
@@ -299,18 +326,19 @@ impl Problem<'_> {
     /// peak's direction) that land `to_go` from the start; sizes `layout` on the way. `None`
     /// when the rounds run out.
     fn solve(&self, layout: &mut Layout, to_go: i128, high: i128, mut low: i128) -> Option<i128> {
-        let x = to_go.checked_mul(self.sign)?;
+        let x = self.checked_signed(to_go)?;
         let mut previous_miss = i128::MAX;
         for round in 0..WINDOW_ROUNDS {
             layout.cruise = 0;
-            self.size(layout, [low * self.sign, high * self.sign])?;
-            let run_low = self.run(layout, low * self.sign, false, None)?;
-            let run_high = self.run(layout, high * self.sign, false, None)?;
+            self.size(layout, [self.signed(low), self.signed(high)])?;
+            let run_low = self.run(layout, self.signed(low), false, None)?;
+            let run_high = self.run(layout, self.signed(high), false, None)?;
             if !(run_low.conforms && run_high.conforms) {
                 return None;
             }
             let (d_low, d_high) = (self.along(&run_low)?, self.along(&run_high)?);
-            let (c_low, c_high) = (run_low.cruise_velocity * self.sign, run_high.cruise_velocity * self.sign);
+            let (c_low, c_high) =
+                (self.signed(run_low.cruise_velocity), self.signed(run_high.cruise_velocity));
             let cruise = if x > d_high {
                 if c_high <= 0 {
                     return None;
@@ -319,8 +347,8 @@ impl Problem<'_> {
             } else {
                 0
             };
-            let miss_low = d_low.checked_add(cruise.checked_mul(c_low)?)?.checked_sub(x)?;
-            let miss_high = d_high.checked_add(cruise.checked_mul(c_high)?)?.checked_sub(x)?;
+            let miss_low = d_low.checked_add(crate::wide::mul(cruise, c_low)?)?.checked_sub(x)?;
+            let miss_high = d_high.checked_add(crate::wide::mul(cruise, c_high)?)?.checked_sub(x)?;
             if miss_low > CLOSE_ENOUGH {
                 // The window does not reach down to the target: lower its bottom by twice what
                 // an affine model asks (and at least by the window's width), or down to zero,
@@ -375,7 +403,7 @@ impl Problem<'_> {
                 break;
             }
             let Some(miss) = self
-                .run(layout, u * self.sign, false, None)
+                .run(layout, self.signed(u), false, None)
                 .and_then(|run| self.along(&run))
                 .and_then(|d| d.checked_sub(x))
             else {
@@ -415,7 +443,7 @@ impl Problem<'_> {
             position_shape(rest.unsigned_abs() as f32 / ONE_F32, 0.0, 0.0, 0.0, &shape_limits(limits))?;
         let high = from_si(shape.peak, self.limits.hz, 1).clamp(0, margin(self.limits.velocity));
         let peak = self.solve(&mut layout, to_go, high, 0)?;
-        Some((layout, peak * self.sign))
+        Some((layout, self.signed(peak)))
     }
 }
 
@@ -477,7 +505,7 @@ pub(crate) fn plan_move(
         let high = from_si(shape.peak.abs(), hz, 1).clamp(0, margin(tick_limits.velocity));
         let low = initial_low(&problem, &layout, high, &shape, hz);
         if let Some(peak) = problem.solve(&mut layout, to_go, high, low) {
-            if let Some(run) = store(&problem, &layout, peak * sign, segments) {
+            if let Some(run) = store(&problem, &layout, problem.signed(peak), segments) {
                 if run.conforms {
                     return Ok(planned(run, segments, Method::Shape));
                 }
@@ -500,22 +528,20 @@ fn initial_low(
     shape: &super::shape::PositionShape,
     hz: u32,
 ) -> i128 {
-    let sign = problem.sign;
     let peak_index = layout.cruise_at.saturating_sub(1);
     let start = &problem.start;
     // Into the peak from the start: where the present acceleration, ramped to zero, leaves the
     // velocity (it cannot end lower).
-    let entry = if peak_index > 0 {
+    let entry = problem.saturating_signed(if peak_index > 0 {
         0
     } else if problem.limits.jerk_limited && start.a != 0 {
         let ticks = ramp_ticks(start, problem.limits).map_or(0, i128::from);
-        start.v.saturating_add((start.a / 2).saturating_mul(ticks))
+        start.v.saturating_add(crate::wide::saturating_mul(start.a / 2, ticks))
     } else {
         start.v
-    }
-    .saturating_mul(sign);
+    });
     let exit = match layout.legs.get(layout.cruise_at) {
-        Some(Leg::Change(_, Aim::Final)) => problem.last * sign,
+        Some(Leg::Change(_, Aim::Final)) => problem.signed(problem.last),
         _ => 0,
     };
     let changes = shape.changes.as_slice();

@@ -949,10 +949,18 @@ impl<const BYTES: usize> Dictionary<BYTES> {
     #[inline]
     pub fn load_or<T: Scalar>(&self, slot: Slot<T>, missing: T) -> T {
         if slot.offset == NOT_STORED {
-            return self.get::<T>(slot.index, slot.sub).unwrap_or(missing);
+            return self.load_looked_up(slot, missing);
         }
         let start = usize::from(slot.offset);
         self.store.get(start..start + T::SIZE).map_or(missing, T::from_le)
+    }
+
+    /// [`load_or`](Self::load_or) of a slot to look up: out of line, so that the many places
+    /// that load a slot hold only its fast path.
+    #[cold]
+    #[inline(never)]
+    fn load_looked_up<T: Scalar>(&self, slot: Slot<T>, missing: T) -> T {
+        self.get::<T>(slot.index, slot.sub).unwrap_or(missing)
     }
 
     /// Writes the value behind `slot` as [`set`](Self::set) does (a missing, constant or
@@ -961,13 +969,21 @@ impl<const BYTES: usize> Dictionary<BYTES> {
     #[inline]
     pub fn store<T: Scalar>(&mut self, slot: Slot<T>, value: T) {
         if slot.offset == NOT_STORED {
-            let _ = self.set::<T>(slot.index, slot.sub, value);
+            self.store_looked_up(slot, value);
             return;
         }
         let start = usize::from(slot.offset);
         if let Some(bytes) = self.store.get_mut(start..start + T::SIZE) {
             value.to_le(bytes);
         }
+    }
+
+    /// [`store`](Self::store) of a slot to look up, out of line as
+    /// [`load_looked_up`](Self::load_looked_up).
+    #[cold]
+    #[inline(never)]
+    fn store_looked_up<T: Scalar>(&mut self, slot: Slot<T>, value: T) {
+        let _ = self.set::<T>(slot.index, slot.sub, value);
     }
 
     /// Resolves an integer entry for [`load_int`](Self::load_int) /
