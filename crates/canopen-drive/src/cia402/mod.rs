@@ -26,6 +26,7 @@ pub mod factor;
 pub mod fsa;
 pub mod hm;
 pub mod ip;
+mod memo;
 pub mod objects;
 pub mod pp;
 pub mod probe;

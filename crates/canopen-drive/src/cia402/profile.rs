@@ -40,6 +40,7 @@ use super::factor::Factors;
 use super::fsa::{Fsa, Options, State, StopKind};
 use super::hm::{self, HomeOffset, Homing};
 use super::ip::{IpBuffer, Written};
+use super::memo::{Memo, Revised};
 use super::objects::*;
 use super::pp::{self, ProfilePosition};
 use super::probe::{Changed, TouchProbe};
@@ -188,15 +189,15 @@ pub struct Profile {
     /// ([`ProfileConfig::limit_switches_stop`]).
     blocked: (bool, bool),
     /// [`Self::motion_limits`] for the raw values last seen (emptied with the factor group).
-    limits: Memo<(u32, u32, u32, u32, u32, u32), MotionLimits>,
+    limits: Revised<(u32, u32, u32, u32, u32, u32), MotionLimits>,
     /// The motion limits of this tick (from [`Self::motion_limits`], before the mode runs).
     motion: MotionLimits,
     /// The cyclic limiter's per-tick limits, with the maximum deceleration and with a halt's.
     tick_limits: Memo<LimiterInputs, (TickLimits, TickLimits)>,
     /// (Ticks per interpolation period, SYNC jitter tolerated in ticks) for 60C2h and 1007h.
-    timing: Memo<(u8, i8, u32), (u32, u32)>,
+    timing: Revised<(u8, i8, u32), (u32, u32)>,
     /// [`Self::pp_limits`] for the raw values last seen (emptied with the factor group).
-    pp_limits: Memo<pp::LimitObjects, (Limits, u32)>,
+    pp_limits: Revised<pp::LimitObjects, (Limits, u32)>,
     /// The last tick left the axis idle: what it saw and answered ([`Self::quiet_tick`]).
     quiet: Quiet,
 }
@@ -278,7 +279,7 @@ impl Active {
     fn coast(&mut self, actual: i64, user: i64, velocity: i64) {
         match self {
             #[cfg(feature = "hm")]
-            Active::Hm(planner) if super::HM => planner.reset(actual),
+            Active::Hm(planner) => planner.reset(actual),
             Active::Ip(run) if super::IP => run.reset(actual),
             Active::Cyclic(run) => run.reset(actual, velocity),
             _ => self.hold(actual, user),
@@ -299,7 +300,7 @@ impl Active {
     fn pp_mut(&mut self) -> Option<&mut ProfilePosition> {
         match self {
             #[cfg(feature = "pp")]
-            Active::Pp(pp) if super::PP => Some(pp),
+            Active::Pp(pp) => Some(pp),
             _ => None,
         }
     }
@@ -316,9 +317,9 @@ impl Active {
     fn planner(&self) -> Option<&PositionPlanner> {
         match self {
             #[cfg(feature = "pp")]
-            Active::Pp(pp) if super::PP => Some(pp.planner()),
+            Active::Pp(pp) => Some(pp.planner()),
             #[cfg(feature = "hm")]
-            Active::Hm(planner) if super::HM => Some(planner),
+            Active::Hm(planner) => Some(planner),
             _ => None,
         }
     }
@@ -326,9 +327,9 @@ impl Active {
     fn planner_mut(&mut self) -> Option<&mut PositionPlanner> {
         match self {
             #[cfg(feature = "pp")]
-            Active::Pp(pp) if super::PP => Some(pp.planner_mut()),
+            Active::Pp(pp) => Some(pp.planner_mut()),
             #[cfg(feature = "hm")]
-            Active::Hm(planner) if super::HM => Some(planner),
+            Active::Hm(planner) => Some(planner),
             _ => None,
         }
     }
@@ -396,43 +397,6 @@ const PARAMETER_ERROR: u16 = 0x6320;
 
 fn saturate(value: i64) -> i32 {
     value.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32
-}
-
-/// The last result of a function of configuration values (the motion limits, the interpolation
-/// period), kept so that a tick converts and divides again only when one of its inputs has
-/// changed: those conversions are 64-bit divisions, library calls of about a hundred
-/// instructions each on a Cortex-M, and the values change only when a master writes them. While
-/// the dictionary's [`revision`](Dictionary::revision) is the one the key was read at, nothing
-/// was written since, and the value holds without reading the key again.
-#[derive(Clone, Copy, Debug)]
-struct Memo<K, V> {
-    kept: Option<(K, V)>,
-    /// The revision the key was last read at.
-    revision: u32,
-}
-
-impl<K: Copy + PartialEq, V: Copy> Memo<K, V> {
-    const EMPTY: Self = Memo { kept: None, revision: 0 };
-
-    /// The kept value if the dictionary is still at `revision` since its key was read.
-    #[inline]
-    fn kept(&self, revision: u32) -> Option<V> {
-        self.kept.filter(|_| self.revision == revision).map(|(_, value)| value)
-    }
-
-    /// The value for `key`, read at `revision`: the kept one, or `compute`'s, kept from now on.
-    #[inline]
-    fn get(&mut self, key: K, revision: u32, compute: impl FnOnce() -> V) -> V {
-        self.revision = revision;
-        match self.kept {
-            Some((kept, value)) if kept == key => value,
-            _ => {
-                let value = compute();
-                self.kept = Some((key, value));
-                value
-            }
-        }
-    }
 }
 
 /// What the cyclic limiter's per-tick limits come from: velocity, acceleration, deceleration
@@ -544,11 +508,11 @@ impl Profile {
             internal_origin: 0,
             resting_since: None,
             blocked: (false, false),
-            limits: Memo::EMPTY,
+            limits: Revised::EMPTY,
             motion: MotionLimits::ZERO,
             tick_limits: Memo::EMPTY,
-            timing: Memo::EMPTY,
-            pp_limits: Memo::EMPTY,
+            timing: Revised::EMPTY,
+            pp_limits: Revised::EMPTY,
             quiet: Quiet::NONE,
         }
     }
@@ -1058,6 +1022,8 @@ impl Profile {
             self.mode.restart(actual, actual_user, i64::from(sample.velocity));
         }
         let operation = matches!(step.state, State::OperationEnabled { leaving: None });
+        // 605Dh: how a halt stops (`None`: a fault reaction); read once for both uses below.
+        let halt_option = StopKind::halt_or_fault(od.load(self.slots.halt_option));
         let stop = step.stop.or_else(|| {
             // pp halts on its trajectory, tq ramps its torque to 0 (digest §4.1).
             let halting = halt
@@ -1067,13 +1033,7 @@ impl Profile {
             // (hm halts on its own trajectory, like pp.)
             let for_switch = switching && may_switch && operation;
             (halting || for_switch)
-                .then(|| {
-                    if halting {
-                        StopKind::halt_or_fault(od.load(self.slots.halt_option))
-                    } else {
-                        Some(StopKind::SlowDown)
-                    }
-                })
+                .then(|| if halting { halt_option } else { Some(StopKind::SlowDown) })
                 .flatten()
         });
         let limits = self.motion_limits(od, &factors);
@@ -1109,8 +1069,7 @@ impl Profile {
                 || core::mem::take(&mut self.pending_edge)
                     && controlword.contains(Controlword::MODE_SPECIFIC_4)
         };
-        let halt_kind =
-            StopKind::halt_or_fault(od.load(self.slots.halt_option)).unwrap_or(StopKind::SlowDown);
+        let halt_kind = halt_option.unwrap_or(StopKind::SlowDown);
         let input = ModeInput {
             now,
             dt,
@@ -1301,8 +1260,7 @@ impl Profile {
         let limits = input.limits;
         let halt_deceleration = limits.stop_deceleration(input.halt_kind);
         let key = (limits.velocity, limits.acceleration, limits.deceleration, halt_deceleration, hz);
-        // (Its key is derived from values the tick has just read: never kept by revision.)
-        self.tick_limits.get(key, 0, || {
+        self.tick_limits.get(key, || {
             (
                 TickLimits::new(limits.velocity, limits.acceleration, limits.deceleration, hz),
                 TickLimits::new(limits.velocity, limits.acceleration, halt_deceleration, hz),
@@ -1315,8 +1273,8 @@ impl Profile {
     fn refresh<const B: usize>(&mut self, od: &Dictionary<B>) -> Factors {
         let factors = Factors::from_axis(od, self.config.units, self.axis);
         self.factors = Some(factors);
-        self.limits = Memo::EMPTY;
-        self.pp_limits = Memo::EMPTY;
+        self.limits = Revised::EMPTY;
+        self.pp_limits = Revised::EMPTY;
         self.slots = Slots::resolve(od, self.axis);
         if let Some(index) = self.config.cascade {
             let parameters = Parameters::from_dictionary(od, index).unwrap_or(Parameters::DEFAULT);
@@ -1378,7 +1336,7 @@ impl Profile {
             Setpoint::Position(position) => {
                 let velocity = match &self.mode {
                     #[cfg(feature = "pp")]
-                    Active::Pp(pp) if super::PP => pp.state().velocity,
+                    Active::Pp(pp) => pp.state().velocity,
                     _ => 0,
                 };
                 let reference = Reference { position, velocity: saturate(velocity), torque: 0 };
@@ -1465,11 +1423,11 @@ impl Profile {
         match (&mut self.mode, planner_limits) {
             (Active::Vl(vl), _) if super::VL => vl.stop(kind),
             #[cfg(feature = "hm")]
-            (Active::Hm(planner), Some(planner_limits)) if super::HM => {
+            (Active::Hm(planner), Some(planner_limits)) => {
                 self.homing.stop(planner, deceleration, &planner_limits)
             }
             #[cfg(feature = "pp")]
-            (Active::Pp(pp), Some(planner_limits)) if super::PP => pp.stop(deceleration, &planner_limits),
+            (Active::Pp(pp), Some(planner_limits)) => pp.stop(deceleration, &planner_limits),
             (mode, _) => match mode.position_limiter_mut() {
                 Some(limiter) => {
                     let hz = self.config.tick_rate.hz();
@@ -1504,11 +1462,9 @@ impl Profile {
         match &mut self.mode {
             Active::Vl(_) if super::VL => self.run_vl(od, input),
             #[cfg(feature = "hm")]
-            Active::Hm(planner) if super::HM => {
-                Setpoint::Position(self.homing.step_stop(planner).position_demand())
-            }
+            Active::Hm(planner) => Setpoint::Position(self.homing.step_stop(planner).position_demand()),
             #[cfg(feature = "pp")]
-            Active::Pp(pp) if super::PP => Setpoint::Position(pp.step_stop().position_demand()),
+            Active::Pp(pp) => Setpoint::Position(pp.step_stop().position_demand()),
             _ => {
                 self.velocity.toward(0, limits.stop_deceleration(kind), input.dt);
                 Setpoint::Velocity(self.velocity.value as i32)
@@ -1529,7 +1485,7 @@ impl Profile {
             Active::Ip(_) if super::IP => self.run_ip(od, input),
             Active::Cyclic(_) => (self.run_cyclic(od, input, report), pp::Status::default()),
             #[cfg(feature = "pp")]
-            Active::Pp(_) if super::PP => self.run_pp(od, input),
+            Active::Pp(_) => self.run_pp(od, input),
             _ => (self.run_mode(od, input), pp::Status::default()),
         }
     }
@@ -1704,11 +1660,11 @@ impl Profile {
     fn start_mode(&mut self, actual: i64, user: i64, velocity: i64) {
         self.mode = match self.active_mode {
             #[cfg(feature = "pp")]
-            mode::PROFILE_POSITION if super::PP => Active::Pp(ProfilePosition::new(&self.config, actual)),
+            mode::PROFILE_POSITION => Active::Pp(ProfilePosition::new(&self.config, actual)),
             mode::PROFILE_VELOCITY => Active::Pv(pv::Run::start()),
             mode::PROFILE_TORQUE => Active::Tq,
             #[cfg(feature = "hm")]
-            mode::HOMING if super::HM => Active::Hm(PositionPlanner::new(self.config.tick_rate, actual)),
+            mode::HOMING => Active::Hm(PositionPlanner::new(self.config.tick_rate, actual)),
             vl::MODE if super::VL => Active::Vl(vl::Vl::start(self.config.vl, velocity)),
             mode::INTERPOLATED_POSITION if super::IP => Active::Ip(super::ip::Run::start(actual)),
             mode::CYCLIC_POSITION | mode::CYCLIC_VELOCITY | mode::CYCLIC_TORQUE => {
@@ -1977,7 +1933,7 @@ impl Profile {
         let pp = input.pp;
         let (reached, limited, bit_12, bit_13) = match &mut self.mode {
             #[cfg(feature = "pp")]
-            Active::Pp(_) if super::PP => {
+            Active::Pp(_) => {
                 (pp.target_reached, pp.internal_limit || switch, pp.setpoint_acknowledge, input.following)
             }
             Active::Ip(_) if super::IP => {

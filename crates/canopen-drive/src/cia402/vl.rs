@@ -104,6 +104,7 @@
 //! bottom of an unsigned range, as for the factor group's ratios).
 
 use super::fsa::StopKind;
+use super::memo::Memo;
 use super::objects::Rule;
 use super::objects::POSITION_ENCODER_RESOLUTION;
 use super::words::Controlword;
@@ -803,9 +804,9 @@ pub struct Vl {
     target_reached: bool,
     /// Statusword bit 11 of the last tick: the reference is clamped.
     limit_active: bool,
-    /// The objects as last read, and the dictionary's revision then: read again only after a
-    /// write (each is a look-up of a few hundred instructions).
-    kept: Option<(u32, Parameters, Resolution)>,
+    /// The objects as last read, keyed on the dictionary's revision then: read again only after
+    /// a write (each is a look-up of a few hundred instructions).
+    kept: Memo<u32, (Parameters, Resolution)>,
     /// 6043h and 6044h, resolved at the first step.
     outputs: Option<(Slot<i16>, Slot<i16>)>,
 }
@@ -815,7 +816,7 @@ impl Vl {
     pub fn start(config: Config, actual_velocity: i64) -> Self {
         let mut velocity = Velocity::new(config);
         velocity.reset(actual_velocity);
-        Vl { velocity, target_reached: false, limit_active: false, kept: None, outputs: None }
+        Vl { velocity, target_reached: false, limit_active: false, kept: Memo::EMPTY, outputs: None }
     }
 
     /// The drive enters Operation enabled: a stop is dropped, the ramp starts again from
@@ -833,14 +834,9 @@ impl Vl {
     /// velocity demand in increments/s.
     pub fn step<const B: usize>(&mut self, od: &mut Dictionary<B>, drive: DriveInputs) -> i64 {
         let revision = od.revision();
-        let (parameters, resolution) = match self.kept {
-            Some((kept, parameters, resolution)) if kept == revision => (parameters, resolution),
-            _ => {
-                let read = (Parameters::from_axis(od, drive.axis), Resolution::from_axis(od, drive.axis));
-                self.kept = Some((revision, read.0, read.1));
-                read
-            }
-        };
+        let (parameters, resolution) = self
+            .kept
+            .get(revision, || (Parameters::from_axis(od, drive.axis), Resolution::from_axis(od, drive.axis)));
         let input = Inputs {
             parameters,
             resolution,
