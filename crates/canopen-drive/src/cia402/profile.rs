@@ -1032,9 +1032,13 @@ impl Profile {
                 && !matches!(self.active_mode, mode::PROFILE_TORQUE | mode::CYCLIC_TORQUE | vl::MODE);
             // (hm halts on its own trajectory, like pp.)
             let for_switch = switching && may_switch && operation;
-            (halting || for_switch)
-                .then(|| if halting { halt_option } else { Some(StopKind::SlowDown) })
-                .flatten()
+            if halting {
+                halt_option
+            } else if for_switch {
+                Some(StopKind::SlowDown)
+            } else {
+                None
+            }
         });
         let limits = self.motion_limits(od, &factors);
         let vmax = limits.velocity;
