@@ -188,9 +188,24 @@ pub struct Interpolator {
     slope: i64,
     ticks: u32,
     k: u32,
+    /// The segment's progress `(to − from) × 2³² × k / ticks`, truncated toward zero, kept as
+    /// its magnitude's quotient and remainder so that a tick adds instead of dividing.
+    progress: Progress,
     since_sync: u32,
     missed: u32,
     started: bool,
+}
+
+/// The progress of a segment, `|to − from| × 2³² × k = quotient × ticks + remainder`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+struct Progress {
+    /// `|to − from| × 2³² = per_tick × ticks + per_tick_remainder`.
+    per_tick: u128,
+    per_tick_remainder: u32,
+    quotient: u128,
+    remainder: u32,
+    /// `to < from`: the progress counts down.
+    negative: bool,
 }
 
 /// What happened to the stream in a tick.
@@ -219,18 +234,11 @@ impl Interpolator {
     }
 
     /// The interpolated value now with 32 fractional bits (for the position limiter, so a slow
-    /// stream is not quantised into steps).
+    /// stream is not quantised into steps): `from + (to − from) × k / ticks`, the fraction
+    /// truncated toward zero.
     pub fn value_fixed(&self) -> i128 {
-        let span = (i128::from(self.to) - i128::from(self.from)) * ONE;
-        let scaled = span * i128::from(self.k);
-        let ticks = self.ticks.max(1);
-        // A segment's span × k fits 64 bits unless the stream jumps by ~2³¹ / k increments:
-        // then the (library) 128-bit division; both truncate toward zero.
-        let part = match i64::try_from(scaled) {
-            Ok(scaled) => i128::from(scaled / i64::from(ticks)),
-            Err(_) => crate::wide::sdiv(scaled, i128::from(ticks)),
-        };
-        i128::from(self.from) * ONE + part
+        let part = self.progress.quotient as i128;
+        i128::from(self.from) * ONE + if self.progress.negative { -part } else { part }
     }
 
     /// The change per tick of the present segment (a velocity in units per tick).
@@ -249,6 +257,33 @@ impl Interpolator {
         self.to = to;
         self.ticks = ticks.max(1);
         self.k = 0;
+        // The one division of a segment: the progress of one tick.
+        let span = (i128::from(to) - i128::from(here)) * ONE;
+        let (per_tick, per_tick_remainder) =
+            crate::wide::udivrem(span.unsigned_abs(), u128::from(self.ticks));
+        self.progress = Progress {
+            per_tick,
+            // < ticks ≤ u32::MAX.
+            per_tick_remainder: per_tick_remainder as u32,
+            quotient: 0,
+            remainder: 0,
+            negative: span < 0,
+        };
+    }
+
+    /// `k` moves on by one tick.
+    fn advance(&mut self) {
+        self.k += 1;
+        let progress = &mut self.progress;
+        progress.quotient += progress.per_tick;
+        // Both below `ticks`, so the sum fits 64 bits and exceeds `ticks` at most once.
+        let remainder = u64::from(progress.remainder) + u64::from(progress.per_tick_remainder);
+        if remainder >= u64::from(self.ticks) {
+            progress.quotient += 1;
+            progress.remainder = (remainder - u64::from(self.ticks)) as u32;
+        } else {
+            progress.remainder = remainder as u32;
+        }
     }
 
     /// One tick: `target` is the stream's value now (read after the SYNC's RPDO was applied).
@@ -281,7 +316,7 @@ impl Interpolator {
             state.new_segment = true;
         }
         if self.k < self.ticks {
-            self.k += 1;
+            self.advance();
         }
         state.missed = self.missed;
         state
@@ -436,7 +471,11 @@ mod tests {
         {
             for ticks in [1u32, 3, 4, 16] {
                 for k in 0..=ticks {
-                    let i = Interpolator { from, to, ticks, k, ..Interpolator::default() };
+                    let mut i = Interpolator { from, ..Interpolator::default() };
+                    i.segment(to, ticks);
+                    for _ in 0..k {
+                        i.advance();
+                    }
                     let span = (i128::from(to) - i128::from(from)) * ONE;
                     let reference = i128::from(from) * ONE + span * i128::from(k) / i128::from(ticks);
                     assert_eq!(i.value_fixed(), reference, "{from} -> {to}, {k}/{ticks}");
