@@ -379,7 +379,26 @@ impl Limiter {
 
     /// The demand velocity in increments/s at `hz`.
     pub fn velocity(&self, hz: u32) -> i64 {
-        let v = self.velocity * i128::from(hz) / ONE;
+        let Ok(velocity) = i64::try_from(self.velocity) else {
+            return Self::velocity_wide(self.velocity, hz);
+        };
+        // |velocity| × hz / 2³², truncated toward zero as the 128-bit form, in 64-bit products
+        // (every tick of csp asks): with |velocity| = high × 2³² + low, it is high × hz plus the
+        // whole part of low × hz / 2³², and high < 2³¹.
+        let magnitude = velocity.unsigned_abs();
+        let (high, low) = (magnitude >> 32, magnitude & 0xffff_ffff);
+        let hz = u64::from(hz);
+        let whole = (high * hz).saturating_add((low * hz) >> 32).min(i64::MAX as u64) as i64;
+        if velocity < 0 {
+            -whole
+        } else {
+            whole
+        }
+    }
+
+    /// [`Self::velocity`] of any fixed-point velocity.
+    fn velocity_wide(velocity: i128, hz: u32) -> i64 {
+        let v = velocity * i128::from(hz) / ONE;
         v.clamp(i128::from(i64::MIN), i128::from(i64::MAX)) as i64
     }
 
@@ -479,6 +498,26 @@ mod tests {
                     let span = (i128::from(to) - i128::from(from)) * ONE;
                     let reference = i128::from(from) * ONE + span * i128::from(k) / i128::from(ticks);
                     assert_eq!(i.value_fixed(), reference, "{from} -> {to}, {k}/{ticks}");
+                }
+            }
+        }
+    }
+
+    /// The 64-bit velocity in whole units answers as the 128-bit form.
+    #[test]
+    fn velocity_in_whole_units_agrees_with_128_bits() {
+        let mut x: u64 = 0x9E37_79B9_7F4A_7C15;
+        let mut limiter = Limiter::default();
+        for round in 0..20_000 {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            let velocity = (x as i64 >> (x % 63)) as i128;
+            let velocity = if round % 3 == 0 { -velocity } else { velocity };
+            for velocity in [velocity, i128::from(i64::MIN), i128::from(i64::MAX), 1 << 70, -(1 << 70)] {
+                limiter.velocity = velocity;
+                for hz in [1u32, 1000, 16_000, 65_535, u32::MAX] {
+                    assert_eq!(limiter.velocity(hz), Limiter::velocity_wide(velocity, hz), "{velocity} {hz}");
                 }
             }
         }

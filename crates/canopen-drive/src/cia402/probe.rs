@@ -257,6 +257,22 @@ impl TouchProbe {
         TouchProbe { one: PROBE_OFF, two: PROBE_OFF, function: 0, inputs: None, status: 0 }
     }
 
+    /// The tick of an axis whose probes were off in the last tick and are off in this one
+    /// (`function`, 60B8h) with 60B9h at 0: the inputs are remembered for the edges of a later
+    /// enable, and nothing else changes. True if so; otherwise nothing was done, and
+    /// [`Self::tick`] is due. (The drive's tick then skips the probe's outputs: the cost of an
+    /// unused touch probe is this test.)
+    #[inline]
+    pub fn rest(&mut self, function: u16, inputs: DigitalInputs) -> bool {
+        let both = u16::from_le_bytes([ENABLE, ENABLE]);
+        let resting = (function | self.function) & both == 0 && self.status == 0;
+        if resting {
+            self.function = function & !RESERVED_FUNCTION_BITS;
+            self.inputs = Some(inputs);
+        }
+        resting
+    }
+
     /// One control tick: `function` is 60B8h, `inputs` the digital inputs of the sample
     /// ([`DigitalInputs::TOUCH_PROBE_1`], [`DigitalInputs::TOUCH_PROBE_2`],
     /// [`DigitalInputs::INDEX`] are read), `position` the actual position in increments and

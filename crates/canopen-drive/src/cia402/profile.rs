@@ -1367,12 +1367,12 @@ impl Profile {
         factors: &Factors,
         position_sign: i64,
     ) -> (Option<i64>, bool) {
-        let probe = self.probe.tick(
-            od.load(self.slots.touch_probe_function),
-            sample.inputs,
-            sample.position,
-            &sample.captures,
-        );
+        let function = od.load(self.slots.touch_probe_function);
+        if self.probe.rest(function, sample.inputs) {
+            // 60B9h holds the 0 of the tick that switched the probes off.
+            return (None, false);
+        }
+        let probe = self.probe.tick(function, sample.inputs, sample.position, &sample.captures);
         od.store(self.slots.touch_probe_status, probe.status);
         if probe.changed.is_empty() {
             return (None, false);
