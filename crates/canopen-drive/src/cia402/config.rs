@@ -232,9 +232,11 @@ pub struct ProfileConfig {
     /// modes follow the master's stream as before (the master sees the switch in 60FDh).
     /// Default false: CiA 402 leaves the reaction to a limit switch to the manufacturer.
     pub limit_switches_stop: bool,
-    /// Under halt, statusword bit 10 waits until the shaft rests (|606Ch| ≤ 606Fh) as well as
-    /// the demand: "decelerated to zero velocity" read as the axis's velocity. Default false:
-    /// bit 10 follows the velocity demand reaching 0.
+    /// Under halt, statusword bit 10 waits until the shaft rests as well as the demand:
+    /// "decelerated to zero velocity" read as the axis's velocity. The shaft rests once
+    /// |606Ch| ≤ 606Fh has held for longer than the velocity threshold time 6070h (with 6070h
+    /// = 0: on two ticks in a row, so that a shaft passing through 0 does not count). Default
+    /// false: bit 10 follows the velocity demand reaching 0.
     pub halt_reached_at_standstill: bool,
 }
 

@@ -879,7 +879,9 @@ impl Profile {
         od.store(self.slots.position_actual, saturate(actual_user));
         let velocity_user = factors.velocity_to_user(i64::from(sample.velocity)) * velocity_sign;
         od.store(self.slots.velocity_actual, saturate(velocity_user));
-        // The shaft rests: |606Ch| within the velocity threshold 606Fh.
+        // The shaft rests: |606Ch| within the velocity threshold 606Fh; with the configuration's
+        // option, for longer than the velocity threshold time 6070h, so that a shaft that only
+        // passes through 0 (a reversal of its settling) is not taken as resting.
         // Read only where asked for: homing's completion, halt with the configuration's option.
         let homing = self.active_mode == mode::HOMING;
         let standstill = if homing || self.config.halt_reached_at_standstill {
@@ -889,7 +891,9 @@ impl Profile {
             } else if self.resting_since.is_none() {
                 self.resting_since = Some(now);
             }
-            resting || !self.config.halt_reached_at_standstill
+            let time = || Duration::from_millis(u64::from(od.load(self.slots.velocity_threshold_time)));
+            !self.config.halt_reached_at_standstill
+                || self.resting_since.is_some_and(|since| now - since > time())
         } else {
             self.resting_since = None;
             true
@@ -2118,6 +2122,57 @@ mod tests {
         assert_eq!(ticks, 3004);
         r.toward(-5, 2_000_000, Duration::from_millis(1));
         assert_eq!(r.value, -5);
+    }
+}
+
+/// Halt's statusword bit 10 with `ProfileConfig::halt_reached_at_standstill`.
+#[cfg(all(test, feature = "pp"))]
+mod standstill_tests {
+    use super::*;
+    use crate::od::DeviceInfo;
+
+    fn tick(profile: &mut Profile, od: &mut Dictionary<4096>, ms: u64, velocity: i32) -> u16 {
+        let sample = Sample { dc_link_millivolts: 48_000, velocity, ..Sample::default() };
+        profile.tick(Instant::from_millis(ms), &sample, od, SyncInput::default());
+        od.get::<u16>(STATUSWORD, 0).unwrap_or(0)
+    }
+
+    /// A shaft that passes through 0 (606Ch 0 on one tick of its settling) does not rest: bit
+    /// 10 comes once 606Ch ≤ 606Fh has held for longer than 6070h.
+    #[test]
+    fn a_shaft_passing_through_zero_does_not_rest() {
+        for threshold_time in [0u16, 3] {
+            let mut od = Dictionary::<4096>::new(&[&PROFILE], DeviceInfo::servo_drive(), 1).unwrap();
+            let config = ProfileConfig { halt_reached_at_standstill: true, ..ProfileConfig::default() };
+            let mut profile = Profile::new(config);
+            profile.configure(&od);
+            od.set::<i8>(MODES_OF_OPERATION, 0, 1).unwrap();
+            od.set::<u16>(VELOCITY_THRESHOLD_TIME, 0, threshold_time).unwrap();
+            tick(&mut profile, &mut od, 0, 0);
+            for (ms, controlword) in [(1, 0x06), (2, 0x07), (3, 0x0F)] {
+                od.set::<u16>(CONTROLWORD, 0, controlword).unwrap();
+                tick(&mut profile, &mut od, ms, 0);
+            }
+            // Halt, the demand at rest; the shaft still settles.
+            od.set::<u16>(CONTROLWORD, 0, 0x010F).unwrap();
+            let mut ms = 4;
+            for velocity in [40, 0, -25, 0, -3] {
+                let statusword = tick(&mut profile, &mut od, ms, velocity);
+                assert_eq!(statusword & 0x0400, 0, "606Ch {velocity} at {ms} ms: not resting");
+                ms += 1;
+            }
+            // At rest from `ms` on: bit 10 once the rest has lasted longer than 6070h.
+            let rest = ms;
+            loop {
+                let statusword = tick(&mut profile, &mut od, ms, 0);
+                let rested = ms - rest > u64::from(threshold_time);
+                assert_eq!(statusword & 0x0400 != 0, rested, "{ms} ms, 6070h = {threshold_time}");
+                if rested {
+                    break;
+                }
+                ms += 1;
+            }
+        }
     }
 }
 
