@@ -159,16 +159,16 @@
 //!
 //! | call | Cortex-M4F (`thumbv7em-none-eabihf`) | no FPU (`thumbv6m-none-eabi`) |
 //! |---|---:|---:|
-//! | plan, trapezoid, from standstill | 57 562 | 133 079 |
-//! | plan, jerk-limited, from standstill | 116 320 | 305 252 |
-//! | plan, trapezoid, from standstill, too short to cruise | 58 741 | 164 545 |
-//! | plan, jerk-limited, from standstill, too short to cruise | 126 427 | 708 924 |
-//! | plan, trapezoid, re-plan while accelerating | 58 468 | 136 157 |
-//! | plan, jerk-limited, re-plan while accelerating | 134 664 | 391 426 |
-//! | plan, trapezoid, re-plan that takes the fallback | 126 216 | 382 080 |
-//! | plan, jerk-limited, re-plan that takes the fallback | 254 427 | 1 494 522 |
-//! | step, trapezoid | 265 | 1 035 |
-//! | step, jerk-limited | 265 | 1 034 |
+//! | plan, trapezoid, from standstill | 57 538 | 127 043 |
+//! | plan, jerk-limited, from standstill | 117 003 | 301 450 |
+//! | plan, trapezoid, from standstill, too short to cruise | 58 687 | 158 454 |
+//! | plan, jerk-limited, from standstill, too short to cruise | 127 030 | 704 979 |
+//! | plan, trapezoid, re-plan while accelerating | 58 512 | 130 217 |
+//! | plan, jerk-limited, re-plan while accelerating | 136 346 | 391 185 |
+//! | plan, trapezoid, re-plan that takes the fallback | 127 486 | 369 152 |
+//! | plan, jerk-limited, re-plan that takes the fallback | 258 566 | 1 495 148 |
+//! | step, trapezoid | 267 | 1 033 |
+//! | step, jerk-limited | 267 | 1 032 |
 //!
 //! The M4F runs on QEMU's `mps2-an386`, the v6-M code on `mps2-an385` (a Cortex-M3 running the
 //! Cortex-M0 instruction set); counts are instructions, not cycles.
