@@ -338,12 +338,14 @@ Read with the symbols below: `Profile::tick` is one function of about 27 KiB aft
 (the common part, and each mode's step, which it inlines as its only caller: one mode runs at a
 time, but every mode of the build is in the image), the exact fixed-point
 trajectory planner (`motion::solve`, `legs`, `planner`, `fixed`, `shape`) about 20 KiB with
-most of the `core` integer arithmetic above (128-bit divisions go through one out-of-line
-function, `crate::wide`), and the dictionary's descriptions (40 bytes per entry without names,
-56 per object) most of `.rodata`. Reaching 48 KiB takes all three: a build that holds only its
-modes (issue 21 item 1 made each mode one variant and one step; the cargo features leave a
-mode out), a planner of a fraction of the size (item 6), and compact descriptors (issue 17
-item 2).
+most of the `core` integer arithmetic above (128-bit divisions and checked products go through
+out-of-line functions, `crate::wide`), and the dictionary's descriptions (40 bytes per entry
+without names, 56 per object) most of `.rodata`. The goal of 48 KiB is beyond what the open
+items can give: the planner's functions with the arithmetic inlined in them are some 28 KiB,
+so even a drive without any planner would be about 100 KiB, and descriptors of 16 bytes
+(issue 17 item 2) would save some 6 KiB of `.rodata`. The rest is spread over parts of a size
+each: the CiA 301 services, the dictionary, the modes, the profile's run-time and the `core`
+code they inline (Option/Result handling, comparisons, copies).
 
 The largest symbols of `drive-full` on thumbv7em:
 
