@@ -284,14 +284,11 @@ impl TouchProbe {
         position: i32,
         capture: &Capture,
     ) -> ProbeOutputs {
-        let function = function & !RESERVED_FUNCTION_BITS;
-        let enabled = |function: u16| function & u16::from_le_bytes([ENABLE, ENABLE]) != 0;
-        if !enabled(function) && !enabled(self.function) {
+        if self.rest(function, inputs) {
             // Both probes off in this tick and the last: nothing to latch, 60B9h stays 0.
-            self.function = function;
-            self.inputs = Some(inputs);
             return self.outputs();
         }
+        let function = function & !RESERVED_FUNCTION_BITS;
         let counts_before = self.counts();
         let previous = self.inputs.unwrap_or(inputs);
         let index = inputs.contains(DigitalInputs::INDEX);
