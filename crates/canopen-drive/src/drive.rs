@@ -34,7 +34,7 @@ use heapless::Deque;
 
 use crate::cia402::cyclic::CycleStart;
 use crate::cia402::fsa::State;
-use crate::cia402::objects::Rule;
+use crate::cia402::objects::{Axis, Rule, PROFILE_AREA};
 use crate::cia402::objects::{IMPLEMENTED_MODES, STANDARD_MODES};
 use crate::cia402::profile::Profile;
 use crate::cia402::ProfileConfig;
@@ -90,6 +90,11 @@ pub const STANDARD_OD_BYTES: usize = crate::od::storage_bytes(&[
     &pdo::DEFAULT_OBJECTS,
     &crate::cia402::objects::PROFILE,
 ]);
+
+/// The value store one more axis takes (its profile objects, [`Dictionary::attach_copies`]): a
+/// node of `n` axes sizes its dictionary `STANDARD_OD_BYTES + (n − 1) × AXIS_OD_BYTES` (plus its
+/// own objects, and the larger PDO tables of 4 + 4 PDOs per axis).
+pub const AXIS_OD_BYTES: usize = crate::od::storage_bytes(&[&crate::cia402::objects::AXIS_PROFILE]);
 
 pub use crate::comm::ConnectionEvent;
 
@@ -229,13 +234,16 @@ impl CommSlots {
 /// A CANopen CiA 402 drive: dictionary, NMT slave, SDO server, PDOs, SYNC, EMCY, error control.
 ///
 /// `H` are the firmware's object hooks; `OD_BYTES` the size of the value store; `RPDOS` and
-/// `TPDOS` the PDO capacity (the PDO table in [`Config::pdo_objects`] must match it).
+/// `TPDOS` the PDO capacity (the PDO table in [`Config::pdo_objects`] must match it); `S` the
+/// parameter storage; `AXES` the CiA 402 logical devices of the node (1–8, see
+/// [`Drive::tick_axes`]).
 pub struct Drive<
     H: ObjectHooks = (),
     const OD_BYTES: usize = DEFAULT_OD_BYTES,
     const RPDOS: usize = 4,
     const TPDOS: usize = 4,
     S: Persistence = (),
+    const AXES: usize = 1,
 > {
     od: Dictionary<OD_BYTES>,
     /// The communication entries every frame or poll reads, resolved once.
@@ -263,7 +271,8 @@ pub struct Drive<
     pdos: PdoSet<RPDOS, TPDOS>,
     lss: LssSlave,
     lss_requests: LssRequests,
-    profile: Profile,
+    /// The drive profile of each axis: axis n runs the objects at 6000h + n × 800h.
+    axes: [Profile; AXES],
     /// The meaning of 1029h's values ([`Config::error_behaviour_values`]).
     error_behaviour: &'static [(u8, ErrorBehaviour)],
     /// [`Config::store_groups`].
@@ -287,12 +296,13 @@ fn stores(storage: &impl Persistence, groups: &[Group], group: Group) -> bool {
 /// objects, the PDO records, the profile area and the cascade's record), else the object's own
 /// tag ([`Object::owner`]: a firmware's object a service of the crate rules). Each service checks
 /// and reacts to its own objects; this is where they are registered.
-fn owner(object: &Object, profile: &Profile) -> Owner {
+fn owner<const AXES: usize>(index: u16, object: &Object, axes: &[Profile; AXES]) -> Owner {
     use crate::comm::error_control::{
         guarding_owns, CONSUMER_OBJECT, ERROR_BEHAVIOUR_OBJECT, PRODUCER_OBJECT,
     };
-    let index = object.index;
-    if crate::cia402::objects::PROFILE_AREA.contains(&index) || profile.config().cascade == Some(index) {
+    let profile_area =
+        index.checked_sub(*PROFILE_AREA.start()).is_some_and(|d| usize::from(d / Axis::STRIDE) < AXES);
+    if profile_area || axes.first().is_some_and(|p| p.config().cascade == Some(index)) {
         return Owner::Profile;
     }
     match index {
@@ -335,16 +345,36 @@ impl ReceiveFilter {
     }
 }
 
-/// The drive profile's value rules for process data ([`ValueRules`]): an RPDO entry's rule is
-/// the profile's [`Rule`] of the object, decided when the mapping is validated.
-struct ProcessDataRules<'a>(&'a Profile);
+/// The axis whose object `index` is (axis n: 6000h + n × 800h …); the first axis for an
+/// object outside the profile areas (the cascade's record, which every axis shares).
+#[inline(always)]
+fn axis_number<const AXES: usize>(index: u16) -> usize {
+    if AXES == 1 {
+        return 0;
+    }
+    match index.checked_sub(*PROFILE_AREA.start()).map(|d| usize::from(d / Axis::STRIDE)) {
+        Some(n) if n < AXES => n,
+        _ => 0,
+    }
+}
 
-impl<const B: usize> ValueRules<B> for ProcessDataRules<'_> {
+/// The profile of [`axis_number`]'s axis.
+#[inline(always)]
+fn axis_of<const AXES: usize>(axes: &[Profile; AXES], index: u16) -> Option<&Profile> {
+    axes.get(axis_number::<AXES>(index))
+}
+
+/// The drive profile's value rules for process data ([`ValueRules`]): an RPDO entry's rule is
+/// its axis's profile's [`Rule`] of the object, decided when the mapping is validated.
+struct ProcessDataRules<'a, const AXES: usize>(&'a [Profile; AXES]);
+
+impl<const B: usize, const AXES: usize> ValueRules<B> for ProcessDataRules<'_, AXES> {
     fn rule(&self, entry: &Entry) -> u8 {
-        if owner(entry.object, self.0) != Owner::Profile {
+        let index = entry.index();
+        if owner(index, entry.object, self.0) != Owner::Profile {
             return 0;
         }
-        match self.0.rule(entry.index(), entry.sub, true) {
+        match axis_of(self.0, index).and_then(|p| p.rule(index, entry.sub, true)) {
             Some(rule) if rule.reacts() => rule as u8 | <Self as ValueRules<B>>::REACTS,
             Some(rule) => rule as u8,
             None => 0,
@@ -352,9 +382,9 @@ impl<const B: usize> ValueRules<B> for ProcessDataRules<'_> {
     }
 
     fn check(&self, od: &Dictionary<B>, rule: u8, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
-        match Rule::from_raw(rule & !<Self as ValueRules<B>>::REACTS) {
-            Some(rule) => self.0.check(rule, od, index, sub, data),
-            None => Ok(()),
+        match (Rule::from_raw(rule & !<Self as ValueRules<B>>::REACTS), axis_of(self.0, index)) {
+            (Some(rule), Some(profile)) => profile.check(rule, od, index, sub, data),
+            _ => Ok(()),
         }
     }
 }
@@ -485,7 +515,29 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
 impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usize, S: Persistence>
     Drive<H, OD_BYTES, RPDOS, TPDOS, S>
 {
-    /// The general constructor: any value store size, PDO capacity and storage.
+    /// The control-loop tick: applies the RPDOs latched at the last SYNC, runs the drive profile
+    /// (state machine, mode, stops, statusword, actual values) and stages event-driven TPDOs
+    /// whose values changed. Returns what the power stage must do until the next tick. (A node
+    /// of several axes ticks them together: [`Drive::tick_axes`].)
+    #[inline]
+    pub fn tick(&mut self, now: Instant, sample: &Sample) -> Demand {
+        let [demand] = self.tick_axes(now, core::array::from_ref(sample));
+        demand
+    }
+}
+
+impl<
+        H: ObjectHooks,
+        const OD_BYTES: usize,
+        const RPDOS: usize,
+        const TPDOS: usize,
+        S: Persistence,
+        const AXES: usize,
+    > Drive<H, OD_BYTES, RPDOS, TPDOS, S, AXES>
+{
+    /// The general constructor: any value store size, PDO capacity, storage and number of axes
+    /// (1–8; e.g. `Drive::<H, 6144, 8, 8, (), 2>::build(config, hooks, ())` for two axes with
+    /// PDOs 1–4 for the first and 5–8 for the second, [`crate::od::standard::pdo_preset`]).
     pub fn build(config: Config, hooks: H, storage: S) -> Result<Self, ConfigError> {
         Self::check(&config)?;
         let mut drive = Self::unconfigured(&config, hooks, storage);
@@ -511,6 +563,9 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
 
     /// The checks of the configuration that need no dictionary.
     fn check(config: &Config) -> Result<(), ConfigError> {
+        if AXES == 0 || AXES > usize::from(Axis::MAX) {
+            return Err(ConfigError::BadCopies { index: *PROFILE_AREA.start() });
+        }
         if !(1..=127).contains(&config.node_id) && config.node_id != NODE_ID_UNCONFIGURED {
             return Err(ConfigError::InvalidNodeId);
         }
@@ -556,7 +611,9 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
                 config.node_id,
             ),
             lss_requests: LssRequests::new(config),
-            profile: Profile::new(config.profile),
+            axes: core::array::from_fn(|n| {
+                Profile::for_axis(config.profile, Axis::new(n as u8).unwrap_or(Axis::FIRST))
+            }),
             error_behaviour: config.error_behaviour_values,
             store_groups: config.store_groups,
             emcy_bytes: config.emcy_additional_bytes,
@@ -581,19 +638,26 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
 
     /// Gives the dictionary its tables and the firmware's overrides, then the power-on values.
     fn configure(&mut self, config: &Config) -> Result<(), ConfigError> {
+        // One description of an axis's objects, attached once per axis (a single-axis drive's
+        // has no 67FFh and links only `PROFILE`).
+        let profile: &'static [Object] =
+            if AXES > 1 { &crate::cia402::objects::AXIS_PROFILE } else { &crate::cia402::objects::PROFILE };
         let tables: [&'static [Object]; 5] = [
             &standard::COMMUNICATION,
             config.pdo_objects,
             config.manufacturer_objects,
-            &crate::cia402::objects::PROFILE,
+            profile,
             config.extra_profile_objects,
         ];
-        self.od.attach(&tables)?;
+        let axes = AXES as u8;
+        self.od.attach_copies(&tables, &[1, 1, 1, axes, axes])?;
         self.od.set_homing_methods(config.profile.homing.method_list());
         self.od.set_entry_overrides(config.entry_overrides)?;
         self.od.set_default_overrides(config.default_overrides)?;
         self.od.set_absent(config.absent_objects);
-        self.profile.configure(&self.od);
+        for profile in &mut self.axes {
+            profile.configure(&self.od);
+        }
         self.slots = CommSlots::resolve(&self.od);
         self.pdos.long_rpdo = config.long_rpdo;
         self.pdos.inhibit_unit = config.tpdo_inhibit_unit;
@@ -622,7 +686,9 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
 
     /// The object dictionary, mutable (device-side access: no SDO access rules).
     pub fn od_mut(&mut self) -> &mut Dictionary<OD_BYTES> {
-        self.profile.invalidate();
+        for profile in &mut self.axes {
+            profile.invalidate();
+        }
         self.stale = true;
         // Whatever the firmware writes, also through slots, is a change for the next tick.
         self.od.touch();
@@ -638,7 +704,14 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
     /// units) where the shaft is now — a device-side "teach" or "set position" function; the
     /// homing coordinates move with it, a profile position move in progress stops there.
     pub fn preset_position(&mut self, position: i32) {
-        self.profile.preset_position(&self.od, position);
+        self.preset_axis_position(0, position);
+    }
+
+    /// [`Self::preset_position`] of axis `axis` (nothing for an axis the node does not have).
+    pub fn preset_axis_position(&mut self, axis: usize, position: i32) {
+        if let Some(profile) = self.axes.get_mut(axis) {
+            profile.preset_position(&self.od, position);
+        }
     }
 
     /// Stores `group` as a "save" written to 1010h would (for a device-side store, e.g. after
@@ -685,7 +758,9 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
     /// foreign (nothing of it is loaded: the defaults stay).
     fn apply_stored(&mut self, group: Group) -> bool {
         let intact = matches!(self.storage.load(&mut self.od, group), Ok(report) if !report.image.is_lost());
-        self.profile.parameters_loaded(&self.od);
+        for profile in &mut self.axes {
+            profile.parameters_loaded(&self.od);
+        }
         intact
     }
 
@@ -790,8 +865,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
     #[inline(never)]
     fn sdo_request(&mut self, data: &[u8], now: Instant) {
         let node_id = self.node_id();
-        let mut access =
-            Access::new(&mut self.od, &mut self.hooks, &mut self.storage, self.nmt, &self.profile);
+        let mut access = Access::new(&mut self.od, &mut self.hooks, &mut self.storage, self.nmt, &self.axes);
         access.error_behaviour = self.error_behaviour;
         access.store_groups = self.store_groups;
         access.remap_while_valid = self.remap_while_valid;
@@ -988,9 +1062,15 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
     /// reported again. `info` is the manufacturer-specific field of the EMCY frame. A code in
     /// [`crate::cia402::ProfileConfig::error_codes`] is reported as the drive's own code.
     pub fn raise_error(&mut self, code: u16, register: ErrorRegister, info: [u8; 5]) {
-        let code = self.profile.config().reported_code(code);
+        self.raise_axis_error(0, code, register, info);
+    }
+
+    /// [`Self::raise_error`] for axis `axis` of a multi-axis node: active until cleared for
+    /// that axis ([`Self::clear_axis_error`]), whatever the other axes raise or clear.
+    pub fn raise_axis_error(&mut self, axis: u8, code: u16, register: ErrorRegister, info: [u8; 5]) {
+        let code = self.reported_code(code);
         let info = self.emcy_bytes.iter().find(|(c, _)| *c == code).map_or(info, |(_, bytes)| *bytes);
-        if self.emcy.raise(code, register, info).is_some() {
+        if self.emcy.raise_of(axis, code, register, info).is_some() {
             crate::fmt::info!("EMCY: error {:x} raised", code);
             emcy::record_history(&mut self.od, code, info);
             self.sync_error_register();
@@ -999,15 +1079,25 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
 
     /// Clears an active error: sends the "error reset" EMCY (code 0000h) and updates 1001h.
     pub fn clear_error(&mut self, code: u16) {
+        self.clear_axis_error(0, code);
+    }
+
+    /// [`Self::clear_error`] for axis `axis` of a multi-axis node.
+    pub fn clear_axis_error(&mut self, axis: u8, code: u16) {
         if self.emcy.active().is_empty() {
             // Nothing to clear (the common case: every SYNC and RPDO clears its errors).
             return;
         }
-        let code = self.profile.config().reported_code(code);
-        if self.emcy.clear(code) {
+        let code = self.reported_code(code);
+        if self.emcy.clear_of(axis, code) {
             crate::fmt::info!("EMCY: error {:x} cleared", code);
             self.sync_error_register();
         }
+    }
+
+    /// The code an error is reported with ([`crate::cia402::ProfileConfig::error_codes`]).
+    fn reported_code(&self, code: u16) -> u16 {
+        self.axes.first().map_or(code, |p| p.config().reported_code(code))
     }
 
     /// The error register 1001h.
@@ -1049,22 +1139,28 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
         self.tx.frames.front()
     }
 
-    /// The control-loop tick: applies the RPDOs latched at the last SYNC, runs the drive profile
-    /// (state machine, mode, stops, statusword, actual values) and stages event-driven TPDOs
-    /// whose values changed. Returns what the power stage must do until the next tick.
-    pub fn tick(&mut self, now: Instant, sample: &Sample) -> Demand {
-        if self.quiet_tick(now, sample) {
-            return self.profile.quiet_demand();
+    /// The control-loop tick of a node of `AXES` axes ([`Drive::tick`] of a single-axis drive):
+    /// applies the RPDOs latched at the last SYNC once, runs each axis's drive profile with its
+    /// own sample (state machine, mode, stops, statusword, actual values), and stages the
+    /// event-driven TPDOs whose values changed. Returns what each power stage must do until
+    /// the next tick. Every axis runs from the same SYNC and the same RPDOs; an axis's fault is
+    /// its own (its EMCY, 603Fh and 605Eh reaction) and leaves the others running unless 1029h
+    /// sub 2 makes it a change of the node's NMT state.
+    pub fn tick_axes(&mut self, now: Instant, samples: &[Sample; AXES]) -> [Demand; AXES] {
+        if self.quiet_tick(now, samples) {
+            return core::array::from_fn(|axis| {
+                self.axes.get(axis).map_or(Demand::OFF, Profile::quiet_demand)
+            });
         }
-        self.full_tick(now, sample)
+        self.full_tick(now, samples)
     }
 
-    /// [`Self::tick`] with every input looked at.
+    /// [`Self::tick_axes`] with every input looked at.
     #[inline(never)]
-    fn full_tick(&mut self, now: Instant, sample: &Sample) -> Demand {
+    fn full_tick(&mut self, now: Instant, samples: &[Sample; AXES]) -> [Demand; AXES] {
         if self.nmt.serves_pdo() {
             let mut events = heapless::Vec::<PdoEvent, PDO_EVENTS>::new();
-            let rules = ProcessDataRules(&self.profile);
+            let rules = ProcessDataRules(&self.axes);
             self.pdos.apply_ready(&mut self.od, &mut self.hooks, &rules, &mut |e| {
                 let _ = events.push(e);
             });
@@ -1073,7 +1169,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
             }
         }
         let sync = self.cycle.sync.take();
-        let set_point = match self.profile.config().cyclic.cycle_start {
+        let set_point = match self.cycle_start() {
             CycleStart::Sync => false,
             CycleStart::SetPoint => core::mem::take(&mut self.cycle.rpdo_since_sync),
         };
@@ -1083,54 +1179,87 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
             fresh: sync.unwrap_or(false),
             set_point,
         };
+        let demands = core::array::from_fn(|axis| match samples.get(axis) {
+            Some(sample) => self.tick_axis(axis, now, sample, cycle),
+            None => Demand::OFF,
+        });
+        if self.nmt.serves_pdo() {
+            self.pdos.detect_changes(now, &self.od, &mut self.tx);
+        }
+        demands
+    }
+
+    /// One axis's part of [`Self::full_tick`]: its profile's tick and the errors it reports.
+    #[inline(always)]
+    fn tick_axis(
+        &mut self,
+        axis: usize,
+        now: Instant,
+        sample: &Sample,
+        cycle: crate::cia402::profile::SyncInput,
+    ) -> Demand {
+        let Some(profile) = self.axes.get_mut(axis) else { return Demand::OFF };
         let faulted = |state| matches!(state, State::FaultReactionActive | State::Fault);
-        let was_faulted = faulted(self.profile.state());
-        let (demand, report) = self.profile.tick(now, sample, &mut self.od, cycle);
-        if !was_faulted && faulted(self.profile.state()) {
+        let was_faulted = faulted(profile.state());
+        let (demand, report) = profile.tick(now, sample, &mut self.od, cycle);
+        let entered_fault = !was_faulted && faulted(profile.state());
+        if entered_fault {
             // CiA 402-2 §7.2: entering Fault is a device-internal error for 1029h.
             self.error_class_reaction(2, now);
         }
+        // A multi-axis node's profile errors carry their axis in EMCY byte 7.
+        let axis = axis as u8;
+        let info = |limit: u8| [limit, 0, 0, 0, if AXES > 1 { axis } else { 0 }];
         if let Some((code, register)) = report.raise {
-            self.raise_error(code, register, [0; 5]);
+            self.raise_axis_error(axis, code, register, info(0));
         }
         if let Some(code) = report.clear {
-            self.clear_error(code);
+            self.clear_axis_error(axis, code);
         }
         if let Some((code, limit)) = report.travel_limit {
-            self.clear_error(code);
+            self.clear_axis_error(axis, code);
             if let Some(limit) = limit {
-                self.raise_error(code, ErrorRegister::MANUFACTURER, [limit as u8, 0, 0, 0, 0]);
+                self.raise_axis_error(axis, code, ErrorRegister::MANUFACTURER, info(limit as u8));
             }
         }
         for notice in report.notices {
             match notice {
-                Some((code, true)) => self.raise_error(code, ErrorRegister::DEVICE_PROFILE, [0; 5]),
-                Some((code, false)) => self.clear_error(code),
+                Some((code, true)) => {
+                    self.raise_axis_error(axis, code, ErrorRegister::DEVICE_PROFILE, info(0))
+                }
+                Some((code, false)) => self.clear_axis_error(axis, code),
                 None => {}
             }
-        }
-        if self.nmt.serves_pdo() {
-            self.pdos.detect_changes(now, &self.od, &mut self.tx);
         }
         demand
     }
 
-    /// The tick of an idle axis whose inputs are those of the last tick
+    /// What starts a cycle of the cyclic modes (the profile configuration every axis shares).
+    #[inline]
+    fn cycle_start(&self) -> CycleStart {
+        self.axes.first().map_or(CycleStart::Sync, |p| p.config().cyclic.cycle_start)
+    }
+
+    /// The tick of a node whose axes are idle with the inputs of the last tick
     /// ([`Profile::quiet_tick`](crate::cia402::profile::Profile::quiet_tick)): no RPDO to
-    /// apply, no SYNC or set-point since, the same sample, the dictionary unchanged. Only the
+    /// apply, no SYNC or set-point since, the same samples, the dictionary unchanged. Only the
     /// TPDOs' timers are looked at; false when a full tick is needed.
-    fn quiet_tick(&mut self, now: Instant, sample: &Sample) -> bool {
+    fn quiet_tick(&mut self, now: Instant, samples: &[Sample; AXES]) -> bool {
         let serves_pdo = self.nmt.serves_pdo();
-        let set_point = match self.profile.config().cyclic.cycle_start {
+        let set_point = match self.cycle_start() {
             CycleStart::Sync => false,
             CycleStart::SetPoint => self.cycle.rpdo_since_sync,
         };
+        let revision = self.od.revision();
         if (serves_pdo && self.pdos.has_ready())
             || self.cycle.sync.is_some()
             || set_point
-            || !self.profile.quiet_tick(now, sample, self.od.revision())
+            || !self.axes.iter().zip(samples).all(|(profile, sample)| profile.is_quiet(sample, revision))
         {
             return false;
+        }
+        for profile in &mut self.axes {
+            profile.pass_quietly(now);
         }
         self.cycle.last_tick = Some(now);
         if serves_pdo {
@@ -1146,15 +1275,28 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
         self.cycle.phase
     }
 
-    /// The CiA 402 state of the axis.
+    /// The CiA 402 state of the (first) axis.
     pub fn state(&self) -> crate::cia402::fsa::State {
-        self.profile.state()
+        self.axis_state(0)
+    }
+
+    /// The CiA 402 state of axis `axis` (Not ready to switch on for an axis the node does not
+    /// have).
+    pub fn axis_state(&self, axis: usize) -> crate::cia402::fsa::State {
+        self.axes.get(axis).map_or(State::NotReadyToSwitchOn, Profile::state)
+    }
+
+    /// The drive profile of axis `axis`.
+    pub fn axis(&self, axis: usize) -> Option<&Profile> {
+        self.axes.get(axis)
     }
 
     /// Records an event that broke the connection and lets the profile react (6007h).
     fn connection_lost(&mut self, event: ConnectionEvent) {
         self.connection_event = Some(event);
-        self.profile.connection_lost(event, &self.od);
+        for profile in &mut self.axes {
+            profile.connection_lost(event, &self.od);
+        }
     }
 
     /// SYNC configuration (1005h/1006h/1019h) and the SYNC CAN-ID, as last read
@@ -1180,7 +1322,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
             }
             SyncReception::Sync(event) => {
                 self.clear_error(code::SYNC_LENGTH);
-                let fresh = match self.profile.config().cyclic.cycle_start {
+                let fresh = match self.cycle_start() {
                     CycleStart::Sync => core::mem::take(&mut self.cycle.rpdo_since_sync),
                     // The set-point starts the cycle: it stays for the tick.
                     CycleStart::SetPoint => self.cycle.rpdo_since_sync,
@@ -1189,7 +1331,8 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
                 if let Some(tick) = self.cycle.last_tick {
                     let phase = now - tick;
                     self.cycle.phase = Some(phase);
-                    if let Some(index) = self.profile.config().cyclic.sync_phase_object {
+                    let phase_object = self.axes.first().and_then(|p| p.config().cyclic.sync_phase_object);
+                    if let Some(index) = phase_object {
                         let micros = u32::try_from(phase.as_micros()).unwrap_or(u32::MAX);
                         let _ = self.od.set::<u32>(index, 0, micros);
                     }
@@ -1210,7 +1353,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
         let window = u64::from(self.slots.sync.window_us(&self.od));
         let late = window != 0 && self.sync.last().is_some_and(|at| now - at > Duration::from_micros(window));
         let mut events = heapless::Vec::<PdoEvent, PDO_EVENTS>::new();
-        let rules = ProcessDataRules(&self.profile);
+        let rules = ProcessDataRules(&self.axes);
         let frame = RpdoFrame { can_id: id, data, now, late };
         let taken = self.pdos.on_frame(frame, &mut self.od, &mut self.hooks, &rules, &mut |e| {
             let _ = events.push(e);
@@ -1233,9 +1376,10 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
                 self.error_class_reaction(1, now);
             }
             PdoEvent::Written { index, sub, rule } => {
-                if let Some(rule) = Rule::from_raw(rule & !<ProcessDataRules as ValueRules<OD_BYTES>>::REACTS)
-                {
-                    self.profile.written(&mut self.od, rule, index, sub);
+                let reacts = <ProcessDataRules<AXES> as ValueRules<OD_BYTES>>::REACTS;
+                let profile = self.axes.get_mut(axis_number::<AXES>(index));
+                if let (Some(rule), Some(profile)) = (Rule::from_raw(rule & !reacts), profile) {
+                    profile.written(&mut self.od, rule, index, sub);
                 }
             }
         }
@@ -1263,8 +1407,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
     }
 
     fn configure_pdos(&mut self) {
-        if let Some(PdoEvent::Raise(code)) =
-            self.pdos.configure_all(&self.od, &ProcessDataRules(&self.profile))
+        if let Some(PdoEvent::Raise(code)) = self.pdos.configure_all(&self.od, &ProcessDataRules(&self.axes))
         {
             self.raise_error(code, ErrorRegister::COMMUNICATION, [0; 5]);
         }
@@ -1364,7 +1507,9 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
                         Group::Manufacturer
                     });
                 }
-                self.profile.reset();
+                for profile in &mut self.axes {
+                    profile.reset();
+                }
                 self.connection_event = Some(ConnectionEvent::ResetApplication);
             }
             NmtAction::ResetCommunication => {
@@ -1400,14 +1545,20 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
     /// The reaction of `owner` to a value the bus wrote to `mux` (`rule`: the profile's rule
     /// of the entry, found when the write was checked).
     fn after_write(&mut self, owner: Owner, mux: Mux, rule: Option<Rule>, now: Instant) {
-        if self.profile.sdo_written(mux.index) {
+        // Every axis derives its parameters again (the cascade's record is every axis's).
+        let mut set_point = false;
+        for profile in &mut self.axes {
+            set_point |= profile.sdo_written(mux.index);
+        }
+        if set_point {
             // A set-point by SDO counts for the cyclic stream as an RPDO would.
             self.cycle.rpdo_since_sync = true;
         }
         match owner {
             Owner::Profile => {
-                if let Some(rule) = rule {
-                    self.profile.written(&mut self.od, rule, mux.index, mux.sub);
+                let profile = self.axes.get_mut(axis_number::<AXES>(mux.index));
+                if let (Some(rule), Some(profile)) = (rule, profile) {
+                    profile.written(&mut self.od, rule, mux.index, mux.sub);
                 }
             }
             Owner::HeartbeatProducer => {
@@ -1428,7 +1579,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
             }
             Owner::Pdo => {
                 if let Some(record) = PdoRecord::of(mux.index) {
-                    let rules = ProcessDataRules(&self.profile);
+                    let rules = ProcessDataRules(&self.axes);
                     if let Some(PdoEvent::Raise(code)) = self.pdos.configure(&self.od, record, &rules) {
                         self.raise_error(code, ErrorRegister::COMMUNICATION, [0; 5]);
                     }
@@ -1462,7 +1613,7 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
         // The server sends on its own only what is due (block-upload segments, a timeout).
         while self.sdo.deadline().is_some_and(|due| now >= due) && !self.tx.frames.is_full() {
             let mut access =
-                Access::new(&mut self.od, &mut self.hooks, &mut self.storage, self.nmt, &self.profile);
+                Access::new(&mut self.od, &mut self.hooks, &mut self.storage, self.nmt, &self.axes);
             access.error_behaviour = self.error_behaviour;
             access.store_groups = self.store_groups;
             access.remap_while_valid = self.remap_while_valid;
@@ -1485,12 +1636,12 @@ impl<H: ObjectHooks, const OD_BYTES: usize, const RPDOS: usize, const TPDOS: usi
 }
 
 /// The dictionary with the access rules of the bus (CiA 301 §7.2.4, digest §5.9).
-struct Access<'a, H, S, const B: usize> {
+struct Access<'a, H, S, const B: usize, const AXES: usize> {
     od: &'a mut Dictionary<B>,
     hooks: &'a mut H,
     storage: &'a mut S,
     nmt: NmtState,
-    profile: &'a Profile,
+    axes: &'a [Profile; AXES],
     error_behaviour: &'static [(u8, ErrorBehaviour)],
     store_groups: &'static [Group],
     /// [`Drive::set_remap_while_valid`].
@@ -1501,20 +1652,20 @@ struct Access<'a, H, S, const B: usize> {
     stored: bool,
 }
 
-impl<'a, H: ObjectHooks, S: Persistence, const B: usize> Access<'a, H, S, B> {
+impl<'a, H: ObjectHooks, S: Persistence, const B: usize, const AXES: usize> Access<'a, H, S, B, AXES> {
     fn new(
         od: &'a mut Dictionary<B>,
         hooks: &'a mut H,
         storage: &'a mut S,
         nmt: NmtState,
-        profile: &'a Profile,
+        axes: &'a [Profile; AXES],
     ) -> Self {
         Access {
             od,
             hooks,
             storage,
             nmt,
-            profile,
+            axes,
             error_behaviour: &ErrorBehaviour::CIA_301,
             store_groups: &Group::ALL,
             remap_while_valid: false,
@@ -1553,7 +1704,7 @@ impl<'a, H: ObjectHooks, S: Persistence, const B: usize> Access<'a, H, S, B> {
     #[inline]
     fn entry(&self, mux: Mux) -> Result<(Entry, Owner), AbortCode> {
         let entry = self.od.bus_entry(mux.index, mux.sub)?;
-        Ok((entry, owner(entry.object, self.profile)))
+        Ok((entry, owner(entry.index(), entry.object, self.axes)))
     }
 
     /// The rules of the object's owner beyond type, access and limits (each service checks its
@@ -1575,10 +1726,20 @@ impl<'a, H: ObjectHooks, S: Persistence, const B: usize> Access<'a, H, S, B> {
             Owner::Sync => sync::check_write(od, index, data),
             Owner::HeartbeatConsumer => check_consumer_write(od, sub, data),
             Owner::Pdo => pdo::check_write(od, index, sub, data, self.remap_while_valid),
-            Owner::Profile => match rule {
-                Some(rule) => self.profile.check(rule, od, index, sub, data),
-                None => Ok(()),
+            Owner::Profile => match (rule, axis_of(self.axes, index)) {
+                (Some(rule), Some(profile)) => profile.check(rule, od, index, sub, data),
+                _ => Ok(()),
             },
+        }
+    }
+
+    /// Whether the drive function is off where a write to `index` takes effect: in the axis
+    /// of a profile object, in every axis for another object.
+    fn switched_off(&self, owner: Owner, index: u16) -> bool {
+        let off = |p: &Profile| matches!(p.state(), State::SwitchOnDisabled | State::NotReadyToSwitchOn);
+        match owner {
+            Owner::Profile => axis_of(self.axes, index).is_none_or(off),
+            _ => self.axes.iter().all(off),
         }
     }
 
@@ -1603,16 +1764,16 @@ impl<'a, H: ObjectHooks, S: Persistence, const B: usize> Access<'a, H, S, B> {
         if entry.var.rule == WriteRule::NotOperational && self.nmt == NmtState::Operational {
             return Err(AbortCode::CannotStoreDeviceState);
         }
-        if entry.var.rule == WriteRule::SwitchOnDisabled
-            && !matches!(self.profile.state(), State::SwitchOnDisabled | State::NotReadyToSwitchOn)
-        {
+        if entry.var.rule == WriteRule::SwitchOnDisabled && !self.switched_off(owner, mux.index) {
             return Err(AbortCode::CannotStoreDeviceState);
         }
         Ok((entry, owner))
     }
 }
 
-impl<H: ObjectHooks, S: Persistence, const B: usize> ObjectAccess for Access<'_, H, S, B> {
+impl<H: ObjectHooks, S: Persistence, const B: usize, const AXES: usize> ObjectAccess
+    for Access<'_, H, S, B, AXES>
+{
     fn upload_len(&mut self, mux: Mux) -> Result<usize, AbortCode> {
         let (entry, owner) = self.readable_entry(mux)?;
         if self.command_capability(&entry, owner).is_some() {
@@ -1677,7 +1838,7 @@ impl<H: ObjectHooks, S: Persistence, const B: usize> ObjectAccess for Access<'_,
             return self.storage_command(mux, data);
         }
         let rule = match owner {
-            Owner::Profile => self.profile.rule(mux.index, mux.sub, false),
+            Owner::Profile => axis_of(self.axes, mux.index).and_then(|p| p.rule(mux.index, mux.sub, false)),
             _ => None,
         };
         self.check_owned(&entry, owner, rule, data)?;

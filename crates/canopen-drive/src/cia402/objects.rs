@@ -524,6 +524,24 @@ const PROBE: &[Object] = if super::PROBE { &super::probe::OBJECTS } else { &[] }
 pub static PROFILE: [Object; PROFILE_LEN] =
     layout(merged(&[&COMMON, &super::factor::OBJECTS, PP, HM, IP, VL, PROBE]));
 
+/// 67FFh: the device type of one logical device (axis) of a node with several (CiA 402 §4.2:
+/// each axis at 67FFh + n × 800h; 1000h then carries the multi-device marker).
+pub const LOGICAL_DEVICE_TYPE: u16 = 0x67FF;
+
+const DEVICE_TYPE_OF_AXIS: [Object; 1] = [Object::var(
+    LOGICAL_DEVICE_TYPE,
+    "Device type",
+    Var::new("Device type", DataType::Unsigned32)
+        .access(Access::Const)
+        .default(DefaultValue::Device(DeviceField::LogicalDeviceType)),
+)];
+
+/// The profile objects of one axis of a multi-axis node: [`PROFILE`] and 67FFh
+/// ([`LOGICAL_DEVICE_TYPE`]). One description, which the dictionary attaches once per axis
+/// ([`Dictionary::attach_copies`]); a single-axis drive links [`PROFILE`] only.
+pub static AXIS_PROFILE: [Object; PROFILE_LEN + 1] =
+    layout(merged(&[&COMMON, &super::factor::OBJECTS, PP, HM, IP, VL, PROBE, &DEVICE_TYPE_OF_AXIS]));
+
 /// The objects of `parts` in one table ascending by index (at compile time). `N` must be
 /// their number, and no index may come twice.
 // Evaluated at compile time only (`PROFILE`): a `while` over the lengths (a const fn has no
@@ -551,7 +569,7 @@ const fn merged<const N: usize>(parts: &[&[Object]]) -> [Object; N] {
         }
         p += 1;
     }
-    assert!(n == N, "PROFILE_LEN is not the number of objects");
+    assert!(n == N, "N is not the number of objects");
     out
 }
 

@@ -833,14 +833,27 @@ impl Profile {
     /// next tick a full one, so a value written between ticks takes effect at the same tick as
     /// without this path).
     pub fn quiet_tick(&mut self, now: Instant, sample: &Sample, revision: u32) -> bool {
-        let quiet = &self.quiet;
-        if !quiet.idle || quiet.revision != revision || quiet.sample != *sample {
+        if !self.is_quiet(sample, revision) {
             return false;
         }
+        self.pass_quietly(now);
+        true
+    }
+
+    /// Whether [`Self::quiet_tick`] would pass with these inputs (and change nothing): a
+    /// node of several axes asks every axis before it lets any pass.
+    #[inline]
+    pub fn is_quiet(&self, sample: &Sample, revision: u32) -> bool {
+        let quiet = &self.quiet;
+        quiet.idle && quiet.revision == revision && quiet.sample == *sample
+    }
+
+    /// The quiet tick of an axis [`Self::is_quiet`] found idle.
+    #[inline]
+    pub fn pass_quietly(&mut self, now: Instant) {
         // What a full tick of an idle axis changes: the times it keeps.
         self.last_tick = Some(now);
         self.released_at = Some(now);
-        true
     }
 
     /// The demand of the last idle tick ([`Self::quiet_tick`]).

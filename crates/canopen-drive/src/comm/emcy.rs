@@ -171,6 +171,9 @@ pub struct ActiveError {
     pub code: u16,
     /// Error register bits the error sets.
     pub register: ErrorRegister,
+    /// The logical device (CiA 402 axis) the error is of: 0 for the node's own errors and a
+    /// single-axis drive's (the same code may be active for two axes at once).
+    pub device: u8,
 }
 
 /// The EMCY producer with room for `ACTIVE` (at most 255) simultaneous errors and `QUEUE`
@@ -224,10 +227,22 @@ impl<const ACTIVE: usize, const QUEUE: usize> EmcyProducer<ACTIVE, QUEUE> {
     /// Raises `code`; returns the EMCY frame data when the error was not active yet (the frame
     /// is also queued for transmission).
     pub fn raise(&mut self, code: u16, register: ErrorRegister, info: [u8; 5]) -> Option<[u8; 8]> {
-        if self.is_active(code) {
+        self.raise_of(0, code, register, info)
+    }
+
+    /// [`Self::raise`] for logical device `device` (an error active for one axis is raised
+    /// again for another).
+    pub fn raise_of(
+        &mut self,
+        device: u8,
+        code: u16,
+        register: ErrorRegister,
+        info: [u8; 5],
+    ) -> Option<[u8; 8]> {
+        if self.active.iter().any(|e| e.code == code && e.device == device) {
             return None;
         }
-        if self.active.push(ActiveError { code, register }).is_err() {
+        if self.active.push(ActiveError { code, register, device }).is_err() {
             // Still reported on the bus; the register keeps what fits.
             self.lost = self.lost.saturating_add(1);
         }
@@ -236,7 +251,12 @@ impl<const ACTIVE: usize, const QUEUE: usize> EmcyProducer<ACTIVE, QUEUE> {
 
     /// Clears `code`; when it was active, queues the "error reset" EMCY and returns true.
     pub fn clear(&mut self, code: u16) -> bool {
-        let Some(pos) = self.active.iter().position(|e| e.code == code) else {
+        self.clear_of(0, code)
+    }
+
+    /// [`Self::clear`] for logical device `device`.
+    pub fn clear_of(&mut self, device: u8, code: u16) -> bool {
+        let Some(pos) = self.active.iter().position(|e| e.code == code && e.device == device) else {
             return false;
         };
         self.active.remove(pos);

@@ -83,13 +83,13 @@ impl List {
     }
 
     /// The objects of `od` in this list, in index order.
-    pub fn objects<const B: usize>(self, od: &Dictionary<B>) -> impl Iterator<Item = &'static Object> + '_ {
+    pub fn objects<const B: usize>(self, od: &Dictionary<B>) -> impl Iterator<Item = Object> + '_ {
         listed(od).filter(move |o| List::of(o) == self)
     }
 }
 
 /// The objects of `od` a description lists (those the bus sees), in index order.
-pub(super) fn listed<const B: usize>(od: &Dictionary<B>) -> impl Iterator<Item = &'static Object> + '_ {
+pub(super) fn listed<const B: usize>(od: &Dictionary<B>) -> impl Iterator<Item = Object> + '_ {
     od.objects().filter(|o| !od.is_absent(o.index))
 }
 
@@ -107,7 +107,7 @@ pub(super) struct Sub<'a> {
     /// Sub-index.
     pub sub: u8,
     /// Its description (the firmware's override, if any).
-    pub var: &'static Var,
+    pub var: &'a Var,
     /// Its power-on value: what the node reads at start-up.
     pub default: DefaultValue,
     /// Its name.
@@ -156,14 +156,14 @@ fn array_len<const B: usize>(od: &Dictionary<B>, object: &Object, sub0: &Var, le
 
 /// Calls `each` with every entry of `object` a description shows, in sub-index order (a VAR:
 /// its one entry, named after the object).
-pub(super) fn for_each_sub<const B: usize>(
+pub(super) fn for_each_sub<'a, const B: usize>(
     od: &Dictionary<B>,
     capabilities: &Capabilities,
-    object: &'static Object,
-    mut each: impl FnMut(Sub<'_>) -> fmt::Result,
+    object: &'a Object,
+    mut each: impl FnMut(Sub<'a>) -> fmt::Result,
 ) -> fmt::Result {
     let index = object.index;
-    let entry = |sub: u8, var: &'static Var, name: Name<'static>| {
+    let entry = |sub: u8, var: &'a Var, name: Name<'a>| {
         let var = od.describe(index, sub, var);
         Sub { sub, var, default: power_on_value(od, capabilities, index, sub, var), name }
     };
@@ -236,7 +236,8 @@ pub(super) fn value_text<'a, const B: usize>(
         // Resolved by `default_of`.
         DefaultValue::PdoPreset => ValueText::Hex(0),
         DefaultValue::Device(field) => match field {
-            DeviceField::DeviceType => ValueText::Hex32(device.device_type),
+            DeviceField::DeviceType => ValueText::Hex32(od.device_type()),
+            DeviceField::LogicalDeviceType => ValueText::Hex32(device.device_type),
             DeviceField::VendorId => ValueText::Hex32(device.vendor_id),
             DeviceField::ProductCode => ValueText::Hex32(device.product_code),
             DeviceField::RevisionNumber => ValueText::Hex32(device.revision_number),

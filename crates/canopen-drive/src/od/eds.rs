@@ -118,7 +118,7 @@ pub fn write<const B: usize>(
     }
 
     for object in description::listed(od) {
-        write_object(od, capabilities, object, w)?;
+        write_object(od, capabilities, &object, w)?;
     }
     Ok(())
 }
@@ -135,7 +135,7 @@ fn section(list: List) -> &'static str {
 fn write_object<const B: usize>(
     od: &Dictionary<B>,
     capabilities: &Capabilities,
-    object: &'static Object,
+    object: &Object,
     w: &mut impl Write,
 ) -> fmt::Result {
     let index = object.index;

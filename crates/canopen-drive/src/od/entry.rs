@@ -265,8 +265,12 @@ impl Bound {
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[non_exhaustive]
 pub enum DeviceField {
-    /// 1000h device type.
+    /// 1000h device type (on a node of several logical devices: FFFFh, the multi-device
+    /// marker, in the additional information, and the first device's profile number).
     DeviceType,
+    /// 67FFh + n × 800h: the device type of one logical device of a multi-axis node (the
+    /// single-device value of 1000h, [`DeviceInfo::device_type`](super::DeviceInfo)).
+    LogicalDeviceType,
     /// 1018h sub 1 vendor-ID.
     VendorId,
     /// 1018h sub 2 product code.
@@ -558,6 +562,13 @@ impl Object {
     /// An object of `kind`: no instance number, no owner, its store offset set later by [`layout`].
     const fn of(index: u16, name: &'static str, kind: Kind) -> Self {
         Object { index, name: Name::new(name), kind, base: 0, number: 0, owner: Owner::Dictionary }
+    }
+
+    /// The same description at `index` (a copy of a logical device's object, e.g. CiA 402
+    /// axis n's at the first axis's index + n × 800h).
+    pub const fn at(mut self, index: u16) -> Object {
+        self.index = index;
+        self
     }
 
     /// A VAR object.

@@ -34,6 +34,17 @@ use core::ops::RangeInclusive;
 /// firmware's further device-profile objects).
 pub const MAX_TABLES: usize = 5;
 
+/// 1000h's additional information (bits 16–31) on a node of several logical devices
+/// (CiA 301; the CiA 402-2 text writes 0FFFh, which reads as a slip for CiA 301's FFFFh).
+pub const MULTI_DEVICE: u32 = 0xFFFF_0000;
+
+/// Distance between two copies of a table attached for several logical devices
+/// ([`Dictionary::attach_copies`]): CiA 402 gives axis n the profile area `6000h + n × 800h`.
+pub const COPY_STRIDE: u16 = 0x800;
+
+/// Most copies of one table (CiA 301/402: up to eight logical devices on a node).
+pub const MAX_COPIES: u8 = 8;
+
 /// Bytes of value store that `tables` need (what [`Dictionary::used_bytes`] reports once they are
 /// attached), at compile time: a firmware sizes its dictionary with it instead of a guess, e.g.
 /// `Drive<H, { STANDARD_OD_BYTES + od::storage_bytes(&[&VENDOR]) }>` (see
@@ -184,6 +195,12 @@ pub enum ConfigError {
         /// The 6502h bits of the missing modes.
         modes: u32,
     },
+    /// A table attached with more copies than [`MAX_COPIES`] (or none), or with copies but
+    /// wider than one [`COPY_STRIDE`] or reaching beyond FFFFh.
+    BadCopies {
+        /// The table's first index.
+        index: u16,
+    },
     /// An [`EntryOverride`] that changes the size or the storage of its entry.
     EntrySize {
         /// Index of the entry.
@@ -202,13 +219,15 @@ pub struct Entry {
     pub var: &'static Var,
     /// Sub-index.
     pub sub: u8,
+    /// Index (the object's, or a copy's: [`Dictionary::attach_copies`]).
+    index: u16,
     offset: u16,
 }
 
 impl Entry {
-    /// Index of the entry's object.
+    /// Index of the entry's object (a copy's own index, where `object` describes the first).
     pub fn index(&self) -> u16 {
-        self.object.index
+        self.index
     }
 }
 
@@ -403,11 +422,8 @@ impl MethodList {
 
 /// The object dictionary: description tables plus a value store of `BYTES` bytes.
 pub struct Dictionary<const BYTES: usize> {
-    tables: [&'static [Object]; MAX_TABLES],
-    regions: [u16; MAX_TABLES],
-    /// The first and the last index of each table (empty tables: an empty range), so that a
-    /// look-up picks its table without reading the descriptions.
-    ranges: [(u16, u16); MAX_TABLES],
+    /// The tables attached, in index order.
+    tables: [Table; MAX_TABLES],
     /// Tables attached (at most [`MAX_TABLES`]).
     table_count: u8,
     store: [u8; BYTES],
@@ -422,6 +438,32 @@ pub struct Dictionary<const BYTES: usize> {
     absent: &'static [u16],
     /// Counts the changes of the store ([`Self::revision`]).
     revision: u32,
+}
+
+/// One table of a dictionary: its descriptions and where they lie.
+#[derive(Clone, Copy)]
+pub(crate) struct Table {
+    pub(crate) objects: &'static [Object],
+    /// The first and the last index of every copy (an empty table: an empty range), so that
+    /// a look-up picks its table without reading the descriptions.
+    first: u16,
+    last: u16,
+    /// Start of the table's values in the store.
+    pub(crate) region: u16,
+    /// Bytes of store one copy takes.
+    pub(crate) span: u16,
+    /// Copies ([`Dictionary::attach_copies`]): copy k lies [`COPY_STRIDE`] × k above the
+    /// table's indices, its values `span` × k above `region`.
+    pub(crate) copies: u8,
+}
+
+impl Table {
+    const EMPTY: Table = Table { objects: &[], first: 1, last: 0, region: 0, span: 0, copies: 1 };
+
+    /// Where copy `k`'s values start.
+    pub(crate) fn region_of(&self, k: u16) -> usize {
+        usize::from(self.region) + usize::from(self.span) * usize::from(k)
+    }
 }
 
 /// A default value resolved to bytes.
@@ -453,9 +495,7 @@ impl<const BYTES: usize> Dictionary<BYTES> {
     /// dictionary inside a larger structure can be set up without being moved.
     pub fn empty(device: DeviceInfo, node_id: u8) -> Self {
         Dictionary {
-            tables: [&[]; MAX_TABLES],
-            regions: [0; MAX_TABLES],
-            ranges: [(1, 0); MAX_TABLES],
+            tables: [Table::EMPTY; MAX_TABLES],
             table_count: 0,
             store: [0; BYTES],
             device,
@@ -493,21 +533,30 @@ impl<const BYTES: usize> Dictionary<BYTES> {
     /// Replaces the tables with `tables` (see [`new`](Self::new)) and sets every value to its
     /// default. On an error the dictionary is left without tables.
     pub fn attach(&mut self, tables: &[&'static [Object]]) -> Result<(), ConfigError> {
+        self.attach_copies(tables, &[])
+    }
+
+    /// [`attach`](Self::attach), with `copies[t]` copies of table `t` (1 where `copies` is
+    /// shorter): the objects of one logical device described once and attached for several,
+    /// copy k at the table's indices + k × [`COPY_STRIDE`] with values of its own (CiA 402:
+    /// axis k's profile area). A table with copies lies inside one stride.
+    pub fn attach_copies(&mut self, tables: &[&'static [Object]], copies: &[u8]) -> Result<(), ConfigError> {
         self.table_count = 0;
         if tables.len() > MAX_TABLES {
             return Err(ConfigError::TooManyTables);
         }
         let mut region = 0usize;
         let mut previous: Option<u16> = None;
-        for ((table, range), (slot, start)) in
-            tables.iter().zip(self.ranges.iter_mut()).zip(self.tables.iter_mut().zip(self.regions.iter_mut()))
-        {
-            *slot = table;
-            *range = match (table.first(), table.last()) {
+        for (t, table) in tables.iter().enumerate() {
+            let n = copies.get(t).copied().unwrap_or(1);
+            let (first, last) = match (table.first(), table.last()) {
                 (Some(first), Some(last)) => (first.index, last.index),
                 _ => (1, 0),
             };
-            *start = u16::try_from(region).map_err(|_| ConfigError::StorageTooSmall { needed: region })?;
+            let wide = !table.is_empty() && last.wrapping_sub(first) >= COPY_STRIDE;
+            if n == 0 || n > MAX_COPIES || (n > 1 && wide) {
+                return Err(ConfigError::BadCopies { index: first });
+            }
             let mut offset = 0usize;
             for object in table.iter() {
                 if previous.is_some_and(|p| p >= object.index) {
@@ -520,7 +569,23 @@ impl<const BYTES: usize> Dictionary<BYTES> {
                 check_object(object)?;
                 offset += object.storage_size();
             }
-            region += offset;
+            let shift = u32::from(n - 1) * u32::from(COPY_STRIDE);
+            let top = u16::try_from(u32::from(last) + shift)
+                .map_err(|_| ConfigError::BadCopies { index: first })?;
+            if n > 1 && !table.is_empty() {
+                previous = Some(top);
+            }
+            let too_small = |needed| ConfigError::StorageTooSmall { needed };
+            let slot = self.tables.get_mut(t).ok_or(ConfigError::TooManyTables)?;
+            *slot = Table {
+                objects: table,
+                first,
+                last: if table.is_empty() { 0 } else { top },
+                region: u16::try_from(region).map_err(|_| too_small(region))?,
+                span: u16::try_from(offset).map_err(|_| too_small(offset))?,
+                copies: n,
+            };
+            region += offset * usize::from(n);
         }
         if region > BYTES || region > usize::from(u16::MAX) {
             return Err(ConfigError::StorageTooSmall { needed: region });
@@ -528,6 +593,17 @@ impl<const BYTES: usize> Dictionary<BYTES> {
         self.table_count = tables.len() as u8;
         self.reset(0x0000..=0xFFFF);
         Ok(())
+    }
+
+    /// The logical devices of the node: the most copies of a table (1 without copies).
+    pub fn devices(&self) -> u8 {
+        self.attached().iter().map(|t| t.copies).max().unwrap_or(1)
+    }
+
+    /// Copies of the table that holds `index` (1 for an index of no copied table): the
+    /// logical devices of the node when `index` is one of a CiA 402 axis's objects.
+    pub fn copies_of(&self, index: u16) -> u8 {
+        self.attached().iter().find(|t| (t.first..=t.last).contains(&index)).map_or(1, |t| t.copies)
     }
 
     /// Replaces the crate's defaults of some entries with the firmware's own
@@ -565,7 +641,7 @@ impl<const BYTES: usize> Dictionary<BYTES> {
             DefaultValue::Device(DeviceField::HomingMethods) => {
                 DefaultValue::Signed(self.homing.nth(sub).map_or(0, i64::from))
             }
-            DefaultValue::PdoPreset => standard::pdo_preset(index, sub),
+            DefaultValue::PdoPreset => standard::pdo_preset(index, sub, self.devices()),
             other => other,
         }
     }
@@ -594,7 +670,7 @@ impl<const BYTES: usize> Dictionary<BYTES> {
 
     /// Bytes of the store the tables use.
     pub fn used_bytes(&self) -> usize {
-        self.tables().map(|t| t.iter().map(Object::storage_size).sum::<usize>()).sum()
+        self.attached().iter().map(|t| usize::from(t.span) * usize::from(t.copies)).sum()
     }
 
     /// The node-ID that `$NODEID` defaults resolve to.
@@ -607,38 +683,68 @@ impl<const BYTES: usize> Dictionary<BYTES> {
         self.node_id = node_id;
     }
 
+    /// 1000h: [`DeviceInfo::device_type`], or on a node of several logical devices
+    /// ([`Self::devices`]) the multi-device marker [`MULTI_DEVICE`] and the first device's
+    /// profile number.
+    pub fn device_type(&self) -> u32 {
+        let device_type = self.device.device_type;
+        if self.devices() > 1 {
+            MULTI_DEVICE | device_type & 0xFFFF
+        } else {
+            device_type
+        }
+    }
+
     /// The device description.
     pub fn device(&self) -> &DeviceInfo {
         &self.device
     }
 
-    /// Tables attached.
-    pub(crate) fn table_count(&self) -> usize {
-        usize::from(self.table_count).min(MAX_TABLES)
+    /// The tables attached.
+    pub(crate) fn attached(&self) -> &[Table] {
+        self.tables.get(..usize::from(self.table_count)).unwrap_or(&[])
     }
 
-    fn tables(&self) -> impl Iterator<Item = &'static [Object]> + '_ {
-        self.tables.iter().take(self.table_count()).copied()
+    /// Every object where it lies, in ascending index order: (index, description, start of its
+    /// table's region of values). A copy of a table ([`Self::attach_copies`]) gives its
+    /// objects' descriptions with the copy's indices.
+    pub(crate) fn placements(&self) -> impl Iterator<Item = (u16, &'static Object, u16)> + '_ {
+        self.attached().iter().flat_map(|table| {
+            (0..u16::from(table.copies)).flat_map(move |k| {
+                let region = table.region_of(k) as u16;
+                table
+                    .objects
+                    .iter()
+                    .map(move |o| (o.index.wrapping_add(COPY_STRIDE.wrapping_mul(k)), o, region))
+            })
+        })
     }
 
-    /// Every object, in ascending index order.
-    pub fn objects(&self) -> impl Iterator<Item = &'static Object> + '_ {
-        self.tables().flat_map(|t| t.iter())
+    /// Every object, in ascending index order: a copy of a table ([`Self::attach_copies`])
+    /// gives its descriptions with the copy's indices.
+    pub fn objects(&self) -> impl Iterator<Item = Object> + '_ {
+        self.placements().map(|(index, object, _)| object.at(index))
     }
 
     /// The object at `index`.
     pub fn object(&self, index: u16) -> Option<(&'static Object, u16)> {
-        // Indexed, not zipped iterators: those made the compiler copy both arrays onto the
-        // stack on every lookup (a byte-wise memcpy of 72 bytes on a Cortex-M).
         // The ranges ascend and do not overlap (`attach` checks): the first one that ends at or
         // after `index` is the only one that can hold it.
-        let count = self.table_count();
-        let i = self.ranges.get(..count)?.iter().position(|&(_, last)| index <= last)?;
-        if self.ranges.get(i)?.0 > index {
+        let table = self.attached().iter().find(|t| index <= t.last)?;
+        if table.first > index {
             return None;
         }
-        let (table, region) = (*self.tables.get(i)?, *self.regions.get(i)?);
-        let pos = table.binary_search_by_key(&index, |o| o.index).ok()?;
+        // (Compared as u32: a u16 key the copy arithmetic made would be re-extended on every
+        // step of the search.)
+        let (mut key, mut region) = (u32::from(index), table.region);
+        if table.copies > 1 {
+            // Copy k of the table: its objects k strides up, its values k spans up.
+            let k = (index - table.first) / COPY_STRIDE;
+            key -= u32::from(k * COPY_STRIDE);
+            region += k * table.span;
+        }
+        let table = table.objects;
+        let pos = table.binary_search_by_key(&key, |o| u32::from(o.index)).ok()?;
         table.get(pos).map(|o| (o, region))
     }
 
@@ -652,8 +758,8 @@ impl<const BYTES: usize> Dictionary<BYTES> {
             }
         }
         let offset = usize::from(region) + usize::from(object.base) + offset;
-        let var = self.resolve(object, sub, var)?;
-        Ok(Entry { object, var, sub, offset: offset as u16 })
+        let var = self.resolve(index, object, sub, var)?;
+        Ok(Entry { object, var, sub, index, offset: offset as u16 })
     }
 
     fn default_bytes(&self, var: &Var, default: DefaultValue) -> DefaultBytes {
@@ -675,7 +781,8 @@ impl<const BYTES: usize> Dictionary<BYTES> {
             DefaultValue::Device(field) => {
                 let d = &self.device;
                 match field {
-                    DeviceField::DeviceType => number(u64::from(d.device_type)),
+                    DeviceField::DeviceType => number(u64::from(self.device_type())),
+                    DeviceField::LogicalDeviceType => number(u64::from(d.device_type)),
                     DeviceField::VendorId => number(u64::from(d.vendor_id)),
                     DeviceField::ProductCode => number(u64::from(d.product_code)),
                     DeviceField::RevisionNumber => number(u64::from(d.revision_number)),
@@ -1075,16 +1182,23 @@ impl<const BYTES: usize> Dictionary<BYTES> {
 
     /// Sets every stored value of the objects in `range` back to its default.
     pub fn reset(&mut self, range: RangeInclusive<u16>) {
-        let tables = self.tables;
-        for (table, region) in tables.iter().take(self.table_count()).zip(self.regions) {
-            for object in table.iter().filter(|o| range.contains(&o.index)) {
-                for sub in 0..=object.highest_sub() {
-                    if let Some((var, offset)) = object.sub(sub) {
-                        let var = self.describe(object.index, sub, var);
-                        let offset = usize::from(region) + usize::from(object.base) + offset;
-                        let entry = Entry { object, var, sub, offset: offset as u16 };
-                        let default = self.default_bytes(var, self.default_of(object.index, sub, var));
-                        self.commit(&entry, default.bytes());
+        for t in 0..self.attached().len() {
+            let Some(&table) = self.tables.get(t) else { break };
+            for k in 0..u16::from(table.copies) {
+                let region = table.region_of(k);
+                for object in table.objects.iter() {
+                    let index = object.index.wrapping_add(k.wrapping_mul(COPY_STRIDE));
+                    if !range.contains(&index) {
+                        continue;
+                    }
+                    for sub in 0..=object.highest_sub() {
+                        if let Some((var, offset)) = object.sub(sub) {
+                            let var = self.describe(index, sub, var);
+                            let offset = region + usize::from(object.base) + offset;
+                            let entry = Entry { object, var, sub, index, offset: offset as u16 };
+                            let default = self.default_bytes(var, self.default_of(index, sub, var));
+                            self.commit(&entry, default.bytes());
+                        }
                     }
                 }
             }

@@ -260,7 +260,7 @@ impl<const BYTES: usize> Dictionary<BYTES> {
 
     /// The description of `index`/`sub`: the firmware's override, or `var` (the table's).
     #[inline]
-    pub fn describe(&self, index: u16, sub: u8, var: &'static Var) -> &'static Var {
+    pub fn describe<'v>(&self, index: u16, sub: u8, var: &'v Var) -> &'v Var {
         if self.entry_overrides.is_empty() {
             return var;
         }
@@ -276,6 +276,7 @@ impl<const BYTES: usize> Dictionary<BYTES> {
     #[inline]
     pub(super) fn resolve(
         &self,
+        index: u16,
         object: &Object,
         sub: u8,
         var: &'static Var,
@@ -283,20 +284,22 @@ impl<const BYTES: usize> Dictionary<BYTES> {
         if self.entry_overrides.is_empty() {
             return Ok(var);
         }
-        self.resolve_overridden(object, sub, var)
+        self.resolve_overridden(index, object, sub, var)
     }
 
+    /// [`Self::resolve`] with overrides: `index` is the entry's (`object` may describe a copy).
     #[cold]
     fn resolve_overridden(
         &self,
+        index: u16,
         object: &Object,
         sub: u8,
         var: &'static Var,
     ) -> Result<&'static Var, AbortCode> {
-        if self.hidden(object, sub) {
+        if self.hidden(&object.at(index), sub) {
             return Err(AbortCode::SubIndexDoesNotExist);
         }
-        Ok(self.describe(object.index, sub, var))
+        Ok(self.describe(index, sub, var))
     }
 
     /// Whether sub-index `sub` of `object` lies above the count an override of its sub-index 0

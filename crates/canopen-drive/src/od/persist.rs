@@ -41,7 +41,7 @@
 use core::ops::RangeInclusive;
 
 use super::standard::PRE_DEFINED_ERROR_FIELD;
-use super::{DefaultValue, Dictionary, Entry, Kind, Object, Var};
+use super::{DefaultValue, Dictionary, Entry, Kind, Var, COPY_STRIDE};
 
 /// Objects whose writable entries are not parameters: 1003h (error history: sub 0 counts the
 /// errors held in RAM), 1010h (store parameters) and 1011h (restore default parameters).
@@ -106,6 +106,8 @@ pub struct Parameters<'a, const BYTES: usize> {
     od: &'a Dictionary<BYTES>,
     range: RangeInclusive<u16>,
     table: usize,
+    /// The copy of the table ([`Dictionary::attach_copies`]).
+    copy: u8,
     object: usize,
     /// Next sub-index to look at (a `u16` so that it can step past 255).
     sub: u16,
@@ -116,19 +118,25 @@ impl<const BYTES: usize> Iterator for Parameters<'_, BYTES> {
 
     fn next(&mut self) -> Option<Entry> {
         loop {
-            if self.table >= self.od.table_count() {
-                return None;
-            }
-            let table: &'static [Object] = self.od.tables.get(self.table).copied()?;
-            let region = self.od.regions.get(self.table).copied()?;
+            let table = *self.od.attached().get(self.table)?;
+            let shift = u16::from(self.copy) * COPY_STRIDE;
+            let region = table.region_of(u16::from(self.copy));
+            let copies = table.copies;
+            let table = table.objects;
             let Some(object) = table.get(self.object) else {
-                self.table += 1;
+                if self.copy + 1 < copies {
+                    self.copy += 1;
+                } else {
+                    self.table += 1;
+                    self.copy = 0;
+                }
                 self.object = 0;
                 self.sub = 0;
                 continue;
             };
+            let index = object.index.wrapping_add(shift);
             let sub = self.sub;
-            if !self.range.contains(&object.index) || sub > u16::from(object.highest_sub()) {
+            if !self.range.contains(&index) || sub > u16::from(object.highest_sub()) {
                 self.object += 1;
                 self.sub = 0;
                 continue;
@@ -136,21 +144,21 @@ impl<const BYTES: usize> Iterator for Parameters<'_, BYTES> {
             self.sub += 1;
             let sub = sub as u8;
             let Some((var, offset)) = object.sub(sub) else { continue };
-            if self.od.hidden(object, sub) {
+            if self.od.hidden(&object.at(index), sub) {
                 continue;
             }
             if let Kind::Array { sub0, len, .. } = &object.kind {
-                if sub > self.od.array_len(object.index, sub0, *len) {
+                if sub > self.od.array_len(index, sub0, *len) {
                     continue;
                 }
             }
-            let var = self.od.describe(object.index, sub, var);
-            if !is_parameter(object.index, var) {
+            let var = self.od.describe(index, sub, var);
+            if !is_parameter(index, var) {
                 continue;
             }
-            let offset = usize::from(region) + usize::from(object.base) + offset;
+            let offset = region + usize::from(object.base) + offset;
             if let Ok(offset) = u16::try_from(offset) {
-                return Some(Entry { object, var, sub, offset });
+                return Some(Entry { object, var, sub, index, offset });
             }
         }
     }
@@ -160,7 +168,7 @@ impl<const BYTES: usize> Dictionary<BYTES> {
     /// Every parameter (see [`is_parameter`]) of the objects in `range`, in ascending index and
     /// sub-index order.
     pub fn parameters(&self, range: RangeInclusive<u16>) -> Parameters<'_, BYTES> {
-        Parameters { od: self, range, table: 0, object: 0, sub: 0 }
+        Parameters { od: self, range, table: 0, copy: 0, object: 0, sub: 0 }
     }
 
     /// The record header of `entry` with its current value length.

@@ -269,11 +269,14 @@ const RPDO_PRESET_MAPPING: [[u32; 2]; 4] =
 const TPDO_PRESET_MAPPING: [[u32; 2]; 4] =
     [[0x6041_0010, 0], [0x6041_0010, 0x6061_0008], [0x6041_0010, 0x6064_0020], [0x6041_0010, 0x606C_0020]];
 
-/// The power-on value of [`DefaultValue::PdoPreset`] entries of the PDO records (1400h–1BFFh):
-/// PDOs 1–4 carry the pre-defined identifiers (CiA 301 §7.3.5; TPDOs with bit 30, no RTR) and
-/// the CiA 402 mapping, TPDOs 1–2 event-driven and 3–4 on every SYNC; higher PDOs start invalid
-/// and empty.
-pub fn pdo_preset(index: u16, sub: u8) -> DefaultValue {
+/// The power-on value of [`DefaultValue::PdoPreset`] entries of the PDO records (1400h–1BFFh)
+/// on a node of `devices` logical devices (CiA 402 axes): PDOs 1–4 carry the pre-defined
+/// identifiers (CiA 301 §7.3.5; TPDOs with bit 30, no RTR) and the CiA 402 mapping, TPDOs 1–2
+/// event-driven and 3–4 on every SYNC. Axis n > 0 has PDOs 4n + 1 … 4n + 4 with the same
+/// mapping shifted to its objects (n × 800h) and the same transmission types, invalid until the
+/// master gives them identifiers (CiA 301 pre-defines those of PDOs 1–4 only). Higher PDOs
+/// start invalid and empty.
+pub fn pdo_preset(index: u16, sub: u8, devices: u8) -> DefaultValue {
     use crate::wire::cob_id::{BIT30, INVALID};
     // (receive, communication record, PDO number − 1)
     let (receive, communication, number) = match index {
@@ -285,16 +288,23 @@ pub fn pdo_preset(index: u16, sub: u8) -> DefaultValue {
     };
     let number = usize::from(number);
     let predefined = number < 4;
+    // The axis whose preset the PDO carries, and which of its four.
+    let (axis, nth) = (number / 4, number % 4);
+    let preset = axis < usize::from(devices.max(1));
     let (base, unassigned, mappings) = if receive {
         (0x200, INVALID, &RPDO_PRESET_MAPPING)
     } else {
         (BIT30 | 0x180, INVALID | BIT30, &TPDO_PRESET_MAPPING)
     };
-    let mapping = mappings.get(number).copied().unwrap_or([0, 0]);
+    let shift = (axis as u32 * u32::from(super::COPY_STRIDE)) << 16;
+    let mapping = match mappings.get(nth) {
+        Some(m) if preset => m.map(|entry| if entry == 0 { 0 } else { entry + shift }),
+        _ => [0, 0],
+    };
     match (communication, sub) {
         (true, 1) if predefined => DefaultValue::NodeIdPlus(base + 0x100 * number as u32),
         (true, 1) => DefaultValue::Unsigned(u64::from(unassigned)),
-        (true, 2) if predefined && number >= 2 => DefaultValue::Unsigned(1),
+        (true, 2) if preset && nth >= 2 => DefaultValue::Unsigned(1),
         (true, 2) => DefaultValue::Unsigned(255),
         (false, 0) => DefaultValue::Unsigned(mapping.iter().filter(|m| **m != 0).count() as u64),
         (false, s) => DefaultValue::Unsigned(u64::from(

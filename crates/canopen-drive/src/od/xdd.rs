@@ -90,7 +90,7 @@ pub fn write<const B: usize>(
         r#"        <co:CANopenObjectList mandatoryObjects="{mandatory}" optionalObjects="{optional}" manufacturerObjects="{manufacturer}">"#
     )?;
     for object in description::listed(od) {
-        write_object(od, capabilities, object, w)?;
+        write_object(od, capabilities, &object, w)?;
     }
     writeln!(w, "        </co:CANopenObjectList>")?;
     writeln!(w, "        <dummyUsage>")?;
@@ -157,7 +157,7 @@ fn body(w: &mut impl Write, kind: &str, info: &EdsInfo) -> fmt::Result {
 fn write_object<const B: usize>(
     od: &Dictionary<B>,
     capabilities: &Capabilities,
-    object: &'static Object,
+    object: &Object,
     w: &mut impl Write,
 ) -> fmt::Result {
     let index = object.index;
