@@ -78,12 +78,12 @@ pub struct ValueRule {
 /// A change a master wrote, for the loop to apply.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Change {
-    /// Simulated faults (+0).
-    Faults(u32),
-    /// Simulated inputs (+1).
-    Inputs(u32),
-    /// Simulated load (+2).
-    Load(i16),
+    /// Simulated faults (+0) of an axis.
+    Faults(u8, u32),
+    /// Simulated inputs (+1) of an axis.
+    Inputs(u8, u32),
+    /// Simulated load (+2) of an axis.
+    Load(u8, i16),
     /// Another manufacturer object (2000h–5FFFh), for the profile's firmware.
     Written {
         /// Index.
@@ -101,6 +101,8 @@ pub enum Change {
 #[derive(Debug)]
 pub struct BoardHooks {
     simulation: u16,
+    /// The axes whose simulation objects follow the first's ([`crate::axes`]).
+    axes: u8,
     rules: &'static [ValueRule],
     storage: bool,
     changes: Vec<Change>,
@@ -116,7 +118,14 @@ impl BoardHooks {
     /// Hooks for simulation objects at `simulation`, with `rules`; `storage`: the board keeps
     /// parameters (a store command can succeed).
     pub fn new(simulation: u16, rules: &'static [ValueRule], storage: bool) -> Self {
-        BoardHooks { simulation, rules, storage, changes: Vec::new() }
+        BoardHooks { simulation, axes: 1, rules, storage, changes: Vec::new() }
+    }
+
+    /// The hooks of a node of `axes` axes: axis n's simulation objects lie
+    /// [`crate::axes::SIMULATION_STRIDE`] × n above the first axis's.
+    pub fn with_axes(mut self, axes: u8) -> Self {
+        self.axes = axes.max(1);
+        self
     }
 
     /// The changes since the last call.
@@ -145,13 +154,16 @@ impl ObjectHooks for BoardHooks {
 
     fn written(&mut self, index: u16, sub: u8, data: &[u8]) {
         let raw = little_endian(data);
-        let base = self.simulation;
-        let change = match index {
-            i if i == base => Change::Faults(raw as u32),
-            i if i == base + 1 => Change::Inputs(raw as u32),
-            i if i == base + 2 => Change::Load(raw as u16 as i16),
+        let offset = index.wrapping_sub(self.simulation);
+        let (axis, object) =
+            (offset / crate::axes::SIMULATION_STRIDE, offset % crate::axes::SIMULATION_STRIDE);
+        let axis = u8::try_from(axis).ok().filter(|a| *a < self.axes);
+        let change = match (axis, object) {
+            (Some(axis), 0) => Change::Faults(axis, raw as u32),
+            (Some(axis), 1) => Change::Inputs(axis, raw as u32),
+            (Some(axis), 2) => Change::Load(axis, raw as u16 as i16),
             // Manufacturer objects, and the profile's (a firmware may couple standard entries).
-            0x2000..=0x9FFF => Change::Written { index, sub, value: raw },
+            _ if (0x2000..=0x9FFF).contains(&index) => Change::Written { index, sub, value: raw },
             _ => return,
         };
         self.changes.push(change);
@@ -162,19 +174,23 @@ impl ObjectHooks for BoardHooks {
     }
 }
 
-/// Applies a simulation change to the motor (other changes are the firmware's).
-pub fn apply(change: Change, motor: &mut SimMotor) {
+/// Applies a simulation change to the motor of its axis (other changes are the firmware's).
+pub fn apply(change: Change, motors: &mut [SimMotor]) {
+    let (Change::Faults(axis, _) | Change::Inputs(axis, _) | Change::Load(axis, _)) = change else {
+        return;
+    };
+    let Some(motor) = motors.get_mut(usize::from(axis)) else { return };
     match change {
-        Change::Faults(bits) => {
+        Change::Faults(_, bits) => {
             motor.clear_faults();
             motor.inject_fault(HardwareFaults::from_bits_truncate(bits));
         }
-        Change::Inputs(bits) => {
+        Change::Inputs(_, bits) => {
             let forced = DigitalInputs::from_bits_truncate(bits);
             motor.set_input(DigitalInputs::all(), false);
             motor.set_input(forced, true);
         }
-        Change::Load(permille) => motor.set_load_torque(f64::from(permille)),
+        Change::Load(_, permille) => motor.set_load_torque(f64::from(permille)),
         Change::Written { .. } | Change::Stored(_) => {}
     }
 }
@@ -209,13 +225,42 @@ mod tests {
         hooks.written(0x2102, 0, &(-200i16).to_le_bytes());
         let mut motor = SimMotor::new();
         for change in hooks.take_changes() {
-            apply(change, &mut motor);
+            apply(change, std::slice::from_mut(&mut motor));
         }
         let sample = motor.sample();
         assert_eq!(sample.faults, HardwareFaults::OVER_CURRENT);
         assert_eq!(sample.inputs & DigitalInputs::HOME, DigitalInputs::HOME);
         assert_eq!(motor.load_torque(), -200.0);
         assert!(hooks.take_changes().is_empty());
+    }
+
+    /// With two axes, 2110h–2112h are the second axis's simulation objects; with one, they are
+    /// plain manufacturer objects.
+    #[test]
+    fn writes_reach_the_motor_of_their_axis() {
+        let mut hooks = BoardHooks::default().with_axes(2);
+        hooks.written(0x2110, 0, &1u32.to_le_bytes());
+        hooks.written(0x2102, 0, &(-200i16).to_le_bytes());
+        hooks.written(0x2120, 0, &2u32.to_le_bytes());
+        let mut motors = [SimMotor::new(), SimMotor::new()];
+        let changes = hooks.take_changes();
+        assert_eq!(
+            changes,
+            [
+                Change::Faults(1, 1),
+                Change::Load(0, -200),
+                Change::Written { index: 0x2120, sub: 0, value: 2 }
+            ]
+        );
+        for change in changes {
+            apply(change, &mut motors);
+        }
+        assert_eq!(motors[0].sample().faults, HardwareFaults::empty());
+        assert_eq!(motors[1].sample().faults, HardwareFaults::OVER_CURRENT);
+        assert_eq!((motors[0].load_torque(), motors[1].load_torque()), (-200.0, 0.0));
+        let mut single = BoardHooks::default();
+        single.written(0x2110, 0, &1u32.to_le_bytes());
+        assert_eq!(single.take_changes(), [Change::Written { index: 0x2110, sub: 0, value: 1 }]);
     }
 
     #[test]
@@ -252,7 +297,7 @@ mod tests {
         assert_eq!(
             hooks.take_changes(),
             [
-                Change::Inputs(4),
+                Change::Inputs(0, 4),
                 Change::Written { index: 0x2704, sub: 0, value: 125 },
                 Change::Written { index: 0x607F, sub: 0, value: 15 },
                 Change::Stored(2)

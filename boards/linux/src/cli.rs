@@ -97,6 +97,13 @@ struct Options {
     #[arg(long, value_name = "FILE", verbatim_doc_comment, allow_hyphen_values = true)]
     trace: Option<PathBuf>,
 
+    /// CiA 402 axes of the node, 1..4 (default 1; generic profile
+    /// only): axis n's objects at 6000h + n x 800h, PDOs 4n+1..4n+4,
+    /// its simulated motor's objects at 2100h + n x 10h
+    #[arg(long, value_name = "N", verbatim_doc_comment, allow_hyphen_values = true,
+          value_parser = text("--axes", axes))]
+    axes: Option<u8>,
+
     /// Write the profile's EDS (CiA 306) to PATH and exit
     #[arg(long, value_name = "PATH", allow_hyphen_values = true)]
     write_eds: Option<PathBuf>,
@@ -139,6 +146,8 @@ pub enum Action {
         eds: Option<PathBuf>,
         /// Where to write the XDD.
         xdd: Option<PathBuf>,
+        /// Axes of the node.
+        axes: u8,
     },
     /// Run the drive.
     Run(RunArgs),
@@ -149,6 +158,8 @@ pub enum Action {
 pub struct RunArgs {
     /// The drive.
     pub profile: ProfileName,
+    /// Axes of the node (`--axes`).
+    pub axes: u8,
     /// Node-ID, 1..=127.
     pub node_id: u8,
     /// `HOST:PORT` to serve SLCAN on.
@@ -196,6 +207,10 @@ pub enum CliError {
     QuietAndVerbose,
     /// `-v` given more than twice.
     TooVerbose,
+    /// `--axes` outside 1..=4.
+    InvalidAxes(String),
+    /// `--axes` above 1 with a vendor profile.
+    AxesOfProfile(ProfileName),
     /// Any other refusal of the parser (e.g. a value given to `--quiet`), in its words.
     Refused(String),
 }
@@ -227,6 +242,14 @@ impl fmt::Display for CliError {
             }
             CliError::QuietAndVerbose => f.write_str("--quiet and -v/--verbose exclude each other"),
             CliError::TooVerbose => f.write_str("-v goes up to -vv"),
+            CliError::InvalidAxes(v) => write!(
+                f,
+                "invalid value '{v}' of '--axes': expected a number from 1 to {}",
+                crate::axes::MAX_AXES
+            ),
+            CliError::AxesOfProfile(p) => {
+                write!(f, "profile {} is a single-axis drive: --axes needs the generic profile", p.name())
+            }
             CliError::Refused(message) => f.write_str(message),
         }
     }
@@ -248,9 +271,13 @@ pub fn parse(args: impl IntoIterator<Item = OsString>) -> Result<Action, CliErro
     }
     let node_id = options.node_id.unwrap_or(1);
     let profile = options.profile.unwrap_or(ProfileName::Generic);
+    let axes = options.axes.unwrap_or(1);
+    if axes > 1 && profile != ProfileName::Generic {
+        return Err(CliError::AxesOfProfile(profile));
+    }
     if options.write_eds.is_some() || options.write_xdd.is_some() {
         let (eds, xdd, storage) = (options.write_eds, options.write_xdd, options.storage.is_some());
-        return Ok(Action::Describe { profile, node_id, storage, eds, xdd });
+        return Ok(Action::Describe { profile, node_id, storage, eds, xdd, axes });
     }
     if options.slcan_listen.is_none() && options.socketcan.is_none() {
         return Err(CliError::NoBus);
@@ -265,6 +292,7 @@ pub fn parse(args: impl IntoIterator<Item = OsString>) -> Result<Action, CliErro
     };
     Ok(Action::Run(RunArgs {
         profile,
+        axes,
         node_id,
         slcan_listen: options.slcan_listen,
         socketcan: options.socketcan,
@@ -326,6 +354,13 @@ fn profile(text: &str) -> Result<ProfileName, CliError> {
     ProfileName::parse(text).ok_or_else(|| CliError::UnknownProfile(text.to_string()))
 }
 
+fn axes(text: &str) -> Result<u8, CliError> {
+    match text.parse::<u8>() {
+        Ok(n) if (1..=crate::axes::MAX_AXES).contains(&n) => Ok(n),
+        _ => Err(CliError::InvalidAxes(text.to_string())),
+    }
+}
+
 fn interface(text: &str) -> Result<String, CliError> {
     if text.is_empty() {
         return Err(CliError::InvalidInterface);
@@ -378,6 +413,7 @@ mod tests {
             parse_str(&["--slcan-listen", "127.0.0.1:5000"]),
             Ok(Action::Run(RunArgs {
                 profile: ProfileName::Generic,
+                axes: 1,
                 node_id: 1,
                 slcan_listen: Some("127.0.0.1:5000".into()),
                 socketcan: None,
@@ -410,6 +446,7 @@ mod tests {
             ]),
             Ok(Action::Run(RunArgs {
                 profile: ProfileName::Generic,
+                axes: 1,
                 node_id: 127,
                 slcan_listen: Some("localhost:0".into()),
                 socketcan: Some("can0".into()),
@@ -427,6 +464,7 @@ mod tests {
                 storage,
                 eds: eds.map(Into::into),
                 xdd: xdd.map(Into::into),
+                axes: 1,
             })
         };
         assert_eq!(
@@ -508,6 +546,29 @@ mod tests {
     }
 
     #[test]
+    fn axes() {
+        let Ok(Action::Run(args)) = parse_str(&["--axes", "2", "--socketcan", "can0"]) else {
+            panic!("--axes 2")
+        };
+        assert_eq!(args.axes, 2);
+        let Ok(Action::Describe { axes, .. }) = parse_str(&["--axes=4", "--write-eds", "a.eds"]) else {
+            panic!("--axes=4 --write-eds")
+        };
+        assert_eq!(axes, 4);
+        for bad in ["0", "5", "two"] {
+            assert_eq!(
+                parse_str(&["--axes", bad, "--socketcan", "can0"]),
+                Err(CliError::InvalidAxes(bad.into()))
+            );
+        }
+        assert_eq!(
+            parse_str(&["--axes", "2", "--profile", "chieftek", "--socketcan", "can0"]),
+            Err(CliError::AxesOfProfile(ProfileName::Chieftek))
+        );
+        assert!(CliError::InvalidAxes("9".into()).to_string().contains("from 1 to 4"));
+    }
+
+    #[test]
     fn refusals_clap_words_and_values_that_are_not_text() {
         use std::os::unix::ffi::OsStringExt;
         let not_text = OsString::from_vec(vec![b'c', 0xFF]);
@@ -545,6 +606,8 @@ mod tests {
             "-vv: also every frame",
             "--trace <FILE>",
             "canplayer -I FILE",
+            "--axes <N>",
+            "PDOs 4n+1..4n+4",
             "--write-eds <PATH>",
             "--write-xdd <PATH>",
             "describe the drive that keeps parameters",

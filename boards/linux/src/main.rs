@@ -25,6 +25,7 @@ macro_rules! log {
     };
 }
 
+mod axes;
 mod board_objects;
 mod bus;
 mod cli;
@@ -45,9 +46,11 @@ use std::time::Duration;
 use std::path::Path;
 
 use canopen_drive::storage::{device_signature, ImageState, Persistence, Storage};
+use canopen_drive::Config;
 use canopen_drive_sim::flash::FileFlash;
 use signal_hook::consts::{SIGINT, SIGTERM};
 
+use crate::board_objects::BoardHooks;
 use crate::bus::Bus;
 use crate::cli::{Action, RunArgs};
 use crate::profiles::{BoardProfile, ProfileName};
@@ -72,8 +75,8 @@ fn main() -> ExitCode {
                     output::text(&cli::help());
                     Ok(())
                 }
-                Action::Describe { profile, node_id, storage, eds, xdd } => {
-                    describe(profile, node_id, storage, eds.as_deref(), xdd.as_deref())
+                Action::Describe { profile, node_id, storage, eds, xdd, axes } => {
+                    describe(profile, axes, node_id, storage, eds.as_deref(), xdd.as_deref())
                 }
                 Action::Run(args) => run(&args),
             };
@@ -90,16 +93,17 @@ fn main() -> ExitCode {
     status
 }
 
-/// Writes the EDS and/or the XDD of the drive `profile` at `node_id`, with parameter storage or
-/// without.
+/// Writes the EDS and/or the XDD of the drive `profile` of `axes` axes at `node_id`, with
+/// parameter storage or without.
 fn describe(
     profile: ProfileName,
+    axes: u8,
     node_id: u8,
     storage: bool,
     eds: Option<&Path>,
     xdd: Option<&Path>,
 ) -> Result<(), String> {
-    let profile = BoardProfile::of(profile);
+    let profile = BoardProfile::of(profile).with_axes(axes);
     let write = |path: &Path, text: String| {
         std::fs::write(path, text).map_err(|e| format!("cannot write {}: {e}", path.display()))
     };
@@ -113,7 +117,7 @@ fn describe(
 }
 
 fn run(args: &RunArgs) -> Result<(), String> {
-    let profile = BoardProfile::of(args.profile);
+    let profile = BoardProfile::of(args.profile).with_axes(args.axes);
     let lss_file = args.storage.as_deref().map(lss_store::path_for);
     let mut node_id = args.node_id;
     if let Some(stored) = lss_file.as_deref().and_then(lss_store::load) {
@@ -146,6 +150,18 @@ fn run(args: &RunArgs) -> Result<(), String> {
     let (mut config, _) = node::config_with_eds(&profile, node_id, args.storage.is_some())?;
     config.lss_store = args.storage.is_some();
     let hooks = profile.hooks(args.storage.is_some());
+    axes::with_axes!(profile.axes, start(args, node_id, config, hooks, &board))
+}
+
+/// Builds the drive of `AXES` axes with `PDOS` + `PDOS` PDOs (with the parameter storage of
+/// `--storage`, or none) and serves it.
+fn start<const PDOS: usize, const AXES: usize>(
+    args: &RunArgs,
+    node_id: u8,
+    config: Config,
+    hooks: BoardHooks,
+    board: &node::Board<'_>,
+) -> Result<(), String> {
     match &args.storage {
         Some(path) => {
             let (flash, wrong_size) = FileFlash::open_default_tolerant(path)
@@ -154,14 +170,14 @@ fn run(args: &RunArgs) -> Result<(), String> {
             let mut storage =
                 Storage::new(flash, signature).map_err(|e| format!("storage {}: {e:?}", path.display()))?;
             report_damage(path, wrong_size, &mut storage);
-            let drive = node::BoardDrive::build(config, hooks, storage)
+            let drive = node::BoardDrive::<_, PDOS, AXES>::build(config, hooks, storage)
                 .map_err(|e| format!("invalid drive configuration: {e:?}"))?;
-            serve(args, node_id, drive, &board)
+            serve(args, node_id, drive, board)
         }
         None => {
-            let drive = node::BoardDrive::<()>::create(config, hooks)
+            let drive = node::BoardDrive::<(), PDOS, AXES>::build(config, hooks, ())
                 .map_err(|e| format!("invalid drive configuration: {e:?}"))?;
-            serve(args, node_id, drive, &board)
+            serve(args, node_id, drive, board)
         }
     }
 }
@@ -217,10 +233,10 @@ fn report_damage(path: &Path, wrong_size: Option<String>, storage: &mut Storage<
     ));
 }
 
-fn serve<S: Persistence>(
+fn serve<S: Persistence, const PDOS: usize, const AXES: usize>(
     args: &RunArgs,
     node_id: u8,
-    drive: node::BoardDrive<S>,
+    drive: node::BoardDrive<S, PDOS, AXES>,
     board: &node::Board<'_>,
 ) -> Result<(), String> {
     let stop = Arc::new(AtomicBool::new(false));
@@ -241,7 +257,10 @@ fn serve<S: Persistence>(
         log!("node {node_id} on SocketCAN {iface}");
     }
 
-    log!("profile {}", board.profile.name.name());
+    match board.profile.axes {
+        1 => log!("profile {}", board.profile.name.name()),
+        axes => log!("profile {}, {axes} axes", board.profile.name.name()),
+    }
     // `ready` follows the boot-up frame, so what a master sees does not depend on how soon it
     // connects. Whoever started the program may stop reading it after this line (see `output`).
     node::run(drive, board, &bus, &stop, || output::line(format_args!("ready")));

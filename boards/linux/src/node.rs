@@ -19,6 +19,7 @@ use std::time::Duration as StdDuration;
 use std::path::Path;
 
 use canopen_drive::drive::ConnectionEvent;
+use canopen_drive::hal::Sample;
 use canopen_drive::od::eds::EdsInfo;
 use canopen_drive::storage::{device_signature, Persistence, Storage};
 use canopen_drive::{Config, Drive, Duration, Instant};
@@ -31,8 +32,10 @@ use crate::monitor::{Direction, Monitor};
 use crate::profiles::{Action, BoardProfile, Environment, Firmware, Update, OD_BYTES};
 use crate::trace::Trace;
 
-/// The drive of this board, with parameter storage `S` (a file, or none).
-pub type BoardDrive<S> = Drive<BoardHooks, OD_BYTES, 4, 4, S>;
+/// The drive of this board, with parameter storage `S` (a file, or none), `PDOS` + `PDOS` PDOs
+/// and `AXES` axes ([`crate::axes`]).
+pub type BoardDrive<S, const PDOS: usize = 4, const AXES: usize = 1> =
+    Drive<BoardHooks, OD_BYTES, PDOS, PDOS, S, AXES>;
 
 /// Layout number of the stored parameters (part of the storage signature): change it when a
 /// firmware change gives stored parameters another meaning.
@@ -80,6 +83,16 @@ fn describe(
     storage: bool,
     write: impl Fn(&dyn Describe, &mut String) -> std::fmt::Result,
 ) -> Result<String, String> {
+    crate::axes::with_axes!(profile.axes, describe_axes(profile, node_id, storage, &write))
+}
+
+/// [`describe`] for a node of `AXES` axes with `PDOS` + `PDOS` PDOs.
+fn describe_axes<const PDOS: usize, const AXES: usize>(
+    profile: &BoardProfile,
+    node_id: u8,
+    storage: bool,
+    write: &impl Fn(&dyn Describe, &mut String) -> std::fmt::Result,
+) -> Result<String, String> {
     let config = profile.config(node_id);
     let invalid = |e| format!("invalid drive configuration: {e:?}");
     let mut text = String::new();
@@ -93,10 +106,11 @@ fn describe(
         );
         let storage = Storage::new(flash, device_signature(&config.device, STORAGE_LAYOUT))
             .map_err(|e| format!("storage: {e:?}"))?;
-        let drive = BoardDrive::build(config, profile.hooks(true), storage).map_err(invalid)?;
+        let drive =
+            BoardDrive::<_, PDOS, AXES>::build(config, profile.hooks(true), storage).map_err(invalid)?;
         write(&drive, &mut text)
     } else {
-        let drive = BoardDrive::<()>::create(config, profile.hooks(false)).map_err(invalid)?;
+        let drive = BoardDrive::<(), PDOS, AXES>::build(config, profile.hooks(false), ()).map_err(invalid)?;
         write(&drive, &mut text)
     }
     .map_err(|_| "the text could not be written".to_string())?;
@@ -109,7 +123,7 @@ trait Describe {
     fn write_xdd(&self, info: &EdsInfo, w: &mut String) -> std::fmt::Result;
 }
 
-impl<S: Persistence> Describe for BoardDrive<S> {
+impl<S: Persistence, const PDOS: usize, const AXES: usize> Describe for BoardDrive<S, PDOS, AXES> {
     fn write_eds(&self, info: &EdsInfo, w: &mut String) -> std::fmt::Result {
         Drive::write_eds(self, info, w)
     }
@@ -160,7 +174,10 @@ impl Observer<'_> {
         }
     }
 
-    fn states<S: Persistence>(&mut self, drive: &BoardDrive<S>) {
+    fn states<S: Persistence, const PDOS: usize, const AXES: usize>(
+        &mut self,
+        drive: &BoardDrive<S, PDOS, AXES>,
+    ) {
         if !self.monitor.active() {
             return;
         }
@@ -184,15 +201,16 @@ const MODES_OF_OPERATION_DISPLAY: u16 = 0x6061;
 
 /// Runs `drive` on `bus` until `stop` is set. `started` runs once the node is on the bus: its
 /// boot-up frame has been sent, so a master that connects afterwards never sees it.
-pub fn run<S: Persistence>(
-    mut drive: BoardDrive<S>,
+pub fn run<S: Persistence, const PDOS: usize, const AXES: usize>(
+    mut drive: BoardDrive<S, PDOS, AXES>,
     board: &Board<'_>,
     bus: &Bus,
     stop: &AtomicBool,
     started: impl FnOnce(),
 ) {
     let clock = Clock(std::time::Instant::now());
-    let mut motor = SimMotor::with_params(board.profile.axis);
+    // One simulated motor per axis, all alike.
+    let mut motors: [SimMotor; AXES] = std::array::from_fn(|_| SimMotor::with_params(board.profile.axis));
     let mut firmware = (board.profile.firmware)();
     let env = Environment { lss_file: board.lss_file, bit_rate_kbit: board.bit_rate_kbit };
     let mut updates = Vec::new();
@@ -229,7 +247,7 @@ pub fn run<S: Persistence>(
                     firmware.written(index, sub, value, drive.od(), &env, &mut updates);
                 }
                 Change::Stored(sub) => firmware.stored(sub, drive.od(), &env),
-                simulation => crate::board_objects::apply(simulation, &mut motor),
+                simulation => crate::board_objects::apply(simulation, &mut motors),
             }
         }
         apply_updates(&mut drive, &mut updates);
@@ -237,13 +255,20 @@ pub fn run<S: Persistence>(
 
         let now = clock.now();
         if now >= next_tick {
-            // The firmware sees the motor's inputs as they are, the drive as configured.
-            let raw = motor.sample();
-            let mut sample = raw;
-            firmware.inputs(drive.od(), &mut sample);
-            let demand = drive.tick(now, &sample);
-            motor.step(&demand, now - last_tick);
-            firmware.after_tick(drive.od(), &raw, drive.state(), &mut updates);
+            // The firmware sees the (first) motor's inputs as they are, the drive as configured.
+            let raw: [Sample; AXES] =
+                std::array::from_fn(|n| motors.get(n).map(SimMotor::sample).unwrap_or_default());
+            let mut samples = raw;
+            if let Some(sample) = samples.first_mut() {
+                firmware.inputs(drive.od(), sample);
+            }
+            let demands = drive.tick_axes(now, &samples);
+            for (motor, demand) in motors.iter_mut().zip(&demands) {
+                motor.step(demand, now - last_tick);
+            }
+            if let Some(raw) = raw.first() {
+                firmware.after_tick(drive.od(), raw, drive.state(), &mut updates);
+            }
             apply_updates(&mut drive, &mut updates);
             take_actions(&mut drive, firmware.as_mut());
             last_tick = now;
@@ -266,7 +291,10 @@ pub fn run<S: Persistence>(
 }
 
 /// Carries out the firmware's actions on the drive.
-fn take_actions<S: Persistence>(drive: &mut BoardDrive<S>, firmware: &mut dyn Firmware) {
+fn take_actions<S: Persistence, const PDOS: usize, const AXES: usize>(
+    drive: &mut BoardDrive<S, PDOS, AXES>,
+    firmware: &mut dyn Firmware,
+) {
     for action in firmware.take_actions() {
         match action {
             Action::PresetPosition(position) => drive.preset_position(position),
@@ -287,7 +315,10 @@ fn take_actions<S: Persistence>(drive: &mut BoardDrive<S>, firmware: &mut dyn Fi
 
 /// Writes the firmware's values into the dictionary (only those that changed, so the drive
 /// re-reads its parameters only when one did).
-fn apply_updates<S: Persistence>(drive: &mut BoardDrive<S>, updates: &mut Vec<Update>) {
+fn apply_updates<S: Persistence, const PDOS: usize, const AXES: usize>(
+    drive: &mut BoardDrive<S, PDOS, AXES>,
+    updates: &mut Vec<Update>,
+) {
     for update in updates.drain(..) {
         let Ok(entry) = drive.od().entry(update.index, update.sub) else { continue };
         let Some(size) = entry.var.data_type.fixed_size() else { continue };
@@ -303,7 +334,10 @@ fn apply_updates<S: Persistence>(drive: &mut BoardDrive<S>, updates: &mut Vec<Up
 
 /// What an LSS master asked of the board: a bit-rate change is reported on stdout (there is no
 /// bit rate on SLCAN-over-TCP to switch), a stored configuration goes to the LSS file.
-fn lss_services<S: Persistence>(drive: &mut BoardDrive<S>, lss_file: Option<&Path>) {
+fn lss_services<S: Persistence, const PDOS: usize, const AXES: usize>(
+    drive: &mut BoardDrive<S, PDOS, AXES>,
+    lss_file: Option<&Path>,
+) {
     if let Some(change) = drive.take_bit_rate_change() {
         let timing = change.bit_timing;
         let rate =
@@ -321,7 +355,11 @@ fn lss_services<S: Persistence>(drive: &mut BoardDrive<S>, lss_file: Option<&Pat
 }
 
 /// Puts every frame the drive has queued on the bus.
-fn transmit<S: Persistence>(drive: &mut BoardDrive<S>, bus: &Bus, observer: &Observer<'_>) {
+fn transmit<S: Persistence, const PDOS: usize, const AXES: usize>(
+    drive: &mut BoardDrive<S, PDOS, AXES>,
+    bus: &Bus,
+    observer: &Observer<'_>,
+) {
     while let Some(frame) = drive.pop_tx() {
         observer.frame(Direction::Tx, &frame);
         bus.send_from_drive(&frame);

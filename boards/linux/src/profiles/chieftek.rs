@@ -299,6 +299,7 @@ pub static ABSENT: [u16; 6] = [0x6072, 0x6086, 0x608F, 0x6091, 0x60C1, 0x60C5];
 /// The profile.
 pub fn profile() -> BoardProfile {
     BoardProfile {
+        axes: 1,
         name: ProfileName::Chieftek,
         config: Config {
             device: device_info(),

@@ -67,6 +67,7 @@ pub fn axis() -> MotorParams {
 /// The generic profile.
 pub fn profile() -> BoardProfile {
     BoardProfile {
+        axes: 1,
         name: ProfileName::Generic,
         config: Config {
             device: device_info(),

@@ -512,6 +512,7 @@ pub fn axis() -> MotorParams {
 /// The profile.
 pub fn profile() -> BoardProfile {
     BoardProfile {
+        axes: 1,
         name: ProfileName::HarmonicDrive,
         config: Config {
             device: device_info(),

@@ -215,6 +215,8 @@ pub struct BoardProfile {
     pub axis: MotorParams,
     /// The firmware behaviour.
     pub firmware: fn() -> Box<dyn Firmware>,
+    /// The axes of the node (`--axes`, [`crate::axes`]): 1 but for the generic drive.
+    pub axes: u8,
 }
 
 impl BoardProfile {
@@ -235,7 +237,18 @@ impl BoardProfile {
 
     /// The object hooks of this drive; `storage`: parameters are kept.
     pub fn hooks(&self, storage: bool) -> BoardHooks {
-        BoardHooks::new(self.simulation, self.rules, storage)
+        BoardHooks::new(self.simulation, self.rules, storage).with_axes(self.axes)
+    }
+
+    /// This drive as a node of `axes` axes ([`crate::axes`]): 4 + 4 PDOs and the simulation
+    /// objects per axis.
+    pub fn with_axes(self, axes: u8) -> BoardProfile {
+        let mut profile = self;
+        profile.axes = axes;
+        profile.config.pdo_objects = crate::axes::pdo_objects(axes);
+        profile.config.manufacturer_objects =
+            crate::axes::manufacturer_objects(self.config.manufacturer_objects, self.simulation, axes);
+        profile
     }
 }
 

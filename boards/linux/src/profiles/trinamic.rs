@@ -490,6 +490,7 @@ pub fn axis() -> MotorParams {
 /// The profile.
 pub fn profile() -> BoardProfile {
     BoardProfile {
+        axes: 1,
         name: ProfileName::TrinamicPd57,
         config: Config {
             device: device_info(),
