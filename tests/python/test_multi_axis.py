@@ -362,6 +362,9 @@ def test_the_eds_lists_both_axes_and_the_node_is_a_multi_device(fresh, eds_file)
     statusword_1 = od[0x6841]
     assert isinstance(statusword_1, ODVariable) and statusword_1.data_type == datatypes.UNSIGNED16
     assert not statusword_1.writable, "6841h is read-only"
+    # By name: the first axis's objects carry CiA 402's names, the second's are told apart.
+    assert od["Statusword"].index == 0x6041 and od["Statusword (axis 1)"].index == 0x6841
+    assert node.sdo["Controlword (axis 1)"].od.index == 0x6840
 
     assert od[0x1000].default == MULTI_DEVICE_402
     assert od[0x67FF].default == DEVICE_TYPE_402 and od[0x6FFF].default == DEVICE_TYPE_402

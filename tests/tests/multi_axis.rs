@@ -311,6 +311,10 @@ fn the_eds_lists_both_axes_and_storage_keeps_each_axis_apart() {
     assert!(!eds.contains("[7040]"));
     assert!(eds.contains("[1000]\nParameterName=Device type\nObjectType=0x7\nDataType=0x0007\nAccessType=ro\nDefaultValue=0xFFFF0192"));
     assert!(eds.contains("DefaultValue=0x68400010"), "RPDO5's preset mapping");
+    // A master that finds objects by name tells the axes apart; the first axis's names are CiA 402's.
+    assert!(eds.contains("[6040]\nParameterName=Controlword\n"));
+    assert!(eds.contains("[6840]\nParameterName=Controlword (axis 1)\n"));
+    assert!(eds.contains("[6FFF]\nParameterName=Device type (axis 1)\n"));
 
     // Every parameter of axis 1 is a parameter of its own (store and restore see it).
     let od = node.drive.od();
@@ -318,4 +322,29 @@ fn the_eds_lists_both_axes_and_storage_keeps_each_axis_apart() {
     assert!(axis1.contains(&0x6883) && axis1.contains(&0x6860), "{axis1:x?}");
     let axis0 = od.parameters(0x6000..=0x67FF).count();
     assert_eq!(axis0, axis1.len(), "the same parameters for each axis");
+}
+
+/// Eight axes, the most CiA 402 gives a node: the last one's objects end at 9FFFh, its PDOs are
+/// 29–32.
+#[test]
+fn eight_axes_reach_9fffh() {
+    static PDOS_32: [Object; 128] = canopen_drive::od::layout(pdo::objects::<128>(32));
+    const BYTES: usize = STANDARD_OD_BYTES + 7 * AXIS_OD_BYTES + 8192;
+    let config = Config { pdo_objects: &PDOS_32, ..Config::new(NODE) };
+    let mut drive = Drive::<(), BYTES, 32, 32, (), 8>::build(config, (), ()).expect("an eight-axis drive");
+    let od = drive.od();
+    assert_eq!(od.get::<u32>(0x9FFF, 0), Ok(0x0002_0192));
+    assert_eq!(od.get::<u32>(0x1A1C, 1), Ok(0x9841_0010), "TPDO29: the eighth axis's statusword");
+    assert_eq!(od.get::<u32>(0x1A20, 1), Err(AbortCode::ObjectDoesNotExist));
+    drive.od_mut().set::<u16>(0x9840, 0, 0x06).unwrap();
+    let samples = [SimMotor::new().sample(); 8];
+    let mut now = Instant::ZERO;
+    for _ in 0..3 {
+        drive.tick_axes(now, &samples);
+        now = now + Duration::from_millis(1);
+    }
+    let states: Vec<u16> =
+        (0..8u16).map(|n| drive.od().get::<u16>(0x6041 + n * 0x800, 0).unwrap() & 0x6F).collect();
+    assert_eq!(states, [SWITCH_ON_DISABLED, 0x40, 0x40, 0x40, 0x40, 0x40, 0x40, 0x21]);
+    assert_eq!(drive.axis_state(7), canopen_drive::cia402::fsa::State::ReadyToSwitchOn);
 }

@@ -118,8 +118,10 @@ pub(super) struct Sub<'a> {
 /// sub-index appended.
 #[derive(Clone, Copy)]
 pub(super) enum Name<'a> {
-    /// An object's name with its instance number (e.g. "RPDO communication parameter 3").
-    Object(&'a Object),
+    /// An object's name with its instance number (e.g. "RPDO communication parameter 3"), and
+    /// for a copy of a further logical device the device's number (e.g. "Controlword (axis 1)":
+    /// a master that finds objects by name tells the axes apart).
+    Object(&'a Object, u8),
     /// A sub-index's own name.
     Plain(&'static str),
     /// An ARRAY element: the element's name and the sub-index.
@@ -129,10 +131,16 @@ pub(super) enum Name<'a> {
 impl Display for Name<'_> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match *self {
-            Name::Object(object) => match object.number {
-                0 => f.write_str(object.name()),
-                n => write!(f, "{} {n}", object.name()),
-            },
+            Name::Object(object, copy) => {
+                match object.number {
+                    0 => f.write_str(object.name())?,
+                    n => write!(f, "{} {n}", object.name())?,
+                }
+                match copy {
+                    0 => Ok(()),
+                    k => write!(f, " (axis {k})"),
+                }
+            }
             Name::Plain(name) => f.write_str(name),
             Name::Element(name, sub) => write!(f, "{name} {sub}"),
         }
@@ -168,7 +176,7 @@ pub(super) fn for_each_sub<'a, const B: usize>(
         Sub { sub, var, default: power_on_value(od, capabilities, index, sub, var), name }
     };
     match &object.kind {
-        Kind::Var(var) => each(entry(0, var, Name::Object(object))),
+        Kind::Var(var) => each(entry(0, var, Name::Object(object, od.copy_of(index)))),
         Kind::Array { sub0, element, len } => {
             each(entry(0, sub0, Name::Plain(od.describe(index, 0, sub0).name())))?;
             let count = u8::try_from(array_len(od, object, sub0, *len)).unwrap_or(u8::MAX);

@@ -140,7 +140,7 @@ fn write_object<const B: usize>(
 ) -> fmt::Result {
     let index = object.index;
     if !matches!(object.kind, Kind::Var(_)) {
-        writeln!(w, "\n[{index:04X}]\nParameterName={}", clean(Name::Object(object)))?;
+        writeln!(w, "\n[{index:04X}]\nParameterName={}", clean(Name::Object(object, od.copy_of(index))))?;
         let code = description::object_code(object);
         writeln!(w, "ObjectType=0x{code:X}\nSubNumber=0x{:X}", description::sub_count(od, object))?;
     }

@@ -600,6 +600,15 @@ impl<const BYTES: usize> Dictionary<BYTES> {
         self.attached().iter().map(|t| t.copies).max().unwrap_or(1)
     }
 
+    /// Which copy of its table `index` lies in (0 for the first, and for an index of a table
+    /// without copies): the logical device (CiA 402 axis) of the object.
+    pub fn copy_of(&self, index: u16) -> u8 {
+        self.attached()
+            .iter()
+            .find(|t| t.copies > 1 && (t.first..=t.last).contains(&index))
+            .map_or(0, |t| ((index - t.first) / COPY_STRIDE) as u8)
+    }
+
     /// Copies of the table that holds `index` (1 for an index of no copied table): the
     /// logical devices of the node when `index` is one of a CiA 402 axis's objects.
     pub fn copies_of(&self, index: u16) -> u8 {
@@ -1523,5 +1532,70 @@ mod tests {
         assert_eq!(od.entry(0x1FFF, 0).err(), Some(AbortCode::ObjectDoesNotExist));
         assert_eq!(od.entry(0x0000, 0).err(), Some(AbortCode::ObjectDoesNotExist));
         assert_eq!(od.entry(0xFFFF, 0).err(), Some(AbortCode::ObjectDoesNotExist));
+    }
+
+    /// A device-profile table of two objects, attached once per logical device.
+    static DEVICE: [Object; 2] = layout([
+        Object::var(
+            0x6040,
+            "Word",
+            Var::new("Word", DataType::Unsigned16)
+                .access(Access::ReadWrite)
+                .default(DefaultValue::Unsigned(7)),
+        ),
+        Object::var(
+            0x67FF,
+            "Type",
+            Var::new("Type", DataType::Unsigned32)
+                .access(Access::Const)
+                .default(DefaultValue::Device(DeviceField::LogicalDeviceType)),
+        ),
+    ]);
+
+    #[test]
+    fn copies_of_a_table_are_devices_of_their_own() {
+        extern crate std;
+        let tables: [&'static [Object]; 2] = [&TABLE, &DEVICE];
+        let mut od = Dictionary::<4096>::empty(DeviceInfo::servo_drive(), 3);
+        od.attach_copies(&tables, &[1, 8]).unwrap();
+        assert_eq!(od.devices(), 8);
+        assert_eq!(od.used_bytes(), TABLE.iter().map(Object::storage_size).sum::<usize>() + 8 * 2);
+        // Device n's objects at 6040h + n × 800h, each its own value; nothing beyond the eighth.
+        for n in 0..8u16 {
+            assert_eq!(od.get::<u16>(0x6040 + n * 0x800, 0), Ok(7));
+            od.set::<u16>(0x6040 + n * 0x800, 0, 100 + n).unwrap();
+            assert_eq!(od.get::<u32>(0x67FF + n * 0x800, 0), Ok(0x0002_0192), "each device's own type");
+            assert_eq!(od.copy_of(0x6040 + n * 0x800), n as u8);
+        }
+        for n in 0..8u16 {
+            assert_eq!(od.get::<u16>(0x6040 + n * 0x800, 0), Ok(100 + n));
+        }
+        assert_eq!(od.get::<u32>(0x9FFF, 0), Ok(0x0002_0192), "the eighth device's last object");
+        for missing in [0x6041, 0x6841, 0x6000, 0x67FE, 0xA040, 0xFFFF] {
+            assert_eq!(od.entry(missing, 0).err(), Some(AbortCode::ObjectDoesNotExist), "{missing:04X}h");
+        }
+        assert_eq!(od.entry(0x6840, 0).map(|e| e.index()), Ok(0x6840));
+        let indices: std::vec::Vec<u16> = od.objects().map(|o| o.index).collect();
+        assert!(indices.is_sorted() && indices.len() == TABLE.len() + 16, "{indices:x?}");
+        // 1000h of a node of several devices: the multi-device marker, the first device's profile.
+        assert_eq!(od.device_type(), 0xFFFF_0192);
+        od.reset(0x6800..=0x6FFF);
+        assert_eq!(
+            (od.get::<u16>(0x6040, 0), od.get::<u16>(0x6840, 0)),
+            (Ok(100), Ok(7)),
+            "one device reset"
+        );
+        let parameters: std::vec::Vec<u16> = od.parameters(0x6000..=0x9FFF).map(|e| e.index()).collect();
+        assert_eq!(parameters, (0..8).map(|n| 0x6040 + n * 0x800).collect::<std::vec::Vec<u16>>());
+
+        // Refused: no copies, more than eight, a table wider than one stride.
+        let mut od = Dictionary::<4096>::empty(DeviceInfo::servo_drive(), 3);
+        assert_eq!(od.attach_copies(&tables, &[1, 9]), Err(ConfigError::BadCopies { index: 0x6040 }));
+        assert_eq!(od.attach_copies(&tables, &[1, 0]), Err(ConfigError::BadCopies { index: 0x6040 }));
+        static WIDE: [Object; 2] = layout([DEVICE[0], DEVICE[0].at(0x6840)]);
+        assert_eq!(od.attach_copies(&[&WIDE], &[2]), Err(ConfigError::BadCopies { index: 0x6040 }));
+        assert_eq!(od.attach_copies(&[&WIDE], &[1]), Ok(()));
+        let single = Dictionary::<4096>::new(&tables, DeviceInfo::servo_drive(), 3).unwrap();
+        assert_eq!((single.devices(), single.device_type()), (1, 0x0002_0192));
     }
 }

@@ -165,7 +165,7 @@ fn write_object<const B: usize>(
     write!(
         w,
         r#"          <CANopenObject index="{index:04X}" name="{}" objectType="{code}""#,
-        escape(Name::Object(object))
+        escape(Name::Object(object, od.copy_of(object.index)))
     )?;
     if let Kind::Var(_) = object.kind {
         return for_each_sub(od, capabilities, object, |entry| {
