@@ -95,32 +95,50 @@ if [[ ! -f $plugin || $insncount_src -nt $plugin ]]; then
     gcc -O2 -shared -fPIC -fvisibility=hidden -o "$plugin" "$insncount_src"
 fi
 
-echo "building benches/drive-bench (host, thumbv7em-none-eabihf, thumbv6m-none-eabi)" >&2
-(cd "$bench" && cargo build --quiet --release)
-(cd "$bench" && cargo build --quiet --release --target thumbv7em-none-eabihf)
-(cd "$bench" && cargo build --quiet --release --target thumbv6m-none-eabi)
+# Two builds of each: the single-axis measurements, and (cargo feature `two-axes`, its own
+# target directory) the two-axis ones, so that no image holds two drive types (the compiler
+# would inline the shared code differently and the single-axis counts would not be a
+# single-axis firmware's).
+echo "building benches/drive-bench (host, thumbv7em-none-eabihf, thumbv6m-none-eabi; one and two axes)" >&2
+axes_dir=$CARGO_TARGET_DIR/two-axes
+for features in "" two-axes; do
+    dir=$CARGO_TARGET_DIR
+    [ -n "$features" ] && dir=$axes_dir
+    for target in "" thumbv7em-none-eabihf thumbv6m-none-eabi; do
+        (cd "$bench" && CARGO_TARGET_DIR=$dir cargo build --quiet --release ${target:+--target $target} \
+            ${features:+--features $features})
+    done
+done
 host=$CARGO_TARGET_DIR/release/drive-bench
-firmware=$CARGO_TARGET_DIR/thumbv7em-none-eabihf/release/drive-bench
-firmware_v6m=$CARGO_TARGET_DIR/thumbv6m-none-eabi/release/drive-bench
+host_axes=$axes_dir/release/drive-bench
 
-"$host" list >"$out/labels.tsv"
+# The two-axis rows follow the single-axis ticks.
+"$host" list >"$out/labels-one.tsv"
+"$host_axes" list >"$out/labels-two.tsv"
+awk -v two="$out/labels-two.tsv" '{ print } /^tick-cst\t/ { while ((getline line < two) > 0) print line }' \
+    "$out/labels-one.tsv" >"$out/labels.tsv"
 mapfile -t names < <(cut -f1 "$out/labels.tsv")
 
 # --- x86-64: one callgrind run, four dumps per measurement, in the background -----------------
 rm -rf "$out/callgrind" "$out/m4" "$out/m0"
 mkdir -p "$out/callgrind" "$out/m4" "$out/m0"
-valgrind --tool=callgrind --collect-atstart=no --compress-strings=no --compress-pos=no \
-    --toggle-collect=drive_bench::run_repetitions --dump-after=drive_bench::run_repetitions \
-    --callgrind-out-file="$out/callgrind/run.out" \
-    "$host" run "$n" >"$out/callgrind/order.txt" 2>"$out/callgrind/valgrind.log" &
+callgrind() {
+    valgrind --tool=callgrind --collect-atstart=no --compress-strings=no --compress-pos=no \
+        --toggle-collect=drive_bench::run_repetitions --dump-after=drive_bench::run_repetitions \
+        --callgrind-out-file="$out/callgrind/$2.out" \
+        "$1" run "$n" >"$out/callgrind/$2.order" 2>>"$out/callgrind/valgrind.log"
+}
+(callgrind "$host" one && callgrind "$host_axes" two) &
 callgrind_pid=$!
 
 # --- Cortex-M4 and v6-M: four QEMU runs per measurement each, two at a time ------------------
 qemu_run() {
     local arch=$1 name=$2 mode=$3 reps=$4 log machine
+    local dir=$BUILD_DIR
+    [[ $name == tick-2-axes-* ]] && dir=$AXES_DIR
     case $arch in
-        m4) machine=(-machine mps2-an386 -cpu cortex-m4 -kernel "$FIRMWARE") ;;
-        *) machine=(-machine mps2-an385 -cpu cortex-m3 -kernel "$FIRMWARE_V6M") ;;
+        m4) machine=(-machine mps2-an386 -cpu cortex-m4 -kernel "$dir/thumbv7em-none-eabihf/release/drive-bench") ;;
+        *) machine=(-machine mps2-an385 -cpu cortex-m3 -kernel "$dir/thumbv6m-none-eabi/release/drive-bench") ;;
     esac
     log=$(timeout 300 qemu-system-arm "${machine[@]}" -nographic \
         -semihosting-config "enable=on,target=native,arg=drive-bench,arg=$name,arg=$reps,arg=$mode" \
@@ -131,7 +149,7 @@ qemu_run() {
     sed -n 's/^insncount: total \([0-9]*\) .*/\1/p' <<<"$log" >"$OUT/$arch/$name.$mode.$reps"
 }
 export -f qemu_run
-export FIRMWARE=$firmware FIRMWARE_V6M=$firmware_v6m PLUGIN=$plugin OUT=$out
+export BUILD_DIR=$CARGO_TARGET_DIR AXES_DIR=$axes_dir PLUGIN=$plugin OUT=$out
 for arch in m4 m0; do
     for name in "${names[@]}"; do
         for mode in base measured; do
@@ -156,20 +174,23 @@ for arch in m4 m0; do
     done
 done
 
-# Dump k (from 1) is call (k-1) mod 4 of measurement (k-1) / 4; kept as <name>.<run>.out.
-mapfile -t order <"$out/callgrind/order.txt"
+# Dump k (from 1) of a run is call (k-1) mod 4 of its measurement (k-1) / 4; kept as
+# <name>.<run>.out.
 : >"$out/x86.txt"
-k=1
-for name in "${order[@]}"; do
-    row=$name
-    for run in "${runs[@]}"; do
-        dump=$out/callgrind/run.out.$k
-        value=$(sed -n 's/^summary: \([0-9]*\)$/\1/p' "$dump" 2>/dev/null || true)
-        row+=" ${value:-0}"
-        [ -f "$dump" ] && mv "$dump" "$out/callgrind/$name.$run.out"
-        k=$((k + 1))
+for build in one two; do
+    mapfile -t order <"$out/callgrind/$build.order"
+    k=1
+    for name in "${order[@]}"; do
+        row=$name
+        for run in "${runs[@]}"; do
+            dump=$out/callgrind/$build.out.$k
+            value=$(sed -n 's/^summary: \([0-9]*\)$/\1/p' "$dump" 2>/dev/null || true)
+            row+=" ${value:-0}"
+            [ -f "$dump" ] && mv "$dump" "$out/callgrind/$name.$run.out"
+            k=$((k + 1))
+        done
+        echo "$row" >>"$out/x86.txt"
     done
-    echo "$row" >>"$out/x86.txt"
 done
 
 # --- The peer: CANopenNode's Cortex-M4 counts and footprint, same QEMU and plugin -------------

@@ -99,7 +99,9 @@ def main():
         if not os.path.exists(plugin) or os.path.getmtime(source) > os.path.getmtime(plugin):
             subprocess.run(["gcc", "-O2", "-shared", "-fPIC", "-fvisibility=hidden", "-o", plugin, source],
                            check=True)
-        firmware = os.path.join(target, "thumbv7em-none-eabihf", "release", "drive-bench")
+        # The two-axis measurements are in their own build (scripts/bench.sh).
+        build = os.path.join(target, "two-axes") if name.startswith("tick-2-axes-") else target
+        firmware = os.path.join(build, "thumbv7em-none-eabihf", "release", "drive-bench")
         out = os.path.join(target, "results", f"{name}.blocks")
         measured = block_costs(firmware, plugin, name, "measured", 2 * n, out)
         base = block_costs(firmware, plugin, name, "base", 2 * n, out)

@@ -172,9 +172,11 @@ class RawSdo:
 
 
 def profile_args(request) -> tuple:
-    """`--profile NAME` for a test module that sets `PROFILE = "NAME"` (default: generic)."""
+    """`--profile NAME` for a test module that sets `PROFILE = "NAME"` (default: generic), and
+    `--axes N` for one that sets `AXIS_COUNT = N` (default: one axis)."""
     profile = getattr(request.module, "PROFILE", None)
-    return ("--profile", profile) if profile else ()
+    axes = getattr(request.module, "AXIS_COUNT", None)
+    return (("--profile", profile) if profile else ()) + (("--axes", str(axes)) if axes else ())
 
 
 @pytest.fixture(scope="module")

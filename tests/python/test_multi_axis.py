@@ -15,17 +15,17 @@ axis 1, without identifiers until the master gives them. CiA 306: the EDS that
 """
 
 import struct
-import subprocess
 import time
 
 import canopen
 import pytest
 from canopen.objectdictionary import ODVariable, datatypes
 
-from conftest import NODE_ID, DriveProcess, Recorder, binary_path
+from conftest import NODE_ID, Recorder
 from profile_support import abort_code
 
-AXES_ARGS = ("--axes", "2")
+# conftest starts the drive and writes its EDS with `--axes 2`.
+AXIS_COUNT = 2
 
 AXIS0, AXIS1 = 0x000, 0x800  # added to the first axis's index: axis n at + n × 800h
 AXES = (AXIS0, AXIS1)
@@ -53,28 +53,7 @@ FAULT = (0x4F, 0x08)
 VELOCITY_WINDOW = 100  # 606Dh/686Dh, increments/s
 
 
-# --- Fixtures: the drive and its EDS with two axes ------------------------------------------
-
-
-@pytest.fixture(scope="module")
-def eds_file(tmp_path_factory):
-    path = tmp_path_factory.mktemp("eds") / "canopen-drive-linux-2-axes.eds"
-    result = subprocess.run(
-        [str(binary_path()), "--node-id", str(NODE_ID), *AXES_ARGS, "--write-eds", str(path)],
-        capture_output=True,
-        timeout=10,
-    )
-    assert result.returncode == 0, result.stderr.decode(errors="replace")
-    assert result.stdout == b""
-    return path
-
-
-@pytest.fixture(scope="module")
-def drive(tmp_path_factory):
-    process = DriveProcess(tmp_path_factory.mktemp("drive"), extra_args=AXES_ARGS)
-    yield process
-    status = process.stop()
-    assert status == 0, f"exit status {status}; log:\n{process.log()}"
+# --- Fixtures: conftest's drive and EDS, with AXIS_COUNT axes ------------------------------
 
 
 def clear_simulation(node):

@@ -37,9 +37,10 @@ use canopen_drive::{CanFrame, Drive, Instant};
 pub mod axis;
 pub mod objects;
 pub mod rig;
+#[cfg_attr(feature = "two-axes", allow(dead_code, unused_imports))]
 mod scenarios;
 
-pub use rig::{BenchDrive, SetupError};
+pub use rig::{BenchDrive, SetupError, TwoAxisDrive};
 
 /// Size of the value store of the look-up drives (the large dictionary needs more than the
 /// default).
@@ -71,6 +72,16 @@ pub enum Prepared {
         /// The feedback of the tick.
         sample: Sample,
     },
+    /// `drive.tick_axes(now, &samples)` of the two-axis drive.
+    #[cfg(feature = "two-axes")]
+    TickAxes {
+        /// The drive before the tick.
+        drive: TwoAxisDrive,
+        /// The time of the tick.
+        now: Instant,
+        /// The feedback of each axis.
+        samples: [Sample; 2],
+    },
     /// `drive.on_frame(&frame, now)`, then `pop_tx` until the queue is empty.
     Frame {
         /// The drive before the frame.
@@ -91,15 +102,21 @@ pub enum Prepared {
     },
 }
 
-/// Room for one copy of a [`BenchDrive`].
+/// Room for one copy of a [`BenchDrive`] (and one of a [`TwoAxisDrive`] with `two-axes`).
 pub struct Scratch {
     slot: MaybeUninit<BenchDrive>,
+    #[cfg(feature = "two-axes")]
+    axes: MaybeUninit<TwoAxisDrive>,
 }
 
 impl Scratch {
     /// An empty slot.
     pub const fn new() -> Self {
-        Scratch { slot: MaybeUninit::uninit() }
+        Scratch {
+            slot: MaybeUninit::uninit(),
+            #[cfg(feature = "two-axes")]
+            axes: MaybeUninit::uninit(),
+        }
     }
 
     /// Overwrites the slot with a byte copy of `drive` and returns the copy.
@@ -111,16 +128,29 @@ impl Scratch {
     /// destructors (heapless containers have one, for their elements; frames need none) are
     /// simply not run, which leaks nothing here.
     #[inline(always)]
-    #[allow(unsafe_code)]
     pub fn copy_of(&mut self, drive: &BenchDrive) -> &mut BenchDrive {
-        let slot = self.slot.as_mut_ptr();
-        // SAFETY: `slot` is valid for one `BenchDrive` and does not overlap `drive` (it is
-        // owned by `self`, borrowed mutably here); the bytes of a plain-data value are a valid
-        // value of its type; the returned borrow keeps `self` borrowed for as long as it lives.
-        unsafe {
-            core::ptr::copy_nonoverlapping(drive, slot, 1);
-            &mut *slot
-        }
+        copy_into(&mut self.slot, drive)
+    }
+
+    /// [`Self::copy_of`] for the two-axis drive.
+    #[cfg(feature = "two-axes")]
+    #[inline(always)]
+    pub fn copy_of_axes(&mut self, drive: &TwoAxisDrive) -> &mut TwoAxisDrive {
+        copy_into(&mut self.axes, drive)
+    }
+}
+
+/// Overwrites `slot` with a byte copy of `drive` (a plain-data drive: see [`Scratch::copy_of`]).
+#[inline(always)]
+#[allow(unsafe_code)]
+fn copy_into<'a, D>(slot: &'a mut MaybeUninit<D>, drive: &D) -> &'a mut D {
+    let slot = slot.as_mut_ptr();
+    // SAFETY: `slot` is valid for one `D` and does not overlap `drive` (it is owned by the
+    // scratch, borrowed mutably here); the bytes of a plain-data value are a valid value of its
+    // type; the returned borrow keeps the scratch borrowed for as long as it lives.
+    unsafe {
+        core::ptr::copy_nonoverlapping(drive, slot, 1);
+        &mut *slot
     }
 }
 
@@ -141,6 +171,16 @@ pub fn run_repetitions(prepared: &Prepared, scratch: &mut Scratch, n: u32, measu
                 let copy = scratch.copy_of(black_box(drive));
                 if measured {
                     black_box(copy.tick(*now, sample));
+                }
+                black_box(copy);
+            }
+        }
+        #[cfg(feature = "two-axes")]
+        Prepared::TickAxes { drive, now, samples } => {
+            for _ in 0..n {
+                let copy = scratch.copy_of_axes(black_box(drive));
+                if measured {
+                    black_box(copy.tick_axes(*now, samples));
                 }
                 black_box(copy);
             }

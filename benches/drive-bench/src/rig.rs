@@ -3,7 +3,9 @@
 
 use canopen_drive::cia402::fsa::State;
 use canopen_drive::hal::{Demand, Sample};
-use canopen_drive::od::ConfigError;
+use canopen_drive::comm::pdo;
+use canopen_drive::drive::DEFAULT_OD_BYTES;
+use canopen_drive::od::{layout, ConfigError, Object};
 use canopen_drive::{CanFrame, Config, Drive, Duration, Instant};
 use embedded_can::Frame as _;
 
@@ -22,6 +24,16 @@ pub const SYNC: u16 = 0x080;
 /// The measured drive: the crate's default dictionary store, 4 + 4 PDOs, no hooks, no
 /// parameter storage.
 pub type BenchDrive = Drive;
+
+/// The value store of the two-axis drive: the default and the second axis's profile objects.
+pub const TWO_AXES_BYTES: usize = DEFAULT_OD_BYTES + canopen_drive::drive::AXIS_OD_BYTES + 1024;
+
+/// The measured drive with two axes (issue 23): 4 + 4 PDOs per axis, otherwise as
+/// [`BenchDrive`].
+pub type TwoAxisDrive = Drive<(), TWO_AXES_BYTES, 8, 8, (), 2>;
+
+/// 8 RPDOs and 8 TPDOs: PDOs 1–4 the first axis's, 5–8 the second's.
+static PDOS_8: [Object; 32] = layout(pdo::objects::<32>(8));
 
 /// Why a scenario could not be set up (the core changed under the benchmark, most likely).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -47,24 +59,29 @@ impl From<ConfigError> for SetupError {
     }
 }
 
-/// A drive, its axis and the time.
-pub struct Rig {
+/// A drive of `AXES` axes with `B` bytes of store and `PDOS` + `PDOS` PDOs ([`BenchDrive`] by
+/// default), its simulated axes and the time.
+pub struct Rig<const B: usize = DEFAULT_OD_BYTES, const PDOS: usize = 4, const AXES: usize = 1> {
     /// The drive.
-    pub drive: BenchDrive,
-    /// The axis that gives the feedback.
-    pub axis: Axis,
+    pub drive: Drive<(), B, PDOS, PDOS, (), AXES>,
+    /// The axes that give the feedback.
+    pub axes: [Axis; AXES],
     /// The time of the next tick.
     pub now: Instant,
     /// Time between ticks.
     pub period: Duration,
-    /// The last demand.
-    pub demand: Demand,
+    /// The last demand of each axis.
+    pub demands: [Demand; AXES],
 }
+
+/// A [`TwoAxisDrive`] with its axes.
+pub type TwoAxisRig = Rig<TWO_AXES_BYTES, 8, 2>;
 
 /// The configuration of every scenario drive: the bench objects, the default profile at
 /// `tick_hz`, the cascade controller when `cascade` is set.
 pub fn config(tick_hz: u32, cascade: bool) -> Result<Config, SetupError> {
     let mut config = Config { manufacturer_objects: &BENCH_OBJECTS, ..Config::new(NODE_ID) };
+    config.pdo_objects = &pdo::DEFAULT_OBJECTS;
     let rate = canopen_drive::motion::TickRate::new(tick_hz)
         .map_err(|_| SetupError::Unexpected("tick rate refused"))?;
     config.profile = config.profile.with_tick_rate(rate);
@@ -74,16 +91,20 @@ pub fn config(tick_hz: u32, cascade: bool) -> Result<Config, SetupError> {
     Ok(config)
 }
 
-impl Rig {
+impl<const B: usize, const PDOS: usize, const AXES: usize> Rig<B, PDOS, AXES> {
     /// A booted drive (Pre-operational, Switch on disabled) ticked at `tick_hz`.
-    pub fn new(tick_hz: u32, cascade: bool) -> Result<Rig, SetupError> {
-        let drive = BenchDrive::new(config(tick_hz, cascade)?)?;
+    pub fn new(tick_hz: u32, cascade: bool) -> Result<Self, SetupError> {
+        let mut config = config(tick_hz, cascade)?;
+        if AXES == 2 {
+            config.pdo_objects = &PDOS_8;
+        }
+        let drive = Drive::build(config, (), ())?;
         let mut rig = Rig {
             drive,
-            axis: Axis::new(tick_hz),
+            axes: [Axis::new(tick_hz); AXES],
             now: Instant::from_millis(1),
             period: Duration::from_micros(1_000_000 / u64::from(tick_hz.max(1))),
-            demand: Demand::OFF,
+            demands: [Demand::OFF; AXES],
         };
         rig.drive.poll(rig.now);
         rig.drain();
@@ -182,16 +203,22 @@ impl Rig {
         self.write(communication, 1, &(cob_id & !0x8000_0000).to_le_bytes())
     }
 
-    /// The feedback the next tick gets.
-    pub fn sample(&self) -> Sample {
-        self.axis.sample()
+    /// The feedback the next tick gets, of every axis.
+    pub fn samples(&self) -> [Sample; AXES] {
+        self.axes.map(|axis| axis.sample())
     }
 
-    /// One control period: tick, the axis follows the demand, poll, frames dropped.
+    /// The last demand of the first axis.
+    pub fn demand(&self) -> Demand {
+        self.demands.first().copied().unwrap_or(Demand::OFF)
+    }
+
+    /// One control period: tick, the axes follow their demands, poll, frames dropped.
     pub fn step(&mut self) {
-        let sample = self.axis.sample();
-        self.demand = self.drive.tick(self.now, &sample);
-        self.axis.follow(&self.demand);
+        self.demands = self.drive.tick_axes(self.now, &self.samples());
+        for (axis, demand) in self.axes.iter_mut().zip(&self.demands) {
+            axis.follow(demand);
+        }
         self.drive.poll(self.now);
         self.drain();
         self.now = self.now + self.period;
@@ -206,7 +233,12 @@ impl Rig {
 
     /// Writes the controlword and lets two periods run.
     pub fn controlword(&mut self, value: u16) -> Result<(), SetupError> {
-        self.write(0x6040, 0, &value.to_le_bytes())?;
+        self.axis_controlword(0, value)
+    }
+
+    /// Writes the controlword of axis `axis` (6040h + axis × 800h) and lets two periods run.
+    pub fn axis_controlword(&mut self, axis: u16, value: u16) -> Result<(), SetupError> {
+        self.write(0x6040 + axis * 0x800, 0, &value.to_le_bytes())?;
         self.run(2);
         Ok(())
     }
@@ -220,5 +252,13 @@ impl Rig {
             State::OperationEnabled { .. } => Ok(()),
             _ => Err(SetupError::Unexpected("not in Operation enabled")),
         }
+    }
+}
+
+impl Rig {
+    /// The feedback the next tick gets.
+    pub fn sample(&self) -> Sample {
+        let [axis] = self.axes;
+        axis.sample()
     }
 }

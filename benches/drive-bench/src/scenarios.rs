@@ -20,6 +20,16 @@ const fn m(
     Measurement { name, label, prepare }
 }
 
+/// The two-axis measurements (the `two-axes` build; `scripts/bench.sh` lists them after the
+/// single-axis ticks).
+#[cfg(feature = "two-axes")]
+pub(crate) static ALL: &[Measurement] = &[
+    m("tick-2-axes-idle", "tick: two axes, idle (both Switch on disabled)", tick_two_axes_idle),
+    m("tick-2-axes-csp", "tick: two axes, csp + cascade on both, interpolating", tick_two_axes_csp),
+];
+
+/// The single-axis measurements.
+#[cfg(not(feature = "two-axes"))]
 pub(crate) static ALL: &[Measurement] = &[
     m("tick-idle", "tick: idle (Switch on disabled, NMT Operational, default PDOs)", tick_idle),
     m("tick-pp-trapezoid", "tick: pp moving, trapezoid (accelerating)", tick_pp_trapezoid),
@@ -148,7 +158,7 @@ fn tick_tq() -> Result<Prepared, SetupError> {
     rig.write(0x6087, 0, &1000u32.to_le_bytes())?;
     rig.write(0x6071, 0, &500i16.to_le_bytes())?;
     rig.run(25);
-    let torque = match rig.demand.setpoint {
+    let torque = match rig.demand().setpoint {
         Setpoint::Torque(t) => t,
         _ => 0,
     };
@@ -235,7 +245,7 @@ fn cyclic(mode: Cyclic, at_sync: bool) -> Result<Prepared, SetupError> {
         }
     }
     check(matches!(rig.drive.state(), State::OperationEnabled { .. }), "cyclic: still enabled")?;
-    let torque_demand = matches!(rig.demand.setpoint, Setpoint::Torque(_));
+    let torque_demand = matches!(rig.demand().setpoint, Setpoint::Torque(_));
     check(torque_demand, "cyclic: torque demands (cascade, or cst)")?;
     Ok(tick_state(rig))
 }
@@ -262,6 +272,73 @@ fn tick_cst_sync() -> Result<Prepared, SetupError> {
 
 fn tick_cst() -> Result<Prepared, SetupError> {
     cyclic(Cyclic::Cst, false)
+}
+
+// --- Two axes (issue 23) ----------------------------------------------------------------
+
+#[cfg(feature = "two-axes")]
+use crate::rig::TwoAxisRig;
+
+#[cfg(feature = "two-axes")]
+fn two_axes_state(rig: TwoAxisRig) -> Prepared {
+    let samples = rig.samples();
+    Prepared::TickAxes { drive: rig.drive, now: rig.now, samples }
+}
+
+#[cfg(feature = "two-axes")]
+/// The two-axis drive at 1 kHz, NMT Operational, both axes in Switch on disabled.
+fn tick_two_axes_idle() -> Result<Prepared, SetupError> {
+    let mut rig = TwoAxisRig::new(1000, false)?;
+    rig.nmt(0x01)?;
+    rig.run(10);
+    check(rig.drive.nmt_state() == NmtState::Operational, "NMT Operational")?;
+    check(rig.drive.axis_state(1) == State::SwitchOnDisabled, "axis 1 Switch on disabled")?;
+    Ok(two_axes_state(rig))
+}
+
+#[cfg(feature = "two-axes")]
+/// csp with the cascade on both axes at 4 kHz, each streamed by its own synchronous RPDO (RPDO1
+/// axis 0, RPDO5 axis 1) before a shared SYNC every 1 ms; a tick between SYNCs.
+fn tick_two_axes_csp() -> Result<Prepared, SetupError> {
+    let mut rig = TwoAxisRig::new(4000, true)?;
+    rig.write(objects::CASCADE, 2, &1_677_722u32.to_le_bytes())?;
+    rig.write(objects::CASCADE, 1, &(20u32 << 16).to_le_bytes())?;
+    // RPDO5 has no identifier of its own (CiA 301 pre-defines those of PDOs 1–4): 285h.
+    const RPDO5: u16 = 0x285;
+    let rpdos = [0x200 + u16::from(NODE_ID), RPDO5];
+    rig.write(0x1404, 1, &(0x8000_0000u32 | u32::from(RPDO5)).to_le_bytes())?;
+    for (axis, communication) in [(0u32, 0x1400u16), (0x800, 0x1404)] {
+        rig.map_pdo(communication, 1, &[(0x6040 + axis) << 16 | 0x10, (0x607A + axis) << 16 | 0x20])?;
+        let offset = axis as u16;
+        rig.write(0x60C5 + offset, 0, &u32::MAX.to_le_bytes())?;
+        rig.write(0x60C6 + offset, 0, &u32::MAX.to_le_bytes())?;
+        rig.write(0x6060 + offset, 0, &8i8.to_le_bytes())?;
+    }
+    rig.nmt(0x01)?;
+    for axis in [0, 1] {
+        rig.axis_controlword(axis, 0x0006)?;
+        rig.axis_controlword(axis, 0x000F)?;
+    }
+    for period in 1..=20i32 {
+        for (rpdo, value) in rpdos.into_iter().zip([period * 50, -period * 50]) {
+            let mut data = [0x0F, 0x00, 0, 0, 0, 0];
+            for (slot, byte) in data.iter_mut().skip(2).zip(value.to_le_bytes()) {
+                *slot = byte;
+            }
+            rig.send(rpdo, &data)?;
+        }
+        rig.send(SYNC, &[])?;
+        rig.run(if period < 20 { 4 } else { 1 });
+    }
+    for axis in [0, 1] {
+        let enabled = matches!(rig.drive.axis_state(axis), State::OperationEnabled { .. });
+        check(enabled, "two axes: both in Operation enabled")?;
+    }
+    let torque = rig.demands.iter().all(|d| matches!(d.setpoint, Setpoint::Torque(_)));
+    check(torque, "two axes: torque demands (cascade) on both")?;
+    let demands = (rig.read(0x6062, 0)? as i32, rig.read(0x6862, 0)? as i32);
+    check(demands.0 > 900 && demands.1 < -900, "two axes: each axis follows its own stream")?;
+    Ok(two_axes_state(rig))
 }
 
 // --- Frames -------------------------------------------------------------------------------

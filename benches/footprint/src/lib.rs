@@ -1,12 +1,13 @@
 //! # Footprint of canopen-drive on Cortex-M
 //!
-//! Three bare-metal images share this harness and differ only in the node they run:
+//! Four bare-metal images share this harness and differ only in the node they run:
 //!
 //! | image | node |
 //! |---|---|
 //! | `baseline` | none: the harness alone (start-up, the scripted "CAN controller", the stack probe) |
 //! | `node301` | [`node301::Node301`]: a CiA 301-only node built from the crate's services |
 //! | `drive-full` | `canopen_drive::Drive` with every CiA 402 mode (the default configuration) |
+//! | `drive-two-axes` | the same drive with two axes (`Drive<…, AXES = 2>`, 4 + 4 PDOs per axis) |
 //!
 //! The library's share of an image is the image minus `baseline`. `scripts/footprint.sh`
 //! builds them for thumbv7em-none-eabihf and thumbv6m-none-eabi (opt-level "s", LTO), reads

@@ -119,6 +119,19 @@ mod tests {
         }
     }
 
+    /// One axis is the profile as it is: a vendor profile keeps its own PDO and manufacturer
+    /// tables.
+    #[test]
+    fn one_axis_keeps_the_profiles_tables() {
+        for name in ProfileName::ALL {
+            let profile = BoardProfile::of(name);
+            let one = profile.with_axes(1);
+            assert!(std::ptr::eq(one.config.pdo_objects, profile.config.pdo_objects), "{}", name.name());
+            let same = std::ptr::eq(one.config.manufacturer_objects, profile.config.manufacturer_objects);
+            assert!(same, "{}", name.name());
+        }
+    }
+
     #[test]
     fn each_axis_has_its_simulation_objects() {
         let profile = BoardProfile::of(ProfileName::Generic).with_axes(3);

@@ -243,6 +243,10 @@ impl BoardProfile {
     /// This drive as a node of `axes` axes ([`crate::axes`]): 4 + 4 PDOs and the simulation
     /// objects per axis.
     pub fn with_axes(self, axes: u8) -> BoardProfile {
+        if axes <= 1 {
+            // One axis: the profile's own tables.
+            return self;
+        }
         let mut profile = self;
         profile.axes = axes;
         profile.config.pdo_objects = crate::axes::pdo_objects(axes);
