@@ -19,6 +19,10 @@ macro_rules! with_axes {
             2 => $f::<8, 2>($($arg),*),
             3 => $f::<12, 3>($($arg),*),
             4 => $f::<16, 4>($($arg),*),
+            5 => $f::<20, 5>($($arg),*),
+            6 => $f::<24, 6>($($arg),*),
+            7 => $f::<28, 7>($($arg),*),
+            8 => $f::<32, 8>($($arg),*),
             _ => $f::<4, 1>($($arg),*),
         }
     };
@@ -28,9 +32,9 @@ pub(crate) use with_axes;
 use canopen_drive::comm::pdo;
 use canopen_drive::od::{layout, Object};
 
-/// The most axes this program runs (the library takes up to eight; each count is one more
-/// build of the drive in this program).
-pub const MAX_AXES: u8 = 4;
+/// The most axes this program runs: CiA 402's eight (each count is one more build of the
+/// drive's communication side in this program).
+pub const MAX_AXES: u8 = 8;
 
 /// Distance between the simulation objects of two neighbouring axes.
 pub const SIMULATION_STRIDE: u16 = 0x10;
@@ -38,6 +42,10 @@ pub const SIMULATION_STRIDE: u16 = 0x10;
 static PDOS_2: [Object; 32] = layout(pdo::objects::<32>(8));
 static PDOS_3: [Object; 48] = layout(pdo::objects::<48>(12));
 static PDOS_4: [Object; 64] = layout(pdo::objects::<64>(16));
+static PDOS_5: [Object; 80] = layout(pdo::objects::<80>(20));
+static PDOS_6: [Object; 96] = layout(pdo::objects::<96>(24));
+static PDOS_7: [Object; 112] = layout(pdo::objects::<112>(28));
+static PDOS_8: [Object; 128] = layout(pdo::objects::<128>(32));
 
 /// The PDO records of a node of `axes` axes (4 + 4 per axis).
 pub fn pdo_objects(axes: u8) -> &'static [Object] {
@@ -45,6 +53,10 @@ pub fn pdo_objects(axes: u8) -> &'static [Object] {
         2 => &PDOS_2,
         3 => &PDOS_3,
         4 => &PDOS_4,
+        5 => &PDOS_5,
+        6 => &PDOS_6,
+        7 => &PDOS_7,
+        8 => &PDOS_8,
         _ => &pdo::DEFAULT_OBJECTS,
     }
 }
@@ -78,10 +90,19 @@ pub fn manufacturer_objects(first: &'static [Object], simulation: u16, axes: u8)
 #[cfg_attr(test, allow(clippy::unwrap_used, clippy::expect_used, clippy::indexing_slicing, clippy::panic))]
 mod tests {
     use super::*;
+    use canopen_drive::od::ConfigError;
     use canopen_drive::Drive;
 
     use crate::board_objects::BoardHooks;
     use crate::profiles::{BoardProfile, ProfileName, OD_BYTES};
+
+    fn used_bytes<const PDOS: usize, const AXES: usize>(
+        profile: &BoardProfile,
+    ) -> Result<usize, ConfigError> {
+        let (config, hooks) = (profile.config(5), profile.hooks(false));
+        let drive = Drive::<BoardHooks, OD_BYTES, PDOS, PDOS, (), AXES>::build(config, hooks, ())?;
+        Ok(drive.od().used_bytes())
+    }
 
     /// Every count of axes builds, and its dictionary fits the board's store.
     #[test]
@@ -89,32 +110,7 @@ mod tests {
         let profile = BoardProfile::of(ProfileName::Generic);
         for axes in 1..=MAX_AXES {
             let profile = profile.with_axes(axes);
-            let used = match axes {
-                1 => Drive::<BoardHooks, OD_BYTES, 4, 4, (), 1>::build(
-                    profile.config(5),
-                    profile.hooks(false),
-                    (),
-                )
-                .map(|d| d.od().used_bytes()),
-                2 => Drive::<BoardHooks, OD_BYTES, 8, 8, (), 2>::build(
-                    profile.config(5),
-                    profile.hooks(false),
-                    (),
-                )
-                .map(|d| d.od().used_bytes()),
-                3 => Drive::<BoardHooks, OD_BYTES, 12, 12, (), 3>::build(
-                    profile.config(5),
-                    profile.hooks(false),
-                    (),
-                )
-                .map(|d| d.od().used_bytes()),
-                _ => Drive::<BoardHooks, OD_BYTES, 16, 16, (), 4>::build(
-                    profile.config(5),
-                    profile.hooks(false),
-                    (),
-                )
-                .map(|d| d.od().used_bytes()),
-            };
+            let used = with_axes!(axes, used_bytes(&profile));
             assert!(used.unwrap() <= OD_BYTES, "{axes} axes");
         }
     }

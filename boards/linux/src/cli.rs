@@ -97,7 +97,7 @@ struct Options {
     #[arg(long, value_name = "FILE", verbatim_doc_comment, allow_hyphen_values = true)]
     trace: Option<PathBuf>,
 
-    /// CiA 402 axes of the node, 1..4 (default 1; generic profile
+    /// CiA 402 axes of the node, 1..8 (default 1; generic profile
     /// only): axis n's objects at 6000h + n x 800h, PDOs 4n+1..4n+4,
     /// its simulated motor's objects at 2100h + n x 10h
     #[arg(long, value_name = "N", verbatim_doc_comment, allow_hyphen_values = true,
@@ -207,7 +207,7 @@ pub enum CliError {
     QuietAndVerbose,
     /// `-v` given more than twice.
     TooVerbose,
-    /// `--axes` outside 1..=4.
+    /// `--axes` outside 1..=8.
     InvalidAxes(String),
     /// `--axes` above 1 with a vendor profile.
     AxesOfProfile(ProfileName),
@@ -555,7 +555,7 @@ mod tests {
             panic!("--axes=4 --write-eds")
         };
         assert_eq!(axes, 4);
-        for bad in ["0", "5", "two"] {
+        for bad in ["0", "9", "two"] {
             assert_eq!(
                 parse_str(&["--axes", bad, "--socketcan", "can0"]),
                 Err(CliError::InvalidAxes(bad.into()))
@@ -565,7 +565,7 @@ mod tests {
             parse_str(&["--axes", "2", "--profile", "chieftek", "--socketcan", "can0"]),
             Err(CliError::AxesOfProfile(ProfileName::Chieftek))
         );
-        assert!(CliError::InvalidAxes("9".into()).to_string().contains("from 1 to 4"));
+        assert!(CliError::InvalidAxes("9".into()).to_string().contains("from 1 to 8"));
     }
 
     #[test]
