@@ -348,3 +348,52 @@ fn eight_axes_reach_9fffh() {
     assert_eq!(states, [SWITCH_ON_DISABLED, 0x40, 0x40, 0x40, 0x40, 0x40, 0x40, 0x21]);
     assert_eq!(drive.axis_state(7), canopen_drive::cia402::fsa::State::ReadyToSwitchOn);
 }
+
+/// Store and restore keep each axis's parameters apart: a value of axis 1 survives a power cycle
+/// at its own index, and restoring the defaults resets both axes.
+#[test]
+fn stored_parameters_of_each_axis() {
+    use canopen_drive::od::DeviceInfo;
+    use canopen_drive::storage::{device_signature, Group, Storage};
+    use canopen_drive_sim::flash::SimFlash;
+    type Stored = Drive<(), OD_BYTES, 8, 8, Storage<SimFlash>, 2>;
+    let power_on = |flash: SimFlash| {
+        let storage = Storage::new(flash, device_signature(&DeviceInfo::servo_drive(), 1)).unwrap();
+        let config = Config { pdo_objects: &PDO_OBJECTS, ..Config::new(NODE) };
+        Stored::build(config, (), storage).unwrap()
+    };
+    let mut drive = power_on(SimFlash::new(16384, 512, 4));
+    drive.od_mut().set::<u32>(0x6883, 0, 123_456).unwrap();
+    drive.od_mut().set::<u32>(0x6083, 0, 7_000).unwrap();
+    assert_eq!(drive.store_parameters(Group::All), Ok(()));
+    let flash = drive.storage_mut().area().clone();
+    let mut drive = power_on(flash);
+    assert_eq!(drive.od().get::<u32>(0x6883, 0), Ok(123_456), "axis 1's 6083h after power-on");
+    assert_eq!(drive.od().get::<u32>(0x6083, 0), Ok(7_000), "axis 0's own");
+    drive.storage_mut().restore_defaults(Group::All).unwrap();
+    let flash = drive.storage_mut().area().clone();
+    let drive = power_on(flash);
+    assert_eq!(drive.od().get::<u32>(0x6883, 0), Ok(10_000), "the default again");
+    assert_eq!(drive.od().get::<u32>(0x6083, 0), Ok(10_000));
+}
+
+/// One RPDO may carry both axes' controlwords: each goes to its own state machine.
+#[test]
+fn one_rpdo_with_both_controlwords() {
+    let mut node = Node::new();
+    node.write(0x1400, 1, 0x8000_0205, 4).unwrap();
+    node.write(0x1600, 0, 0, 1).unwrap();
+    node.write(0x1600, 1, 0x6040_0010, 4).unwrap();
+    node.write(0x1600, 2, 0x6840_0010, 4).unwrap();
+    node.write(0x1600, 0, 2, 1).unwrap();
+    node.write(0x1400, 1, 0x205, 4).unwrap();
+    node.send(0x000, &[0x01, NODE]);
+    for (first, second) in [(0x06u16, 0x06u16), (0x07, 0x06), (0x0F, 0x07)] {
+        let [a, b] = first.to_le_bytes();
+        let [c, d] = second.to_le_bytes();
+        node.send(0x205, &[a, b, c, d]);
+        node.run(2);
+    }
+    assert_eq!(node.statusword(0) & 0x6F, OPERATION_ENABLED);
+    assert_eq!(node.statusword(AXIS1) & 0x6F, 0x23, "axis 1 switched on, not enabled");
+}
