@@ -1146,6 +1146,12 @@ impl<
     /// the next tick. Every axis runs from the same SYNC and the same RPDOs; an axis's fault is
     /// its own (its EMCY, 603Fh and 605Eh reaction) and leaves the others running unless 1029h
     /// sub 2 makes it a change of the node's NMT state.
+    ///
+    /// One call for all axes, not one per axis: the communication side of a tick (the RPDOs
+    /// latched at SYNC, the SYNC itself, the TPDOs' change detection) belongs to the node, and
+    /// with per-axis calls one of them would have to consume the SYNC for the others, and a TPDO
+    /// mapping two axes would be sampled between their ticks. A board with one PWM timer per
+    /// axis samples them all at its control interrupt and applies the demands it gets back.
     pub fn tick_axes(&mut self, now: Instant, samples: &[Sample; AXES]) -> [Demand; AXES] {
         if self.quiet_tick(now, samples) {
             return core::array::from_fn(|axis| {
