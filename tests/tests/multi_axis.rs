@@ -108,6 +108,20 @@ impl Node {
         self.read(0x6041 + axis, 0).expect("6041h") as u16
     }
 
+    /// Maps `entries` into RPDO `number` (1-based) on identifier `cob_id` with `transmission`
+    /// type, as a master does: invalid, cleared, mapped, counted, valid again.
+    fn map_rpdo(&mut self, number: u16, cob_id: u32, transmission: u32, entries: &[u32]) {
+        let (communication, mapping) = (0x1400 + number - 1, 0x1600 + number - 1);
+        self.write(communication, 1, 0x8000_0000 | cob_id, 4).unwrap();
+        self.write(mapping, 0, 0, 1).unwrap();
+        for (sub, entry) in (1u8..).zip(entries) {
+            self.write(mapping, sub, *entry, 4).unwrap();
+        }
+        self.write(mapping, 0, entries.len() as u32, 1).unwrap();
+        self.write(communication, 2, transmission, 1).unwrap();
+        self.write(communication, 1, cob_id, 4).unwrap();
+    }
+
     /// Shutdown, switch on, enable operation for the axis whose controlword is `controlword`.
     fn enable(&mut self, controlword: u16) {
         for cw in [0x06, 0x07, 0x0F] {
@@ -256,14 +270,8 @@ fn each_axis_has_its_pdos_and_both_follow_one_sync() {
     assert_eq!(node.read(0x1600, 1), Ok(0x6040_0010), "axis 0 keeps PDOs 1–4");
 
     // csp on both: RPDO1 = 6040h + 607Ah, RPDO5 = 6840h + 687Ah, both synchronous.
-    for (comm, map, cob, axis) in [(0x1400, 0x1600, 0x205u32, 0u32), (0x1404, 0x1604, 0x285, 0x800)] {
-        node.write(comm, 1, 0x8000_0000 | cob, 4).unwrap();
-        node.write(map, 0, 0, 1).unwrap();
-        node.write(map, 1, (0x6040 + axis) << 16 | 0x10, 4).unwrap();
-        node.write(map, 2, (0x607A + axis) << 16 | 0x20, 4).unwrap();
-        node.write(map, 0, 2, 1).unwrap();
-        node.write(comm, 2, 1, 1).unwrap();
-        node.write(comm, 1, cob, 4).unwrap();
+    for (number, cob, axis) in [(1, 0x205u32, 0u32), (5, 0x285, 0x800)] {
+        node.map_rpdo(number, cob, 1, &[(0x6040 + axis) << 16 | 0x10, (0x607A + axis) << 16 | 0x20]);
         node.write(0x6060 + axis as u16, 0, 8, 1).unwrap();
         node.write(0x60C5 + axis as u16, 0, u32::MAX, 4).unwrap();
         node.write(0x60C6 + axis as u16, 0, u32::MAX, 4).unwrap();
@@ -381,12 +389,7 @@ fn stored_parameters_of_each_axis() {
 #[test]
 fn one_rpdo_with_both_controlwords() {
     let mut node = Node::new();
-    node.write(0x1400, 1, 0x8000_0205, 4).unwrap();
-    node.write(0x1600, 0, 0, 1).unwrap();
-    node.write(0x1600, 1, 0x6040_0010, 4).unwrap();
-    node.write(0x1600, 2, 0x6840_0010, 4).unwrap();
-    node.write(0x1600, 0, 2, 1).unwrap();
-    node.write(0x1400, 1, 0x205, 4).unwrap();
+    node.map_rpdo(1, 0x205, 255, &[0x6040_0010, 0x6840_0010]);
     node.send(0x000, &[0x01, NODE]);
     for (first, second) in [(0x06u16, 0x06u16), (0x07, 0x06), (0x0F, 0x07)] {
         let [a, b] = first.to_le_bytes();

@@ -300,9 +300,9 @@ fn owner<const AXES: usize>(index: u16, object: &Object, axes: &[Profile; AXES])
     use crate::comm::error_control::{
         guarding_owns, CONSUMER_OBJECT, ERROR_BEHAVIOUR_OBJECT, PRODUCER_OBJECT,
     };
-    let profile_area =
-        index.checked_sub(*PROFILE_AREA.start()).is_some_and(|d| usize::from(d / Axis::STRIDE) < AXES);
-    if profile_area || axes.first().is_some_and(|p| p.config().cascade == Some(index)) {
+    if profile_axis::<AXES>(index).is_some()
+        || axes.first().is_some_and(|p| p.config().cascade == Some(index))
+    {
         return Owner::Profile;
     }
     match index {
@@ -352,10 +352,13 @@ fn axis_number<const AXES: usize>(index: u16) -> usize {
     if AXES == 1 {
         return 0;
     }
-    match index.checked_sub(*PROFILE_AREA.start()).map(|d| usize::from(d / Axis::STRIDE)) {
-        Some(n) if n < AXES => n,
-        _ => 0,
-    }
+    profile_axis::<AXES>(index).unwrap_or(0)
+}
+
+/// The axis of this node whose profile area holds `index`, if any.
+#[inline(always)]
+fn profile_axis<const AXES: usize>(index: u16) -> Option<usize> {
+    Axis::containing(index).map(|axis| usize::from(axis.number())).filter(|n| *n < AXES)
 }
 
 /// The profile of [`axis_number`]'s axis.

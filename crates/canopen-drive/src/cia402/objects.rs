@@ -56,6 +56,15 @@ impl Axis {
         }
     }
 
+    /// The axis whose profile area holds `index` (6000h–9FFFh), or `None` for an index outside
+    /// them.
+    pub const fn containing(index: u16) -> Option<Axis> {
+        match index.checked_sub(*PROFILE_AREA.start()) {
+            Some(offset) => Axis::new((offset / Self::STRIDE) as u8),
+            None => None,
+        }
+    }
+
     /// The first axis's index of `index` when it is an index of this axis's profile area.
     pub const fn relative(self, index: u16) -> Option<u16> {
         let start = *PROFILE_AREA.start() + self.0 as u16 * Self::STRIDE;

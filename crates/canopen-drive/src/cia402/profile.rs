@@ -742,7 +742,7 @@ impl Profile {
         match self.axis.relative(index) {
             Some(relative) => relative,
             // Another axis's object: none of this profile's rules.
-            None if index.wrapping_sub(*PROFILE_AREA.start()) < Axis::STRIDE * u16::from(Axis::MAX) => 0,
+            None if Axis::containing(index).is_some() => 0,
             None => index,
         }
     }
@@ -2231,6 +2231,11 @@ mod axis_tests {
         assert_eq!(SECOND.relative(0x7000), None);
         assert_eq!(Axis::FIRST.relative(0x67FF), Some(0x67FF));
         assert_eq!(Axis::FIRST.relative(0x6800), None);
+        assert_eq!(Axis::containing(0x6041), Some(Axis::FIRST));
+        assert_eq!(Axis::containing(0x6841), Some(SECOND));
+        assert_eq!(Axis::containing(0x9FFF).map(Axis::number), Some(7));
+        assert_eq!(Axis::containing(0x5FFF), None);
+        assert_eq!(Axis::containing(0xA000), None);
     }
 
     #[test]

@@ -609,12 +609,6 @@ impl<const BYTES: usize> Dictionary<BYTES> {
             .map_or(0, |t| ((index - t.first) / COPY_STRIDE) as u8)
     }
 
-    /// Copies of the table that holds `index` (1 for an index of no copied table): the
-    /// logical devices of the node when `index` is one of a CiA 402 axis's objects.
-    pub fn copies_of(&self, index: u16) -> u8 {
-        self.attached().iter().find(|t| (t.first..=t.last).contains(&index)).map_or(1, |t| t.copies)
-    }
-
     /// Replaces the crate's defaults of some entries with the firmware's own
     /// ([`DefaultOverride`]) and sets every value to its (new) default. An override of an
     /// entry that does not exist, or whose value does not fit the entry, is refused.
