@@ -24,7 +24,8 @@ pub(crate) fn hz_pow(hz: u32, k: u32) -> i128 {
 /// shifted value fits).
 pub(crate) fn per_tick(rate: u32, hz: u32, k: u32) -> i128 {
     let den = hz_pow(hz, k).max(1);
-    crate::wide::sdiv(i128::from(rate) << FRAC, den)
+    // A long division in 32-bit digits when hzᵏ fits 32 bits (up to 65 535 Hz for k = 2).
+    div_floor(i128::from(rate) << FRAC, den)
 }
 
 /// A fixed-point per-tickᵏ value as `f32` increments/sᵏ.
@@ -73,26 +74,60 @@ fn div_trunc(num: i128, den: i128) -> (i128, bool) {
         let (quotient, remainder) = crate::wide::sdivrem(num, den);
         return (quotient, remainder == 0);
     };
-    let divisor = u64::from(small);
     let magnitude = num.unsigned_abs();
     // Written out: constant shifts of a u128 are free, variable ones are not.
-    let step = |remainder: u64, digit: u32| {
-        let current = remainder << 32 | u64::from(digit);
-        (current / divisor, current % divisor)
-    };
-    let (q3, r) = step(0, (magnitude >> 96) as u32);
-    let (q2, r) = step(r, (magnitude >> 64) as u32);
-    let (q1, r) = step(r, (magnitude >> 32) as u32);
-    let (q0, remainder) = step(r, magnitude as u32);
+    let (q3, r) = div_digit(0, (magnitude >> 96) as u32, small);
+    let (q2, r) = div_digit(r, (magnitude >> 64) as u32, small);
+    let (q1, r) = div_digit(r, (magnitude >> 32) as u32, small);
+    let (q0, remainder) = div_digit(r, magnitude as u32, small);
     let quotient = u128::from(q3) << 96 | u128::from(q2) << 64 | u128::from(q1) << 32 | u128::from(q0);
     // |num| ≤ 2¹²⁷, so the quotient fits unless num = i128::MIN and den = 1.
     let quotient = i128::try_from(quotient).unwrap_or(i128::MAX);
     (if num < 0 { quotient.wrapping_neg() } else { quotient }, remainder == 0)
 }
 
+/// `(high·2³² + low) / divisor` and the remainder, for `high < divisor` (so the quotient fits
+/// 32 bits): the schoolbook division in 16-bit half-digits, each estimated by one 32-bit
+/// division and corrected at most twice. A Cortex-M4 divides 32 bits in hardware but has no
+/// 64-bit division; the library's general one costs several times more.
+fn div_digit(high: u32, low: u32, divisor: u32) -> (u32, u32) {
+    if divisor == 0 {
+        return (u32::MAX, 0);
+    }
+    const HALF: u32 = 1 << 16;
+    // Normalized: the divisor's top bit set, the dividend shifted alike (high < divisor, so
+    // nothing is lost at the top).
+    let shift = divisor.leading_zeros();
+    let d = divisor << shift;
+    let (d1, d0) = (d >> 16, d & 0xffff);
+    let n32 = if shift == 0 { high } else { (high << shift) | (low >> (32 - shift)) };
+    let n10 = low << shift;
+    let (n1, n0) = (n10 >> 16, n10 & 0xffff);
+    // One half-digit of the quotient from the remainder `top` and the next half-digit `next`.
+    let half_digit = |top: u32, next: u32| {
+        let mut q = top / d1;
+        let mut rest = top - q * d1;
+        // `q < HALF` is tested first, so the products below fit 32 bits.
+        while q >= HALF || q * d0 > (rest << 16 | next) {
+            q -= 1;
+            rest += d1;
+            if rest >= HALF {
+                break;
+            }
+        }
+        (q, (top << 16 | next).wrapping_sub(q.wrapping_mul(d)))
+    };
+    let (q1, r) = half_digit(n32, n1);
+    let (q0, r) = half_digit(r, n0);
+    (q1 << 16 | q0, r >> shift)
+}
+
 /// `x·n`, `None` on overflow: four 32×32-bit products (the multiplier is a tick count)
 /// instead of a 128×128-bit multiplication.
 pub(crate) fn mul_small(x: i128, n: u32) -> Option<i128> {
+    if x == 0 || n == 0 {
+        return Some(0);
+    }
     let magnitude = x.unsigned_abs();
     let n = u64::from(n);
     // Written out: constant shifts of a u128 are free, variable ones are not.
@@ -211,6 +246,32 @@ mod unit_tests {
                     assert_eq!(div_ceil(n, den), -((-n).div_euclid(den)), "{n} {den}");
                 }
             }
+        }
+    }
+
+    #[test]
+    fn digit_division_agrees_with_the_64_bit_one() {
+        let mut x: u64 = 0x9E37_79B9_7F4A_7C15;
+        for round in 0..200_000u32 {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            let divisor = match round % 4 {
+                0 => (x >> 32) as u32 | 1,
+                1 => (x >> (32 + x % 32)) as u32 | 1,
+                2 => u32::MAX - (x % 3) as u32,
+                _ => 1 + (x % 70_000) as u32,
+            };
+            let high = (x as u32) % divisor;
+            let low = (x >> 17) as u32;
+            let n = u64::from(high) << 32 | u64::from(low);
+            let d = u64::from(divisor);
+            assert_eq!(div_digit(high, low, divisor), ((n / d) as u32, (n % d) as u32), "{n} {d}");
+        }
+        for (high, low, divisor) in [(0, 0, 1), (0, u32::MAX, 1), (u32::MAX - 1, u32::MAX, u32::MAX), (0x7fff, 0xffff_ffff, 0x8000)] {
+            let n = u64::from(high) << 32 | u64::from(low);
+            let d = u64::from(divisor);
+            assert_eq!(div_digit(high, low, divisor), ((n / d) as u32, (n % d) as u32), "{n} {d}");
         }
     }
 

@@ -210,6 +210,7 @@
 mod fixed;
 mod legs;
 mod planner;
+mod ramps;
 mod shape;
 mod solve;
 mod trajectory;
@@ -227,7 +228,13 @@ pub const POSITION_RANGE: i64 = 1 << 40;
 /// The control-loop tick rate the profiles are sampled at.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct TickRate(u32);
+pub struct TickRate {
+    hz: u32,
+    /// `⌊(2⁶⁴ − 1)/hz⌋` and that over `hz` again: a rate in increments/s (or /s²) times one of
+    /// these is the rate per tick (per tick²) in fixed point, rounded down, without a
+    /// division at plan time.
+    reciprocals: [u64; 2],
+}
 
 impl TickRate {
     /// Slowest accepted tick rate, in Hz.
@@ -241,13 +248,21 @@ impl TickRate {
         if hz < Self::MIN_HZ || hz > Self::MAX_HZ {
             Err(MotionError::TickRate)
         } else {
-            Ok(TickRate(hz))
+            let per_tick = u64::MAX / hz as u64;
+            Ok(TickRate { hz, reciprocals: [per_tick, per_tick / hz as u64] })
         }
     }
 
     /// Ticks per second.
     pub const fn hz(self) -> u32 {
-        self.0
+        self.hz
+    }
+
+    /// `rate` per second (k = 1) or per second² (k = 2) in fixed-point per-tick units, at most
+    /// the exact value and less than 2⁻³² per-tick units below it.
+    pub(crate) const fn scale(self, rate: u32, k: usize) -> i128 {
+        let reciprocal = if k == 1 { self.reciprocals[0] } else { self.reciprocals[1] };
+        (rate as u128 * reciprocal as u128) as i128
     }
 }
 

@@ -3,9 +3,10 @@
 
 use super::fixed::{per_tick, round_to_int, to_whole_si, FRAC};
 use super::legs::margin;
+use super::ramps::{RampLimits, Ramps};
 use super::solve::{plan_move, plan_velocity, Method, Planned};
 use super::trajectory::{Exact, Segment, Trajectory, MAX_SEGMENTS};
-use super::{Limits, MotionError, MotionState, TickRate, POSITION_RANGE};
+use super::{Limits, MotionError, MotionState, ProfileType, TickRate, POSITION_RANGE};
 
 fn state_of(now: &Exact, hz: u32) -> MotionState {
     MotionState {
@@ -31,6 +32,74 @@ fn ramp_to(
     Ok((ticks, planned.method))
 }
 
+/// What executes the present plan: a trapezoid's legs ([`Ramps`], planned in bounded time) or
+/// the jerk-limited segments of the exact planner.
+///
+/// The segments are the larger by some 800 bytes; there is no heap to box them in, and they go
+/// when the jerk-limited profile moves to a bounded planner as well.
+#[allow(clippy::large_enum_variant)]
+#[derive(Clone, Debug)]
+enum Engine {
+    Ramps(Ramps),
+    Segments(Trajectory),
+}
+
+impl Engine {
+    fn now(&self) -> Exact {
+        match self {
+            Engine::Ramps(ramps) => ramps.now(),
+            Engine::Segments(trajectory) => trajectory.now,
+        }
+    }
+
+    /// The segment executor, started at the present state if a trapezoid ran (`None` only if
+    /// that failed, which it does not).
+    fn segments(&mut self) -> Option<&mut Trajectory> {
+        if let Engine::Ramps(ramps) = self {
+            let now = ramps.now();
+            let mut trajectory = Trajectory::at_rest(now.p);
+            trajectory.now = now;
+            *self = Engine::Segments(trajectory);
+        }
+        match self {
+            Engine::Segments(trajectory) => Some(trajectory),
+            Engine::Ramps(_) => None,
+        }
+    }
+
+    /// The trapezoid executor, started at the present state if segments ran.
+    fn ramps(&mut self) -> Option<&mut Ramps> {
+        if let Engine::Segments(trajectory) = self {
+            *self = Engine::Ramps(Ramps::at(trajectory.now));
+        }
+        match self {
+            Engine::Ramps(ramps) => Some(ramps),
+            Engine::Segments(_) => None,
+        }
+    }
+
+    fn step(&mut self) {
+        match self {
+            Engine::Ramps(ramps) => ramps.step(),
+            Engine::Segments(trajectory) => trajectory.step(),
+        }
+    }
+
+    fn is_finished(&self) -> bool {
+        match self {
+            Engine::Ramps(ramps) => ramps.is_finished(),
+            Engine::Segments(trajectory) => trajectory.is_finished(),
+        }
+    }
+
+    fn remaining(&self) -> u64 {
+        match self {
+            Engine::Ramps(ramps) => ramps.remaining(),
+            Engine::Segments(trajectory) => trajectory.remaining(),
+        }
+    }
+}
+
 /// Point-to-point trajectory generator for profile position mode (`spec/cia402.md` §9).
 ///
 /// Holds the demand state (position, velocity, acceleration) and a plan. [`Self::plan`]
@@ -38,8 +107,9 @@ fn ramp_to(
 /// Positions are `i64` increments; see [`MotionState::position_demand`] for the i32 view.
 #[derive(Clone, Debug)]
 pub struct PositionPlanner {
+    rate: TickRate,
     hz: u32,
-    trajectory: Trajectory,
+    engine: Engine,
     /// The demand in whole units, converted once per change of the state (the profile asks for
     /// it several times a tick).
     state: MotionState,
@@ -52,8 +122,9 @@ impl PositionPlanner {
     /// A planner at rest at `position`.
     pub const fn new(rate: TickRate, position: i64) -> Self {
         PositionPlanner {
+            rate,
             hz: rate.hz(),
-            trajectory: Trajectory::at_rest((position as i128) << FRAC),
+            engine: Engine::Ramps(Ramps::at(Exact { p: (position as i128) << FRAC, v: 0, a: 0 })),
             state: MotionState { position, velocity: 0, acceleration: 0 },
             target: position,
             closing_error: 0,
@@ -64,8 +135,12 @@ impl PositionPlanner {
     /// Drops any plan and holds still at `position` (e.g. the actual position when the drive
     /// enters Operation enabled).
     pub fn reset(&mut self, position: i64) {
-        self.trajectory.hold(i128::from(position) << FRAC);
-        self.state = state_of(&self.trajectory.now, self.hz);
+        let p = i128::from(position) << FRAC;
+        match &mut self.engine {
+            Engine::Segments(trajectory) => trajectory.hold(p),
+            Engine::Ramps(ramps) => *ramps = Ramps::at(Exact { p, v: 0, a: 0 }),
+        }
+        self.state = state_of(&self.engine.now(), self.hz);
         self.target = position;
         self.closing_error = 0;
         self.method = Method::Shape;
@@ -79,7 +154,7 @@ impl PositionPlanner {
     /// re-planning mid-move is continuous. On error the present motion continues unchanged.
     pub fn plan(&mut self, target: i64, end_velocity: u32, limits: &Limits) -> Result<u32, MotionError> {
         let ticks = self.plan_from_here(target, end_velocity, limits);
-        self.state = state_of(&self.trajectory.now, self.hz);
+        self.state = state_of(&self.engine.now(), self.hz);
         ticks
     }
 
@@ -98,10 +173,17 @@ impl PositionPlanner {
         }
         limits.check_ramps()?;
         let hz = self.hz;
-        let start = self.trajectory.now;
+        let start = self.engine.now();
         let target_fixed = i128::from(target) << FRAC;
         let to_go = target_fixed - start.p;
         let end_speed = end_velocity.min(limits.velocity);
+        if matches!(limits.profile, ProfileType::Trapezoidal) {
+            let last = if end_speed == 0 { 0 } else { to_go.signum() * per_tick(end_speed, hz, 1) };
+            let ramps = self.engine.ramps().ok_or(MotionError::TooLong)?;
+            let ticks = ramps.plan(target_fixed, last, &RampLimits::new(limits, self.rate))?;
+            self.target = target;
+            return u32::try_from(ticks).map_err(|_| MotionError::TooLong);
+        }
         // The peak is fitted a hair under the velocity limit (`legs::margin`): an end velocity at
         // the limit itself (a change-on-set-point pass at the profile velocity) is taken at that
         // hair too, or no peak could reach it.
@@ -110,8 +192,9 @@ impl PositionPlanner {
             0 => 0,
             s => s * end_fixed,
         };
+        let trajectory = self.engine.segments().ok_or(MotionError::TooLong)?;
         if to_go == 0 && start.v == 0 && start.a == 0 && last == 0 {
-            self.trajectory = Trajectory::at_rest(target_fixed);
+            *trajectory = Trajectory::at_rest(target_fixed);
             self.target = target;
             self.closing_error = 0;
             self.method = Method::Shape;
@@ -123,7 +206,7 @@ impl PositionPlanner {
         self.closing_error = to_go.saturating_sub(planned.end.p.saturating_sub(start.p));
         self.method = planned.method;
         let end = Exact { p: target_fixed, v: last, a: 0 };
-        self.trajectory.start(&segments, planned.len, end);
+        trajectory.start(&segments, planned.len, end);
         self.target = target;
         Ok(ticks)
     }
@@ -135,18 +218,26 @@ impl PositionPlanner {
         if deceleration == 0 {
             return Err(MotionError::ZeroDeceleration);
         }
-        let stop_limits = Limits { acceleration: deceleration, deceleration, ..*limits };
-        let (ticks, method) = ramp_to(&mut self.trajectory, 0, &stop_limits, self.hz)?;
-        self.state = state_of(&self.trajectory.now, self.hz);
+        let ticks = if matches!(limits.profile, ProfileType::Trapezoidal) {
+            let ramps = self.engine.ramps().ok_or(MotionError::TooLong)?;
+            let ticks = ramps.stop(self.rate.scale(deceleration, 2))?;
+            u32::try_from(ticks).map_err(|_| MotionError::TooLong)?
+        } else {
+            let stop_limits = Limits { acceleration: deceleration, deceleration, ..*limits };
+            let trajectory = self.engine.segments().ok_or(MotionError::TooLong)?;
+            let (ticks, method) = ramp_to(trajectory, 0, &stop_limits, self.hz)?;
+            self.method = method;
+            ticks
+        };
+        self.state = state_of(&self.engine.now(), self.hz);
         self.closing_error = 0;
-        self.method = method;
         Ok(ticks)
     }
 
     /// Advances one tick and returns the new demand.
     pub fn step(&mut self) -> MotionState {
-        self.trajectory.step();
-        self.state = state_of(&self.trajectory.now, self.hz);
+        self.engine.step();
+        self.state = state_of(&self.engine.now(), self.hz);
         self.state
     }
 
@@ -158,12 +249,12 @@ impl PositionPlanner {
     /// True when the plan is complete: the target reached (or the stop complete). With a
     /// non-zero end velocity the demand then moves on at that velocity until the next plan.
     pub fn is_finished(&self) -> bool {
-        self.trajectory.is_finished()
+        self.engine.is_finished()
     }
 
     /// Ticks until the plan is complete.
     pub fn remaining_ticks(&self) -> u64 {
-        self.trajectory.remaining()
+        self.engine.remaining()
     }
 
     /// The target of the last plan (or the reset position).
@@ -174,20 +265,29 @@ impl PositionPlanner {
     /// The fixed-point state (for the tests).
     #[cfg(test)]
     pub(crate) fn exact(&self) -> Exact {
-        self.trajectory.now
+        self.engine.now()
     }
 
     /// How the last plan was made (for the tests).
     #[cfg(test)]
     pub(crate) fn method(&self) -> Method {
-        self.method
+        match &self.engine {
+            Engine::Ramps(ramps) => match ramps.made() {
+                super::ramps::Made::Layout => Method::Shape,
+                super::ramps::Made::Fallback => Method::Fallback,
+            },
+            Engine::Segments(_) => self.method,
+        }
     }
 
     /// How far the fitted profile ended from the target before the last sample was set to it,
     /// in 2⁻⁶⁴ increments (for the tests).
     #[cfg(test)]
     pub(crate) fn closing_error(&self) -> i128 {
-        self.closing_error
+        match &self.engine {
+            Engine::Ramps(ramps) => ramps.closing_error(),
+            Engine::Segments(_) => self.closing_error,
+        }
     }
 }
 

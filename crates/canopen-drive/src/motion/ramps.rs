@@ -1,0 +1,559 @@
+//! Trapezoidal profiles (6086h = 0) of bounded cost: a plan is a handful of exact integer
+//! operations, so a set-point, a stop or a homing phase change is planned inside the tick that
+//! takes it, without a search.
+//!
+//! # Shape
+//!
+//! A plan is at most five *legs*, each a velocity change of whole ticks at one acceleration:
+//!
+//! ```text
+//! [stop to 0] → to the peak vp → [cruise at vp] → from vp to ve (or to 0) → [0 to ve]
+//! ```
+//!
+//! The first leg stops the axis when the peak lies on the other side of zero from the present
+//! velocity (a reversal), the last one starts it again when the end velocity 6082h lies on the
+//! other side of zero from the peak. A leg that raises the speed runs at the acceleration, one
+//! that lowers it at the deceleration; a leg whose velocity changes sign at the smaller of the
+//! two.
+//!
+//! # How a plan is made
+//!
+//! 1. **Layout, in `f32`.** The continuous time-optimal profile: the distance covered without a
+//!    cruise is non-decreasing in the peak `vp` and, between the velocities where a leg changes
+//!    kind (0, the present velocity, the end velocity), affine in `vp·|vp|`; so the peak follows
+//!    from at most five evaluations and one square root. The leg durations are rounded up to
+//!    whole ticks.
+//! 2. **Peak, exact.** With the tick counts fixed, a leg from `u` to `w` over `n` ticks covers
+//!    exactly `n·(u + w)/2` however its acceleration is spread over its ticks, so the distance
+//!    is affine in `vp` and one integer division gives the peak that lands on the target. If a
+//!    leg then needs more than its limit (the rounding moved the peak), that leg is lengthened to
+//!    what the peak needs and the peak solved again (at most [`ROUNDS`] times); where a cruise at
+//!    the velocity limit is needed, its length is the least that keeps the peak within it.
+//! 3. **Fallback.** If the rounds run out, the plan stops first and moves from standstill (and
+//!    for an end velocity, starts again to pass the target at it): its legs all end or start at
+//!    zero, so lengthening a leg can only lower the peak, and it conforms.
+//!
+//! # Execution, exact
+//!
+//! State: twice the position (2⁻⁶⁵ increments, so `p += v + a/2` is exact for any integer
+//! acceleration), the velocity and the next tick's acceleration, in 2⁻⁶⁴ per-tick units. A leg is
+//! entered with one division: its velocity change `Δ = q·n + m` runs `n − m` ticks at `q` and `m`
+//! ticks at `q + 1`, half of them at its start and half at its end, so the velocity ends on the
+//! aim exactly and the position within `n` units of 2⁻⁶⁵ increment of `n·(u + w)/2`. The
+//! acceleration of every tick is then at most the limit the leg was checked against: `|Δ| ≤ n·r`
+//! with an integer `r` gives `q + 1 ≤ r` (and `|q| ≤ r` going down). The last tick's position is
+//! set to the target: the correction is the division's remainder and the legs' spreading, a few
+//! units of 2⁻⁶⁴ increment per tick of the plan.
+
+use super::fixed::{ceil_ticks, div_ceil, div_floor, mul_small, sqrt};
+use super::trajectory::Exact;
+use super::{Limits, MotionError, TickRate};
+
+/// Legs of the longest plan (see the module docs).
+const MAX_LEGS: usize = 5;
+
+/// Times a leg is lengthened and the peak solved again before the fallback.
+const ROUNDS: u32 = 3;
+
+/// The limits of a trapezoid in fixed-point per-tick units, each rounded down.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct RampLimits {
+    velocity: i128,
+    acceleration: i128,
+    deceleration: i128,
+}
+
+impl RampLimits {
+    /// `limits` at the tick `rate` (each at most the exact conversion and less than 2⁻³²
+    /// per-tick units below it; no division).
+    pub(crate) fn new(limits: &Limits, rate: TickRate) -> Self {
+        RampLimits {
+            velocity: rate.scale(limits.velocity, 1),
+            acceleration: rate.scale(limits.acceleration, 2).max(1),
+            deceleration: rate.scale(limits.deceleration, 2).max(1),
+        }
+    }
+
+    /// The rate of a leg from `u` to `w`: the acceleration if the speed rises (or from
+    /// standstill), the deceleration if it falls, the smaller if the velocity changes sign.
+    fn rate(&self, u: i128, w: i128) -> i128 {
+        if u.signum() * w.signum() < 0 {
+            self.acceleration.min(self.deceleration)
+        } else if w.unsigned_abs() >= u.unsigned_abs() {
+            self.acceleration
+        } else {
+            self.deceleration
+        }
+    }
+}
+
+/// A plan's legs: leg `i` runs `ticks[i]` ticks at one acceleration (spread in whole units)
+/// and ends at `aims[i]`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+struct Legs {
+    ticks: [u32; MAX_LEGS],
+    aims: [i128; MAX_LEGS],
+    len: usize,
+}
+
+impl Legs {
+    fn push(&mut self, ticks: u32, aim: i128) -> Option<()> {
+        if ticks > 0 {
+            *self.ticks.get_mut(self.len)? = ticks;
+            *self.aims.get_mut(self.len)? = aim;
+            self.len += 1;
+        }
+        Some(())
+    }
+
+    fn get(&self, index: usize) -> Option<(u32, i128)> {
+        if index >= self.len {
+            return None;
+        }
+        Some((*self.ticks.get(index)?, *self.aims.get(index)?))
+    }
+
+    fn total(&self) -> u64 {
+        self.ticks.iter().take(self.len).map(|&n| u64::from(n)).sum()
+    }
+}
+
+/// How a plan was made (for the tests).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Made {
+    /// The time-optimal layout.
+    Layout,
+    /// The stop-first fallback.
+    Fallback,
+}
+
+/// `x` fixed point (2⁻⁶⁴ units) as `f32` units.
+fn real(x: i128) -> f32 {
+    // The top 32 significant bits, converted by the FPU, and their scale as an exponent: an
+    // i128 → f32 conversion is a long library call.
+    let magnitude = x.unsigned_abs();
+    let shift = (128 - magnitude.leading_zeros()).saturating_sub(32);
+    let top = (magnitude >> shift) as u32 as f32;
+    // 2^(shift − 64) as f32 bits (shift ≤ 96: the exponent stays in the normal range).
+    let scale = f32::from_bits((127 + shift - 64) << 23);
+    let value = top * scale;
+    if x < 0 {
+        -value
+    } else {
+        value
+    }
+}
+
+/// The continuous time-optimal peak velocity `vp` (per-tick units, signed) of a move over
+/// `distance` from velocity `u0` to `ue`, and whether it cruises at the velocity limit `vmax`.
+fn layout_peak(distance: f32, u0: f32, ue: f32, vmax: f32, acc: f32, dec: f32) -> (f32, bool) {
+    // Distance of one change from u to w (split at zero).
+    let (up, down) = (0.5 / acc, 0.5 / dec);
+    let change = |u: f32, w: f32| {
+        let (su, sw) = (u * abs(u), w * abs(w));
+        if u * w < 0.0 {
+            su * down + sw * up
+        } else if abs(w) >= abs(u) {
+            (sw - su) * up
+        } else {
+            (su - sw) * down
+        }
+    };
+    let covered = |vp: f32| change(u0, vp) + change(vp, ue);
+    if covered(vmax) <= distance {
+        return (vmax, true);
+    }
+    if covered(-vmax) >= distance {
+        return (-vmax, true);
+    }
+    // Between the velocities where a change switches kind, the distance is affine in vp·|vp|:
+    // the tightest bracket of the distance among them.
+    let (mut low, mut high) = (-vmax, vmax);
+    let (mut f_low, mut f_high) = (covered(low), covered(high));
+    for point in [0.0, u0.max(-vmax).min(vmax), ue.max(-vmax).min(vmax)] {
+        if point <= low || point >= high {
+            continue;
+        }
+        let f = covered(point);
+        if f < distance && point > low {
+            (low, f_low) = (point, f);
+        } else if f >= distance && point < high {
+            (high, f_high) = (point, f);
+        }
+    }
+    if f_high <= f_low {
+        return (high, false);
+    }
+    // From the nearer end (the other one may be far off, and its difference would cancel).
+    let (s_low, s_high) = (low * abs(low), high * abs(high));
+    let slope = (s_high - s_low) / (f_high - f_low);
+    let s = if distance - f_low <= f_high - distance {
+        s_low + (distance - f_low) * slope
+    } else {
+        s_high + (distance - f_high) * slope
+    };
+    let vp = if s < 0.0 { -sqrt(-s) } else { sqrt(s) };
+    (vp.max(low).min(high), false)
+}
+
+fn abs(x: f32) -> f32 {
+    if x < 0.0 {
+        -x
+    } else {
+        x
+    }
+}
+
+/// Whole ticks for a velocity change of `dv` at `rate` (both `f32` per-tick units).
+fn ticks_for(dv: f32, rate: f32) -> Option<u32> {
+    ceil_ticks(abs(dv) / rate)
+}
+
+/// `⌈|dv| / rate⌉` exactly, as a tick count: an `f32` estimate corrected by products (a
+/// 128-bit division costs some ten times more).
+fn exact_ticks(dv: i128, rate: i128) -> Option<u32> {
+    let dv = dv.checked_abs()?;
+    let estimate = ceil_ticks(real(dv) / real(rate))?;
+    if estimate > 1 << 20 {
+        // Past 2²⁰ ticks the estimate may be off by more than a tick.
+        return u32::try_from(div_ceil(dv, rate)).ok();
+    }
+    // Within a tick of the answer: check the estimate, then its neighbour.
+    let reaches = |ticks: u32| mul_small(rate, ticks).is_none_or(|reach| reach >= dv);
+    if reaches(estimate) {
+        Some(if estimate > 0 && reaches(estimate - 1) { estimate - 1 } else { estimate })
+    } else {
+        Some(estimate.checked_add(1)?)
+    }
+}
+
+/// `|dv| ≤ n·rate`.
+fn within(dv: i128, ticks: u32, rate: i128) -> bool {
+    match (dv.checked_abs(), mul_small(rate, ticks)) {
+        (Some(dv), Some(reach)) => dv <= reach,
+        (Some(_), None) => true,
+        (None, _) => false,
+    }
+}
+
+/// `⌊num / den⌋` for a tick count `den > 0` that may exceed 32 bits.
+fn div_ticks(num: i128, den: u64) -> i128 {
+    match u32::try_from(den) {
+        Ok(small) => div_floor(num, i128::from(small)),
+        Err(_) => div_floor(num, i128::from(den)),
+    }
+}
+
+/// The problem a plan solves: from velocity `u0`, cover `distance2 / 2` (fixed point) and end
+/// at `ue`.
+struct Move<'a> {
+    distance2: i128,
+    u0: i128,
+    ue: i128,
+    limits: &'a RampLimits,
+}
+
+impl Move<'_> {
+    /// The legs of the layout (or, with `stop_first`, of the fallback), `None` if no peak
+    /// conforms within the rounds.
+    fn solve(&self, stop_first: bool, legs: &mut Legs) -> Option<()> {
+        let limits = self.limits;
+        let (u0, ue) = (self.u0, self.ue);
+        let (vmax, acc, dec) = (real(limits.velocity), real(limits.acceleration), real(limits.deceleration));
+        // A stop before the peak and a start after it, and twice what they cover.
+        let stop = |stop: bool| -> Option<(u32, i128)> {
+            if !stop || u0 == 0 {
+                return Some((0, 0));
+            }
+            let ticks = exact_ticks(u0, limits.deceleration)?;
+            Some((ticks, mul_small(u0, ticks)?))
+        };
+        let start = |start: bool| -> Option<(u32, i128)> {
+            if !start || ue == 0 {
+                return Some((0, 0));
+            }
+            let ticks = exact_ticks(ue, limits.acceleration)?;
+            Some((ticks, mul_small(ue, ticks)?))
+        };
+        let (peak, mut cruising, (stop_ticks, stopping), (start_ticks, starting)) = if stop_first {
+            let (stopping, starting) = (stop(true)?, start(true)?);
+            let rest = real(self.distance2.checked_sub(stopping.1)?.checked_sub(starting.1)?) * 0.5;
+            let (peak, cruising) = layout_peak(rest, 0.0, 0.0, vmax, acc, dec);
+            (peak, cruising, stopping, starting)
+        } else {
+            let distance = real(self.distance2) * 0.5;
+            let (peak, cruising) = layout_peak(distance, real(u0), real(ue), vmax, acc, dec);
+            let opposite = |x: i128| (x > 0 && peak < 0.0) || (x < 0 && peak > 0.0);
+            (peak, cruising, stop(opposite(u0))?, start(opposite(ue))?)
+        };
+        let (pre_stop, post_start) = (stop_ticks > 0, start_ticks > 0);
+        let from = if pre_stop { 0 } else { u0 };
+        let to = if post_start { 0 } else { ue };
+        let fixed = stopping.checked_add(starting)?;
+        let rate_f = |u: f32, w: f32| {
+            if u * w < 0.0 {
+                acc.min(dec)
+            } else if abs(w) >= abs(u) {
+                acc
+            } else {
+                dec
+            }
+        };
+        let (from_f, to_f) = (real(from), real(to));
+        let mut n_to = ticks_for(peak - from_f, rate_f(from_f, peak))?;
+        let mut n_from = ticks_for(to_f - peak, rate_f(peak, to_f))?;
+        let mut n_cruise = 0u32;
+        let vmax_exact = limits.velocity;
+        for _ in 0..ROUNDS {
+            // 2·distance = fixed + n_to·(from + vp) + 2·n_cruise·vp + n_from·(vp + to).
+            let num = self
+                .distance2
+                .checked_sub(fixed)?
+                .checked_sub(mul_small(from, n_to)?)?
+                .checked_sub(mul_small(to, n_from)?)?;
+            let sides = u64::from(n_to) + u64::from(n_from);
+            if cruising {
+                // The least cruise that keeps the peak within the velocity limit.
+                let reach = |cruise: u32| {
+                    let den = sides + 2 * u64::from(cruise);
+                    let den = u32::try_from(den).ok()?;
+                    mul_small(vmax_exact, den)
+                };
+                let estimate = (abs(real(num)) / vmax - sides as f32) * 0.5;
+                n_cruise = ceil_ticks(estimate.max(0.0))?;
+                while reach(n_cruise).is_some_and(|r| r < num.checked_abs().unwrap_or(i128::MAX)) {
+                    n_cruise = n_cruise.checked_add(1)?;
+                }
+            }
+            let den = sides + 2 * u64::from(n_cruise);
+            let peak = if den == 0 {
+                if num != 0 {
+                    n_to = 1;
+                    continue;
+                }
+                from
+            } else {
+                div_ticks(num, den)
+            };
+            if peak.checked_abs()? > vmax_exact {
+                cruising = true;
+                continue;
+            }
+            let (dv_to, dv_from) = (peak.checked_sub(from)?, to.checked_sub(peak)?);
+            let (rate_to, rate_from) = (limits.rate(from, peak), limits.rate(peak, to));
+            let ok_to = within(dv_to, n_to, rate_to);
+            let ok_from = within(dv_from, n_from, rate_from);
+            if !ok_to {
+                n_to = exact_ticks(dv_to, rate_to)?;
+            }
+            if !ok_from {
+                n_from = exact_ticks(dv_from, rate_from)?;
+            }
+            if ok_to && ok_from {
+                legs.len = 0;
+                legs.push(stop_ticks, 0)?;
+                legs.push(n_to, peak)?;
+                legs.push(n_cruise, peak)?;
+                legs.push(n_from, to)?;
+                legs.push(start_ticks, ue)?;
+                return Some(());
+            }
+        }
+        None
+    }
+}
+
+/// Executes trapezoidal plans (see the module docs).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Ramps {
+    legs: Legs,
+    next: usize,
+    /// Twice the position (2⁻⁶⁵ increments).
+    p2: i128,
+    v: i128,
+    /// The acceleration of the next tick.
+    a: i128,
+    /// The leg in progress: its length, the ticks left, its base acceleration, and how many of
+    /// its first and last ticks run one unit above it.
+    ticks: u32,
+    left: u32,
+    base: i128,
+    early: u32,
+    late: u32,
+    remaining: u64,
+    /// The state the plan ends in (twice the position, the velocity).
+    end_p2: i128,
+    end_v: i128,
+    /// How the plan was made (for the tests).
+    #[cfg(test)]
+    made: Made,
+    /// The state the last plan started from (twice the position, the velocity).
+    #[cfg(test)]
+    planned_from: (i128, i128),
+}
+
+impl Ramps {
+    /// At `state` (its acceleration is dropped: a trapezoid's acceleration jumps).
+    pub(crate) const fn at(state: Exact) -> Self {
+        Ramps {
+            legs: Legs { ticks: [0; MAX_LEGS], aims: [0; MAX_LEGS], len: 0 },
+            next: 0,
+            p2: state.p.wrapping_mul(2),
+            v: state.v,
+            a: 0,
+            ticks: 0,
+            left: 0,
+            base: 0,
+            early: 0,
+            late: 0,
+            remaining: 0,
+            end_p2: state.p.wrapping_mul(2),
+            end_v: state.v,
+            #[cfg(test)]
+            made: Made::Layout,
+            #[cfg(test)]
+            planned_from: (0, 0),
+        }
+    }
+
+    /// The present state.
+    pub(crate) fn now(&self) -> Exact {
+        Exact { p: self.p2 >> 1, v: self.v, a: self.a }
+    }
+
+    /// Plans a move to `target` (fixed point) that passes it at `last` (signed, fixed point).
+    /// Returns the ticks until the target; on error the present motion continues.
+    pub(crate) fn plan(&mut self, target: i128, last: i128, limits: &RampLimits) -> Result<u64, MotionError> {
+        let end_p2 = target.checked_mul(2).ok_or(MotionError::OutOfRange)?;
+        let problem = Move {
+            distance2: end_p2.checked_sub(self.p2).ok_or(MotionError::OutOfRange)?,
+            u0: self.v,
+            ue: last,
+            limits,
+        };
+        // Solved into a copy: on error the legs in progress stay.
+        let mut legs = self.legs;
+        let made = match problem.solve(false, &mut legs) {
+            Some(()) => Made::Layout,
+            None => {
+                problem.solve(true, &mut legs).ok_or(MotionError::TooLong)?;
+                Made::Fallback
+            }
+        };
+        self.legs = legs;
+        self.start(end_p2, last, made);
+        Ok(self.remaining)
+    }
+
+    /// Ramps the velocity to zero at `deceleration` (fixed point per tick², > 0). Returns the
+    /// ticks until standstill.
+    pub(crate) fn stop(&mut self, deceleration: i128) -> Result<u64, MotionError> {
+        let ticks = exact_ticks(self.v, deceleration.max(1)).ok_or(MotionError::TooLong)?;
+        // Where the stop ends: the leg covers n·(v + 0)/2 (up to its spreading).
+        let end_p2 =
+            mul_small(self.v, ticks).and_then(|d| self.p2.checked_add(d)).ok_or(MotionError::TooLong)?;
+        self.legs.len = 0;
+        self.legs.push(ticks, 0).ok_or(MotionError::TooLong)?;
+        self.start(end_p2, 0, Made::Layout);
+        Ok(self.remaining)
+    }
+
+    fn start(&mut self, end_p2: i128, end_v: i128, made: Made) {
+        self.next = 0;
+        self.end_p2 = end_p2;
+        self.end_v = end_v;
+        self.remaining = self.legs.total();
+        #[cfg(test)]
+        {
+            self.made = made;
+            self.planned_from = (self.p2, self.v);
+        }
+        #[cfg(not(test))]
+        let _ = made;
+        self.left = 0;
+        self.enter_next();
+    }
+
+    fn accel(&self) -> i128 {
+        let done = self.ticks - self.left;
+        if done < self.early || self.left <= self.late {
+            self.base + 1
+        } else {
+            self.base
+        }
+    }
+
+    fn enter_next(&mut self) {
+        match self.legs.get(self.next) {
+            Some((ticks, aim)) => {
+                self.next += 1;
+                let change = aim.wrapping_sub(self.v);
+                let base = div_floor(change, i128::from(ticks));
+                let extra = change.wrapping_sub(base.wrapping_mul(i128::from(ticks)));
+                let extra = u32::try_from(extra).unwrap_or(0);
+                self.ticks = ticks;
+                self.left = ticks;
+                self.base = base;
+                self.early = extra / 2;
+                self.late = extra - extra / 2;
+                self.a = self.accel();
+            }
+            None => {
+                self.p2 = self.end_p2;
+                self.v = self.end_v;
+                self.a = 0;
+                self.left = 0;
+            }
+        }
+    }
+
+    /// Advances one tick. After the plan the state moves on at its end velocity.
+    pub(crate) fn step(&mut self) {
+        if self.left == 0 {
+            self.p2 = self.p2.saturating_add(self.v.saturating_mul(2));
+            return;
+        }
+        self.p2 = self.p2.wrapping_add(self.v.wrapping_mul(2)).wrapping_add(self.a);
+        self.v = self.v.wrapping_add(self.a);
+        self.left -= 1;
+        self.remaining = self.remaining.saturating_sub(1);
+        if self.left == 0 {
+            self.enter_next();
+        } else {
+            self.a = self.accel();
+        }
+    }
+
+    /// True when every leg has been stepped.
+    pub(crate) fn is_finished(&self) -> bool {
+        self.left == 0
+    }
+
+    /// Ticks until the plan is finished.
+    pub(crate) fn remaining(&self) -> u64 {
+        self.remaining
+    }
+
+    /// How the last plan was made (for the tests).
+    #[cfg(test)]
+    pub(crate) fn made(&self) -> Made {
+        self.made
+    }
+
+    /// How far the last plan ends from its target before its last sample is set to it, in
+    /// 2⁻⁶⁴ increments (for the tests): from the state the plan started in, each leg covers
+    /// `n·(u + w)` (twice the distance) and its spreading `(early − late)·(n − extra)`.
+    #[cfg(test)]
+    pub(crate) fn closing_error(&self) -> i128 {
+        let (mut p2, mut v) = self.planned_from;
+        for (ticks, aim) in (0..self.legs.len).filter_map(|index| self.legs.get(index)) {
+            let n = i128::from(ticks);
+            let change = aim - v;
+            let extra = change - div_floor(change, n) * n;
+            let (early, late) = (extra / 2, extra - extra / 2);
+            p2 += n * (v + aim) + (early - late) * (n - extra);
+            v = aim;
+        }
+        (self.end_p2 - p2) / 2
+    }
+}
