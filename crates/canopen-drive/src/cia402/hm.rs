@@ -772,7 +772,7 @@ impl Homing {
         let reach = i64::from(speed).saturating_mul(SEARCH_SECONDS);
         let target = if positive { here.saturating_add(reach) } else { here.saturating_sub(reach) };
         self.positive = positive;
-        planner.plan(target, 0, &self.limits(speed, acceleration)).is_ok()
+        planner.request(target, 0, &self.limits(speed, acceleration)).is_ok()
     }
 
     /// Starts step `n` (or finishes when the program is done).
@@ -793,12 +793,12 @@ impl Homing {
             Some(Step::BackOff { distance, .. }) => {
                 self.phase = Phase::Running(n);
                 let target = planner.state().position.saturating_add(distance);
-                planner.plan(target, 0, &self.limits(slow, acceleration)).is_ok()
+                planner.request(target, 0, &self.limits(slow, acceleration)).is_ok()
             }
             None => {
                 self.phase = Phase::Finishing;
                 let rest = self.home.unwrap_or(input.actual).saturating_add(self.program.rest_offset);
-                planner.plan(rest, 0, &self.limits(slow, acceleration)).is_ok()
+                planner.request(rest, 0, &self.limits(slow, acceleration)).is_ok()
             }
         }
     }

@@ -337,7 +337,7 @@ impl ProfilePosition {
             }
             _ => 0,
         };
-        let planned = self.planner.plan(active.internal, end, limits).is_ok();
+        let planned = self.planner.request(active.internal, end, limits).is_ok();
         if planned {
             self.planned_velocity = limits.velocity;
         }

@@ -268,7 +268,9 @@ mod unit_tests {
             let d = u64::from(divisor);
             assert_eq!(div_digit(high, low, divisor), ((n / d) as u32, (n % d) as u32), "{n} {d}");
         }
-        for (high, low, divisor) in [(0, 0, 1), (0, u32::MAX, 1), (u32::MAX - 1, u32::MAX, u32::MAX), (0x7fff, 0xffff_ffff, 0x8000)] {
+        for (high, low, divisor) in
+            [(0, 0, 1), (0, u32::MAX, 1), (u32::MAX - 1, u32::MAX, u32::MAX), (0x7fff, 0xffff_ffff, 0x8000)]
+        {
             let n = u64::from(high) << 32 | u64::from(low);
             let d = u64::from(divisor);
             assert_eq!(div_digit(high, low, divisor), ((n / d) as u32, (n % d) as u32), "{n} {d}");

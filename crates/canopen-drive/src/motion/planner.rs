@@ -80,7 +80,10 @@ impl Engine {
 
     fn step(&mut self) {
         match self {
-            Engine::Ramps(ramps) => ramps.step(),
+            Engine::Ramps(ramps) => {
+                ramps.work();
+                ramps.step();
+            }
             Engine::Segments(trajectory) => trajectory.step(),
         }
     }
@@ -153,9 +156,21 @@ impl PositionPlanner {
     /// The present position, velocity and (jerk-limited) acceleration carry over, so
     /// re-planning mid-move is continuous. On error the present motion continues unchanged.
     pub fn plan(&mut self, target: i64, end_velocity: u32, limits: &Limits) -> Result<u32, MotionError> {
-        let ticks = self.plan_from_here(target, end_velocity, limits);
+        let ticks = self.plan_from_here(target, end_velocity, limits, false);
         self.state = state_of(&self.engine.now(), self.hz);
         ticks
+    }
+
+    /// [`Self::plan`] in bounded time per tick, as a drive's tick needs it: the request is
+    /// checked at once (the same errors, and on error the present motion continues), a
+    /// trapezoid is then planned by the following [`Self::step`]s, a layout or a round per
+    /// step, while the present motion continues (see [`ramps`](super::ramps)); it starts one
+    /// or a few ticks later, from the state it is completed in. [`Self::is_finished`] is false
+    /// until then. (A jerk-limited plan is still made at once, by the exact planner.)
+    pub fn request(&mut self, target: i64, end_velocity: u32, limits: &Limits) -> Result<(), MotionError> {
+        let result = self.plan_from_here(target, end_velocity, limits, true);
+        self.state = state_of(&self.engine.now(), self.hz);
+        result.map(|_| ())
     }
 
     /// [`Self::plan`] but for [`Self::state`], which the caller converts after it.
@@ -164,6 +179,7 @@ impl PositionPlanner {
         target: i64,
         end_velocity: u32,
         limits: &Limits,
+        sliced: bool,
     ) -> Result<u32, MotionError> {
         if !(-POSITION_RANGE..=POSITION_RANGE).contains(&target) {
             return Err(MotionError::OutOfRange);
@@ -180,7 +196,13 @@ impl PositionPlanner {
         if matches!(limits.profile, ProfileType::Trapezoidal) {
             let last = if end_speed == 0 { 0 } else { to_go.signum() * per_tick(end_speed, hz, 1) };
             let ramps = self.engine.ramps().ok_or(MotionError::TooLong)?;
-            let ticks = ramps.plan(target_fixed, last, &RampLimits::new(limits, self.rate))?;
+            let limits = RampLimits::new(limits, self.rate);
+            let ticks = if sliced {
+                ramps.request(target_fixed, last, &limits)?;
+                0
+            } else {
+                ramps.plan(target_fixed, last, &limits)?
+            };
             self.target = target;
             return u32::try_from(ticks).map_err(|_| MotionError::TooLong);
         }
@@ -266,6 +288,12 @@ impl PositionPlanner {
     #[cfg(test)]
     pub(crate) fn exact(&self) -> Exact {
         self.engine.now()
+    }
+
+    /// True while a requested plan is being made (for the tests).
+    #[cfg(test)]
+    pub(crate) fn is_planning(&self) -> bool {
+        matches!(&self.engine, Engine::Ramps(ramps) if ramps.is_planning())
     }
 
     /// How the last plan was made (for the tests).

@@ -206,7 +206,9 @@ fn abs(x: f32) -> f32 {
 
 /// Whole ticks for a velocity change of `dv` at `rate` (both `f32` per-tick units).
 fn ticks_for(dv: f32, rate: f32) -> Option<u32> {
-    ceil_ticks(abs(dv) / rate)
+    // A hair more than the estimate: a duration of (nearly) whole ticks, rounded up exactly,
+    // would otherwise often miss by the last bit and cost a round.
+    ceil_ticks(abs(dv) / rate * (1.0 + 1.0 / 1_048_576.0))
 }
 
 /// `⌈|dv| / rate⌉` exactly, as a tick count: an `f32` estimate corrected by products (a
@@ -253,44 +255,45 @@ struct Move<'a> {
     limits: &'a RampLimits,
 }
 
+/// The tick counts of a plan's legs, refined round by round (see the module docs).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+struct Counts {
+    /// Ticks of the stop before the peak and of the start after it (0: none).
+    stop: u32,
+    start: u32,
+    /// Ticks of the legs into and out of the peak, and of the cruise.
+    to: u32,
+    from: u32,
+    cruise: u32,
+    /// The peak is held by a cruise at the velocity limit.
+    cruising: bool,
+}
+
 impl Move<'_> {
-    /// The legs of the layout (or, with `stop_first`, of the fallback), `None` if no peak
-    /// conforms within the rounds.
-    fn solve(&self, stop_first: bool, legs: &mut Legs) -> Option<()> {
+    /// The layout's tick counts (or, with `stop_first`, the fallback's), from the `f32` shape.
+    fn layout(&self, stop_first: bool) -> Option<Counts> {
         let limits = self.limits;
         let (u0, ue) = (self.u0, self.ue);
         let (vmax, acc, dec) = (real(limits.velocity), real(limits.acceleration), real(limits.deceleration));
-        // A stop before the peak and a start after it, and twice what they cover.
-        let stop = |stop: bool| -> Option<(u32, i128)> {
-            if !stop || u0 == 0 {
-                return Some((0, 0));
-            }
-            let ticks = exact_ticks(u0, limits.deceleration)?;
-            Some((ticks, mul_small(u0, ticks)?))
-        };
-        let start = |start: bool| -> Option<(u32, i128)> {
-            if !start || ue == 0 {
-                return Some((0, 0));
-            }
-            let ticks = exact_ticks(ue, limits.acceleration)?;
-            Some((ticks, mul_small(ue, ticks)?))
-        };
-        let (peak, mut cruising, (stop_ticks, stopping), (start_ticks, starting)) = if stop_first {
-            let (stopping, starting) = (stop(true)?, start(true)?);
-            let rest = real(self.distance2.checked_sub(stopping.1)?.checked_sub(starting.1)?) * 0.5;
+        let stop_ticks =
+            |stop: bool| if stop && u0 != 0 { exact_ticks(u0, limits.deceleration) } else { Some(0) };
+        let start_ticks =
+            |start: bool| if start && ue != 0 { exact_ticks(ue, limits.acceleration) } else { Some(0) };
+        let (peak, cruising, stop, start) = if stop_first {
+            let (stop, start) = (stop_ticks(true)?, start_ticks(true)?);
+            let fixed = mul_small(u0, stop)?.checked_add(mul_small(ue, start)?)?;
+            let rest = real(self.distance2.checked_sub(fixed)?) * 0.5;
             let (peak, cruising) = layout_peak(rest, 0.0, 0.0, vmax, acc, dec);
-            (peak, cruising, stopping, starting)
+            (peak, cruising, stop, start)
         } else {
             let distance = real(self.distance2) * 0.5;
             let (peak, cruising) = layout_peak(distance, real(u0), real(ue), vmax, acc, dec);
             let opposite = |x: i128| (x > 0 && peak < 0.0) || (x < 0 && peak > 0.0);
-            (peak, cruising, stop(opposite(u0))?, start(opposite(ue))?)
+            (peak, cruising, stop_ticks(opposite(u0))?, start_ticks(opposite(ue))?)
         };
-        let (pre_stop, post_start) = (stop_ticks > 0, start_ticks > 0);
-        let from = if pre_stop { 0 } else { u0 };
-        let to = if post_start { 0 } else { ue };
-        let fixed = stopping.checked_add(starting)?;
-        let rate_f = |u: f32, w: f32| {
+        let from = if stop > 0 { 0.0 } else { real(u0) };
+        let to = if start > 0 { 0.0 } else { real(ue) };
+        let rate = |u: f32, w: f32| {
             if u * w < 0.0 {
                 acc.min(dec)
             } else if abs(w) >= abs(u) {
@@ -299,63 +302,109 @@ impl Move<'_> {
                 dec
             }
         };
-        let (from_f, to_f) = (real(from), real(to));
-        let mut n_to = ticks_for(peak - from_f, rate_f(from_f, peak))?;
-        let mut n_from = ticks_for(to_f - peak, rate_f(peak, to_f))?;
-        let mut n_cruise = 0u32;
-        let vmax_exact = limits.velocity;
-        for _ in 0..ROUNDS {
-            // 2·distance = fixed + n_to·(from + vp) + 2·n_cruise·vp + n_from·(vp + to).
-            let num = self
-                .distance2
-                .checked_sub(fixed)?
-                .checked_sub(mul_small(from, n_to)?)?
-                .checked_sub(mul_small(to, n_from)?)?;
-            let sides = u64::from(n_to) + u64::from(n_from);
-            if cruising {
-                // The least cruise that keeps the peak within the velocity limit.
-                let reach = |cruise: u32| {
-                    let den = sides + 2 * u64::from(cruise);
-                    let den = u32::try_from(den).ok()?;
-                    mul_small(vmax_exact, den)
-                };
-                let estimate = (abs(real(num)) / vmax - sides as f32) * 0.5;
-                n_cruise = ceil_ticks(estimate.max(0.0))?;
-                while reach(n_cruise).is_some_and(|r| r < num.checked_abs().unwrap_or(i128::MAX)) {
-                    n_cruise = n_cruise.checked_add(1)?;
-                }
-            }
-            let den = sides + 2 * u64::from(n_cruise);
-            let peak = if den == 0 {
-                if num != 0 {
-                    n_to = 1;
-                    continue;
-                }
-                from
-            } else {
-                div_ticks(num, den)
+        Some(Counts {
+            stop,
+            start,
+            to: ticks_for(peak - from, rate(from, peak))?,
+            from: ticks_for(to - peak, rate(peak, to))?,
+            cruise: 0,
+            cruising,
+        })
+    }
+
+    /// One round: the peak for `counts` from the present state. `Some(true)` when every leg
+    /// conforms (the legs are then in `legs`), `Some(false)` when a leg was lengthened. With
+    /// a `drift` (what a tick of the held velocity adds to twice the distance, for a plan
+    /// made over several ticks), a failed round also lengthens the legs for the state of the
+    /// next tick, where the next round solves.
+    fn round(&self, counts: &mut Counts, legs: &mut Legs, drift: i128) -> Option<bool> {
+        if self.attempt(self.distance2, counts, Some(legs))? {
+            return Some(true);
+        }
+        if drift != 0 {
+            self.attempt(self.distance2.checked_sub(drift)?, counts, None)?;
+        }
+        Some(false)
+    }
+
+    /// [`Self::round`] over `distance2`, writing the legs to `legs` if given.
+    fn attempt(&self, distance2: i128, counts: &mut Counts, legs: Option<&mut Legs>) -> Option<bool> {
+        let limits = self.limits;
+        let (u0, ue) = (self.u0, self.ue);
+        if counts.stop > 0 && !within(u0, counts.stop, limits.deceleration) {
+            // The velocity grew since the layout (a plan made over several ticks).
+            counts.stop = exact_ticks(u0, limits.deceleration)?;
+            return Some(false);
+        }
+        let from = if counts.stop > 0 { 0 } else { u0 };
+        let to = if counts.start > 0 { 0 } else { ue };
+        // 2·distance = u0·stop + n_to·(from + vp) + 2·n_cruise·vp + n_from·(vp + to) + ue·start.
+        let num = distance2
+            .checked_sub(mul_small(u0, counts.stop)?)?
+            .checked_sub(mul_small(ue, counts.start)?)?
+            .checked_sub(mul_small(from, counts.to)?)?
+            .checked_sub(mul_small(to, counts.from)?)?;
+        let sides = u64::from(counts.to) + u64::from(counts.from);
+        if counts.cruising {
+            // The least cruise that keeps the peak within the velocity limit.
+            let needed = num.checked_abs()?;
+            let reach = |cruise: u32| {
+                let den = u32::try_from(sides + 2 * u64::from(cruise)).ok()?;
+                mul_small(limits.velocity, den)
             };
-            if peak.checked_abs()? > vmax_exact {
-                cruising = true;
-                continue;
+            let estimate = (real(needed) / real(limits.velocity) - sides as f32) * 0.5;
+            counts.cruise = ceil_ticks(estimate.max(0.0))?;
+            while reach(counts.cruise).is_some_and(|r| r < needed) {
+                counts.cruise = counts.cruise.checked_add(1)?;
             }
-            let (dv_to, dv_from) = (peak.checked_sub(from)?, to.checked_sub(peak)?);
-            let (rate_to, rate_from) = (limits.rate(from, peak), limits.rate(peak, to));
-            let ok_to = within(dv_to, n_to, rate_to);
-            let ok_from = within(dv_from, n_from, rate_from);
-            if !ok_to {
-                n_to = exact_ticks(dv_to, rate_to)?;
+        }
+        let den = sides + 2 * u64::from(counts.cruise);
+        if den == 0 {
+            if num == 0 && from == to {
+                if let Some(legs) = legs {
+                    legs.len = 0;
+                    legs.push(counts.stop, 0)?;
+                    legs.push(counts.start, ue)?;
+                    return Some(true);
+                }
+                return Some(false);
             }
-            if !ok_from {
-                n_from = exact_ticks(dv_from, rate_from)?;
-            }
-            if ok_to && ok_from {
-                legs.len = 0;
-                legs.push(stop_ticks, 0)?;
-                legs.push(n_to, peak)?;
-                legs.push(n_cruise, peak)?;
-                legs.push(n_from, to)?;
-                legs.push(start_ticks, ue)?;
+            counts.to = 1;
+            return Some(false);
+        }
+        let peak = div_ticks(num, den);
+        if peak.checked_abs()? > limits.velocity {
+            counts.cruising = true;
+            return Some(false);
+        }
+        let (dv_to, dv_from) = (peak.checked_sub(from)?, to.checked_sub(peak)?);
+        let (rate_to, rate_from) = (limits.rate(from, peak), limits.rate(peak, to));
+        let ok_to = within(dv_to, counts.to, rate_to);
+        let ok_from = within(dv_from, counts.from, rate_from);
+        if !ok_to {
+            counts.to = exact_ticks(dv_to, rate_to)?;
+        }
+        if !ok_from {
+            counts.from = exact_ticks(dv_from, rate_from)?;
+        }
+        let Some(legs) = legs.filter(|_| ok_to && ok_from) else {
+            return Some(false);
+        };
+        legs.len = 0;
+        legs.push(counts.stop, 0)?;
+        legs.push(counts.to, peak)?;
+        legs.push(counts.cruise, peak)?;
+        legs.push(counts.from, to)?;
+        legs.push(counts.start, ue)?;
+        Some(true)
+    }
+
+    /// The legs of the layout (or, with `stop_first`, of the fallback) at once, `None` if no
+    /// peak conforms within the rounds.
+    fn solve(&self, stop_first: bool, legs: &mut Legs) -> Option<()> {
+        let mut counts = self.layout(stop_first)?;
+        for _ in 0..ROUNDS {
+            if self.round(&mut counts, legs, 0)? {
                 return Some(());
             }
         }
@@ -363,10 +412,31 @@ impl Move<'_> {
     }
 }
 
+/// Where a plan made over several ticks has got to.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Stage {
+    /// Next: the layout (the fallback's with `true`).
+    Layout(bool),
+    /// Next: round `round` of the layout (or of the fallback).
+    Round { fallback: bool, round: u32 },
+}
+
+/// A plan made over several ticks while the present motion continues ([`Ramps::request`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Job {
+    target2: i128,
+    last: i128,
+    limits: RampLimits,
+    stage: Stage,
+    counts: Counts,
+}
+
 /// Executes trapezoidal plans (see the module docs).
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Ramps {
     legs: Legs,
+    /// A plan being made over several ticks.
+    job: Option<Job>,
     next: usize,
     /// Twice the position (2⁻⁶⁵ increments).
     p2: i128,
@@ -397,6 +467,7 @@ impl Ramps {
     pub(crate) const fn at(state: Exact) -> Self {
         Ramps {
             legs: Legs { ticks: [0; MAX_LEGS], aims: [0; MAX_LEGS], len: 0 },
+            job: None,
             next: 0,
             p2: state.p.wrapping_mul(2),
             v: state.v,
@@ -432,6 +503,7 @@ impl Ramps {
             limits,
         };
         // Solved into a copy: on error the legs in progress stay.
+        self.job = None;
         let mut legs = self.legs;
         let made = match problem.solve(false, &mut legs) {
             Some(()) => Made::Layout,
@@ -448,6 +520,7 @@ impl Ramps {
     /// Ramps the velocity to zero at `deceleration` (fixed point per tick², > 0). Returns the
     /// ticks until standstill.
     pub(crate) fn stop(&mut self, deceleration: i128) -> Result<u64, MotionError> {
+        self.job = None;
         let ticks = exact_ticks(self.v, deceleration.max(1)).ok_or(MotionError::TooLong)?;
         // Where the stop ends: the leg covers n·(v + 0)/2 (up to its spreading).
         let end_p2 =
@@ -456,6 +529,94 @@ impl Ramps {
         self.legs.push(ticks, 0).ok_or(MotionError::TooLong)?;
         self.start(end_p2, 0, Made::Layout);
         Ok(self.remaining)
+    }
+
+    /// Asks for a move to `target` that passes it at `last` (as [`Self::plan`]), planned over
+    /// the next ticks by [`Self::work`], at most one layout or one round per tick (see the
+    /// module docs), while the axis holds its present velocity. The plan starts in the tick
+    /// that completes it, from the state of that tick.
+    pub(crate) fn request(
+        &mut self,
+        target: i128,
+        last: i128,
+        limits: &RampLimits,
+    ) -> Result<(), MotionError> {
+        let target2 = target.checked_mul(2).ok_or(MotionError::OutOfRange)?;
+        target2.checked_sub(self.p2).ok_or(MotionError::OutOfRange)?;
+        // Meanwhile the velocity is held (a trapezoid's acceleration may jump), so each
+        // round solves for the same start velocity and the rounds converge as at once.
+        self.legs.len = 0;
+        self.left = 0;
+        self.a = 0;
+        self.remaining = 0;
+        self.job = Some(Job {
+            target2,
+            last,
+            limits: *limits,
+            stage: Stage::Layout(false),
+            counts: Counts::default(),
+        });
+        Ok(())
+    }
+
+    /// One tick's share of the plan [`Self::request`] asked for: a layout or a round. When a
+    /// round completes the plan, its legs start from the present state.
+    pub(crate) fn work(&mut self) {
+        let Some(mut job) = self.job else { return };
+        let Some(distance2) = job.target2.checked_sub(self.p2) else {
+            self.give_up(&job);
+            return;
+        };
+        let problem = Move { distance2, u0: self.v, ue: job.last, limits: &job.limits };
+        // What a tick of the held velocity adds to twice the distance.
+        let drift = self.v.saturating_mul(2);
+        match job.stage {
+            // For the state of the next tick, where the first round solves.
+            Stage::Layout(fallback) => {
+                match (Move { distance2: distance2.saturating_sub(drift), ..problem }).layout(fallback) {
+                    Some(counts) => {
+                        job.counts = counts;
+                        job.stage = Stage::Round { fallback, round: 0 };
+                        self.job = Some(job);
+                    }
+                    None => self.give_up(&job),
+                }
+            }
+            Stage::Round { fallback, round } => {
+                let mut legs = self.legs;
+                match problem.round(&mut job.counts, &mut legs, drift) {
+                    Some(true) => {
+                        self.job = None;
+                        self.legs = legs;
+                        self.start(
+                            job.target2,
+                            job.last,
+                            if fallback { Made::Fallback } else { Made::Layout },
+                        );
+                    }
+                    Some(false) if round + 1 < ROUNDS => {
+                        job.stage = Stage::Round { fallback, round: round + 1 };
+                        self.job = Some(job);
+                    }
+                    Some(false) if !fallback => {
+                        job.stage = Stage::Layout(true);
+                        self.job = Some(job);
+                    }
+                    _ => self.give_up(&job),
+                }
+            }
+        }
+    }
+
+    /// No plan conformed (not seen in the tests; the fallback always has): stop instead.
+    fn give_up(&mut self, job: &Job) {
+        let _ = self.stop(job.limits.deceleration);
+    }
+
+    /// True while a requested plan is being made (for the tests).
+    #[cfg(test)]
+    pub(crate) fn is_planning(&self) -> bool {
+        self.job.is_some()
     }
 
     fn start(&mut self, end_p2: i128, end_v: i128, made: Made) {
@@ -524,9 +685,9 @@ impl Ramps {
         }
     }
 
-    /// True when every leg has been stepped.
+    /// True when every leg has been stepped and no plan is being made.
     pub(crate) fn is_finished(&self) -> bool {
-        self.left == 0
+        self.left == 0 && self.job.is_none()
     }
 
     /// Ticks until the plan is finished.

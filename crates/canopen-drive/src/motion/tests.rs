@@ -472,3 +472,50 @@ fn end_velocity_at_the_velocity_limit_is_planned() {
         }
     }
 }
+
+#[test]
+fn requested_plans_land_like_immediate_ones() {
+    // A plan made over several ticks (`request`) holds the velocity meanwhile, stays within
+    // the limits tick by tick, lands exactly, and takes at most a few ticks more than the plan
+    // made at once.
+    let mut rng = Rng(0x0A11_5EED);
+    let mut worst_extra = 0i64;
+    for scenario in 0..2000 {
+        let limits = random_limits(&mut rng, ProfileType::Trapezoidal);
+        let hz = [1000, 4000, 16_000][scenario % 3];
+        let mut planner = PositionPlanner::new(TickRate::new(hz).unwrap(), 0);
+        let first = (f64::from(limits.velocity) * rng.range(-2.0, 2.0)) as i64;
+        planner.plan(first, 0, &limits).unwrap();
+        let run = (rng.unit() * 3.0 * f64::from(hz)) as u32;
+        for _ in 0..run {
+            planner.step();
+        }
+        let target = planner.state().position + (f64::from(limits.velocity) * rng.range(-2.0, 2.0)) as i64;
+        let before = planner.exact();
+        let context = format!("scenario {scenario}: {limits:?} at {hz} Hz from {before:?} to {target}");
+        let at_once = planner.clone().plan(target, 0, &limits).unwrap();
+        planner.request(target, 0, &limits).unwrap_or_else(|e| panic!("{context}: {e:?}"));
+        let mut checker = super::limit_tests::Strict::new(&limits, hz, before);
+        let mut ticks = 0u32;
+        while !planner.is_finished() {
+            let planning = planner.is_planning();
+            let previous = planner.exact();
+            planner.step();
+            if planning && !planner.is_planning() {
+                // The plan starts in this tick: a re-plan from the held state, checked as one.
+                checker = super::limit_tests::Strict::new(&limits, hz, previous);
+            }
+            checker.check(planner.exact()).unwrap_or_else(|e| panic!("{context} at tick {ticks}: {e}"));
+            ticks += 1;
+            assert!(ticks < 50_000_000, "{context}: never finished");
+        }
+        assert_eq!(
+            planner.exact(),
+            Exact { p: fixed(target), v: 0, a: 0 },
+            "{context} ({:?})",
+            planner.method()
+        );
+        worst_extra = worst_extra.max(i64::from(ticks) - i64::from(at_once));
+    }
+    std::eprintln!("a requested plan takes at most {worst_extra} ticks more than one made at once");
+}
