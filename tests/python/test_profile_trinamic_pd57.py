@@ -961,3 +961,54 @@ def test_a_move_further_into_an_active_limit_switch_is_not_made(pd57, network):
     wait_until(lambda: abs(pd57.sdo[0x6064].raw - (start - 50_000)) < 200, timeout=3)
     pd57.sdo[SIM_INPUTS].raw = 0
     pd57.sdo[0x6040].raw = 0
+
+
+def test_each_move_into_an_active_limit_switch_sends_ff01h(pd57, network):
+    """§12 FF01h/3 and /4: a limit switch touched outside homing. With the axis standing on an
+    active switch, each move commanded into it is such a touch: one FF01h, byte 1 = 3 (positive)
+    or 4 (negative), when the set-point is taken (before the fix only the switch becoming active
+    sent it, so the master saw nothing at the move). A move off the switch sends none."""
+    emcy = Recorder(network, 0x80 + NODE_ID)
+    motion_parameters(pd57)
+    pd57.sdo[SIM_INPUTS].raw = 0x02  # the right (positive) limit switch
+    emcy.wait_for(lambda d: d[:2] == b"\x01\xff", timeout=1.0)  # the switch became active
+    enable(pd57, 1)
+    time.sleep(0.1)
+    emcy.clear()
+
+    def move(target):
+        """A pp set-point; returns the EMCYs (time, data) from the bit-4 edge until 0.3 s later."""
+        pd57.sdo[0x607A].raw = target
+        emcy.clear()
+        commanded = time.monotonic()
+        pd57.sdo[0x6040].raw = 31
+        wait_until(lambda: statusword(pd57) & 0x1000)
+        pd57.sdo[0x6040].raw = 15
+        time.sleep(0.3)
+        frames = list(emcy.frames)
+        assert all(t >= commanded for t, _ in frames)
+        return frames
+
+    def touch(frames, switch):
+        assert len(frames) == 1, f"one EMCY per move into the switch: {frames!r}"
+        t, data = frames[0]
+        assert data[:2] == b"\x01\xff", data.hex()  # FF01h
+        assert data[2] & 0x81 == 0x81  # error register: generic + manufacturer-specific
+        assert data[3:] == bytes([switch, 0, 0, 0, 0]), data.hex()
+        return t
+
+    start = pd57.sdo[0x6064].raw
+    touch(move(start + 200_000), 3)
+    assert abs(pd57.sdo[0x6064].raw - start) < 50, "moved into the active limit switch"
+    assert move(start - 50_000) == [], "a move off the switch"
+    wait_until(lambda: abs(pd57.sdo[0x6064].raw - (start - 50_000)) < 200, timeout=3)
+    touch(move(start + 200_000), 3)  # back into it: a new touch
+
+    # The left (negative) switch: byte 1 = 4.
+    pd57.sdo[SIM_INPUTS].raw = 0x01
+    emcy.wait_for(lambda d: d[:2] == b"\x01\xff" and d[3] == 4, timeout=1.0)
+    here = pd57.sdo[0x6064].raw
+    touch(move(here - 200_000), 4)
+    assert abs(pd57.sdo[0x6064].raw - here) < 50, "moved into the active limit switch"
+    pd57.sdo[SIM_INPUTS].raw = 0
+    pd57.sdo[0x6040].raw = 0

@@ -859,6 +859,135 @@ fn travel_limits_can_raise_the_drives_emcy() {
     assert_eq!(emcys(&bench.advance(Duration::from_millis(5))), Vec::<Vec<u8>>::new(), "homing");
 }
 
+/// A bench whose drive reports travel limits as `emcy` (FF01h: the Trinamic profile's), with
+/// motion into an active limit switch stopped or not.
+fn travel_limit_bench(emcy: Option<u16>, stop: bool) -> Bench {
+    pp_bench(|mut c| {
+        c.profile.travel_limit_emcy = emcy;
+        c.profile.limit_switches_stop = stop;
+        c
+    })
+}
+
+/// FF01h with the travel limit in byte 1 (error register: generic + manufacturer-specific).
+fn ff01(limit: u8) -> Vec<u8> {
+    vec![0x01, 0xFF, 0x81, limit, 0, 0, 0, 0]
+}
+
+#[test]
+fn a_pp_move_into_an_active_limit_switch_raises_the_travel_limit_emcy_again() {
+    use canopen_drive::hal::DigitalInputs;
+    // Writes 607Ah and raises bit 4: the EMCYs of the ticks that take the set-point.
+    let set_point = |bench: &mut Bench, target: i32| {
+        write(bench, 0x607A, &target.to_le_bytes());
+        write(bench, 0x6040, &0x001Fu16.to_le_bytes());
+        let frames = bench.advance(Duration::from_millis(2));
+        cw(bench, 0x000F, 2);
+        emcys(&frames)
+    };
+    // Standard: no EMCY at all.
+    let mut standard = travel_limit_bench(None, true);
+    node(&mut standard).motor.set_input(DigitalInputs::POSITIVE_LIMIT, true);
+    enable(&mut standard, 1);
+    let start = read_i32(&mut standard, 0x6064);
+    assert_eq!(set_point(&mut standard, start + 5000), Vec::<Vec<u8>>::new());
+
+    let mut bench = travel_limit_bench(Some(0xFF01), true);
+    node(&mut bench).motor.set_input(DigitalInputs::POSITIVE_LIMIT, true);
+    assert_eq!(emcys(&bench.advance(Duration::from_millis(5))), vec![ff01(3)], "the switch became active");
+    enable(&mut bench, 1);
+    assert_eq!(emcys(&bench.advance(Duration::from_millis(20))), Vec::<Vec<u8>>::new(), "at a standstill");
+    let start = read_i32(&mut bench, 0x6064);
+    assert_eq!(set_point(&mut bench, start + 5000), vec![ff01(3)], "a move into the switch");
+    assert_eq!(
+        emcys(&bench.advance(Duration::from_millis(200))),
+        Vec::<Vec<u8>>::new(),
+        "once, not per tick"
+    );
+    assert!((read_i32(&mut bench, 0x6064) - start).abs() <= 50, "it did not move");
+    assert_eq!(set_point(&mut bench, start + 8000), vec![ff01(3)], "another move into it");
+    assert_eq!(set_point(&mut bench, start - 3000), Vec::<Vec<u8>>::new(), "away from it");
+    let frames = bench.advance(Duration::from_millis(1000));
+    assert_eq!(emcys(&frames), Vec::<Vec<u8>>::new());
+    let away = read_i32(&mut bench, 0x6064);
+    assert!((away - (start - 3000)).abs() <= 100, "away from it ({away})");
+    assert_eq!(set_point(&mut bench, away + 1), vec![ff01(3)], "back towards it: a new touch");
+
+    // The negative switch: byte 1 = 4 (the positive one released first: error reset).
+    node(&mut bench).motor.set_input(DigitalInputs::POSITIVE_LIMIT, false);
+    node(&mut bench).motor.set_input(DigitalInputs::NEGATIVE_LIMIT, true);
+    let frames = bench.advance(Duration::from_millis(5));
+    assert_eq!(emcys(&frames), vec![vec![0; 8], ff01(4)]);
+    let here = read_i32(&mut bench, 0x6064);
+    assert_eq!(set_point(&mut bench, here + 2000), Vec::<Vec<u8>>::new(), "away from the negative one");
+    bench.advance(Duration::from_millis(1000));
+    let here = read_i32(&mut bench, 0x6064);
+    assert_eq!(set_point(&mut bench, here - 2000), vec![ff01(4)], "into the negative one");
+    // Released: the error reset, and no touch.
+    node(&mut bench).motor.set_input(DigitalInputs::NEGATIVE_LIMIT, false);
+    assert_eq!(emcys(&bench.advance(Duration::from_millis(5))), vec![vec![0; 8]]);
+    let here = read_i32(&mut bench, 0x6064);
+    assert_eq!(set_point(&mut bench, here - 2000), Vec::<Vec<u8>>::new(), "no switch active");
+}
+
+#[test]
+fn a_pv_target_into_an_active_limit_switch_raises_the_travel_limit_emcy_again() {
+    use canopen_drive::hal::DigitalInputs;
+    // Writes 60FFh: the EMCYs of the next ticks.
+    let target = |bench: &mut Bench, velocity: i32| {
+        write(bench, 0x60FF, &velocity.to_le_bytes());
+        emcys(&bench.advance(Duration::from_millis(20)))
+    };
+    let none = Vec::<Vec<u8>>::new();
+    // Standard: no EMCY at all.
+    let mut standard = travel_limit_bench(None, true);
+    node(&mut standard).motor.set_input(DigitalInputs::POSITIVE_LIMIT, true);
+    enable(&mut standard, 3);
+    assert_eq!(target(&mut standard, 1000), none);
+
+    let mut bench = travel_limit_bench(Some(0xFF01), true);
+    node(&mut bench).motor.set_input(DigitalInputs::POSITIVE_LIMIT, true);
+    assert_eq!(emcys(&bench.advance(Duration::from_millis(5))), vec![ff01(3)], "the switch became active");
+    enable(&mut bench, 3);
+    assert_eq!(emcys(&bench.advance(Duration::from_millis(20))), none, "at a standstill");
+    assert_eq!(target(&mut bench, 1000), vec![ff01(3)], "a velocity into the switch");
+    assert_eq!(od_i32(&mut bench, 0x606B), 0, "held at 0");
+    assert_eq!(target(&mut bench, 2000), none, "still the same touch");
+    assert_eq!(emcys(&bench.advance(Duration::from_millis(200))), none, "once, not per tick");
+    assert_eq!(target(&mut bench, -1000), none, "away from it");
+    assert_eq!(target(&mut bench, 0), none);
+    assert_eq!(target(&mut bench, 1000), vec![ff01(3)], "towards it again: a new touch");
+    assert_eq!(target(&mut bench, 0), none);
+
+    // Running into the switch: its EMCY once (not a second one for the touch).
+    node(&mut bench).motor.set_input(DigitalInputs::POSITIVE_LIMIT, false);
+    assert_eq!(target(&mut bench, 1000), vec![vec![0; 8]], "released: error reset");
+    node(&mut bench).motor.set_input(DigitalInputs::POSITIVE_LIMIT, true);
+    assert_eq!(emcys(&bench.advance(Duration::from_millis(20))), vec![ff01(3)], "ran into it");
+    // Released and touched again with the target held.
+    node(&mut bench).motor.set_input(DigitalInputs::POSITIVE_LIMIT, false);
+    assert_eq!(emcys(&bench.advance(Duration::from_millis(20))), vec![vec![0; 8]]);
+    node(&mut bench).motor.set_input(DigitalInputs::POSITIVE_LIMIT, true);
+    assert_eq!(emcys(&bench.advance(Duration::from_millis(20))), vec![ff01(3)]);
+
+    // The negative switch: byte 1 = 4.
+    assert_eq!(target(&mut bench, 0), none);
+    node(&mut bench).motor.set_input(DigitalInputs::POSITIVE_LIMIT, false);
+    node(&mut bench).motor.set_input(DigitalInputs::NEGATIVE_LIMIT, true);
+    assert_eq!(emcys(&bench.advance(Duration::from_millis(5))), vec![vec![0; 8], ff01(4)]);
+    assert_eq!(target(&mut bench, 500), none, "away from the negative one");
+    assert_eq!(target(&mut bench, -500), vec![ff01(4)], "into the negative one");
+
+    // Without the stop the axis moves on into the switch: a touch all the same.
+    let mut moving = travel_limit_bench(Some(0xFF01), false);
+    node(&mut moving).motor.set_input(DigitalInputs::NEGATIVE_LIMIT, true);
+    moving.advance(Duration::from_millis(5));
+    enable(&mut moving, 3);
+    assert_eq!(target(&mut moving, -1000), vec![ff01(4)]);
+    assert!(od_i32(&mut moving, 0x606B) < 0, "it moves");
+    assert_eq!(emcys(&moving.advance(Duration::from_millis(200))), none, "once");
+}
+
 #[test]
 fn error_behaviour_may_show_a_class_for_the_drives_fault() {
     // CiA 301 as configured by default: 1029h has one class, communication errors.

@@ -1071,13 +1071,29 @@ impl<
     /// [`Self::raise_error`] for axis `axis` of a multi-axis node: active until cleared for
     /// that axis ([`Self::clear_axis_error`]), whatever the other axes raise or clear.
     pub fn raise_axis_error(&mut self, axis: u8, code: u16, register: ErrorRegister, info: [u8; 5]) {
-        let code = self.reported_code(code);
-        let info = self.emcy_bytes.iter().find(|(c, _)| *c == code).map_or(info, |(_, bytes)| *bytes);
+        let (code, info) = self.reported_error(code, info);
         if self.emcy.raise_of(axis, code, register, info).is_some() {
             crate::fmt::info!("EMCY: error {:x} raised", code);
             emcy::record_history(&mut self.od, code, info);
             self.sync_error_register();
         }
+    }
+
+    /// [`Self::raise_axis_error`], and when the error is active already its EMCY once more
+    /// (recorded in 1003h as well): the condition was met again while the error lasts.
+    fn raise_axis_error_again(&mut self, axis: u8, code: u16, register: ErrorRegister, info: [u8; 5]) {
+        let (code, info) = self.reported_error(code, info);
+        self.emcy.raise_again_of(axis, code, register, info);
+        crate::fmt::info!("EMCY: error {:x} reported", code);
+        emcy::record_history(&mut self.od, code, info);
+        self.sync_error_register();
+    }
+
+    /// The code and additional bytes an error is reported with ([`Self::reported_code`],
+    /// [`Config::emcy_additional_bytes`]).
+    fn reported_error(&self, code: u16, info: [u8; 5]) -> (u16, [u8; 5]) {
+        let code = self.reported_code(code);
+        (code, self.emcy_bytes.iter().find(|(c, _)| *c == code).map_or(info, |(_, bytes)| *bytes))
     }
 
     /// Clears an active error: sends the "error reset" EMCY (code 0000h) and updates 1001h.
@@ -1230,6 +1246,10 @@ impl<
             if let Some(limit) = limit {
                 self.raise_axis_error(axis, code, ErrorRegister::MANUFACTURER, info(limit as u8));
             }
+        }
+        if let Some((code, switch)) = report.limit_switch_touched {
+            // The travel-limit error is active (the switch is): its EMCY once more.
+            self.raise_axis_error_again(axis, code, ErrorRegister::MANUFACTURER, info(switch as u8));
         }
         for notice in report.notices {
             match notice {

@@ -55,7 +55,8 @@
 //!
 //! 1029h has the manual's two error classes: sub 2 (application error) is the drive entering
 //! Fault (CiA 402-2 §7.2), by default 1 (the NMT state stays). Under-voltage is reported as the manual's FF00h (`ProfileConfig::error_codes`), the travel
-//! limits as its FF01h with bytes 1–4 (`ProfileConfig::travel_limit_emcy`), the TPDO inhibit
+//! limits as its FF01h with bytes 1–4 (`ProfileConfig::travel_limit_emcy`; again at each move
+//! commanded into a limit switch already active), the TPDO inhibit
 //! time in ms (`Config::tpdo_inhibit_unit`). (SDO block
 //! transfer, which the manual does not list, is switched off: `Config::sdo_block_transfer`.)
 //!
@@ -432,7 +433,7 @@ pub fn profile_config() -> ProfileConfig {
     // The EMCY table of the manual (§ error messages): under-voltage is FF00h, not 3220h.
     config.error_codes = &[(0x3220, 0xFF00)];
     // The same table: FF01h while at a software limit (byte 1 = 1/2) or a limit switch outside
-    // homing (3/4).
+    // homing (3/4), and again for each move commanded into a switch already active (a touch).
     config.travel_limit_emcy = Some(0xFF01);
     // FF01h/3-4: a limit switch touched outside homing stops the motor; moves further into it
     // are not carried out (2005h: "if limit switches are not connected, deactivate them").

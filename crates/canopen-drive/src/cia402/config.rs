@@ -213,8 +213,11 @@ pub struct ProfileConfig {
     pub error_codes: &'static [(u16, u16)],
     /// An EMCY (this code, manufacturer-specific register bit) while the axis is at a travel
     /// limit outside homing, with the limit in byte 1 of the manufacturer field
-    /// ([`TravelLimit`]); the "error reset" EMCY when it leaves it. Default none: CiA 402
-    /// reports travel limits in the statusword only.
+    /// ([`TravelLimit`]); the "error reset" EMCY when it leaves it. A limit switch already
+    /// active is touched again by each motion commanded into it — a pp set-point taken whose
+    /// target lies beyond the actual position on the switch's side, a pv target velocity that
+    /// turns towards it — and each such touch sends the EMCY once more (motion away from the
+    /// switch sends none). Default none: CiA 402 reports travel limits in the statusword only.
     pub travel_limit_emcy: Option<u16>,
     /// Manufacturer-specific modes (negative 6060h values) the drive runs as direct set-point
     /// modes: (value, mode). Default none: 6060h accepts the modes of 6502h only.

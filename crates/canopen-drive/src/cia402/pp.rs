@@ -63,6 +63,9 @@ struct SetPoint {
     limited: bool,
     /// Change on set-point (bit 9) was set when it was given.
     blend: bool,
+    /// The encoder direction (−1, 0, 1) of the target from the actual position when it was
+    /// given, before the target range clamped it.
+    heading: i8,
 }
 
 /// What the profile hands pp each tick.
@@ -125,6 +128,8 @@ pub struct ProfilePosition {
     last: Option<SetPoint>,
     /// The velocity the running plan was made with (increments/s; `u32::MAX`: no plan yet).
     planned_velocity: u32,
+    /// The heading of the set-point taken in the last tick (0: none taken).
+    heading_taken: i8,
 }
 
 /// The objects pp's motion limits come from (digest §9.5), as read from the dictionary: the
@@ -207,6 +212,7 @@ impl ProfilePosition {
             in_window_since: None,
             last: None,
             planned_velocity: u32::MAX,
+            heading_taken: 0,
         }
     }
 
@@ -220,6 +226,12 @@ impl ProfilePosition {
         self.halted = false;
         self.in_window_since = None;
         self.last = None;
+    }
+
+    /// The encoder direction (−1, 0, 1) from the actual position to the target of the set-point
+    /// taken in the last tick, before the target range clamped it; 0 when none was taken.
+    pub fn heading_taken(&self) -> i8 {
+        self.heading_taken
     }
 
     /// The present demand (increments).
@@ -300,6 +312,10 @@ impl ProfilePosition {
             let period = i64::from(max) - i64::from(min) + 1;
             user = i64::from(min) + user.saturating_sub(i64::from(min)).rem_euclid(period);
         }
+        // Where the target lies from the axis (in encoder counts' direction), before an active
+        // limit switch narrows the range to the actual position.
+        let here = input.factors.to_user(input.actual.saturating_sub(input.origin)) * sign;
+        let heading = (user.saturating_sub(here).signum() * sign) as i8;
         let mut limited = false;
         if let Some((low, high)) = input.target_range {
             if !(low..=high).contains(&user) {
@@ -313,6 +329,7 @@ impl ProfilePosition {
             internal,
             limited,
             blend: input.controlword.contains(Controlword::CHANGE_ON_SET_POINT),
+            heading,
         }
     }
 
@@ -347,6 +364,7 @@ impl ProfilePosition {
     /// One tick of pp in Operation enabled (no FSA stop running).
     pub fn tick<const B: usize>(&mut self, input: &Inputs<'_, B>, halt_deceleration: u32) -> MotionState {
         let (limits, end_velocity) = (input.limits, input.end_velocity);
+        self.heading_taken = 0;
         if input.new_setpoint {
             let setpoint = self.setpoint(input);
             let immediate = input.controlword.contains(Controlword::CHANGE_SET_IMMEDIATELY);
@@ -367,6 +385,7 @@ impl ProfilePosition {
                 false
             };
             if accepted {
+                self.heading_taken = setpoint.heading;
                 self.acknowledged = true;
                 self.preceding = setpoint.user;
                 if self.last.is_some_and(|last| last.internal != setpoint.internal) || self.last.is_none() {

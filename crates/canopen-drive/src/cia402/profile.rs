@@ -73,6 +73,9 @@ pub struct Report {
     /// The travel limit changed ([`ProfileConfig::travel_limit_emcy`]): the EMCY code and the
     /// limit now reached, if any.
     pub travel_limit: Option<(u16, Option<TravelLimit>)>,
+    /// Motion was commanded into an active limit switch ([`ProfileConfig::travel_limit_emcy`]):
+    /// the EMCY code and the switch, for the EMCY once more (the travel limit is active).
+    pub limit_switch_touched: Option<(u16, TravelLimit)>,
 }
 
 /// What the communication side learnt about the SYNC cycle since the previous tick.
@@ -175,6 +178,12 @@ pub struct Profile {
     pending_edge: bool,
     /// The travel limit last reported ([`ProfileConfig::travel_limit_emcy`]).
     travel_limit: Option<TravelLimit>,
+    /// The encoder direction (−1, 0, 1) motion is commanded in by this tick's mode: a pp
+    /// set-point taken, the pv target velocity ([`ProfileConfig::travel_limit_emcy`]).
+    commanded: i8,
+    /// The limit switch motion was commanded into in the previous tick: a touch is reported
+    /// once ([`ProfileConfig::travel_limit_emcy`]).
+    touching: Option<TravelLimit>,
     /// A stop of option code −1 shorts the windings until the shaft is at rest (or the drive
     /// function is enabled again), whatever state the FSA moved on to.
     dynamic_braking: bool,
@@ -503,6 +512,8 @@ impl Profile {
             engaging_since: None,
             pending_edge: false,
             travel_limit: None,
+            commanded: 0,
+            touching: None,
             dynamic_braking: false,
             fault_unreported: false,
             internal_origin: 0,
@@ -1110,6 +1121,7 @@ impl Profile {
             probe: probe_1,
             limits,
         };
+        self.commanded = 0;
         let mut setpoint = match stop {
             None if opening => {
                 self.mode.hold(actual, actual_user);
@@ -1143,6 +1155,16 @@ impl Profile {
                 Setpoint::None
             }
         };
+        if let Some(code) = self.config.travel_limit_emcy {
+            // Motion commanded into an active limit switch: once per touch, and not again
+            // where the switch's own EMCY goes in this tick (the axis ran into it).
+            let touch = self.touched_switch(sample.inputs);
+            let reported = matches!(report.travel_limit, Some((_, limit)) if limit == touch);
+            if touch.is_some() && touch != self.touching && !reported {
+                report.limit_switch_touched = touch.map(|switch| (code, switch));
+            }
+            self.touching = touch;
+        }
 
         if cycle.set_point && !(drive_enabled && stop.is_none() && !opening) {
             if let Active::Cyclic(run) = &mut self.mode {
@@ -1331,6 +1353,16 @@ impl Profile {
         match self.software_limits(od) {
             Some((_, high)) if actual_user > high => Some(TravelLimit::PositiveSoftware),
             Some((low, _)) if actual_user < low => Some(TravelLimit::NegativeSoftware),
+            _ => None,
+        }
+    }
+
+    /// The limit switch this tick's mode commands motion into ([`Self::commanded`] towards an
+    /// active switch); the modes that command it (pp, pv) are not homing.
+    fn touched_switch(&self, inputs: DigitalInputs) -> Option<TravelLimit> {
+        match self.commanded {
+            1 if inputs.contains(DigitalInputs::POSITIVE_LIMIT) => Some(TravelLimit::PositiveSwitch),
+            -1 if inputs.contains(DigitalInputs::NEGATIVE_LIMIT) => Some(TravelLimit::NegativeSwitch),
             _ => None,
         }
     }
@@ -1651,6 +1683,7 @@ impl Profile {
                     velocity_cap: limits.velocity,
                 };
                 let state = pp.tick(&inputs, limits.stop_deceleration(input.halt_kind));
+                self.commanded = pp.heading_taken();
                 let status = pp.status(&inputs);
                 (Setpoint::Position(state.position_demand()), status)
             }
@@ -1903,6 +1936,7 @@ impl Profile {
             Active::Pv(_) => {
                 let current = self.velocity.value;
                 let aim = pv::Run::aim(od, &self.slots, factors, self.motion.velocity, self.blocked, current);
+                self.commanded = aim.wanted.signum() as i8;
                 self.velocity.toward(aim.velocity, aim.rate, dt);
                 Setpoint::Velocity(self.velocity.value as i32)
             }

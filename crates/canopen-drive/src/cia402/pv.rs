@@ -33,6 +33,8 @@ pub(crate) struct Aim {
     pub velocity: i64,
     /// The rate (increments/s²).
     pub rate: u32,
+    /// The target velocity before an active limit switch held it at 0 (increments/s).
+    pub wanted: i64,
 }
 
 impl Run {
@@ -59,7 +61,8 @@ impl Run {
     ) -> Aim {
         let limit = i64::from(limit);
         let target_user = i64::from(od.load(slots.target_velocity)) * factors.velocity_sign();
-        let mut target = factors.velocity_to_internal(target_user).clamp(-limit, limit);
+        let wanted = factors.velocity_to_internal(target_user).clamp(-limit, limit);
+        let mut target = wanted;
         let (positive_blocked, negative_blocked) = blocked;
         if (positive_blocked && target > 0) || (negative_blocked && target < 0) {
             // No velocity towards an active limit switch.
@@ -72,7 +75,7 @@ impl Run {
         } else {
             od.load(slots.profile_deceleration).min(od.load(slots.max_deceleration))
         };
-        Aim { velocity: target, rate: factors.limit_to_internal(rate) }
+        Aim { velocity: target, rate: factors.limit_to_internal(rate), wanted }
     }
 
     /// Bit 10 in Operation enabled without halt: the actual velocity has been within the

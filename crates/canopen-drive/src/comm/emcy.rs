@@ -6,7 +6,8 @@
 //! ```
 //!
 //! The producer keeps the set of active errors. Raising an error that is not active yet sends
-//! its EMCY; clearing one sends the "error reset" EMCY (code 0x0000) with the register that
+//! its EMCY (raising it again sends it once more, for a condition met again while the error
+//! lasts); clearing one sends the "error reset" EMCY (code 0x0000) with the register that
 //! remains. The error register is derived from the active set (bit 0 whenever any error is
 //! active), so it can never disagree with it. Frames are queued and leave no closer together
 //! than the inhibit time 1015h (100 µs units): delayed, never dropped, unless the queue
@@ -249,6 +250,22 @@ impl<const ACTIVE: usize, const QUEUE: usize> EmcyProducer<ACTIVE, QUEUE> {
         Some(self.enqueue(code, info))
     }
 
+    /// Raises `code` for `device` as [`Self::raise_of`] does; when it is active already, queues
+    /// its EMCY once more (the condition met again while the error lasts, e.g. a limit switch
+    /// touched again) without changing the active set. Returns the EMCY frame data.
+    pub fn raise_again_of(
+        &mut self,
+        device: u8,
+        code: u16,
+        register: ErrorRegister,
+        info: [u8; 5],
+    ) -> [u8; 8] {
+        match self.raise_of(device, code, register, info) {
+            Some(frame) => frame,
+            None => self.enqueue(code, info),
+        }
+    }
+
     /// Clears `code`; when it was active, queues the "error reset" EMCY and returns true.
     pub fn clear(&mut self, code: u16) -> bool {
         self.clear_of(0, code)
@@ -329,6 +346,20 @@ mod tests {
                 [0x00, 0x00, 0x00, 0, 0, 0, 0, 0],
             ]
         );
+    }
+
+    #[test]
+    fn an_active_error_may_be_reported_again() {
+        let mut emcy = EmcyProducer::<4, 8>::new();
+        let first = emcy.raise_again_of(0, 0xFF01, ErrorRegister::MANUFACTURER, [3, 0, 0, 0, 0]);
+        assert_eq!(first, [0x01, 0xFF, 0x81, 3, 0, 0, 0, 0], "not active yet: raised");
+        let again = emcy.raise_again_of(0, 0xFF01, ErrorRegister::MANUFACTURER, [4, 0, 0, 0, 0]);
+        assert_eq!(again, [0x01, 0xFF, 0x81, 4, 0, 0, 0, 0], "active: the EMCY once more");
+        assert_eq!(emcy.active().len(), 1, "still one active error");
+        assert!(emcy.clear(0xFF01));
+        assert_eq!(emcy.register(), ErrorRegister::empty());
+        let sent: std::vec::Vec<[u8; 8]> = std::iter::from_fn(|| emcy.pop_due(Instant::ZERO, 0)).collect();
+        assert_eq!(sent, [first, again, [0; 8]]);
     }
 
     #[test]
