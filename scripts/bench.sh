@@ -27,6 +27,14 @@
 # are repeated without copies. On the host only the function that repeats is counted
 # (callgrind --toggle-collect, one dump per call); in QEMU the whole run (four runs each).
 #
+# Whole runs (issue 32: the worst tick of a whole pp move and of a whole homing run): the
+# firmware drives the rig through the move once, each tick between two marker functions
+# (drive_bench_tick_begin/_end, found with nm); the plugin counts every interval between them
+# and reports the largest, and the first, which the firmware makes with nothing between the
+# markers: worst tick = largest − first. One QEMU run per target; on the host, callgrind dumps
+# every call of drive_bench::counted_tick (the tick between the markers) and the largest, less
+# a call of drive_bench::calibrate (the markers alone), is the row's x86-64 count.
+#
 # The peer (issue 17): when ../shared/peers/canopennode/ is beside the clone (CI), its run.sh
 # measures CANopenNode's Cortex-M4 counts and footprint in the same run (it needs
 # gcc-arm-none-eabi and libnewlib-arm-none-eabi, installed here), and the table gets its count
@@ -118,6 +126,14 @@ host_axes=$axes_dir/release/drive-bench
 awk -v two="$out/labels-two.tsv" '{ print } /^tick-cst\t/ { while ((getline line < two) > 0) print line }' \
     "$out/labels-one.tsv" >"$out/labels.tsv"
 mapfile -t names < <(cut -f1 "$out/labels.tsv")
+# The whole runs (one QEMU run each, per-tick counts) and the measurements repeated n and 2n
+# times (four runs each).
+mapfile -t wholes < <("$host" runs)
+is_whole() {
+    local w
+    for w in "${wholes[@]}"; do [ "$w" = "$1" ] && return 0; done
+    return 1
+}
 
 # --- x86-64: one callgrind run, four dumps per measurement, in the background -----------------
 rm -rf "$out/callgrind" "$out/m4" "$out/m0"
@@ -128,30 +144,76 @@ callgrind() {
         --callgrind-out-file="$out/callgrind/$2.out" \
         "$1" run "$n" >"$out/callgrind/$2.order" 2>>"$out/callgrind/valgrind.log"
 }
-(callgrind "$host" one && callgrind "$host_axes" two) &
+# A whole run: one dump per call of drive_bench::counted_tick (the tick between the markers),
+# all in one file (--combine-dumps: a file per tick would take twice as long), and one run
+# for the markers alone (drive_bench::calibrate). wholes.txt: `name largest markers`.
+callgrind_whole() {
+    local name=$1 function largest markers
+    for function in calibrate counted_tick; do
+        valgrind --tool=callgrind --collect-atstart=no --dump-line=no --combine-dumps=yes \
+            --toggle-collect=drive_bench::$function --dump-after=drive_bench::$function \
+            --callgrind-out-file="$out/callgrind/$name.$function.out" \
+            "$host" whole "$name" >/dev/null 2>>"$out/callgrind/valgrind.log"
+    done
+    largest=$(sed -n 's/^summary: //p' "$out/callgrind/$name.counted_tick.out" | sort -n | tail -1)
+    markers=$(sed -n 's/^summary: //p' "$out/callgrind/$name.calibrate.out" | head -1)
+    echo "$name $largest $markers" >>"$out/callgrind/wholes.txt"
+    rm -f "$out/callgrind/$name.counted_tick.out" "$out/callgrind/$name.calibrate.out"
+}
+: >"$out/callgrind/wholes.txt"
+(
+    callgrind "$host" one && callgrind "$host_axes" two &&
+        for name in "${wholes[@]}"; do callgrind_whole "$name" || exit 1; done
+) &
 callgrind_pid=$!
 
 # --- Cortex-M4 and v6-M: four QEMU runs per measurement each, two at a time ------------------
-qemu_run() {
-    local arch=$1 name=$2 mode=$3 reps=$4 log machine
-    local dir=$BUILD_DIR
-    [[ $name == tick-2-axes-* ]] && dir=$AXES_DIR
-    case $arch in
-        m4) machine=(-machine mps2-an386 -cpu cortex-m4 -kernel "$dir/thumbv7em-none-eabihf/release/drive-bench") ;;
-        *) machine=(-machine mps2-an385 -cpu cortex-m3 -kernel "$dir/thumbv6m-none-eabi/release/drive-bench") ;;
+elf_of() {
+    local dir=$CARGO_TARGET_DIR
+    [[ $2 == tick-2-axes-* ]] && dir=$axes_dir
+    case $1 in
+        m4) echo "$dir/thumbv7em-none-eabihf/release/drive-bench" ;;
+        *) echo "$dir/thumbv6m-none-eabi/release/drive-bench" ;;
     esac
-    log=$(timeout 300 qemu-system-arm "${machine[@]}" -nographic \
+}
+# The markers of the whole runs, per target: plugin arguments begin=ADDR,end=ADDR.
+marks_of() {
+    nm "$(elf_of "$1" one)" | awk '$3 == "drive_bench_tick_begin" { b = $1 } $3 == "drive_bench_tick_end" { e = $1 }
+        END { if (b != "" && e != "") printf "begin=0x%s,end=0x%s", b, e; else exit 1 }'
+}
+MARKS_M4=$(marks_of m4) && MARKS_M0=$(marks_of m0) || { echo "no tick markers in the firmware" >&2; exit 1; }
+qemu_run() {
+    local arch=$1 name=$2 mode=$3 reps=$4 log machine plugin=$PLUGIN
+    case $arch in
+        m4) machine=(-machine mps2-an386 -cpu cortex-m4) ;;
+        *) machine=(-machine mps2-an385 -cpu cortex-m3) ;;
+    esac
+    if [ "$mode" = whole ]; then
+        if [ "$arch" = m4 ]; then plugin+=,$MARKS_M4; else plugin+=,$MARKS_M0; fi
+    fi
+    log=$(timeout 300 qemu-system-arm "${machine[@]}" -kernel "$(elf_of "$arch" "$name")" -nographic \
         -semihosting-config "enable=on,target=native,arg=drive-bench,arg=$name,arg=$reps,arg=$mode" \
-        -plugin "$PLUGIN" -d plugin 2>&1) || {
+        -plugin "$plugin" -d plugin 2>&1) || {
         echo "QEMU $arch $name $mode $reps failed: $log" >&2
         return 1
     }
+    if [ "$mode" = whole ]; then
+        # intervals, first, largest, its number, unmatched markers; the firmware's tick count.
+        sed -n 's/^insncount: intervals \([0-9]*\); first \([0-9]*\); largest \([0-9]*\) (interval \([0-9]*\)); unmatched \([0-9]*\)$/\1 \2 \3 \4 \5/p' \
+            <<<"$log" | tr '\n' ' ' >"$OUT/$arch/$name.whole"
+        sed -n 's/^ticks=\([0-9]*\)\r\{0,1\}$/\1/p' <<<"$log" >>"$OUT/$arch/$name.whole"
+        return 0
+    fi
     sed -n 's/^insncount: total \([0-9]*\) .*/\1/p' <<<"$log" >"$OUT/$arch/$name.$mode.$reps"
 }
-export -f qemu_run
-export BUILD_DIR=$CARGO_TARGET_DIR AXES_DIR=$axes_dir PLUGIN=$plugin OUT=$out
+export -f qemu_run elf_of
+export CARGO_TARGET_DIR axes_dir PLUGIN=$plugin OUT=$out MARKS_M4 MARKS_M0
 for arch in m4 m0; do
     for name in "${names[@]}"; do
+        if is_whole "$name"; then
+            printf '%s %s whole 1\n' "$arch" "$name"
+            continue
+        fi
         for mode in base measured; do
             printf '%s %s %s %s\n%s %s %s %s\n' "$arch" "$name" "$mode" "$n" "$arch" "$name" "$mode" "$((2 * n))"
         done
@@ -162,9 +224,25 @@ wait "$callgrind_pid" || { cat "$out/callgrind/valgrind.log" >&2; exit 1; }
 
 # --- Raw counts -> report ---------------------------------------------------------------------
 runs=("base.$n" "base.$((2 * n))" "measured.$n" "measured.$((2 * n))")
+# A whole run's row: `name worst-tick` (largest interval − the markers' first), or `name ?`
+# when the plugin and the firmware disagree; its tick and the worst tick's number go to
+# wholes.txt (`arch name ticks number`).
+: >"$out/wholes.txt"
 for arch in m4 m0; do
     : >"$out/$arch.txt"
     for name in "${names[@]}"; do
+        if is_whole "$name"; then
+            intervals='' first='' largest='' at='' unmatched='' ticks=''
+            read -r intervals first largest at unmatched ticks <"$out/$arch/$name.whole" || true
+            if [[ $ticks =~ ^[0-9]+$ && $intervals == "$((ticks + 1))" && $unmatched == 0 && $at -ge 1 ]]; then
+                echo "$name $((largest - first))" >>"$out/$arch.txt"
+                echo "$arch $name $ticks $at" >>"$out/wholes.txt"
+            else
+                echo "$name: $arch: the plugin's intervals do not match the firmware's ticks: $(cat "$out/$arch/$name.whole")" >&2
+                echo "$name ?" >>"$out/$arch.txt"
+            fi
+            continue
+        fi
         row=$name
         for run in "${runs[@]}"; do
             value=$(cat "$out/$arch/$name.$run" 2>/dev/null || true)
@@ -192,6 +270,9 @@ for build in one two; do
         echo "$row" >>"$out/x86.txt"
     done
 done
+while read -r name largest markers; do
+    echo "$name $((largest - markers))" >>"$out/x86.txt"
+done <"$out/callgrind/wholes.txt"
 
 # --- The peer: CANopenNode's Cortex-M4 counts and footprint, same QEMU and plugin -------------
 peer_args=()
@@ -214,7 +295,7 @@ fi
 
 status=0
 python3 "$bench/report.py" --labels "$out/labels.tsv" --m4 "$out/m4.txt" --m0 "$out/m0.txt" --x86 "$out/x86.txt" \
-    --repetitions "$n" --budgets "$bench/budgets.txt" --out "$out/BENCHMARKS.md" \
+    --wholes "$out/wholes.txt" --repetitions "$n" --budgets "$bench/budgets.txt" --out "$out/BENCHMARKS.md" \
     --footprint "$footprint" "${peer_args[@]}" "${update[@]}" || status=1
 
 # The x86-64 column is not compared: the host binary's libc picks its memcpy by CPU features,

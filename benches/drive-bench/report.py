@@ -2,13 +2,16 @@
 """The table of scripts/bench.sh: instructions per call from the raw counts, budgets, goals.
 
     report.py --labels L --m4 M --x86 X --repetitions N --budgets B --out FILE [--update [--force]]
-              [--footprint F] [--peer-m4 P --peer-results R]
+              [--wholes W] [--footprint F] [--peer-m4 P --peer-results R]
 
 L: `name<TAB>label` per measurement (the host binary's `list`). M, X: `name base(n) base(2n)
-measured(n) measured(2n)` per measurement (total instructions of the four runs). Writes the Markdown
-page to FILE and prints the table. With --update, rewrites the budgets of B to measured + 5 %
-(rounded up), lowering them only, unless --force. Exit status 1 when a Cortex-M4 count exceeds
-its budget, a measurement has no budget, or repetitions were not identical.
+measured(n) measured(2n)` per measurement (total instructions of the four runs), or, for a
+whole run (the worst tick of a scripted move), `name count` (that tick's instructions, `?`
+when not measured). W: `arch name ticks number` per whole run and target (m4, m0): the run's
+ticks and which one was the worst, added to its label. Writes the Markdown page to FILE and
+prints the table. With --update, rewrites the budgets of B to measured + 5 % (rounded up),
+lowering them only, unless --force. Exit status 1 when a Cortex-M4 count exceeds its budget, a
+measurement has no budget, or repetitions were not identical.
 
 F: docs/footprint.md (the 301-only node's library flash and static RAM). P, R: the results of
 the CANopenNode peer harness (../shared/peers/canopennode/run.sh): its `m4.tsv` (scenario,
@@ -91,9 +94,33 @@ def read_counts(path, n):
     with open(path) as f:
         for line in f:
             fields = line.split()
-            if fields:
+            if len(fields) == 2:
+                counts[fields[0]] = int(fields[1]) if fields[1].isdigit() else None
+            elif fields:
                 counts[fields[0]] = per_call([int(v) for v in fields[1:5]], n)
     return counts
+
+
+def read_wholes(path):
+    """{name: {arch: (ticks, number of the worst tick)}} of the whole runs."""
+    wholes = {}
+    with open(path) as f:
+        for line in f:
+            fields = line.split()
+            if len(fields) == 4:
+                wholes.setdefault(fields[1], {})[fields[0]] = (int(fields[2]), int(fields[3]))
+    return wholes
+
+
+def whole_label(label, runs):
+    """The label of a whole run with the number of its worst tick on each target."""
+    worst = [f"tick {runs[arch][1]} on {target}" for arch, target in (("m4", "Cortex-M4"), ("m0", "v6-M"))
+             if arch in runs]
+    if not worst:
+        return label
+    if label.endswith(")"):
+        return f"{label[:-1]}; the worst: {', '.join(worst)})"
+    return f"{label} (the worst: {', '.join(worst)})"
 
 
 def read_budgets(path):
@@ -141,6 +168,7 @@ def main():
         parser.add_argument(option, required=True)
     parser.add_argument("--repetitions", type=int, required=True)
     parser.add_argument("--footprint")
+    parser.add_argument("--wholes")
     parser.add_argument("--peer-m4")
     parser.add_argument("--peer-results")
     parser.add_argument("--update", action="store_true")
@@ -152,6 +180,10 @@ def main():
         for line in f:
             name, label = line.rstrip("\n").split("\t", 1)
             labels[name] = label
+    wholes = read_wholes(args.wholes) if args.wholes else {}
+    for name, runs in wholes.items():
+        if name in labels:
+            labels[name] = whole_label(labels[name], runs)
     m4 = read_counts(args.m4, args.repetitions)
     m0 = read_counts(args.m0, args.repetitions)
     x86 = read_counts(args.x86, args.repetitions)
@@ -246,7 +278,14 @@ def main():
         f"  count + {MARGIN_PERCENT} % when last set; a count above its budget fails the script.",
         "- Goals: issue 8; issue 17 (CANopenNode's cost or less) for the SDO, RPDO, SYNC and other-node rows. \"(log)\": a look-up may grow at most logarithmically with the dictionary:",
         "  at 2000 objects it costs at most the small dictionary's count × log₂(2000) / log₂(objects of",
-        "  the small one).",
+        "  the small one). Issue 32 for the ticks that take a set-point, stop, change a homing phase,",
+        "  and the worst ticks of whole runs: every single-axis tick at most 5 000 Cortex-M4",
+        "  instructions, and at most 15 000 on v6-M (a bound this table has no column for).",
+        "- Worst tick of a whole run: the run (a scripted move, every tick through the public API) is",
+        "  made once, each tick between two marker functions; the QEMU plugin counts every tick on",
+        "  its own and keeps the largest, less the markers' own share (see the method). \"The worst:",
+        "  tick k\" numbers the run's ticks from 1. x86-64: callgrind's count of the largest tick of the",
+        "  same run.",
     ]
     page += ["", "## The peer", ""]
     if peer:

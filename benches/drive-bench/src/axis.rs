@@ -4,8 +4,9 @@
 //! A position demand is reached exactly in one tick, a velocity demand is the new velocity, and
 //! a torque demand accelerates the axis by 1000 increments/s² per ‰ of rated torque (a light
 //! load on the motor shaft; the cascade controller's gains of the scenarios are tuned for it).
+//! It may have a negative limit switch ([`Axis::with_negative_limit`]), for homing.
 
-use canopen_drive::hal::{Demand, Sample, Setpoint};
+use canopen_drive::hal::{Demand, DigitalInputs, Sample, Setpoint};
 
 /// Acceleration per ‰ of rated torque, increments/s².
 const ACCELERATION_PER_PERMILLE: i64 = 1000;
@@ -21,6 +22,8 @@ pub struct Axis {
     /// (increments/s)·hz not yet whole increments/s.
     velocity_rest: i64,
     torque: i16,
+    /// The negative limit switch is active at and below this position.
+    negative_limit: Option<i64>,
 }
 
 impl Axis {
@@ -33,7 +36,13 @@ impl Axis {
             velocity: 0,
             velocity_rest: 0,
             torque: 0,
+            negative_limit: None,
         }
+    }
+
+    /// The same axis with a negative limit switch, active at and below `position`.
+    pub fn with_negative_limit(self, position: i64) -> Self {
+        Axis { negative_limit: Some(position), ..self }
     }
 
     /// What the board's sensors read now.
@@ -43,6 +52,10 @@ impl Axis {
             velocity: self.velocity.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32,
             torque: self.torque,
             dc_link_millivolts: 48_000,
+            inputs: match self.negative_limit {
+                Some(limit) if self.position <= limit => DigitalInputs::NEGATIVE_LIMIT,
+                _ => DigitalInputs::empty(),
+            },
             ..Sample::default()
         }
     }

@@ -25,13 +25,24 @@
 //! instructions, callees included: start-up, set-up, the harness and the loop's entry and exit
 //! cancel out, and the difference must divide exactly by `n` (identical repetitions), which the
 //! script checks. Object dictionary look-ups do not change the drive and need no copy.
+//!
+//! ## Whole runs: the worst tick
+//!
+//! A [`Prepared::Run`] measurement (issue 32) drives the rig through a whole scripted move
+//! instead, and makes each tick of it through [`counted_tick`], which calls two marker
+//! functions around `Drive::tick`: [`drive_bench_tick_begin`] and [`drive_bench_tick_end`].
+//! The QEMU plugin counts the instructions between the markers, tick by tick, and reports the
+//! largest; [`run_whole`] first calls the markers once with nothing between
+//! ([`calibrate`]), so the plugin's first interval is the markers' own share, which the script
+//! subtracts from the largest.
 #![no_std]
 #![deny(missing_docs)]
 
 use core::hint::black_box;
 use core::mem::MaybeUninit;
+use core::sync::atomic::{AtomicU32, Ordering};
 
-use canopen_drive::hal::Sample;
+use canopen_drive::hal::{Demand, Sample};
 use canopen_drive::{CanFrame, Drive, Instant};
 
 pub mod axis;
@@ -40,7 +51,7 @@ pub mod rig;
 #[cfg_attr(feature = "two-axes", allow(dead_code, unused_imports))]
 mod scenarios;
 
-pub use rig::{BenchDrive, SetupError, TwoAxisDrive};
+pub use rig::{BenchDrive, Rig, SetupError, TwoAxisDrive};
 
 /// Size of the value store of the look-up drives (the large dictionary needs more than the
 /// default).
@@ -99,6 +110,14 @@ pub enum Prepared {
         index: u16,
         /// Sub-index looked up.
         sub: u8,
+    },
+    /// A whole run, not repeated: `script` drives the rig from its prepared state through a
+    /// scripted move, every tick of it through [`counted_tick`] (see [`run_whole`]).
+    Run {
+        /// The rig before the run.
+        rig: Rig,
+        /// The run; returns the number of ticks it counted.
+        script: fn(&mut Rig) -> Result<u32, SetupError>,
     },
 }
 
@@ -205,7 +224,72 @@ pub fn run_repetitions(prepared: &Prepared, scratch: &mut Scratch, n: u32, measu
                 black_box(drive);
             }
         }
+        // Counted tick by tick, once: `run_whole`.
+        Prepared::Run { .. } => {}
     }
+}
+
+/// Marker ticks begun (the body that makes the marker a function of its own).
+static TICKS_BEGUN: AtomicU32 = AtomicU32::new(0);
+/// Marker ticks ended.
+static TICKS_ENDED: AtomicU32 = AtomicU32::new(0);
+
+/// Marks the beginning of a counted tick: the QEMU plugin watches this function's address
+/// (`begin=`, from the symbol table). Counts the calls, so that its body differs from
+/// [`drive_bench_tick_end`]'s (identical functions could be merged into one address).
+// `no_mangle`: `scripts/bench.sh` finds the markers by these names; nothing else defines them.
+#[allow(unsafe_code)]
+#[no_mangle]
+#[inline(never)]
+pub extern "C" fn drive_bench_tick_begin() {
+    TICKS_BEGUN.store(TICKS_BEGUN.load(Ordering::Relaxed).wrapping_add(1), Ordering::Relaxed);
+}
+
+/// Marks the end of a counted tick (the plugin's `end=`).
+#[allow(unsafe_code)]
+#[no_mangle]
+#[inline(never)]
+pub extern "C" fn drive_bench_tick_end() {
+    TICKS_ENDED.store(TICKS_ENDED.load(Ordering::Relaxed).wrapping_add(1), Ordering::Relaxed);
+}
+
+/// `drive.tick(now, sample)` between the two markers: one interval of the plugin per call. On
+/// the host, callgrind counts each call of this function (one dump per call).
+#[inline(never)]
+pub fn counted_tick(drive: &mut BenchDrive, now: Instant, sample: &Sample) -> Demand {
+    drive_bench_tick_begin();
+    let demand = drive.tick(now, sample);
+    drive_bench_tick_end();
+    demand
+}
+
+/// The two markers with nothing between: the first interval of every whole run, the markers'
+/// own share of every interval.
+#[inline(never)]
+pub fn calibrate() {
+    drive_bench_tick_begin();
+    drive_bench_tick_end();
+}
+
+/// Runs a [`Prepared::Run`] measurement: [`calibrate`], then its script. Returns the ticks the
+/// script counted, which must be the marked intervals less the first; the markers must have
+/// been called in pairs. `None` for the other measurements.
+pub fn run_whole(prepared: Prepared) -> Option<Result<u32, SetupError>> {
+    let Prepared::Run { mut rig, script } = prepared else { return None };
+    let before = (TICKS_BEGUN.load(Ordering::Relaxed), TICKS_ENDED.load(Ordering::Relaxed));
+    calibrate();
+    let outcome = script(&mut rig);
+    let marked = (
+        TICKS_BEGUN.load(Ordering::Relaxed).wrapping_sub(before.0),
+        TICKS_ENDED.load(Ordering::Relaxed).wrapping_sub(before.1),
+    );
+    Some(outcome.and_then(|ticks| {
+        if marked == (ticks + 1, ticks + 1) {
+            Ok(ticks)
+        } else {
+            Err(SetupError::Unexpected("marked ticks and counted ticks differ"))
+        }
+    }))
 }
 
 /// Every measurement, in table order.

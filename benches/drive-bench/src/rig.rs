@@ -2,9 +2,9 @@
 //! would drive them, through the public entry points only (`on_frame`, `poll`, `pop_tx`, `tick`).
 
 use canopen_drive::cia402::fsa::State;
-use canopen_drive::hal::{Demand, Sample};
 use canopen_drive::comm::pdo;
 use canopen_drive::drive::DEFAULT_OD_BYTES;
+use canopen_drive::hal::{Demand, Sample};
 use canopen_drive::od::{layout, ConfigError, Object};
 use canopen_drive::{CanFrame, Config, Drive, Duration, Instant};
 use embedded_can::Frame as _;
@@ -215,7 +215,13 @@ impl<const B: usize, const PDOS: usize, const AXES: usize> Rig<B, PDOS, AXES> {
 
     /// One control period: tick, the axes follow their demands, poll, frames dropped.
     pub fn step(&mut self) {
-        self.demands = self.drive.tick_axes(self.now, &self.samples());
+        let demands = self.drive.tick_axes(self.now, &self.samples());
+        self.rest_of_period(demands);
+    }
+
+    /// What a control period does after the tick that gave `demands`.
+    fn rest_of_period(&mut self, demands: [Demand; AXES]) {
+        self.demands = demands;
         for (axis, demand) in self.axes.iter_mut().zip(&self.demands) {
             axis.follow(demand);
         }
@@ -260,5 +266,12 @@ impl Rig {
     pub fn sample(&self) -> Sample {
         let [axis] = self.axes;
         axis.sample()
+    }
+
+    /// [`Self::step`] with the tick counted on its own: [`crate::counted_tick`].
+    pub fn counted_step(&mut self) {
+        let sample = self.sample();
+        let demand = crate::counted_tick(&mut self.drive, self.now, &sample);
+        self.rest_of_period([demand]);
     }
 }

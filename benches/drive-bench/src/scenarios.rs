@@ -2,7 +2,7 @@
 //! the label claims.
 
 use canopen_drive::cia402::fsa::State;
-use canopen_drive::hal::Setpoint;
+use canopen_drive::hal::{DigitalInputs, Setpoint};
 use canopen_drive::od::AbortCode;
 use canopen_drive::wire::nmt::NmtState;
 use canopen_drive::{CanFrame, Config};
@@ -44,6 +44,43 @@ pub(crate) static ALL: &[Measurement] = &[
     m("tick-csv", "tick: csv + cascade, interpolating", tick_csv),
     m("tick-cst-sync", "tick: cst, SYNC tick (RPDO applied)", tick_cst_sync),
     m("tick-cst", "tick: cst, interpolating", tick_cst),
+    m(
+        "tick-pp-start-trapezoid",
+        "tick: pp set-point taken from standstill, trapezoid (6086h = 0)",
+        tick_pp_start_trapezoid,
+    ),
+    m(
+        "tick-pp-start-s-curve",
+        "tick: pp set-point taken from standstill, S-curve (6086h = 3)",
+        tick_pp_start_s_curve,
+    ),
+    m(
+        "tick-pp-change-immediately",
+        "tick: pp change-immediately set-point taken while accelerating, S-curve",
+        tick_pp_change_immediately,
+    ),
+    m(
+        "tick-pp-stopping-distance",
+        "tick: pp set-point at exactly the stopping distance, taken at full speed, S-curve",
+        tick_pp_stopping_distance,
+    ),
+    m("tick-pp-quick-stop", "tick: pp quick stop from full speed, S-curve (605Ah = 2)", tick_pp_quick_stop),
+    m("tick-pp-halt", "tick: pp halt (bit 8) from full speed, S-curve", tick_pp_halt),
+    m(
+        "tick-hm-switch",
+        "tick: hm method 17 at its limit switch (the search turns to leave it)",
+        tick_hm_switch,
+    ),
+    m(
+        "worst-tick-pp-move",
+        "worst tick of a whole pp move, S-curve: set-point to target reached",
+        worst_tick_pp_move,
+    ),
+    m(
+        "worst-tick-hm-run",
+        "worst tick of a whole homing run, method 17: start to homing attained",
+        worst_tick_hm_run,
+    ),
     m("sdo-upload", "on_frame + pop_tx: SDO expedited upload (6041h)", sdo_upload),
     m("sdo-download", "on_frame + pop_tx: SDO expedited download (6081h)", sdo_download),
     m("sdo-segment", "on_frame + pop_tx: SDO segmented upload, one segment (1008h)", sdo_segment),
@@ -106,10 +143,10 @@ fn tick_idle() -> Result<Prepared, SetupError> {
     Ok(tick_state(rig))
 }
 
-/// pp from 0 towards 1 000 000 increments at 100 000 increments/s, 500 000 increments/s²;
-/// 25 ms after the start (the S-curve, with a jerk of 10⁷ increments/s³, in its first jerk
-/// phase of 50 ms).
-fn pp_moving(s_curve: bool) -> Result<Prepared, SetupError> {
+/// pp in Operation enabled at standstill: 100 000 increments/s, 500 000 increments/s² both
+/// ways, no acceleration cap (60C5h/60C6h); with `s_curve` the jerk-limited profile (6086h = 3)
+/// with a jerk of 10⁷ increments/s³ (60A4h sub 1, used for all four with 60A3h = 1).
+fn pp_enabled(s_curve: bool) -> Result<Rig, SetupError> {
     let mut rig = operational(false)?;
     rig.write(0x6081, 0, &100_000u32.to_le_bytes())?;
     rig.write(0x6083, 0, &500_000u32.to_le_bytes())?;
@@ -121,23 +158,246 @@ fn pp_moving(s_curve: bool) -> Result<Prepared, SetupError> {
         rig.write(0x60A4, 1, &10_000_000u32.to_le_bytes())?;
     }
     rig.enable(1)?;
-    rig.write(0x607A, 0, &1_000_000i32.to_le_bytes())?;
-    rig.write(0x6040, 0, &0x001Fu16.to_le_bytes())?;
+    Ok(rig)
+}
+
+/// A new set-point as a master gives it: the target 607Ah, then the controlword with bit 4
+/// rising (`controlword`: 001Fh, or 003Fh for change immediately). The next tick takes it.
+fn new_setpoint(rig: &mut Rig, target: i32, controlword: u16) -> Result<(), SetupError> {
+    rig.write(0x607A, 0, &target.to_le_bytes())?;
+    rig.write(0x6040, 0, &controlword.to_le_bytes())
+}
+
+/// The statusword of `drive` (as the last tick left it).
+fn statusword_of(drive: &crate::BenchDrive) -> u16 {
+    drive.od().get::<u16>(0x6041, 0).unwrap_or(0)
+}
+
+/// The velocity demand value 606Bh of `drive`.
+fn velocity_demand_of(drive: &crate::BenchDrive) -> i32 {
+    drive.od().get::<i32>(0x606B, 0).unwrap_or(0)
+}
+
+/// The drive of `rig` after the tick of the measurement (tried on a copy; `rig` is unchanged).
+fn after_tick(rig: &Rig, expect: impl FnOnce(&crate::BenchDrive) -> bool) -> Result<(), SetupError> {
+    let mut scratch = Scratch::new();
+    let copy = scratch.copy_of(&rig.drive);
+    copy.tick(rig.now, &rig.sample());
+    check(expect(copy), "the measured tick has the expected effect")
+}
+
+/// pp from 0 towards 1 000 000 increments at 100 000 increments/s, 500 000 increments/s²;
+/// 25 ms after the start (the S-curve, with a jerk of 10⁷ increments/s³, in its first jerk
+/// phase of 50 ms).
+fn pp_moving(s_curve: bool) -> Result<Rig, SetupError> {
+    let mut rig = pp_enabled(s_curve)?;
+    new_setpoint(&mut rig, 1_000_000, 0x001F)?;
     rig.run(1);
     rig.write(0x6040, 0, &0x000Fu16.to_le_bytes())?;
     rig.run(24);
     let velocity = rig.read(0x606B, 0)? as i32;
     check(velocity > 0 && velocity < 100_000, "pp accelerating")?;
     check(rig.statusword()? & 0x0400 == 0, "pp target not reached")?;
-    Ok(tick_state(rig))
+    Ok(rig)
 }
 
 fn tick_pp_trapezoid() -> Result<Prepared, SetupError> {
-    pp_moving(false)
+    Ok(tick_state(pp_moving(false)?))
 }
 
 fn tick_pp_s_curve() -> Result<Prepared, SetupError> {
-    pp_moving(true)
+    Ok(tick_state(pp_moving(true)?))
+}
+
+// --- The worst ticks (issue 32): a set-point, a stop, a homing phase change ---------------
+
+/// The target of the moves from standstill.
+const MOVE: i32 = 100_000;
+
+/// pp at standstill with a set-point to [`MOVE`] given, not yet taken: the next tick takes it
+/// (the first tick of [`worst_tick_pp_move`] too).
+fn pp_start(s_curve: bool) -> Result<Rig, SetupError> {
+    let mut rig = pp_enabled(s_curve)?;
+    check(rig.read(0x606B, 0)? == 0, "pp at standstill")?;
+    new_setpoint(&mut rig, MOVE, 0x001F)?;
+    check(statusword_of(&rig.drive) & 0x1000 == 0, "pp: no set-point acknowledged yet")?;
+    Ok(rig)
+}
+
+/// The set-point was taken: statusword bit 12 (set-point acknowledge).
+fn acknowledged(drive: &crate::BenchDrive) -> bool {
+    statusword_of(drive) & 0x1000 != 0
+}
+
+fn tick_pp_start_trapezoid() -> Result<Prepared, SetupError> {
+    let rig = pp_start(false)?;
+    after_tick(&rig, acknowledged)?;
+    Ok(tick_state(rig))
+}
+
+fn tick_pp_start_s_curve() -> Result<Prepared, SetupError> {
+    let rig = pp_start(true)?;
+    after_tick(&rig, acknowledged)?;
+    Ok(tick_state(rig))
+}
+
+/// The S-curve move of [`tick_pp_s_curve`] in its first jerk phase, then a change-immediately
+/// set-point (controlword 003Fh) to 300 000 increments.
+fn tick_pp_change_immediately() -> Result<Prepared, SetupError> {
+    let mut rig = pp_moving(true)?;
+    new_setpoint(&mut rig, 300_000, 0x003F)?;
+    after_tick(&rig, acknowledged)?;
+    Ok(tick_state(rig))
+}
+
+/// The S-curve move towards 1 000 000 increments at its full speed, 400 ms after the start (the
+/// velocity limit is 100 000 increments/s, reached after 250 ms; the plan cruises at 99 990, a
+/// peak that lands on the target in whole ticks).
+fn pp_full_speed() -> Result<Rig, SetupError> {
+    let mut rig = pp_enabled(true)?;
+    new_setpoint(&mut rig, 1_000_000, 0x001F)?;
+    rig.run(1);
+    rig.write(0x6040, 0, &0x000Fu16.to_le_bytes())?;
+    rig.run(399);
+    let velocity = rig.read(0x606B, 0)? as i32;
+    check((99_900..=100_000).contains(&velocity), "pp cruising at full speed")?;
+    check(rig.statusword()? & 0x0400 == 0, "pp target not reached")?;
+    Ok(rig)
+}
+
+/// The stopping distance of the S-curve from its full speed v: v²/(2a) + v·a/(2j), 12 500
+/// increments at the velocity limit, 12 497.75 at the cruise of [`pp_full_speed`]; in whole
+/// ticks from that state, 12 499 increments ahead of the position demand 6062h (rounded).
+const STOPPING_DISTANCE: i32 = 12_499;
+
+/// At full speed, a change-immediately set-point (003Fh) exactly the stopping distance ahead
+/// of the position demand: the axis must brake at once, at its limits, and land on the target.
+/// (With the exact planner the crate had when this row was added, it is the case whose shape
+/// does not fit in whole ticks: the plan takes its fallback, stop and come back, as its
+/// test-only `method()` showed in a trial build, for about twice the instructions of the
+/// change-immediately row. The row stays this scenario whatever the planner does with it.)
+fn tick_pp_stopping_distance() -> Result<Prepared, SetupError> {
+    let mut rig = pp_full_speed()?;
+    let here = rig.read(0x6062, 0)? as i32;
+    new_setpoint(&mut rig, here + STOPPING_DISTANCE, 0x003F)?;
+    after_tick(&rig, acknowledged)?;
+    Ok(tick_state(rig))
+}
+
+/// At full speed, the controlword's quick-stop command (000Bh: bit 2 cleared); 605Ah keeps
+/// its default 2 (slow down on the quick-stop ramp 6085h, then Switch on disabled).
+fn tick_pp_quick_stop() -> Result<Prepared, SetupError> {
+    let mut rig = pp_full_speed()?;
+    check(rig.read(0x605A, 0)? as i16 == 2, "605Ah default")?;
+    rig.write(0x6040, 0, &0x000Bu16.to_le_bytes())?;
+    after_tick(&rig, |d| d.state() == State::QuickStopActive)?;
+    Ok(tick_state(rig))
+}
+
+/// At full speed, halt (controlword 010Fh): pp stops with its profile deceleration.
+fn tick_pp_halt() -> Result<Prepared, SetupError> {
+    let mut rig = pp_full_speed()?;
+    let cruise = velocity_demand_of(&rig.drive);
+    rig.write(0x6040, 0, &0x010Fu16.to_le_bytes())?;
+    after_tick(&rig, |d| (1..cruise).contains(&velocity_demand_of(d)))?;
+    Ok(tick_state(rig))
+}
+
+/// Where the simulated axis's negative limit switch begins.
+const NEGATIVE_LIMIT: i64 = -1000;
+
+/// Homing method 17 (the negative limit switch) at 5 000 increments/s switch search, 400
+/// increments/s zero search, 50 000 increments/s², the switch at [`NEGATIVE_LIMIT`]: enabled,
+/// bit 4 written, not yet started.
+fn hm_ready() -> Result<Rig, SetupError> {
+    let mut rig = operational(false)?;
+    rig.axes = rig.axes.map(|axis| axis.with_negative_limit(NEGATIVE_LIMIT));
+    rig.write(0x6099, 1, &5000u32.to_le_bytes())?;
+    rig.write(0x6099, 2, &400u32.to_le_bytes())?;
+    rig.write(0x609A, 0, &50_000u32.to_le_bytes())?;
+    rig.write(0x6098, 0, &17i8.to_le_bytes())?;
+    rig.enable(6)?;
+    rig.write(0x6040, 0, &0x001Fu16.to_le_bytes())?;
+    Ok(rig)
+}
+
+/// The negative limit switch is active in the sample of the next tick.
+fn on_switch(rig: &Rig) -> bool {
+    rig.sample().inputs.contains(DigitalInputs::NEGATIVE_LIMIT)
+}
+
+/// Homing searching at the switch speed until the next tick's sample is the first with the
+/// switch on: that tick ends the search and starts the next (leave the switch at the zero
+/// speed), turning the axis around.
+fn tick_hm_switch() -> Result<Prepared, SetupError> {
+    let mut rig = hm_ready()?;
+    for _ in 0..2000 {
+        if on_switch(&rig) {
+            break;
+        }
+        rig.step();
+    }
+    check(on_switch(&rig), "hm: at the limit switch")?;
+    check(rig.statusword()? & 0x3400 == 0, "homing in progress")?;
+    let searching = rig.read(0x606B, 0)? as i32;
+    check(searching == -5000, "hm: searching at the switch speed")?;
+    // The demand slows down at once (no longer the search's constant speed).
+    after_tick(&rig, |d| velocity_demand_of(d) > searching)?;
+    Ok(tick_state(rig))
+}
+
+// --- Whole runs (issue 32): every tick counted on its own ---------------------------------
+
+/// Counted ticks until `done` holds after one (at most `limit`); returns how many.
+fn counted_until(
+    rig: &mut Rig,
+    limit: u32,
+    what: &'static str,
+    mut done: impl FnMut(&Rig) -> bool,
+) -> Result<u32, SetupError> {
+    for ticks in 1..=limit {
+        rig.counted_step();
+        if done(rig) {
+            return Ok(ticks);
+        }
+    }
+    Err(SetupError::Unexpected(what))
+}
+
+/// From the state of `tick-pp-start-s-curve` (its first tick takes the set-point), every tick
+/// until the target is reached at standstill; the master ends the handshake (bit 4 back to 0)
+/// after the acknowledgement, between two ticks.
+fn worst_tick_pp_move() -> Result<Prepared, SetupError> {
+    Ok(Prepared::Run { rig: pp_start(true)?, script: pp_move })
+}
+
+fn pp_move(rig: &mut Rig) -> Result<u32, SetupError> {
+    let taken = counted_until(rig, 1, "pp: set-point taken", |r| acknowledged(&r.drive))?;
+    rig.write(0x6040, 0, &0x000Fu16.to_le_bytes())?;
+    let moved = counted_until(rig, 5000, "pp: target reached", |r| {
+        statusword_of(&r.drive) & 0x0400 != 0 && velocity_demand_of(&r.drive) == 0
+    })?;
+    check(rig.read(0x6064, 0)? as i32 == MOVE, "pp: at the target")?;
+    Ok(taken + moved)
+}
+
+/// From the state of [`hm_ready`], every tick until homing is attained at rest (statusword
+/// bits 13/12/10 = 0/1/1): the search, the turn at the switch, leaving it, the return to home.
+fn worst_tick_hm_run() -> Result<Prepared, SetupError> {
+    Ok(Prepared::Run { rig: hm_ready()?, script: hm_run })
+}
+
+fn hm_run(rig: &mut Rig) -> Result<u32, SetupError> {
+    let ticks =
+        counted_until(rig, 5000, "hm: homing attained", |r| statusword_of(&r.drive) & 0x3400 == 0x1400)?;
+    // Home is where the switch released (within a tick at the zero speed), 6064h reads 0 there.
+    let home = rig.sample().position;
+    check(
+        home > NEGATIVE_LIMIT as i32 && home <= NEGATIVE_LIMIT as i32 + 1,
+        "hm: home at the switch's edge",
+    )?;
+    check(rig.read(0x6064, 0)? == 0, "hm: position actual value 0 at home")?;
+    Ok(ticks)
 }
 
 fn tick_pv() -> Result<Prepared, SetupError> {
