@@ -186,6 +186,19 @@ fn after_tick(rig: &Rig, expect: impl FnOnce(&crate::BenchDrive) -> bool) -> Res
     check(expect(copy), "the measured tick has the expected effect")
 }
 
+/// The drive of `rig` after `ticks` ticks from the measured one on (tried on a copy; `rig` is
+/// unchanged).
+fn after_ticks(rig: &Rig, ticks: u32, expect: impl FnOnce(&crate::BenchDrive) -> bool) -> Result<(), SetupError> {
+    let mut scratch = Scratch::new();
+    let copy = scratch.copy_of(&rig.drive);
+    let mut now = rig.now;
+    for _ in 0..ticks {
+        copy.tick(now, &rig.sample());
+        now = now + rig.period;
+    }
+    check(expect(copy), "the measured tick has the expected effect")
+}
+
 /// pp from 0 towards 1 000 000 increments at 100 000 increments/s, 500 000 increments/s²;
 /// 25 ms after the start (the S-curve, with a jerk of 10⁷ increments/s³, in its first jerk
 /// phase of 50 ms).
@@ -341,8 +354,9 @@ fn tick_hm_switch() -> Result<Prepared, SetupError> {
     check(rig.statusword()? & 0x3400 == 0, "homing in progress")?;
     let searching = rig.read(0x606B, 0)? as i32;
     check(searching == -5000, "hm: searching at the switch speed")?;
-    // The demand slows down at once (no longer the search's constant speed).
-    after_tick(&rig, |d| velocity_demand_of(d) > searching)?;
+    // The search ends: within a few ticks (the next phase's plan is made over the ticks after
+    // the event) the demand slows down, no longer the search's constant speed.
+    after_ticks(&rig, 8, |d| velocity_demand_of(d) > searching)?;
     Ok(tick_state(rig))
 }
 

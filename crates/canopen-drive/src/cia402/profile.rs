@@ -131,6 +131,8 @@ pub struct Profile {
     factors: Option<Factors>,
     /// The per-tick entries, resolved with the factors.
     slots: Slots,
+    /// [`Self::slots`] resolved in the drive's dictionary.
+    slots_resolved: bool,
     /// The core's own position/velocity loops ([`ProfileConfig::cascade`]).
     cascade: Option<Cascade>,
     active_mode: i8,
@@ -480,6 +482,7 @@ impl Profile {
             // constant: building or resetting a profile then copies a template instead of
             // computing 80 slots (1.7 KiB of flash).
             slots: Slots::UNRESOLVED,
+            slots_resolved: false,
             config,
             axis,
             supported_modes: 0,
@@ -803,7 +806,12 @@ impl Profile {
     /// returns whether it was a set-point that counts for the cyclic stream as an RPDO would
     /// ([`CyclicConfig::sdo_set_points`](super::cyclic::CyclicConfig::sdo_set_points)).
     pub fn sdo_written(&mut self, index: u16) -> bool {
-        self.invalidate();
+        // A set-point or a command changes nothing the profile derives from configuration.
+        if self.axis.relative(index).is_some_and(super::objects::is_process_data) {
+            self.quiet.idle = false;
+        } else {
+            self.invalidate();
+        }
         self.config.cyclic.sdo_set_points
             && matches!(self.axis.relative(index), Some(TARGET_POSITION | TARGET_VELOCITY | TARGET_TORQUE))
     }
@@ -1318,7 +1326,11 @@ impl Profile {
         self.factors = Some(factors);
         self.limits = Revised::EMPTY;
         self.pp_limits = Revised::EMPTY;
-        self.slots = Slots::resolve(od, self.axis);
+        if !self.slots_resolved {
+            // The dictionary's layout is fixed when it is built: once is enough.
+            self.slots = Slots::resolve(od, self.axis);
+            self.slots_resolved = true;
+        }
         if let Some(index) = self.config.cascade {
             let parameters = Parameters::from_dictionary(od, index).unwrap_or(Parameters::DEFAULT);
             let hz = self.config.tick_rate.hz();
