@@ -97,9 +97,9 @@
 //! Measured in `boards/qemu-mps2` (the `tick-bound` firmware under `-icount`, where every
 //! count is exact): a 20 kHz current loop above `PriorityCeiling<0x40>` (period 6 250
 //! instructions) never missed a run during a 16 KiB block upload or a profile-position
-//! set-point whose tick ran 86 000 instructions; it started at most 125 instructions late
-//! during the upload and 750 during the set-point (a `defmt` line). With [`CriticalSection`]
-//! instead, the same firmware lost 292 of the upload's 907 runs (gaps of up to 90 000
+//! set-point whose tick ran 86 000 instructions; it started at most 175 instructions late
+//! during the upload and 735 during the set-point (a `defmt` line). With [`CriticalSection`]
+//! instead, the same firmware lost 290 of the upload's 903 runs (gaps of up to 89 000
 //! instructions). The board's README has every number.
 //!
 //! ## Use
