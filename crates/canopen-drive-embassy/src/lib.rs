@@ -67,9 +67,9 @@
 //!   ceiling `P`, the tick's priority, as RTIC locks its resources. A call from the
 //!   communication side raises BASEPRI to `P` for its duration (ARMv7-M, ARMv7E-M, ARMv8-M
 //!   Mainline), or disables the NVIC lines at or below `P` (ARMv6-M, which has no BASEPRI); the
-//!   tick runs at `P` and needs nothing more. **Every interrupt more urgent than `P` is never
-//!   masked by the drive.** A call costs about 8 instructions on a Cortex-M4 (from thread
-//!   mode; a few more from an interrupt), about 100 on ARMv6-M.
+//!   tick runs at `P`, where nothing that takes the lock can preempt it, and masks nothing.
+//!   **Every interrupt more urgent than `P` is never masked by the drive.** A call of the
+//!   communication side costs about 8 instructions on a Cortex-M4, about 100 on ARMv6-M.
 //!
 //! Choosing the ceiling, for firmware authors:
 //!
@@ -97,8 +97,8 @@
 //! Measured in `boards/qemu-mps2` (the `tick-bound` firmware under `-icount`, where every
 //! count is exact): a 20 kHz current loop above `PriorityCeiling<0x40>` (period 6 250
 //! instructions) never missed a run during a 16 KiB block upload or a profile-position
-//! set-point whose tick ran 86 000 instructions; it started at most 175 instructions late
-//! during the upload and 735 during the set-point (a `defmt` line). With [`CriticalSection`]
+//! set-point whose tick ran 86 000 instructions; it started at most 100 instructions late
+//! during the upload and 745 during the set-point (a `defmt` line). With [`CriticalSection`]
 //! instead, the same firmware lost 290 of the upload's 903 runs (gaps of up to 89 000
 //! instructions). The board's README has every number.
 //!

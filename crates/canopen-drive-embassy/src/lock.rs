@@ -59,22 +59,24 @@ unsafe impl Lock for CriticalSection {
 /// - **ARMv7-M, ARMv7E-M, ARMv8-M Mainline** (Cortex-M3/M4/M7/M33): each call raises BASEPRI
 ///   to `PRIORITY` and restores it after, as RTIC's resource locks do: a handful of
 ///   instructions (8 a call from thread mode on a Cortex-M4, measured in `boards/qemu-mps2`).
-///   The tick itself runs at the ceiling, so the raise changes nothing there. With PRIGROUP
-///   splitting priorities into group and sub-priority, BASEPRI works on the group: interrupts
-///   of the ceiling's group priority are held off too. Not for Cortex-M7 r0p1 (erratum 837070:
+///   With PRIGROUP splitting priorities into group and sub-priority, BASEPRI works on the
+///   group: interrupts of the ceiling's group priority are held off too. Not for Cortex-M7 r0p1 (erratum 837070:
 ///   a raise of BASEPRI can take effect one instruction late), and in the current security
 ///   state only (ARMv8-M with TrustZone).
 /// - **ARMv6-M** (Cortex-M0/M0+/M1; no BASEPRI): each call reads the priorities of the
 ///   enabled NVIC lines and disables, for the call, those at `PRIORITY` or lower (ICER/ISER),
 ///   then enables them again: about 100 instructions a call in `boards/qemu-mps2` (three lines
 ///   enabled, all among the first twelve), some 40 more for each further group of four lines
-///   with one enabled. The system
-///   exceptions SysTick, PendSV and SVCall have no NVIC line to disable, so calls from them are
-///   refused: on ARMv6-M the tick and the communication side run in NVIC interrupts or in
-///   thread mode. Nothing else may enable or disable those NVIC lines while the drive is in
+///   with one enabled. The system exceptions SysTick, PendSV and SVCall have no NVIC line to
+///   disable, so calls from them are refused: on ARMv6-M the tick and the communication side
+///   run in NVIC interrupts or in thread mode. Nothing else may enable or disable those NVIC lines while the drive is in
 ///   use (a line enabled during a call would run at once).
 /// - **ARMv8-M Baseline and other targets** (hosts among them): the type exists, but it is
 ///   no [`Lock`] there; use [`CriticalSection`].
+///
+/// The tick itself runs at the ceiling, where nothing that takes the lock can preempt it: its
+/// calls only read which exception runs and its priority, and mask nothing (on ARMv6-M that
+/// saves the tick the NVIC round trip).
 ///
 /// What stays free: every priority more urgent than `PRIORITY`, and the fault exceptions.
 /// The other critical sections of a firmware (embassy's timer queue and channels, a board's
@@ -84,10 +86,11 @@ unsafe impl Lock for CriticalSection {
 pub struct PriorityCeiling<const PRIORITY: u8>;
 
 // SAFETY: on a single core, a context can only run while no more urgent one is active. Every
-// context that gets past `may_lock` runs at `PRIORITY` or lower, and while one holds the lock
-// every other such context is masked (BASEPRI at `PRIORITY`, or its NVIC line disabled; thread
-// mode is below every exception), so no other holder can start until it lets go. Contexts
-// above the ceiling are refused.
+// context that gets past `caller` runs at `PRIORITY` or lower. One below the ceiling masks the
+// others while it holds the lock (BASEPRI at `PRIORITY`, or their NVIC lines disabled; thread
+// mode is below every exception); one at the ceiling cannot be preempted by any of them (none
+// is more urgent), so it needs no masking. No other holder can start until it lets go.
+// Contexts above the ceiling are refused.
 #[cfg(any(ceiling_basepri, ceiling_nvic))]
 #[allow(unsafe_code)]
 unsafe impl<const PRIORITY: u8> Lock for PriorityCeiling<PRIORITY> {
@@ -101,13 +104,17 @@ unsafe impl<const PRIORITY: u8> Lock for PriorityCeiling<PRIORITY> {
                 "a priority ceiling of 0 would mask nothing: give the tick a lower priority"
             );
         }
-        if !cortex_m::may_lock(PRIORITY) {
-            return None;
+        match cortex_m::caller(PRIORITY) {
+            cortex_m::Caller::Above => None,
+            // The tick: nothing that takes the lock can preempt it.
+            cortex_m::Caller::At => Some(f()),
+            cortex_m::Caller::Below => {
+                let held = cortex_m::raise(PRIORITY);
+                let result = f();
+                cortex_m::restore(held);
+                Some(result)
+            }
         }
-        let held = cortex_m::raise(PRIORITY);
-        let result = f();
-        cortex_m::restore(held);
-        Some(result)
     }
 }
 
@@ -138,22 +145,40 @@ mod cortex_m {
         (word >> (8 * (n % 4))) as u8
     }
 
-    /// True when the running context may take a lock at `ceiling`: thread mode, or an
-    /// exception whose priority is `ceiling` or lower (a larger number).
+    /// Where the running context stands against the ceiling.
+    pub(super) enum Caller {
+        /// More urgent than the ceiling (or an exception the lock cannot mask, on ARMv6-M):
+        /// refused.
+        Above,
+        /// An exception at the ceiling's priority: no context that takes the lock can preempt
+        /// it.
+        At,
+        /// Thread mode, or an exception less urgent than the ceiling: the lock masks the
+        /// others.
+        Below,
+    }
+
+    /// Where the running context stands against `ceiling`, from its exception number (IPSR)
+    /// and that exception's priority.
     #[inline]
-    pub(super) fn may_lock(ceiling: u8) -> bool {
+    pub(super) fn caller(ceiling: u8) -> Caller {
         let ipsr: u32;
         // SAFETY: reading IPSR has no effect.
         unsafe { asm!("mrs {}, IPSR", out(reg) ipsr, options(nomem, nostack, preserves_flags)) };
-        match ipsr & 0x1FF {
-            0 => true,
-            exception @ 16.. => priority(NVIC_IPR, exception - 16) >= ceiling,
+        let priority = match ipsr & 0x1FF {
+            0 => return Caller::Below,
+            exception @ 16.. => priority(NVIC_IPR, exception - 16),
             // MemManage, BusFault, UsageFault, SecureFault, SVCall, DebugMonitor, PendSV, SysTick.
             #[cfg(ceiling_basepri)]
-            exception @ 4..=15 => priority(SCB_SHPR, exception - 4) >= ceiling,
+            exception @ 4..=15 => priority(SCB_SHPR, exception - 4),
             // NMI and HardFault (fixed priorities above every ceiling); on ARMv6-M also SVCall,
             // PendSV and SysTick, which no NVIC line masks.
-            _ => false,
+            _ => return Caller::Above,
+        };
+        match priority.cmp(&ceiling) {
+            core::cmp::Ordering::Less => Caller::Above,
+            core::cmp::Ordering::Equal => Caller::At,
+            core::cmp::Ordering::Greater => Caller::Below,
         }
     }
 
