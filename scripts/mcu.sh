@@ -2,7 +2,8 @@
 # The MCU part of the suite (issue 7): installs qemu-system-arm if it is missing, builds the
 # QEMU firmware for thumbv7em and thumbv6m (and the real-board firmware for thumbv7em, when it
 # is in the tree), runs the python-canopen tests against the firmware in QEMU, the
-# deterministic tick-bound run, and the footprint check against its budgets.
+# deterministic tick-bound run (how long the drive holds off the tick; that the current loop
+# above the drive's lock keeps its period), and the footprint check against its budgets.
 #
 # Firmware crates are their own workspaces and are built one per cargo call (RIG.md); their
 # build output goes to target/firmware/<crate>. Needs the python venv of scripts/test.sh

@@ -1,33 +1,169 @@
-//! What both firmwares share on the target: the µs clock on SysTick, the body of the control
-//! tick, the stack measurement.
+//! What the firmwares share on the target: the interrupt priorities and the drive's lock, the
+//! µs clock on SysTick, the body of the control tick, the stand-in current loop, the
+//! measurements (lock holds, masked stretches, stack).
+//!
+//! | context | priority | touches the drive |
+//! |---|---|---|
+//! | dual timer: the current loop (20 kHz, 1 kHz in real time) | [`priority::CURRENT_LOOP`], above the drive's lock | never |
+//! | TIMER0: the control tick (1 kHz) | [`priority::TICK`], the drive's ceiling | `SharedDrive::tick` |
+//! | UART0 receive ("CAN RX") | [`priority::UART_RX`] | `on_frame` (bare-interrupt firmware) |
+//! | SysTick (1 ms clock, embassy timers) | [`priority::SYSTICK`] | never |
+//! | thread mode: the runner, `poll`, transmit | – | `on_frame`, `poll`, `pop_tx` |
 
 use core::cell::{Cell, RefCell};
 use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 
 use canopen_drive::hal::{Demand, Sample};
 use canopen_drive::Instant;
+use canopen_drive_embassy::{Lock, PriorityCeiling};
+use cortex_m::peripheral::{scb::SystemHandler, NVIC, SCB};
 use critical_section::Mutex;
 
 use crate::motor::{Motor, MotorParams};
-use crate::mps2::{systick, timer0, timer1, COUNTS_PER_US, SYSCLK_HZ};
+use crate::mps2::{dualtimer, systick, timer0, timer1, Irq, COUNTS_PER_US, SYSCLK_HZ};
 use crate::node::TICK_PERIOD;
-use crate::objects::{load_torque, TICK_MONITOR};
+use crate::objects::{load_torque, CurrentLoop, TICK_MONITOR};
+
+/// The interrupt priorities (as the NVIC holds them: lower is more urgent). Only the top two
+/// bits are used, so they mean the same on every Cortex-M (ARMv6-M implements two bits).
+pub mod priority {
+    /// The current loop: above the drive's lock, never held off by it.
+    pub const CURRENT_LOOP: u8 = 0x00;
+    /// The control tick, and the ceiling of the drive's lock.
+    pub const TICK: u8 = 0x40;
+    /// UART0 receive.
+    pub const UART_RX: u8 = 0x80;
+    /// SysTick.
+    pub const SYSTICK: u8 = 0xC0;
+}
+
+/// The lock of the drive (and of the board state the tick shares): a priority ceiling at the
+/// tick's priority, measured ([`longest_lock_ns`]).
+pub type DriveLock = MeasuredLock;
 
 /// Milliseconds counted by the SysTick exception.
 static MILLIS: Mutex<Cell<u64>> = Mutex::new(Cell::new(0));
 
+/// State the tick shares with the rest of the firmware, under the drive's ceiling (not a
+/// critical section, which would hold off the current loop too).
+struct TickShared<T>(RefCell<T>);
+
+// SAFETY: the value is touched only inside `PriorityCeiling::lock`, one context at a time.
+unsafe impl<T: Send> Sync for TickShared<T> {}
+
+impl<T> TickShared<T> {
+    fn with<R>(&self, f: impl FnOnce(&mut T) -> R) -> Option<R> {
+        PriorityCeiling::<{ priority::TICK }>
+            .lock(|| self.0.try_borrow_mut().ok().map(|mut v| f(&mut v)))
+            .flatten()
+    }
+}
+
 /// The simulated axis, touched only by the tick.
-static MOTOR: Mutex<RefCell<Motor>> = Mutex::new(RefCell::new(Motor::new(MotorParams::DEFAULT)));
+static MOTOR: TickShared<Motor> = TickShared(RefCell::new(Motor::new(MotorParams::DEFAULT)));
 
 /// Nanoseconds per count of the board's timers.
 const NS_PER_COUNT: u32 = 1_000_000_000 / SYSCLK_HZ;
 
-/// Starts SysTick (the clock), TIMER1 (the stopwatch) and TIMER0 (the tick); the caller
-/// unmasks their interrupts.
-pub fn start_timers() {
+/// Sets the priorities of every interrupt the firmwares use ([`priority`]), starts SysTick (the
+/// clock), TIMER1 (the stopwatch), TIMER0 (the tick) and the dual timer (the current loop,
+/// every `current_loop_period_us`), and unmasks the tick and the current loop; the firmware
+/// unmasks UART0 itself.
+pub fn start_interrupts(nvic: &mut NVIC, scb: &mut SCB, current_loop_period_us: u32) {
+    // SAFETY: priorities are set before the interrupts are unmasked.
+    unsafe {
+        nvic.set_priority(Irq::DualTimer, priority::CURRENT_LOOP);
+        nvic.set_priority(Irq::Timer0, priority::TICK);
+        nvic.set_priority(Irq::Uart0Rx, priority::UART_RX);
+        scb.set_priority(SystemHandler::SysTick, priority::SYSTICK);
+    }
     timer1::start();
     systick::start();
     timer0::start(tick_period_counts().saturating_sub(1));
+    let loop_period = current_loop_period_us.saturating_mul(COUNTS_PER_US).max(1);
+    LOOP_PERIOD.store(loop_period, Ordering::Relaxed);
+    dualtimer::start(loop_period - 1);
+    // SAFETY: their handlers (the firmware's TIMER0, `current_loop_interrupt`) are ready.
+    unsafe {
+        NVIC::unmask(Irq::Timer0);
+        NVIC::unmask(Irq::DualTimer);
+    }
+}
+
+/// The current loop's period in the firmware that measures it (`tick-bound`, run under
+/// `-icount`, where its 20 kHz cost the host nothing): 50 µs.
+pub const CURRENT_LOOP_PERIOD_US: u32 = 50;
+/// Its period in the firmwares a master talks to in real time: 1 ms (at 20 kHz QEMU would
+/// keep most of a host core busy).
+pub const CURRENT_LOOP_PERIOD_US_REAL_TIME: u32 = 1000;
+/// The current loop's period (TIMER1 counts).
+static LOOP_PERIOD: AtomicU32 = AtomicU32::new(1);
+
+/// Current-loop runs since the last [`reset_current_loop`].
+static LOOP_RUNS: AtomicU32 = AtomicU32::new(0);
+/// TIMER1 count of the last run.
+static LOOP_LAST_RUN: AtomicU32 = AtomicU32::new(0);
+/// TIMER1 count at which the next run falls due.
+static LOOP_NEXT_DUE: AtomicU32 = AtomicU32::new(0);
+/// The longest time between two runs (TIMER1 counts).
+static LOOP_LONGEST_GAP: AtomicU32 = AtomicU32::new(0);
+/// The latest start of a run after it fell due (counts).
+static LOOP_MOST_LATE: AtomicU32 = AtomicU32::new(0);
+/// Asks the handler to start the statistics afresh at its next run.
+static LOOP_RESET: AtomicBool = AtomicBool::new(true);
+
+/// The dual timer's interrupt: the stand-in for a motor's current loop, at the most urgent
+/// priority, above the drive's lock. It only counts its runs, the longest gap between two and
+/// its lateness; a real one would read the phase currents and set the PWM duties.
+/// (Plain loads and stores: thumbv6m has no atomic read-modify-write; only this handler
+/// writes these.)
+pub extern "C" fn current_loop_interrupt() {
+    let now = timer1::now();
+    let this_expiry = now.wrapping_sub(dualtimer::counts_since_expiry());
+    dualtimer::clear_interrupt();
+    // When this run fell due: one period after the previous run's expiry, so that a run held
+    // off past the next expiry (the timer then expired twice, and one run is lost) shows its
+    // whole delay, not the delay modulo the period.
+    let late = if LOOP_RESET.load(Ordering::Relaxed) {
+        LOOP_RESET.store(false, Ordering::Relaxed);
+        LOOP_RUNS.store(0, Ordering::Relaxed);
+        LOOP_LONGEST_GAP.store(0, Ordering::Relaxed);
+        LOOP_MOST_LATE.store(0, Ordering::Relaxed);
+        now.wrapping_sub(this_expiry)
+    } else {
+        let gap = now.wrapping_sub(LOOP_LAST_RUN.load(Ordering::Relaxed));
+        if gap > LOOP_LONGEST_GAP.load(Ordering::Relaxed) {
+            LOOP_LONGEST_GAP.store(gap, Ordering::Relaxed);
+        }
+        // The two timers are read a few instructions apart: a run on time can seem to start a
+        // count before it fell due.
+        let late = now.wrapping_sub(LOOP_NEXT_DUE.load(Ordering::Relaxed));
+        if late > u32::MAX / 2 {
+            0
+        } else {
+            late
+        }
+    };
+    LOOP_NEXT_DUE.store(this_expiry.wrapping_add(LOOP_PERIOD.load(Ordering::Relaxed)), Ordering::Relaxed);
+    LOOP_LAST_RUN.store(now, Ordering::Relaxed);
+    LOOP_RUNS.store(LOOP_RUNS.load(Ordering::Relaxed).wrapping_add(1), Ordering::Relaxed);
+    if late > LOOP_MOST_LATE.load(Ordering::Relaxed) {
+        LOOP_MOST_LATE.store(late, Ordering::Relaxed);
+    }
+}
+
+/// The current loop's statistics since the last [`reset_current_loop`].
+pub fn current_loop() -> CurrentLoop {
+    CurrentLoop {
+        runs: LOOP_RUNS.load(Ordering::Relaxed),
+        longest_gap_ns: LOOP_LONGEST_GAP.load(Ordering::Relaxed).saturating_mul(NS_PER_COUNT),
+        most_late_ns: LOOP_MOST_LATE.load(Ordering::Relaxed).saturating_mul(NS_PER_COUNT),
+    }
+}
+
+/// Starts the current loop's statistics afresh at its next run.
+pub fn reset_current_loop() {
+    LOOP_RESET.store(true, Ordering::Relaxed);
 }
 
 /// Call from the SysTick exception: counts one millisecond.
@@ -81,11 +217,12 @@ pub fn control_tick(drive_tick: impl FnOnce(Instant, &Sample) -> Demand) {
         TICK_MONITOR.record(now_counts.wrapping_sub(due).saturating_mul(NS_PER_COUNT));
     }
     let now = Instant::from_micros(now_micros());
-    let sample = critical_section::with(|cs| {
-        let mut motor = MOTOR.borrow_ref_mut(cs);
-        motor.set_load(load_torque());
-        motor.sample()
-    });
+    let sample = MOTOR
+        .with(|motor| {
+            motor.set_load(load_torque());
+            motor.sample()
+        })
+        .unwrap_or_default();
     let started = timer1::now();
     let demand = drive_tick(now, &sample);
     let took = timer1::now().wrapping_sub(started);
@@ -93,7 +230,7 @@ pub fn control_tick(drive_tick: impl FnOnce(Instant, &Sample) -> Demand) {
         LONGEST_TICK.store(took, Ordering::Relaxed);
     }
     let dt = TICK_PERIOD.as_micros() as f32 * 1.0e-6;
-    critical_section::with(|cs| MOTOR.borrow_ref_mut(cs).step(&demand, dt));
+    MOTOR.with(|motor| motor.step(&demand, dt));
     IN_TICK.store(false, Ordering::Relaxed);
 }
 
@@ -123,12 +260,16 @@ pub fn idle(work_waiting: impl FnOnce() -> bool) {
     unsafe { cortex_m::interrupt::enable() };
 }
 
-/// True while the tick handler runs (its own critical sections do not delay it).
+/// True while the tick handler runs (its own holds of the lock do not delay it).
 static IN_TICK: AtomicBool = AtomicBool::new(false);
+/// The drive's lock is held (plain loads and stores: touched only under the lock).
+static LOCK_HELD: AtomicBool = AtomicBool::new(false);
+/// The longest hold of the drive's lock outside the tick (TIMER1 counts).
+static LONGEST_LOCK: AtomicU32 = AtomicU32::new(0);
 /// TIMER1 count when the outermost critical section began.
 static SECTION_START: AtomicU32 = AtomicU32::new(0);
-/// The longest critical section outside the tick (TIMER1 counts).
-static LONGEST_SECTION: AtomicU32 = AtomicU32::new(0);
+/// The longest critical section, anywhere (TIMER1 counts).
+static LONGEST_MASKED: AtomicU32 = AtomicU32::new(0);
 
 /// The longest `Drive::tick` (TIMER1 counts).
 static LONGEST_TICK: AtomicU32 = AtomicU32::new(0);
@@ -138,22 +279,58 @@ pub fn longest_tick_ns() -> u32 {
     LONGEST_TICK.load(Ordering::Relaxed).saturating_mul(NS_PER_COUNT)
 }
 
-/// The longest time (ns) interrupts were masked by a critical section outside the tick
-/// handler since the last [`reset_longest_section`]: the most any of them can have delayed
+/// The longest hold (ns) of the drive's lock outside the tick handler since the last
+/// [`reset_longest_section`]: the most any call of the communication side can have delayed
 /// the tick.
-pub fn longest_section_ns() -> u32 {
-    LONGEST_SECTION.load(Ordering::Relaxed).saturating_mul(NS_PER_COUNT)
+pub fn longest_lock_ns() -> u32 {
+    LONGEST_LOCK.load(Ordering::Relaxed).saturating_mul(NS_PER_COUNT)
 }
 
-/// Starts a new measurement of [`longest_section_ns`] and [`longest_tick_ns`].
+/// The longest time (ns) every interrupt was masked by a critical section, in any context,
+/// since the last [`reset_longest_section`]: the most the current loop can have been delayed.
+pub fn longest_masked_ns() -> u32 {
+    LONGEST_MASKED.load(Ordering::Relaxed).saturating_mul(NS_PER_COUNT)
+}
+
+/// Starts a new measurement of [`longest_lock_ns`], [`longest_masked_ns`] and
+/// [`longest_tick_ns`].
 pub fn reset_longest_section() {
-    LONGEST_SECTION.store(0, Ordering::Relaxed);
+    LONGEST_LOCK.store(0, Ordering::Relaxed);
+    LONGEST_MASKED.store(0, Ordering::Relaxed);
     LONGEST_TICK.store(0, Ordering::Relaxed);
+}
+
+/// The drive's lock: [`PriorityCeiling`] at the tick's priority, with a stopwatch on every
+/// outermost hold outside the tick ([`longest_lock_ns`]), which is how the firmware measures
+/// what can hold off its tick.
+#[derive(Debug)]
+pub struct MeasuredLock(PriorityCeiling<{ priority::TICK }>);
+
+// SAFETY: every `f` runs inside `PriorityCeiling::lock`, which keeps the contexts apart.
+unsafe impl Lock for MeasuredLock {
+    const NEW: Self = MeasuredLock(PriorityCeiling);
+
+    fn lock<R>(&self, f: impl FnOnce() -> R) -> Option<R> {
+        self.0.lock(|| {
+            if LOCK_HELD.load(Ordering::Relaxed) {
+                return f();
+            }
+            LOCK_HELD.store(true, Ordering::Relaxed);
+            let started = timer1::now();
+            let result = f();
+            let held = timer1::now().wrapping_sub(started);
+            LOCK_HELD.store(false, Ordering::Relaxed);
+            if !IN_TICK.load(Ordering::Relaxed) && held > LONGEST_LOCK.load(Ordering::Relaxed) {
+                LONGEST_LOCK.store(held, Ordering::Relaxed);
+            }
+            result
+        })
+    }
 }
 
 /// The `critical-section` implementation of this board: single core, interrupts masked with
 /// PRIMASK (as cortex-m's `critical-section-single-core`), plus a stopwatch on every outermost
-/// section, which is how the firmware measures what can hold off its tick.
+/// section ([`longest_masked_ns`]): what can hold off even the current loop.
 struct MeasuredCriticalSection;
 critical_section::set_impl!(MeasuredCriticalSection);
 
@@ -171,11 +348,9 @@ unsafe impl critical_section::Impl for MeasuredCriticalSection {
 
     unsafe fn release(was_enabled: bool) {
         if was_enabled {
-            if !IN_TICK.load(Ordering::Relaxed) {
-                let held = timer1::now().wrapping_sub(SECTION_START.load(Ordering::Relaxed));
-                if held > LONGEST_SECTION.load(Ordering::Relaxed) {
-                    LONGEST_SECTION.store(held, Ordering::Relaxed);
-                }
+            let held = timer1::now().wrapping_sub(SECTION_START.load(Ordering::Relaxed));
+            if held > LONGEST_MASKED.load(Ordering::Relaxed) {
+                LONGEST_MASKED.store(held, Ordering::Relaxed);
             }
             // SAFETY: interrupts were enabled when the outermost section began.
             unsafe { cortex_m::interrupt::enable() };
@@ -208,8 +383,16 @@ impl crate::objects::Measurements for BoardMeasurements {
         stack_used()
     }
 
-    fn longest_section_ns(&self) -> u32 {
-        longest_section_ns()
+    fn longest_lock_ns(&self) -> u32 {
+        longest_lock_ns()
+    }
+
+    fn longest_masked_ns(&self) -> u32 {
+        longest_masked_ns()
+    }
+
+    fn current_loop(&self) -> CurrentLoop {
+        current_loop()
     }
 
     fn longest_tick_ns(&self) -> u32 {
@@ -218,5 +401,6 @@ impl crate::objects::Measurements for BoardMeasurements {
 
     fn reset_longest_section(&self) {
         reset_longest_section();
+        reset_current_loop();
     }
 }

@@ -6,7 +6,8 @@
 //!   the ms); expired timers are woken at the next ms. Resolution 1 ms, which is what the
 //!   runner needs (its deadlines are heartbeats, SDO timeouts, inhibit times).
 //! - Executor: embassy's stock thread executor idles with WFE, which spins QEMU at 100 % of a
-//!   host core; this one sleeps with WFI unless a task was woken while it polled.
+//!   host core; this one sleeps with WFI unless a task was woken while it polled, or, for the
+//!   measuring firmware, never sleeps ([`Idle::Spin`]).
 
 use core::cell::RefCell;
 use core::sync::atomic::{AtomicBool, Ordering};
@@ -60,8 +61,20 @@ fn pender(_context: *mut ()) {
     WOKEN.store(true, Ordering::Release);
 }
 
+/// What the executor does when no task is ready.
+#[allow(dead_code)] // each firmware uses one
+pub enum Idle {
+    /// Sleep in WFI until an interrupt.
+    Sleep,
+    /// Poll again at once. Under `-icount` with `sleep=off`, QEMU skips the time the core
+    /// sleeps, and in doing so it can pass over an expiry of a fast timer (a run of the 20 kHz
+    /// current loop is then lost while the core slept, which real hardware never does): a
+    /// firmware that measures the current loop's period keeps the core running instead.
+    Spin,
+}
+
 /// Runs the thread-mode executor for ever: `init` spawns the first tasks.
-pub fn run_executor(init: impl FnOnce(Spawner)) -> ! {
+pub fn run_executor(idle: Idle, init: impl FnOnce(Spawner)) -> ! {
     static EXECUTOR: StaticCell<Executor> = StaticCell::new();
     let executor: &'static Executor = EXECUTOR.init(Executor::new(core::ptr::null_mut()));
     init(executor.spawner());
@@ -70,6 +83,8 @@ pub fn run_executor(init: impl FnOnce(Spawner)) -> ! {
         // SAFETY: polled only here, in thread mode, on the executor's own thread.
         unsafe { executor.poll() };
         // Sleep unless a task was woken while polling.
-        board::idle(|| WOKEN.load(Ordering::Acquire));
+        if let Idle::Sleep = idle {
+            board::idle(|| WOKEN.load(Ordering::Acquire));
+        }
     }
 }

@@ -21,8 +21,9 @@ use static_cell::StaticCell;
 #[path = "embassy_rt.rs"]
 mod embassy_rt;
 
-/// The drive, shared by the tick interrupt and the runner; it lives in `DRIVE_CELL`.
-static DRIVE: SharedDrive<&'static mut BoardDrive> = SharedDrive::new();
+/// The drive, shared by the tick interrupt and the runner under the priority ceiling of the
+/// tick (the current loop above it is never held off); it lives in `DRIVE_CELL`.
+static DRIVE: SharedDrive<&'static mut BoardDrive, board::DriveLock> = SharedDrive::new();
 static DRIVE_CELL: StaticCell<BoardDrive> = StaticCell::new();
 
 /// Bytes from UART0, filled by its receive interrupt.
@@ -37,25 +38,16 @@ fn main() -> ! {
     defmt::info!("canopen-drive on mps2: node {}, tick {} us", node::NODE_ID, node::TICK_PERIOD.as_micros());
 
     let Some(mut core) = cortex_m::Peripherals::take() else { mps2::exit(103) };
-    // SAFETY: priorities are set before the interrupts are unmasked; lower value = higher
-    // priority. The tick preempts everything else.
-    unsafe {
-        core.NVIC.set_priority(Irq::Timer0, 0x00);
-        core.NVIC.set_priority(Irq::Uart0Rx, 0x40);
-        core.SCB.set_priority(cortex_m::peripheral::scb::SystemHandler::SysTick, 0x80);
-    }
-    board::start_timers();
+    // The current loop above the tick, the tick at the drive's ceiling, then UART0, SysTick.
+    board::start_interrupts(&mut core.NVIC, &mut core.SCB, board::CURRENT_LOOP_PERIOD_US_REAL_TIME);
     critical_section::with(|_| uart0::set_rx_interrupt(true));
-    // SAFETY: the handlers below are ready; nothing else masks these lines.
-    unsafe {
-        NVIC::unmask(Irq::Timer0);
-        NVIC::unmask(Irq::Uart0Rx);
-    }
+    // SAFETY: the handler below is ready; nothing else masks this line.
+    unsafe { NVIC::unmask(Irq::Uart0Rx) };
     // A byte that came before the receive interrupt was enabled raised no interrupt, and
     // QEMU holds back the rest until it is read: let the handler look once.
     NVIC::pend(Irq::Uart0Rx);
 
-    embassy_rt::run_executor(|spawner| {
+    embassy_rt::run_executor(embassy_rt::Idle::Sleep, |spawner| {
         match can_task() {
             Ok(token) => spawner.spawn(token),
             Err(_) => mps2::exit(104),
@@ -99,12 +91,15 @@ async fn exit_task() {
             // Let the SDO response go out, and the master disconnect, first.
             Timer::after_millis(EXIT_DELAY_MS).await;
             defmt::info!(
-                "exit {}: {} ticks, lateness max {} ns, mean {} ns; longest critical section {} ns; stack {} bytes",
+                "exit {}: {} ticks, lateness max {} ns, mean {} ns; longest lock {} ns; longest masked {} ns; current loop {} runs, gap max {} ns; stack {} bytes",
                 code,
                 TICK_MONITOR.ticks(),
                 TICK_MONITOR.max_lateness(),
                 TICK_MONITOR.mean_lateness(),
-                board::longest_section_ns(),
+                board::longest_lock_ns(),
+                board::longest_masked_ns(),
+                board::current_loop().runs,
+                board::current_loop().longest_gap_ns,
                 board::stack_used()
             );
             mps2::exit(code);

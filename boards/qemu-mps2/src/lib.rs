@@ -6,22 +6,29 @@
 //! USB-CAN adapters use; the line codec is the crate `canopen-drive-slcan`, which the Linux
 //! program serves over TCP too.
 //!
-//! Two firmwares share this library:
+//! Three firmwares share this library:
 //!
 //! - `qemu-mps2` (`src/main.rs`): embassy. The communication runner of
 //!   `canopen-drive-embassy` in a thread-mode executor that sleeps with WFI, embassy-time on
 //!   SysTick, the control tick in the TIMER0 interrupt, defmt logging over semihosting.
-//! - `bare-interrupts` (`src/bin/bare_interrupts.rs`): no async at all. The drive behind a
-//!   `critical_section::Mutex`, fed by two interrupt handlers (UART receive standing in for
-//!   CAN receive, and the TIMER0 tick) and a main loop that runs `poll` and transmits.
+//! - `bare-interrupts` (`src/bin/bare_interrupts.rs`): no async at all. The drive in a
+//!   `SharedDrive`, fed by two interrupt handlers (UART receive standing in for CAN receive,
+//!   and the TIMER0 tick) and a main loop that runs `poll` and transmits.
+//! - `tick-bound` (`src/bin/tick_bound.rs`): the embassy runner with an SDO client inside the
+//!   firmware, run under `-icount`: how long the drive holds off the tick, and that the
+//!   current loop above the drive's lock keeps its period.
+//!
+//! In each, the drive's lock is a priority ceiling at the tick's priority
+//! (`PriorityCeiling`, through `board::DriveLock`), and a stand-in current loop (the dual
+//! timer's interrupt) runs above it: see `board` for the priorities.
 //!
 //! | module | what |
 //! |---|---|
 //! | [`node`] | the drive's configuration (node-ID 5, identity, tick rate) |
-//! | [`objects`] | manufacturer objects 2F00h–2F11h: test exit, tick lateness, stack use, test data |
+//! | [`objects`] | manufacturer objects 2F00h–2F11h: test exit, tick lateness, lock and masked stretches, the current loop, stack use, test data |
 //! | [`motor`] | a no_std motor model: inertia + friction, velocity/position loops |
-//! | `mps2` | UART0, TIMER0, SysTick registers; semihosting exit (bare-metal targets only) |
-//! | `board` | the µs clock, the tick body shared by both firmwares, stack measurement |
+//! | `mps2` | UART0, TIMER0, TIMER1, dual timer, SysTick registers; semihosting exit (bare-metal targets only) |
+//! | `board` | priorities and the drive's lock, the µs clock, the tick body and the current loop shared by the firmwares, the measurements |
 #![no_std]
 #![deny(missing_docs)]
 #![cfg_attr(test, allow(clippy::unwrap_used, clippy::expect_used, clippy::indexing_slicing, clippy::panic))]

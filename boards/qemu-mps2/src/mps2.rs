@@ -1,10 +1,13 @@
 //! The peripherals of QEMU's mps2-an385/an386 this firmware uses: CMSDK APB UART0 (the SLCAN
-//! link), CMSDK APB TIMER0 (the control tick) and the Cortex-M SysTick (embassy-time).
+//! link), CMSDK APB TIMER0 (the control tick), TIMER1 (the stopwatch), the first timer of the
+//! CMSDK APB dual timer (the stand-in current loop) and the Cortex-M SysTick (embassy-time).
 //!
 //! | peripheral | base | interrupt | clock |
 //! |---|---|---|---|
 //! | UART0 | 0x4000_4000 | 0 (RX), 1 (TX) | 25 MHz (BAUDDIV must be ≥ 16 for QEMU to move data) |
 //! | TIMER0 | 0x4000_0000 | 8 | 25 MHz, counts down, reloads at 0 |
+//! | TIMER1 | 0x4000_1000 | 9 (not used) | 25 MHz, free-running |
+//! | dual timer, timer 1 | 0x4000_2000 | 10 | 25 MHz, periodic |
 //! | SysTick | core | exception 15 | 25 MHz (CLKSOURCE = processor clock) |
 //!
 //! Register access is volatile through raw addresses: this is the only module with `unsafe`.
@@ -26,6 +29,8 @@ pub enum Irq {
     Uart0Tx = 1,
     /// TIMER0.
     Timer0 = 8,
+    /// The dual timer.
+    DualTimer = 10,
 }
 
 // SAFETY: the numbers are the mps2-an385/an386 NVIC lines of these peripherals.
@@ -163,6 +168,40 @@ pub mod timer1 {
     }
 }
 
+/// The CMSDK APB dual timer's first timer, periodic (an SP804): the current loop's interrupt.
+pub mod dualtimer {
+    use super::{read, write};
+
+    const BASE: usize = 0x4000_2000;
+    const LOAD: usize = BASE;
+    const VALUE: usize = BASE + 0x04;
+    const CONTROL: usize = BASE + 0x08;
+    const INTCLR: usize = BASE + 0x0C;
+
+    const CONTROL_32_BIT: u32 = 1 << 1;
+    const CONTROL_INT_EN: u32 = 1 << 5;
+    const CONTROL_PERIODIC: u32 = 1 << 6;
+    const CONTROL_ENABLE: u32 = 1 << 7;
+
+    /// Starts the timer with an interrupt every `period_counts` + 1 counts.
+    pub fn start(period_counts: u32) {
+        write(CONTROL, 0);
+        write(LOAD, period_counts);
+        write(CONTROL, CONTROL_ENABLE | CONTROL_PERIODIC | CONTROL_INT_EN | CONTROL_32_BIT);
+    }
+
+    /// Acknowledges the interrupt.
+    pub fn clear_interrupt() {
+        write(INTCLR, 1);
+    }
+
+    /// Counts since the timer last reached 0: the interrupt's latency when read first thing in
+    /// the handler.
+    pub fn counts_since_expiry() -> u32 {
+        read(LOAD).saturating_sub(read(VALUE))
+    }
+}
+
 /// The SysTick as a free-running µs clock: an exception every ms counts milliseconds, the
 /// counter gives the µs inside the current ms.
 pub mod systick {
@@ -211,7 +250,8 @@ extern "C" {
     fn DefaultHandler();
 }
 
-/// The interrupt vectors: IRQ 0 UART0 receive, IRQ 8 TIMER0, the rest `DefaultHandler`.
+/// The interrupt vectors: IRQ 0 UART0 receive, IRQ 8 TIMER0, IRQ 10 the dual timer (the
+/// current loop, in this library: [`crate::board`]), the rest `DefaultHandler`.
 #[link_section = ".vector_table.interrupts"]
 #[no_mangle]
 pub static __INTERRUPTS: [unsafe extern "C" fn(); 32] = [
@@ -225,7 +265,7 @@ pub static __INTERRUPTS: [unsafe extern "C" fn(); 32] = [
     DefaultHandler,
     TIMER0, // 8: TIMER0
     DefaultHandler,
-    DefaultHandler,
+    crate::board::current_loop_interrupt, // 10: dual timer
     DefaultHandler,
     DefaultHandler,
     DefaultHandler,

@@ -25,6 +25,7 @@ use embassy_sync::signal::Signal;
 use embassy_time::{Duration, Timer};
 use embedded_can::{Error as _, ErrorKind};
 
+use crate::lock::Lock;
 use crate::shared::{Endpoints, SharedDrive};
 use crate::{now, to_embassy};
 
@@ -129,8 +130,12 @@ impl<H: RunnerHooks + ?Sized> RunnerHooks for &mut H {
 /// `Drive::take_lss_store` through [`SharedDrive::with`]) and the controller's error state is
 /// not watched: a board with a driver that can switch its bit rate or read its error state runs
 /// [`run_until_bit_rate_change`] instead.
-pub async fn run<D: Endpoints, R: CanRx, T: CanTx>(drive: &SharedDrive<D>, mut rx: R, mut tx: T) -> ! {
-    serve::<D, R, T, ()>(drive, &mut rx, &mut tx, None).await;
+pub async fn run<D: Endpoints, L: Lock, R: CanRx, T: CanTx>(
+    drive: &SharedDrive<D, L>,
+    mut rx: R,
+    mut tx: T,
+) -> ! {
+    serve::<D, L, R, T, ()>(drive, &mut rx, &mut tx, None).await;
     // Without hooks the runner does not end.
     loop {
         core::future::pending::<()>().await;
@@ -153,14 +158,15 @@ pub async fn run<D: Endpoints, R: CanRx, T: CanTx>(drive: &SharedDrive<D>, mut r
 /// The driver halves are borrowed, so that the board can close and reopen the controller
 /// between two calls. The runner ends while it may be waiting in `receive` or `transmit`;
 /// a frame the driver had not yet queued is then lost, which the switch-over makes moot.
-pub async fn run_until_bit_rate_change<D, R, T, H>(
-    drive: &SharedDrive<D>,
+pub async fn run_until_bit_rate_change<D, L, R, T, H>(
+    drive: &SharedDrive<D, L>,
     rx: &mut R,
     tx: &mut T,
     hooks: &mut H,
 ) -> BitRateChange
 where
     D: Endpoints,
+    L: Lock,
     R: CanRx,
     T: CanTx,
     H: RunnerHooks,
@@ -170,14 +176,15 @@ where
 
 /// The runner; with `hooks`, the board's part too. Returns only with `hooks`, at a bit-rate
 /// change.
-async fn serve<D, R, T, H>(
-    drive: &SharedDrive<D>,
+async fn serve<D, L, R, T, H>(
+    drive: &SharedDrive<D, L>,
     rx: &mut R,
     tx: &mut T,
     hooks: Option<&mut H>,
 ) -> BitRateChange
 where
     D: Endpoints,
+    L: Lock,
     R: CanRx,
     T: CanTx,
     H: RunnerHooks,

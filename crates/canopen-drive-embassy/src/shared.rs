@@ -1,6 +1,8 @@
 //! The drive shared between the tick interrupt and the communication context.
 
-use core::cell::RefCell;
+use core::cell::{Cell, RefCell};
+use core::future::poll_fn;
+use core::task::{Poll, Waker};
 
 use canopen_drive::drive::{BitRateChange, CanState, Drive};
 use canopen_drive::hal::{Demand, Sample};
@@ -8,9 +10,8 @@ use canopen_drive::od::ObjectHooks;
 use canopen_drive::storage::Persistence;
 use canopen_drive::wire::lss::BitTiming;
 use canopen_drive::{CanFrame, Instant};
-use critical_section::Mutex;
-use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
-use embassy_sync::signal::Signal;
+
+use crate::lock::{CriticalSection, Lock};
 
 /// The entry points of a node, as the runner and the tick call them. Implemented for every
 /// [`Drive`]; a firmware may implement it for a node of its own (a CiA 301-only node has a
@@ -112,61 +113,125 @@ impl<D: Endpoints + ?Sized> Endpoints for &mut D {
     }
 }
 
-/// A node behind a critical-section mutex, for a `static`: every method is one critical
-/// section around one bounded call (see the crate docs for the discipline).
+/// A node shared by the tick and the communication side, for a `static`: every method is one
+/// bounded call into the node under the lock `L` (see the crate docs for the discipline).
+///
+/// `L` is [`CriticalSection`] by default (every interrupt masked while the drive works: any
+/// target). On a Cortex-M with a current loop above the tick, [`PriorityCeiling`](crate::PriorityCeiling) at the tick's
+/// priority masks only what is at or below the tick.
 ///
 /// `D` is the drive itself, or `&'static mut` to a drive kept in a `StaticCell`: a `Drive` is
 /// several KiB, and a `static SharedDrive<Drive>` starts as `None`, which the compiler may put
 /// in `.data` (flash and RAM) rather than `.bss`.
-pub struct SharedDrive<D> {
-    drive: Mutex<RefCell<Option<D>>>,
-    /// Raised when frames were queued outside the runner (by the tick): wakes the runner.
-    kick: Signal<CriticalSectionRawMutex, ()>,
+///
+/// The runner needs no particular executor from it: a firmware without async calls
+/// [`on_frame`](Self::on_frame), [`poll`](Self::poll), [`pop_tx`](Self::pop_tx) and
+/// [`tick`](Self::tick) from its own handlers (`boards/qemu-mps2/src/bin/bare_interrupts.rs`).
+pub struct SharedDrive<D, L = CriticalSection> {
+    lock: L,
+    /// The node; a `RefCell` so that a hook calling back in finds it borrowed.
+    drive: RefCell<Option<D>>,
+    /// Frames were queued outside the runner (by the tick): the runner should poll.
+    kicked: Cell<bool>,
+    /// The runner's waker while it waits for a kick.
+    waker: Cell<Option<Waker>>,
 }
 
-impl<D> Default for SharedDrive<D> {
+// SAFETY: the cells are touched only inside `self.lock.lock`, which runs one context at a time
+// (the contract of `Lock`); the node moves between contexts with them, hence `D: Send`.
+#[allow(unsafe_code)]
+unsafe impl<D: Send, L: Lock + Sync> Sync for SharedDrive<D, L> {}
+
+impl<D, L: Lock> Default for SharedDrive<D, L> {
     fn default() -> Self {
         Self::new()
     }
 }
 
-impl<D> SharedDrive<D> {
+impl<D, L: Lock> SharedDrive<D, L> {
     /// An empty slot: until [`SharedDrive::put`] every call does nothing.
     pub const fn new() -> Self {
-        SharedDrive { drive: Mutex::new(RefCell::new(None)), kick: Signal::new() }
+        SharedDrive {
+            lock: L::NEW,
+            drive: RefCell::new(None),
+            kicked: Cell::new(false),
+            waker: Cell::new(None),
+        }
     }
 
-    /// Puts the drive in (replacing any previous one) and wakes the runner.
+    /// Puts the drive in (replacing any previous one) and wakes the runner. Does nothing from a
+    /// context the lock refuses.
     pub fn put(&self, drive: D) {
-        critical_section::with(|cs| {
-            if let Ok(mut slot) = self.drive.borrow(cs).try_borrow_mut() {
+        let waker = self.lock.lock(|| {
+            if let Ok(mut slot) = self.drive.try_borrow_mut() {
                 *slot = Some(drive);
             }
+            self.kick()
         });
-        self.kick.signal(());
+        wake(waker);
     }
 
-    /// Runs `f` on the drive inside one critical section. `None` when the slot is empty or
-    /// the drive is already borrowed (a hook calling back in).
+    /// Runs `f` on the drive under the lock. `None` when the slot is empty, the drive is
+    /// already borrowed (a hook calling back in), or the lock refuses the calling context.
     pub fn with<R>(&self, f: impl FnOnce(&mut D) -> R) -> Option<R> {
-        critical_section::with(|cs| {
-            let mut slot = self.drive.borrow(cs).try_borrow_mut().ok()?;
-            slot.as_mut().map(f)
-        })
+        self.lock
+            .lock(|| {
+                let mut slot = self.drive.try_borrow_mut().ok()?;
+                slot.as_mut().map(f)
+            })
+            .flatten()
     }
 
     /// Wakes the runner, e.g. after a [`SharedDrive::with`] that queued frames.
     pub fn wake_runner(&self) {
-        self.kick.signal(());
+        wake(self.lock.lock(|| self.kick()));
     }
 
-    /// Waits until something outside the runner queued frames.
+    /// Marks the kick; the runner's waker, to wake once the lock is let go. Call under the lock.
+    fn kick(&self) -> Option<Waker> {
+        self.kicked.set(true);
+        self.waker.take()
+    }
+
+    /// Waits until something outside the runner queued frames. From a context the lock
+    /// refuses it never waits (the runner then spins, doing nothing: the drive refuses it too).
     pub(crate) async fn kicked(&self) {
-        self.kick.wait().await;
+        poll_fn(|cx| {
+            let waiting = self.lock.lock(|| {
+                if self.kicked.replace(false) {
+                    return (false, None);
+                }
+                let previous = self.waker.take();
+                let stale = match previous {
+                    Some(w) if w.will_wake(cx.waker()) => {
+                        self.waker.set(Some(w));
+                        None
+                    }
+                    other => {
+                        self.waker.set(Some(cx.waker().clone()));
+                        other
+                    }
+                };
+                (true, stale)
+            });
+            match waiting {
+                // A waker of another task is let go (dropped) outside the lock.
+                Some((true, _stale)) => Poll::Pending,
+                Some((false, _)) | None => Poll::Ready(()),
+            }
+        })
+        .await;
     }
 }
 
-impl<D: Endpoints> SharedDrive<D> {
+/// Wakes the runner, outside the lock (a wake may take the executor's own lock).
+fn wake(waker: Option<Option<Waker>>) {
+    if let Some(waker) = waker.flatten() {
+        waker.wake();
+    }
+}
+
+impl<D: Endpoints, L: Lock> SharedDrive<D, L> {
     /// One received frame.
     pub fn on_frame(&self, frame: &CanFrame, now: Instant) {
         self.with(|d| d.on_frame(frame, now));
@@ -186,10 +251,133 @@ impl<D: Endpoints> SharedDrive<D> {
     /// (TPDOs) or made work that only `poll` does (an EMCY to send, an inhibit time to wait
     /// out), so the runner polls after every tick (one short `poll` per tick in the
     /// communication context; wake-ups that come while the runner is busy merge into one).
-    /// Without a drive (or re-entered) the demand is [`Demand::OFF`]: no energy to the motor.
+    /// One hold of the lock for both. Without a drive, re-entered, or from a context the lock
+    /// refuses, the demand is [`Demand::OFF`]: no energy to the motor.
     pub fn tick(&self, now: Instant, sample: &Sample) -> Demand {
-        let demand = self.with(|d| d.tick(now, sample));
-        self.kick.signal(());
+        let result = self.lock.lock(|| {
+            let demand = match self.drive.try_borrow_mut() {
+                Ok(mut slot) => slot.as_mut().map(|d| d.tick(now, sample)),
+                Err(_) => None,
+            };
+            (demand, self.kick())
+        });
+        let (demand, waker) = result.unwrap_or((None, None));
+        wake(Some(waker));
         demand.unwrap_or(Demand::OFF)
+    }
+}
+
+#[cfg(test)]
+#[allow(unsafe_code)] // test locks implement the unsafe trait
+mod tests {
+    extern crate std;
+
+    use core::future::Future;
+    use core::pin::pin;
+    use core::sync::atomic::{AtomicUsize, Ordering};
+    use core::task::Context;
+    use std::sync::Arc;
+    use std::task::Wake;
+
+    use canopen_drive::hal::Setpoint;
+
+    use super::*;
+
+    /// A node whose tick always demands energy, so that `Demand::OFF` can only come from the
+    /// shared drive.
+    #[derive(Default)]
+    struct Node {
+        ticks: u32,
+    }
+
+    const ON: Demand = Demand { drive_enabled: true, setpoint: Setpoint::Torque(5), ..Demand::OFF };
+
+    impl Endpoints for Node {
+        fn on_frame(&mut self, _frame: &CanFrame, _now: Instant) {}
+        fn poll(&mut self, _now: Instant) -> Option<Instant> {
+            None
+        }
+        fn pop_tx(&mut self) -> Option<CanFrame> {
+            None
+        }
+        fn has_tx(&self) -> bool {
+            false
+        }
+        fn tick(&mut self, _now: Instant, _sample: &Sample) -> Demand {
+            self.ticks += 1;
+            ON
+        }
+    }
+
+    /// A lock that refuses every context, as `PriorityCeiling` refuses one above its ceiling.
+    struct Refusing;
+    // SAFETY: `f` never runs.
+    unsafe impl Lock for Refusing {
+        const NEW: Self = Refusing;
+        fn lock<R>(&self, _f: impl FnOnce() -> R) -> Option<R> {
+            None
+        }
+    }
+
+    /// A lock for one thread that counts how often it is taken.
+    struct Counting {
+        holds: Cell<usize>,
+    }
+    // SAFETY: `Counting` is not `Sync`: one thread, so one context.
+    unsafe impl Lock for Counting {
+        const NEW: Self = Counting { holds: Cell::new(0) };
+        fn lock<R>(&self, f: impl FnOnce() -> R) -> Option<R> {
+            self.holds.set(self.holds.get() + 1);
+            Some(f())
+        }
+    }
+
+    #[derive(Default)]
+    struct Wakes(AtomicUsize);
+    impl Wake for Wakes {
+        fn wake(self: Arc<Self>) {
+            self.0.fetch_add(1, Ordering::Relaxed);
+        }
+    }
+
+    #[test]
+    fn a_refused_context_changes_nothing_and_gives_the_motor_no_energy() {
+        let shared: SharedDrive<Node, Refusing> = SharedDrive::new();
+        shared.put(Node::default());
+        assert_eq!(shared.with(|n| n.ticks), None);
+        assert_eq!(shared.tick(Instant::from_micros(0), &Sample::default()), Demand::OFF);
+        // The runner is not kept waiting on a lock it cannot take.
+        let waker = Arc::new(Wakes::default()).into();
+        let mut cx = Context::from_waker(&waker);
+        assert!(pin!(shared.kicked()).poll(&mut cx).is_ready());
+    }
+
+    #[test]
+    fn a_tick_is_one_hold_of_the_lock_and_wakes_the_waiting_runner() {
+        let shared: SharedDrive<Node, Counting> = SharedDrive::new();
+        shared.put(Node::default());
+        let wakes = Arc::new(Wakes::default());
+        let waker = wakes.clone().into();
+        let mut cx = Context::from_waker(&waker);
+        // The kick of `put` first.
+        assert!(pin!(shared.kicked()).poll(&mut cx).is_ready());
+        let mut waiting = pin!(shared.kicked());
+        assert!(waiting.as_mut().poll(&mut cx).is_pending());
+
+        let holds = shared.lock.holds.get();
+        assert_eq!(shared.tick(Instant::from_micros(0), &Sample::default()), ON);
+        assert_eq!(shared.lock.holds.get(), holds + 1);
+        assert_eq!(wakes.0.load(Ordering::Relaxed), 1);
+        assert!(waiting.as_mut().poll(&mut cx).is_ready());
+        assert_eq!(shared.with(|n| n.ticks), Some(1));
+    }
+
+    #[test]
+    fn a_hook_calling_back_in_finds_the_drive_borrowed() {
+        let shared: SharedDrive<Node, Counting> = SharedDrive::new();
+        shared.put(Node::default());
+        let inner = shared
+            .with(|_| (shared.with(|n| n.ticks), shared.tick(Instant::from_micros(0), &Sample::default())));
+        assert_eq!(inner, Some((None, Demand::OFF)));
     }
 }

@@ -6,6 +6,7 @@ use core::sync::atomic::{AtomicU32, Ordering};
 use canopen_drive::hal::{Demand, Sample};
 use embassy_time::{Duration, Instant, Timer};
 
+use crate::lock::Lock;
 use crate::shared::{Endpoints, SharedDrive};
 
 /// How late the ticks ran: the time from when a tick was due to when it started, as the
@@ -68,8 +69,8 @@ impl TickMonitor {
 /// `apply` the demand. Spawn it on an `InterruptExecutor` whose interrupt has a higher
 /// priority than the runner's. Lateness (µs) goes to `monitor`. After a stall the grid
 /// restarts instead of catching up in a burst.
-pub async fn run_tick<D: Endpoints>(
-    drive: &SharedDrive<D>,
+pub async fn run_tick<D: Endpoints, L: Lock>(
+    drive: &SharedDrive<D, L>,
     period: Duration,
     monitor: &TickMonitor,
     mut sample: impl FnMut() -> Sample,

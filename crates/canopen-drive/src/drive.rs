@@ -22,10 +22,11 @@
 //! ## Concurrency
 //!
 //! `Drive` is a plain value with `&mut self` entry points. Firmware that calls `tick` from a
-//! high-priority interrupt and `on_frame`/`poll` from a lower one shares it through a
-//! `critical_section::Mutex<RefCell<Drive>>`; every entry point does bounded work, so the time
-//! the tick can be held off is bounded by the longest single call (one frame, or one poll of at
-//! most [`TX_QUEUE`] frames).
+//! high-priority interrupt and `on_frame`/`poll` from a lower one shares it behind a lock: a
+//! `critical_section::Mutex<RefCell<Drive>>`, or `canopen-drive-embassy`'s `SharedDrive`, whose
+//! priority-ceiling lock leaves the interrupts above the tick (a current loop) unmasked; every
+//! entry point does bounded work, so the time the tick can be held off is bounded by the
+//! longest single call (one frame, or one poll of at most [`TX_QUEUE`] frames).
 
 use core::fmt;
 use core::mem::MaybeUninit;

@@ -2,17 +2,21 @@
 //! does not use embassy. The same discipline as `canopen-drive-embassy` (see its crate docs),
 //! spelled out by hand:
 //!
-//! | context | priority | does | holds the lock for |
+//! | context | priority | does | holds the drive's lock for |
 //! |---|---|---|---|
-//! | TIMER0 interrupt ("PWM/timer") | highest | `Drive::tick` at 1 kHz, the motor | one `tick` |
-//! | UART0 receive interrupt ("CAN RX") | middle | assembles SLCAN lines; `Drive::on_frame` per received frame | one `on_frame` |
+//! | dual timer interrupt ("current loop") | 0x00, above the lock | counts its runs (1 kHz here, 20 kHz in `tick-bound`) | never takes it |
+//! | TIMER0 interrupt ("PWM/timer") | 0x40, the lock's ceiling | `Drive::tick` at 1 kHz, the motor | one `tick` |
+//! | UART0 receive interrupt ("CAN RX") | 0x80 | assembles SLCAN lines; `Drive::on_frame` per received frame | one `on_frame` |
 //! | main loop | thread | `Drive::poll` at its deadline or when an interrupt asked; `Drive::pop_tx` to the "CAN controller" (UART0 transmit) | one `poll`, one `pop_tx` |
 //!
-//! - **Shared:** the `Drive`, in a `critical_section::Mutex<RefCell<Option<..>>>` (the value
-//!   in a `StaticCell`, so the static is a pointer in `.bss`), and two flags.
-//! - **Protection:** a critical section (interrupts masked) around each single call; no call
-//!   does more than one bounded step of work, so the tick is held off by at most the longest
-//!   one (boards/qemu-mps2 measures it: object 2F06h).
+//! - **Shared:** the `Drive`, in a `SharedDrive` of `canopen-drive-embassy` (which needs no
+//!   executor; the value in a `StaticCell`, so the static is a pointer in `.bss`), and two
+//!   flags.
+//! - **Protection:** the drive's lock is a priority ceiling at the tick's priority
+//!   (`PriorityCeiling`: BASEPRI on the Cortex-M4, the NVIC lines at or below the tick
+//!   disabled on ARMv6-M) around each single call; no call does more than one bounded step of
+//!   work, so the tick is held off by at most the longest one (boards/qemu-mps2 measures it:
+//!   object 2F06h), and the current loop above the ceiling by none.
 //! - **One writer per peripheral:** only the main loop writes UART0; the receive interrupt
 //!   queues its replies to SLCAN commands for the main loop instead of writing them.
 //!
@@ -30,6 +34,7 @@ mod firmware {
     use core::sync::atomic::{AtomicBool, Ordering};
 
     use canopen_drive::{CanFrame, Instant};
+    use canopen_drive_embassy::SharedDrive;
     use canopen_drive_qemu_mps2::board;
     use canopen_drive_qemu_mps2::mps2::{self, uart0, Irq};
     use canopen_drive_qemu_mps2::node::{self, BoardDrive};
@@ -42,8 +47,8 @@ mod firmware {
     use heapless::Deque;
     use static_cell::StaticCell;
 
-    /// The drive; each access is one critical section around one call.
-    static DRIVE: Mutex<RefCell<Option<&'static mut BoardDrive>>> = Mutex::new(RefCell::new(None));
+    /// The drive; each access is one hold of its lock around one call.
+    static DRIVE: SharedDrive<&'static mut BoardDrive, board::DriveLock> = SharedDrive::new();
     static DRIVE_CELL: StaticCell<BoardDrive> = StaticCell::new();
 
     /// The receive handler's line buffer and its queued replies to SLCAN control lines.
@@ -55,11 +60,6 @@ mod firmware {
 
     fn now() -> Instant {
         Instant::from_micros(board::now_micros())
-    }
-
-    /// One call into the drive, inside one critical section.
-    fn with_drive<R>(f: impl FnOnce(&mut BoardDrive) -> R) -> Option<R> {
-        critical_section::with(|cs| DRIVE.borrow_ref_mut(cs).as_deref_mut().map(f))
     }
 
     #[inline(never)]
@@ -78,23 +78,15 @@ mod firmware {
     fn main() -> ! {
         uart0::init();
         let drive = make_drive();
-        critical_section::with(|cs| *DRIVE.borrow_ref_mut(cs) = Some(drive));
+        DRIVE.put(drive);
         defmt::info!("canopen-drive on mps2 (bare interrupts): node {}", node::NODE_ID);
 
         let Some(mut core) = cortex_m::Peripherals::take() else { mps2::exit(103) };
-        // SAFETY: set before the interrupts are unmasked; the tick preempts the receive handler.
-        unsafe {
-            core.NVIC.set_priority(Irq::Timer0, 0x00);
-            core.NVIC.set_priority(Irq::Uart0Rx, 0x40);
-            core.SCB.set_priority(cortex_m::peripheral::scb::SystemHandler::SysTick, 0x80);
-        }
-        board::start_timers();
+        // The current loop above the tick, the tick at the drive's ceiling, then UART0, SysTick.
+        board::start_interrupts(&mut core.NVIC, &mut core.SCB, board::CURRENT_LOOP_PERIOD_US_REAL_TIME);
         critical_section::with(|_| uart0::set_rx_interrupt(true));
-        // SAFETY: the handlers below are ready.
-        unsafe {
-            NVIC::unmask(Irq::Timer0);
-            NVIC::unmask(Irq::Uart0Rx);
-        }
+        // SAFETY: the handler below is ready.
+        unsafe { NVIC::unmask(Irq::Uart0Rx) };
         // A byte that came before the receive interrupt was enabled raised no interrupt, and
         // QEMU holds back the rest until it is read: let the handler look once.
         NVIC::pend(Irq::Uart0Rx);
@@ -106,13 +98,13 @@ mod firmware {
             WORK.store(false, Ordering::Release);
             let now = now();
             if work || deadline.is_some_and(|d| d <= now) {
-                deadline = with_drive(|d| d.poll(now)).flatten();
+                deadline = DRIVE.poll(now);
             }
             // Replies first: a master waits for them before its next line.
             while let Some(reply) = critical_section::with(|cs| REPLIES.borrow_ref_mut(cs).pop_front()) {
                 uart0::write_all(reply);
             }
-            while let Some(frame) = with_drive(|d| d.pop_tx()).flatten() {
+            while let Some(frame) = DRIVE.pop_tx() {
                 uart0::write_all(slcan::encode(&frame).as_bytes());
             }
             if let Some(code) = exit_requested() {
@@ -136,7 +128,7 @@ mod firmware {
             match line {
                 None => continue,
                 Some(Ok(Command::Frame(frame))) => {
-                    with_drive(|d| d.on_frame(&frame, now()));
+                    DRIVE.on_frame(&frame, now());
                     queue_reply(Command::Frame(frame).reply());
                 }
                 Some(Ok(command)) => queue_reply(command.reply()),
@@ -156,9 +148,7 @@ mod firmware {
     /// TIMER0: the control tick.
     #[no_mangle]
     extern "C" fn TIMER0() {
-        board::control_tick(|now, sample| {
-            with_drive(|d| d.tick(now, sample)).unwrap_or(canopen_drive::hal::Demand::OFF)
-        });
+        board::control_tick(|now, sample| DRIVE.tick(now, sample));
         // The tick may have queued a TPDO or raised an EMCY that `poll` sends.
         WORK.store(true, Ordering::Release);
     }
