@@ -314,21 +314,21 @@ impl Move<'_> {
 
     /// One round: the peak for `counts` from the present state. `Some(true)` when every leg
     /// conforms (the legs are then in `legs`), `Some(false)` when a leg was lengthened. With
-    /// a `drift` (what a tick of the held velocity adds to twice the distance, for a plan
-    /// made over several ticks), a failed round also lengthens the legs for the state of the
-    /// next tick, where the next round solves.
-    fn round(&self, counts: &mut Counts, legs: &mut Legs, drift: i128) -> Option<bool> {
-        if self.attempt(self.distance2, counts, Some(legs))? {
+    /// the problem of the `next` tick (a plan made over several ticks, where the next round
+    /// solves from there), a failed round lengthens the legs for that state too.
+    fn round(&self, counts: &mut Counts, legs: &mut Legs, next: Option<&Move<'_>>) -> Option<bool> {
+        if self.attempt(counts, Some(legs))? {
             return Some(true);
         }
-        if drift != 0 {
-            self.attempt(self.distance2.checked_sub(drift)?, counts, None)?;
+        if let Some(next) = next {
+            next.attempt(counts, None)?;
         }
         Some(false)
     }
 
-    /// [`Self::round`] over `distance2`, writing the legs to `legs` if given.
-    fn attempt(&self, distance2: i128, counts: &mut Counts, legs: Option<&mut Legs>) -> Option<bool> {
+    /// [`Self::round`], writing the legs to `legs` if given.
+    fn attempt(&self, counts: &mut Counts, legs: Option<&mut Legs>) -> Option<bool> {
+        let distance2 = self.distance2;
         let limits = self.limits;
         let (u0, ue) = (self.u0, self.ue);
         if counts.stop > 0 && !within(u0, counts.stop, limits.deceleration) {
@@ -404,7 +404,7 @@ impl Move<'_> {
     fn solve(&self, stop_first: bool, legs: &mut Legs) -> Option<()> {
         let mut counts = self.layout(stop_first)?;
         for _ in 0..ROUNDS {
-            if self.round(&mut counts, legs, 0)? {
+            if self.round(&mut counts, legs, None)? {
                 return Some(());
             }
         }
@@ -415,18 +415,24 @@ impl Move<'_> {
 /// Where a plan made over several ticks has got to.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Stage {
-    /// Next: the layout (the fallback's with `true`).
+    /// Asked for in this tick: the work starts in the next (the tick that takes a set-point
+    /// has work enough of its own).
+    Asked,
+    /// Next: the layout (the fallback's with `true`) and its first round.
     Layout(bool),
     /// Next: round `round` of the layout (or of the fallback).
     Round { fallback: bool, round: u32 },
 }
 
 /// A plan made over several ticks while the present motion continues ([`Ramps::request`]).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 struct Job {
     target2: i128,
     last: i128,
     limits: RampLimits,
+    /// For the provisional rule: the end velocity squared and 1 / deceleration (`f32`).
+    end_squared: f32,
+    per_deceleration: f32,
     stage: Stage,
     counts: Counts,
 }
@@ -532,9 +538,11 @@ impl Ramps {
     }
 
     /// Asks for a move to `target` that passes it at `last` (as [`Self::plan`]), planned over
-    /// the next ticks by [`Self::work`], at most one layout or one round per tick (see the
-    /// module docs), while the axis holds its present velocity. The plan starts in the tick
-    /// that completes it, from the state of that tick.
+    /// the next ticks by [`Self::work`]: nothing in the tick that asks, then the layout, then
+    /// a round per tick (see the module docs). The axis holds its velocity in the tick that
+    /// asks and follows the provisional rule ([`Self::provisional`]) from the next; the plan
+    /// starts in the tick that completes it, from the state of that tick (usually the third
+    /// after the request).
     pub(crate) fn request(
         &mut self,
         target: i128,
@@ -543,8 +551,9 @@ impl Ramps {
     ) -> Result<(), MotionError> {
         let target2 = target.checked_mul(2).ok_or(MotionError::OutOfRange)?;
         target2.checked_sub(self.p2).ok_or(MotionError::OutOfRange)?;
-        // Meanwhile the velocity is held (a trapezoid's acceleration may jump), so each
-        // round solves for the same start velocity and the rounds converge as at once.
+        // Meanwhile the axis follows the provisional rule (a trapezoid's acceleration may
+        // jump); each round solves from the state of its tick, and lengthens what it must for
+        // the state of the next.
         self.legs.len = 0;
         self.left = 0;
         self.a = 0;
@@ -553,64 +562,107 @@ impl Ramps {
             target2,
             last,
             limits: *limits,
-            stage: Stage::Layout(false),
+            end_squared: real(last) * real(last),
+            per_deceleration: 1.0 / real(limits.deceleration),
+            stage: Stage::Asked,
             counts: Counts::default(),
         });
+        // This tick holds the velocity; the provisional rule takes over from the next one.
+        self.a = 0;
         Ok(())
     }
 
     /// One tick's share of the plan [`Self::request`] asked for: a layout or a round. When a
     /// round completes the plan, its legs start from the present state.
     pub(crate) fn work(&mut self) {
-        let Some(mut job) = self.job else { return };
-        let Some(distance2) = job.target2.checked_sub(self.p2) else {
-            self.give_up(&job);
-            return;
-        };
-        let problem = Move { distance2, u0: self.v, ue: job.last, limits: &job.limits };
-        // What a tick of the held velocity adds to twice the distance.
-        let drift = self.v.saturating_mul(2);
-        match job.stage {
-            // For the state of the next tick, where the first round solves.
-            Stage::Layout(fallback) => {
-                match (Move { distance2: distance2.saturating_sub(drift), ..problem }).layout(fallback) {
-                    Some(counts) => {
-                        job.counts = counts;
-                        job.stage = Stage::Round { fallback, round: 0 };
-                        self.job = Some(job);
+        let made = |fallback: bool| if fallback { Made::Fallback } else { Made::Layout };
+        // Worked on in place (a job and the legs are some 200 bytes to copy).
+        let (p2, v, a) = (self.p2, self.v, self.a);
+        let Some(job) = self.job.as_mut() else { return };
+        let deceleration = job.limits.deceleration;
+        let outcome = job.target2.checked_sub(p2).and_then(|distance2| {
+            let problem = Move { distance2, u0: v, ue: job.last, limits: &job.limits };
+            // The state of the next tick, after this one's provisional acceleration `a`.
+            let next = Move {
+                distance2: distance2.checked_sub(v.checked_mul(2)?.checked_add(a)?)?,
+                u0: v.checked_add(a)?,
+                ..problem
+            };
+            match job.stage {
+                Stage::Asked => {
+                    job.stage = Stage::Layout(false);
+                    Some(None)
+                }
+                // For the next tick, where the first round solves.
+                Stage::Layout(fallback) => {
+                    job.counts = next.layout(fallback)?;
+                    job.stage = Stage::Round { fallback, round: 0 };
+                    Some(None)
+                }
+                Stage::Round { fallback, round } => {
+                    match problem.round(&mut job.counts, &mut self.legs, Some(&next))? {
+                        true => Some(Some((job.target2, job.last, made(fallback)))),
+                        false if round + 1 < ROUNDS => {
+                            job.stage = Stage::Round { fallback, round: round + 1 };
+                            Some(None)
+                        }
+                        false if !fallback => {
+                            job.stage = Stage::Layout(true);
+                            Some(None)
+                        }
+                        false => None,
                     }
-                    None => self.give_up(&job),
                 }
             }
-            Stage::Round { fallback, round } => {
-                let mut legs = self.legs;
-                match problem.round(&mut job.counts, &mut legs, drift) {
-                    Some(true) => {
-                        self.job = None;
-                        self.legs = legs;
-                        self.start(
-                            job.target2,
-                            job.last,
-                            if fallback { Made::Fallback } else { Made::Layout },
-                        );
-                    }
-                    Some(false) if round + 1 < ROUNDS => {
-                        job.stage = Stage::Round { fallback, round: round + 1 };
-                        self.job = Some(job);
-                    }
-                    Some(false) if !fallback => {
-                        job.stage = Stage::Layout(true);
-                        self.job = Some(job);
-                    }
-                    _ => self.give_up(&job),
-                }
+        });
+        match outcome {
+            Some(None) => {}
+            Some(Some((end_p2, end_v, made))) => {
+                self.job = None;
+                self.start(end_p2, end_v, made);
+            }
+            // No plan conformed (not seen in the tests; the fallback always has): stop instead.
+            None => {
+                let _ = self.stop(deceleration);
             }
         }
     }
 
-    /// No plan conformed (not seen in the tests; the fallback always has): stop instead.
-    fn give_up(&mut self, job: &Job) {
-        let _ = self.stop(job.limits.deceleration);
+    /// The acceleration of the next tick while a requested plan is being made: the simple rule
+    /// of a trapezoid made online, so the axis answers the request at once. Towards the target
+    /// at the acceleration while the velocity limit and the room to slow down to the end
+    /// velocity allow; otherwise slowing down at the deceleration (to standstill exactly when
+    /// the axis moves away from the target). The rule keeps every limit; the plan then starts
+    /// from wherever it has brought the axis.
+    fn provisional(&self) -> i128 {
+        let Some(job) = self.job.as_ref() else { return 0 };
+        let limits = &job.limits;
+        let distance2 = job.target2.saturating_sub(self.p2);
+        // Along the target's direction (a sign is applied by negation: a 128-bit product by
+        // ±1 is a long call on a Cortex-M).
+        let toward_negative = distance2 < 0 || (distance2 == 0 && self.v > 0);
+        let along = |x: i128| if toward_negative { x.saturating_neg() } else { x };
+        let v = along(self.v);
+        let slow_down = |by: i128| along(by.min(limits.deceleration).saturating_neg());
+        if v < 0 {
+            // Away from the target: slow down, to standstill exactly on the last tick.
+            return along((-v).min(limits.deceleration));
+        }
+        if v > limits.velocity {
+            return slow_down(v - limits.velocity);
+        }
+        // Room to slow down to the end velocity from the next tick's velocity, in twice the
+        // distance (f32: only the choice depends on it).
+        let speed = real(v.saturating_add(limits.acceleration));
+        let stopping = (speed * speed - job.end_squared) * job.per_deceleration;
+        let room = real(along(distance2)) - 2.0 * speed;
+        if v > job.last.saturating_abs() && stopping >= room {
+            slow_down(v - job.last.saturating_abs())
+        } else if distance2 == 0 {
+            0
+        } else {
+            along(limits.acceleration.min(limits.velocity - v))
+        }
     }
 
     /// True while a requested plan is being made (for the tests).
@@ -671,7 +723,10 @@ impl Ramps {
     /// Advances one tick. After the plan the state moves on at its end velocity.
     pub(crate) fn step(&mut self) {
         if self.left == 0 {
-            self.p2 = self.p2.saturating_add(self.v.saturating_mul(2));
+            // After a plan: on at its end velocity. While one is made: the provisional rule.
+            self.p2 = self.p2.saturating_add(self.v.saturating_mul(2)).saturating_add(self.a);
+            self.v = self.v.saturating_add(self.a);
+            self.a = self.provisional();
             return;
         }
         self.p2 = self.p2.wrapping_add(self.v.wrapping_mul(2)).wrapping_add(self.a);
