@@ -66,6 +66,7 @@ pub(crate) static ALL: &[Measurement] = &[
     ),
     m("tick-pp-quick-stop", "tick: pp quick stop from full speed, S-curve (605Ah = 2)", tick_pp_quick_stop),
     m("tick-pp-halt", "tick: pp halt (bit 8) from full speed, S-curve", tick_pp_halt),
+    m("tick-hm-start", "tick: hm method 17 started (controlword bit 4 rising)", tick_hm_start),
     m(
         "tick-hm-switch",
         "tick: hm method 17 at its limit switch (the search turns to leave it)",
@@ -332,6 +333,16 @@ fn hm_ready() -> Result<Rig, SetupError> {
     rig.enable(6)?;
     rig.write(0x6040, 0, &0x001Fu16.to_le_bytes())?;
     Ok(rig)
+}
+
+/// Homing ready to start: the next tick takes the rising bit 4 of 001Fh and starts the
+/// search.
+fn tick_hm_start() -> Result<Prepared, SetupError> {
+    let mut rig = hm_ready()?;
+    check(rig.statusword()? & 0x3000 == 0, "homing neither attained nor in error")?;
+    // Within a few ticks the search moves the axis towards the negative switch.
+    after_ticks(&rig, 4, |d| velocity_demand_of(d) < 0)?;
+    Ok(tick_state(rig))
 }
 
 /// The negative limit switch is active in the sample of the next tick.

@@ -425,17 +425,19 @@ impl Program {
         }
     }
 
-    /// The program of `method`, from the switch states at the start; `None` for a method
-    /// without motion (35, 37) or one this build does not run.
+    /// Makes this the program of `method`, from the switch states at the start; `None` for
+    /// a method without motion (35, 37) or one this build does not run.
     /// `back_off`: the distances to back off from a positive and from a negative stop.
-    fn of(
+    fn fill(
+        &mut self,
         method: i8,
         inputs: DigitalInputs,
         vendor: Option<VendorMethod>,
         back_off: (i64, i64),
-    ) -> Option<Program> {
+    ) -> Option<()> {
+        *self = Program::default();
         let away_from = |positive: bool| if positive { -back_off.0 } else { back_off.1 };
-        let mut p = Program::default();
+        let p = self;
         let home = Signal::Home.active(inputs);
         let negative_limit = Signal::NegativeLimit.active(inputs);
         let positive_limit = Signal::PositiveLimit.active(inputs);
@@ -539,7 +541,7 @@ impl Program {
                 }
             },
         }
-        Some(p)
+        Some(())
     }
 }
 
@@ -913,9 +915,9 @@ impl Homing {
         }
         let (_, _, positive, negative) = self.config.hard_stop_parameters(input.od);
         let back_off = (positive, negative);
-        match Program::of(method, input.inputs, self.config.vendor(method), back_off) {
-            Some(program) if method != 0 => {
-                self.program = program;
+        // Filled in place: a program is some 160 bytes to copy.
+        match self.program.fill(method, input.inputs, self.config.vendor(method), back_off) {
+            Some(()) if method != 0 => {
                 planner.reset(input.actual);
                 if !self.begin(planner, 0, input) {
                     self.fail(planner, input.speeds.2, outcome);

@@ -129,12 +129,11 @@ pub(crate) fn mul_small(x: i128, n: u32) -> Option<i128> {
         return Some(0);
     }
     let magnitude = x.unsigned_abs();
-    let n = u64::from(n);
     // Written out: constant shifts of a u128 are free, variable ones are not.
-    let d0 = u64::from(magnitude as u32) * n;
-    let d1 = u64::from((magnitude >> 32) as u32) * n + (d0 >> 32);
-    let d2 = u64::from((magnitude >> 64) as u32) * n + (d1 >> 32);
-    let d3 = u64::from((magnitude >> 96) as u32) * n + (d2 >> 32);
+    let d0 = wide_product(magnitude as u32, n);
+    let d1 = wide_product((magnitude >> 32) as u32, n) + (d0 >> 32);
+    let d2 = wide_product((magnitude >> 64) as u32, n) + (d1 >> 32);
+    let d3 = wide_product((magnitude >> 96) as u32, n) + (d2 >> 32);
     if d3 >> 32 != 0 {
         return None;
     }
@@ -144,6 +143,24 @@ pub(crate) fn mul_small(x: i128, n: u32) -> Option<i128> {
         | u128::from(d3 as u32) << 96;
     let product = i128::try_from(product).ok()?;
     Some(if x < 0 { -product } else { product })
+}
+
+/// `a·b` in 64 bits: one instruction where the core multiplies 32×32 → 64 bits (UMULL).
+#[cfg(target_has_atomic = "32")]
+fn wide_product(a: u32, b: u32) -> u64 {
+    u64::from(a) * u64::from(b)
+}
+
+/// `a·b` in 64 bits from four 16×16-bit products, on a core without a 32×32 → 64-bit
+/// multiply. ARMv6-M is such a core, and the one without 32-bit atomics that this crate builds
+/// for (the proxy this `cfg` uses); there the compiler calls a general 64×64-bit multiply of
+/// some 80 instructions, this is about fifteen.
+#[cfg(not(target_has_atomic = "32"))]
+fn wide_product(a: u32, b: u32) -> u64 {
+    let (a0, a1) = (a & 0xffff, a >> 16);
+    let (b0, b1) = (b & 0xffff, b >> 16);
+    let middle = u64::from(a0 * b1) + u64::from(a1 * b0);
+    (u64::from(a1 * b1) << 32) + (middle << 16) + u64::from(a0 * b0)
 }
 
 /// Rounds a fixed-point value to the nearest integer (halves up).
@@ -274,6 +291,15 @@ mod unit_tests {
             let n = u64::from(high) << 32 | u64::from(low);
             let d = u64::from(divisor);
             assert_eq!(div_digit(high, low, divisor), ((n / d) as u32, (n % d) as u32), "{n} {d}");
+        }
+    }
+
+    #[test]
+    fn wide_products() {
+        for (a, b) in
+            [(0u32, 0u32), (1, u32::MAX), (u32::MAX, u32::MAX), (0x1234_5678, 0x9abc_def0), (65_535, 65_537)]
+        {
+            assert_eq!(wide_product(a, b), u64::from(a) * u64::from(b));
         }
     }
 

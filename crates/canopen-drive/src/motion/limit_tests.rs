@@ -418,3 +418,67 @@ fn lowered_limits_are_reached_with_the_deceleration() {
         }
     }
 }
+
+#[test]
+fn trapezoid_durations_against_the_exact_planner() {
+    // The bounded trapezoid (`ramps`) against the exact planner's time-optimal whole-tick plans,
+    // over the scenarios of the random test (trapezoids, re-plans from moving states, lowered
+    // and raised limits, end velocities): the extra ticks per plan, their distribution and the
+    // worst case.
+    use super::fixed::per_tick;
+    use super::solve::plan_move;
+    use super::trajectory::{Segment, MAX_SEGMENTS};
+    let mut rng = Rng(0x5EED_0F11_4175);
+    let mut extra: std::vec::Vec<(i64, f64)> = std::vec::Vec::new();
+    for scenario in 0..1200 {
+        let mut limits = random_limits(&mut rng, ProfileType::Trapezoidal);
+        let hz = [1000, 2000, 4000, 16_000][scenario % 4];
+        let start = rng.range(-2.0e9, 2.0e9) as i64;
+        let mut planner = PositionPlanner::new(TickRate::new(hz).unwrap(), start);
+        for replan in 0..8 {
+            if replan > 0 && rng.next().is_multiple_of(3) {
+                limits = changed_limits(&mut rng, &limits);
+            }
+            let here = planner.state().position;
+            let span = f64::from(limits.velocity) * rng.range(0.0, 3.0);
+            let target = here + rng.range(-span, span) as i64;
+            let end_velocity = if rng.next().is_multiple_of(3) {
+                (f64::from(limits.velocity) * rng.unit()) as u32
+            } else {
+                0
+            };
+            let before = planner.exact();
+            let to_go = (i128::from(target) << FRAC) - before.p;
+            let last = to_go.signum() * per_tick(end_velocity.min(limits.velocity), hz, 1);
+            let mut segments = [Segment::default(); MAX_SEGMENTS];
+            let exact = plan_move(Exact { a: 0, ..before }, to_go, last, &limits, hz, &mut segments);
+            let ticks = planner.plan(target, end_velocity, &limits).unwrap();
+            if let Ok(exact) = exact {
+                let optimal = exact.ticks as f64;
+                extra.push((
+                    i64::from(ticks) - exact.ticks as i64,
+                    (f64::from(ticks) - optimal) / optimal.max(1.0),
+                ));
+            }
+            let run = (rng.unit() * f64::from(ticks)) as u32;
+            for _ in 0..run {
+                planner.step();
+            }
+        }
+    }
+    extra.sort_by(|a, b| a.0.cmp(&b.0));
+    let n = extra.len();
+    let within = extra.iter().filter(|(ticks, ratio)| *ticks <= 2 || *ratio <= 0.01).count();
+    let quantile = |q: f64| extra[((n - 1) as f64 * q) as usize].0;
+    let worst_ratio = extra.iter().map(|e| e.1).fold(f64::MIN, f64::max);
+    std::eprintln!(
+        "{n} plans: extra ticks against the exact planner: median {}, 99 % {}, worst {} ({:.2} %); within 1 % or 2 ticks: {within} ({:.2} %); shorter: {}",
+        quantile(0.5),
+        quantile(0.99),
+        extra[n - 1].0,
+        worst_ratio * 100.0,
+        within as f64 * 100.0 / n as f64,
+        extra.iter().filter(|e| e.0 < 0).count(),
+    );
+    assert!(within * 100 >= n * 98, "{within} of {n} plans within 1 % or 2 ticks");
+}

@@ -141,7 +141,7 @@ impl PositionPlanner {
         let p = i128::from(position) << FRAC;
         match &mut self.engine {
             Engine::Segments(trajectory) => trajectory.hold(p),
-            Engine::Ramps(ramps) => *ramps = Ramps::at(Exact { p, v: 0, a: 0 }),
+            Engine::Ramps(ramps) => ramps.hold(p),
         }
         self.state = state_of(&self.engine.now(), self.hz);
         self.target = position;
@@ -169,7 +169,10 @@ impl PositionPlanner {
     /// until then. (A jerk-limited plan is still made at once, by the exact planner.)
     pub fn request(&mut self, target: i64, end_velocity: u32, limits: &Limits) -> Result<(), MotionError> {
         let result = self.plan_from_here(target, end_velocity, limits, true);
-        self.state = state_of(&self.engine.now(), self.hz);
+        if !matches!(limits.profile, ProfileType::Trapezoidal) {
+            // A trapezoid's request leaves the state as it is; the exact planner may round it.
+            self.state = state_of(&self.engine.now(), self.hz);
+        }
         result.map(|_| ())
     }
 

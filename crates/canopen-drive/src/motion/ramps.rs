@@ -493,6 +493,20 @@ impl Ramps {
         }
     }
 
+    /// Drops any plan and holds still at `p` (as [`Self::at`], in place).
+    pub(crate) fn hold(&mut self, p: i128) {
+        self.legs.len = 0;
+        self.job = None;
+        self.next = 0;
+        self.p2 = p.wrapping_mul(2);
+        self.v = 0;
+        self.a = 0;
+        self.left = 0;
+        self.remaining = 0;
+        self.end_p2 = self.p2;
+        self.end_v = 0;
+    }
+
     /// The present state.
     pub(crate) fn now(&self) -> Exact {
         Exact { p: self.p2 >> 1, v: self.v, a: self.a }
