@@ -466,7 +466,7 @@ fn trapezoid_durations_against_the_exact_planner() {
             }
         }
     }
-    extra.sort_by(|a, b| a.0.cmp(&b.0));
+    extra.sort_by_key(|e| e.0);
     let n = extra.len();
     let within = extra.iter().filter(|(ticks, ratio)| *ticks <= 2 || *ratio <= 0.01).count();
     let quantile = |q: f64| extra[((n - 1) as f64 * q) as usize].0;
