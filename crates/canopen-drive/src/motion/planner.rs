@@ -161,12 +161,14 @@ impl PositionPlanner {
         ticks
     }
 
-    /// [`Self::plan`] in bounded time per tick, as a drive's tick needs it: the request is
-    /// checked at once (the same errors, and on error the present motion continues), a
-    /// trapezoid is then planned by the following [`Self::step`]s, a layout or a round per
-    /// step, while the present motion continues (see [`ramps`](super::ramps)); it starts one
-    /// or a few ticks later, from the state it is completed in. [`Self::is_finished`] is false
-    /// until then. (A jerk-limited plan is still made at once, by the exact planner.)
+    /// [`Self::plan`] in bounded time per tick, as a drive's tick needs it. The request is
+    /// checked at once (the same errors; on error the present motion continues). A trapezoid
+    /// is then planned by the following [`Self::step`]s, a layout or a round of its solver per
+    /// step, none in the step of the tick that asks; meanwhile the axis already moves under a
+    /// provisional rule (towards the target at the acceleration while the velocity limit and
+    /// the room to slow down allow, else slowing down), and the plan starts, usually in the
+    /// third step, from wherever that brought it. [`Self::is_finished`] is false until the plan
+    /// is complete. (A jerk-limited plan is still made at once, by the exact planner.)
     pub fn request(&mut self, target: i64, end_velocity: u32, limits: &Limits) -> Result<(), MotionError> {
         let result = self.plan_from_here(target, end_velocity, limits, true);
         if !matches!(limits.profile, ProfileType::Trapezoidal) {

@@ -1,6 +1,6 @@
-//! Trapezoidal profiles (6086h = 0) of bounded cost: a plan is a handful of exact integer
-//! operations, so a set-point, a stop or a homing phase change is planned inside the tick that
-//! takes it, without a search.
+//! Trapezoidal profiles (6086h = 0) of bounded cost: a plan is a layout in `f32` and a few
+//! rounds of exact integer operations, without a search, and a drive makes it over several
+//! ticks (a layout or a round per tick) while the axis already moves.
 //!
 //! # Shape
 //!
@@ -32,6 +32,30 @@
 //! 3. **Fallback.** If the rounds run out, the plan stops first and moves from standstill (and
 //!    for an end velocity, starts again to pass the target at it): its legs all end or start at
 //!    zero, so lengthening a leg can only lower the peak, and it conforms.
+//!
+//! # Over several ticks ([`Ramps::request`])
+//!
+//! A drive asks for its plans this way, so that no tick makes a whole plan: the tick that asks
+//! checks the request and does nothing more (it has the set-point's own work), the next one
+//! makes the layout, each following one a round; the fallback's layout and rounds follow the
+//! same way. The plan starts in the tick whose round completes it, from that tick's state:
+//! usually the third tick after the request. Meanwhile the axis follows a *provisional rule*,
+//! a trapezoid made online one tick at a time: towards the target at the acceleration while
+//! the velocity limit and the room to slow down to the end velocity allow, otherwise slowing
+//! down at the deceleration (to standstill exactly when it moves away from the target). So the
+//! axis answers a set-point in the tick after it (CiA 402's single set-point re-plans "at
+//! once"), keeps every limit, and each round solves from the state of its own tick; a round
+//! that fails lengthens the legs for the state of the next tick too, where the next round
+//! solves. Over the random scenarios of the tests a requested plan ends at most a few ticks
+//! later than one made at once.
+//!
+//! # Cost
+//!
+//! Cortex-M4 instructions (`benches/mcu-motion`, `scripts/bench.sh`): a plan made at once
+//! some 3 200 (8 700 when it takes the fallback; the exact planner: 57 500 to 127 500); the
+//! tick that takes a pp set-point 4 805 and the one that starts homing 4 962, where a
+//! steady pp tick costs 2 630. The layout is a few dozen `f32` operations; a round four
+//! 128-by-32-bit products and one 128-by-32-bit division in 16-bit half-digits.
 //!
 //! # Execution, exact
 //!
