@@ -138,12 +138,6 @@ fn pair<const B: usize>(od: &Dictionary<B>, index: u16) -> (u32, u32) {
     (sub(1), sub(2))
 }
 
-/// Whether the first axis's object `index` is one [`Factors::from_axis`] reads: position
-/// encoder resolution, gear ratio, feed constant, polarity, motor rated current.
-pub(crate) const fn is_factor_object(index: u16) -> bool {
-    matches!(index, POSITION_ENCODER_RESOLUTION | GEAR_RATIO | FEED_CONSTANT | POLARITY | MOTOR_RATED_CURRENT)
-}
-
 impl Factors {
     /// The factors the dictionary holds now, in CiA 402's units (a 0 that slipped in counts
     /// as 1).

@@ -82,6 +82,8 @@ pub const ABORT_CONNECTION_OPTION_CODE: u16 = 0x6007;
 pub const ERROR_CODE: u16 = 0x603F;
 /// 6040h controlword.
 pub const CONTROLWORD: u16 = 0x6040;
+/// vl target velocity (vl, 6042h).
+pub const VL_TARGET_VELOCITY: u16 = 0x6042;
 /// 6041h statusword.
 pub const STATUSWORD: u16 = 0x6041;
 /// 605Ah quick stop option code.
@@ -219,6 +221,26 @@ pub const POSITION_DEMAND_INTERNAL_VALUE: u16 = 0x60FC;
 pub const DIGITAL_INPUTS: u16 = 0x60FD;
 /// 60FEh digital outputs (sub 1 physical outputs, sub 2 bit mask).
 pub const DIGITAL_OUTPUTS: u16 = 0x60FE;
+
+/// Whether the first axis's object `index` is process data: a set-point or a command a master
+/// writes while the axis runs (controlword, modes of operation, targets, offsets, digital
+/// outputs, the velocity mode's target). Writing one changes nothing the profile derives from
+/// its configuration (the factor group, the limits, the cascade's gains).
+pub const fn is_process_data(index: u16) -> bool {
+    matches!(
+        index,
+        CONTROLWORD
+            | MODES_OF_OPERATION
+            | VL_TARGET_VELOCITY
+            | TARGET_TORQUE
+            | TARGET_POSITION
+            | POSITION_OFFSET
+            | VELOCITY_OFFSET
+            | TORQUE_OFFSET
+            | DIGITAL_OUTPUTS
+            | TARGET_VELOCITY
+    )
+}
 /// 60FFh target velocity.
 pub const TARGET_VELOCITY: u16 = 0x60FF;
 /// 6402h motor type.

@@ -806,14 +806,11 @@ impl Profile {
     /// returns whether it was a set-point that counts for the cyclic stream as an RPDO would
     /// ([`CyclicConfig::sdo_set_points`](super::cyclic::CyclicConfig::sdo_set_points)).
     pub fn sdo_written(&mut self, index: u16) -> bool {
-        // What the profile keeps between writes is the factor group and the cascade's gains (the
-        // other parameters it derives are compared with their objects at the next tick): a
-        // set-point, a command or another parameter leaves them as they are.
-        let factor = self.axis.relative(index).is_some_and(super::factor::is_factor_object);
-        if factor || self.config.cascade == Some(index) {
-            self.invalidate();
-        } else {
+        // A set-point or a command changes nothing the profile derives from its configuration.
+        if self.axis.relative(index).is_some_and(super::objects::is_process_data) {
             self.quiet.idle = false;
+        } else {
+            self.invalidate();
         }
         self.config.cyclic.sdo_set_points
             && matches!(self.axis.relative(index), Some(TARGET_POSITION | TARGET_VELOCITY | TARGET_TORQUE))
