@@ -124,6 +124,7 @@ fn div_digit(high: u32, low: u32, divisor: u32) -> (u32, u32) {
 
 /// `x·n`, `None` on overflow: four 32×32-bit products (the multiplier is a tick count)
 /// instead of a 128×128-bit multiplication.
+#[inline(never)]
 pub(crate) fn mul_small(x: i128, n: u32) -> Option<i128> {
     if x == 0 || n == 0 {
         return Some(0);

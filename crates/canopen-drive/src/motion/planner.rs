@@ -178,7 +178,9 @@ impl PositionPlanner {
         result.map(|_| ())
     }
 
-    /// [`Self::plan`] but for [`Self::state`], which the caller converts after it.
+    /// [`Self::plan`] but for [`Self::state`], which the caller converts after it. (Out of
+    /// line: [`Self::plan`] and [`Self::request`] share one copy.)
+    #[inline(never)]
     fn plan_from_here(
         &mut self,
         target: i64,

@@ -170,6 +170,7 @@ fn real(x: i128) -> f32 {
 
 /// The continuous time-optimal peak velocity `vp` (per-tick units, signed) of a move over
 /// `distance` from velocity `u0` to `ue`, and whether it cruises at the velocity limit `vmax`.
+#[inline(never)]
 fn layout_peak(distance: f32, u0: f32, ue: f32, vmax: f32, acc: f32, dec: f32) -> (f32, bool) {
     // Distance of one change from u to w (split at zero).
     let (up, down) = (0.5 / acc, 0.5 / dec);
@@ -295,6 +296,7 @@ struct Counts {
 
 impl Move<'_> {
     /// The layout's tick counts (or, with `stop_first`, the fallback's), from the `f32` shape.
+    #[inline(never)]
     fn layout(&self, stop_first: bool) -> Option<Counts> {
         let limits = self.limits;
         let (u0, ue) = (self.u0, self.ue);
@@ -340,6 +342,7 @@ impl Move<'_> {
     /// conforms (the legs are then in `legs`), `Some(false)` when a leg was lengthened. With
     /// the problem of the `next` tick (a plan made over several ticks, where the next round
     /// solves from there), a failed round lengthens the legs for that state too.
+    #[inline(never)]
     fn round(&self, counts: &mut Counts, legs: &mut Legs, next: Option<&Move<'_>>) -> Option<bool> {
         if self.attempt(counts, Some(legs))? {
             return Some(true);
