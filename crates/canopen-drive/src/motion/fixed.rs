@@ -240,6 +240,23 @@ pub(crate) fn ceil_ticks(x: f32) -> Option<u32> {
     }
 }
 
+/// `x` fixed point (2⁻⁶⁴ units) as `f32` units.
+pub(crate) fn real(x: i128) -> f32 {
+    // The top 32 significant bits, converted by the FPU, and their scale as an exponent: an
+    // i128 → f32 conversion is a long library call.
+    let magnitude = x.unsigned_abs();
+    let shift = (128 - magnitude.leading_zeros()).saturating_sub(32);
+    let top = (magnitude >> shift) as u32 as f32;
+    // 2^(shift − 64) as f32 bits (shift ≤ 96: the exponent stays in the normal range).
+    let scale = f32::from_bits((127 + shift - 64) << 23);
+    let value = top * scale;
+    if x < 0 {
+        -value
+    } else {
+        value
+    }
+}
+
 #[cfg(test)]
 mod unit_tests {
     use super::*;

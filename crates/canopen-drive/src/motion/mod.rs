@@ -218,6 +218,7 @@
 mod fixed;
 mod legs;
 mod planner;
+mod pulse;
 mod ramps;
 mod shape;
 mod solve;
@@ -238,10 +239,10 @@ pub const POSITION_RANGE: i64 = 1 << 40;
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct TickRate {
     hz: u32,
-    /// `⌊(2⁶⁴ − 1)/hz⌋` and that over `hz` again: a rate in increments/s (or /s²) times one of
-    /// these is the rate per tick (per tick²) in fixed point, rounded down, without a
-    /// division at plan time.
-    reciprocals: [u64; 2],
+    /// `⌊(2⁶⁴ − 1)/hz⌋` and that over `hz` again, twice: a rate in increments/sᵏ times one of
+    /// these is the rate per tickᵏ in fixed point, rounded down, without a division at plan
+    /// time.
+    reciprocals: [u64; 3],
 }
 
 impl TickRate {
@@ -257,7 +258,8 @@ impl TickRate {
             Err(MotionError::TickRate)
         } else {
             let per_tick = u64::MAX / hz as u64;
-            Ok(TickRate { hz, reciprocals: [per_tick, per_tick / hz as u64] })
+            let per_tick2 = per_tick / hz as u64;
+            Ok(TickRate { hz, reciprocals: [per_tick, per_tick2, per_tick2 / hz as u64] })
         }
     }
 
@@ -266,10 +268,14 @@ impl TickRate {
         self.hz
     }
 
-    /// `rate` per second (k = 1) or per second² (k = 2) in fixed-point per-tick units, at most
-    /// the exact value and less than 2⁻³² per-tick units below it.
+    /// `rate` per secondᵏ (k = 1, 2, 3) in fixed-point per-tickᵏ units, at most the exact value
+    /// and less than 2⁻³² per-tickᵏ units below it.
     pub(crate) const fn scale(self, rate: u32, k: usize) -> i128 {
-        let reciprocal = if k == 1 { self.reciprocals[0] } else { self.reciprocals[1] };
+        let reciprocal = match k {
+            1 => self.reciprocals[0],
+            2 => self.reciprocals[1],
+            _ => self.reciprocals[2],
+        };
         (rate as u128 * reciprocal as u128) as i128
     }
 }

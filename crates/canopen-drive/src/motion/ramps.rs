@@ -69,7 +69,7 @@
 //! set to the target: the correction is the division's remainder and the legs' spreading, a few
 //! units of 2⁻⁶⁴ increment per tick of the plan.
 
-use super::fixed::{ceil_ticks, div_ceil, div_floor, mul_small, sqrt};
+use super::fixed::{ceil_ticks, div_ceil, div_floor, mul_small, real, sqrt};
 use super::trajectory::Exact;
 use super::{Limits, MotionError, TickRate};
 
@@ -149,23 +149,6 @@ pub(crate) enum Made {
     Layout,
     /// The stop-first fallback.
     Fallback,
-}
-
-/// `x` fixed point (2⁻⁶⁴ units) as `f32` units.
-fn real(x: i128) -> f32 {
-    // The top 32 significant bits, converted by the FPU, and their scale as an exponent: an
-    // i128 → f32 conversion is a long library call.
-    let magnitude = x.unsigned_abs();
-    let shift = (128 - magnitude.leading_zeros()).saturating_sub(32);
-    let top = (magnitude >> shift) as u32 as f32;
-    // 2^(shift − 64) as f32 bits (shift ≤ 96: the exponent stays in the normal range).
-    let scale = f32::from_bits((127 + shift - 64) << 23);
-    let value = top * scale;
-    if x < 0 {
-        -value
-    } else {
-        value
-    }
 }
 
 /// The continuous time-optimal peak velocity `vp` (per-tick units, signed) of a move over
