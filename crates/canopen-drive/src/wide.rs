@@ -44,6 +44,7 @@ pub(crate) fn sdiv(n: i128, d: i128) -> i128 {
 }
 
 /// `n % d`, with the sign of `n`.
+#[cfg(test)]
 pub(crate) fn srem(n: i128, d: i128) -> i128 {
     sdivrem(n, d).1
 }

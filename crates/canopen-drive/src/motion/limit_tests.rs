@@ -12,9 +12,9 @@ use std::format;
 use std::string::String;
 
 use super::fixed::{per_tick, to_whole_si, FRAC};
+use super::ramps::Exact;
 use super::solve::Method;
 use super::tests::Rng;
-use super::trajectory::Exact;
 use super::*;
 
 /// Largest velocity correction at a stop (the rounding left before standstill is set exactly),

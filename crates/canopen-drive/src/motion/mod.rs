@@ -216,12 +216,23 @@
 //! ```
 
 mod fixed;
-mod legs;
 mod planner;
 mod pulse;
 mod ramps;
+
+// The exact time-optimal planner that served before the bounded one: the tests' reference for
+// move durations (`limit_tests`), not built into the crate.
+#[cfg(test)]
+#[allow(dead_code)]
+mod legs;
+#[cfg(test)]
+#[allow(dead_code)]
 mod shape;
+#[cfg(test)]
+#[allow(dead_code)]
 mod solve;
+#[cfg(test)]
+#[allow(dead_code)]
 mod trajectory;
 
 #[cfg(test)]

@@ -57,6 +57,9 @@ pub(crate) struct Pulse {
     bump: u32,
     /// The pulse's sign (the leg slows down, or speeds up, towards negative velocities).
     negative: bool,
+    /// The interior sum (signed, for the tests).
+    #[cfg(test)]
+    sigma: i128,
 }
 
 /// `n(n − 1)/2` (exact for any `n`).
@@ -66,6 +69,21 @@ fn triangle(n: u32) -> i128 {
 }
 
 impl Pulse {
+    /// No pulse (no velocity change).
+    pub(crate) const NONE: Pulse = Pulse {
+        ticks: 0,
+        rise: 0,
+        jerk: 0,
+        early: 0,
+        late: 0,
+        peak: 0,
+        bump_from: 0,
+        bump: 0,
+        negative: false,
+        #[cfg(test)]
+        sigma: 0,
+    };
+
     /// The acceleration (in sixths, signed) at tick `t` of the pulse (0 at both ends).
     pub(crate) fn alpha(&self, t: u32) -> i128 {
         if t == 0 || t >= self.ticks {
@@ -89,9 +107,24 @@ impl Pulse {
         }
     }
 
+    /// The interior sum in sixths (signed): the velocity change is six times it.
+    #[cfg(test)]
+    pub(crate) fn sigma(&self) -> i128 {
+        self.sigma
+    }
+
     /// Ticks of the pulse.
     pub(crate) fn ticks(&self) -> u32 {
         self.ticks
+    }
+
+    /// The first tick that is not part of the rise (or of a bump).
+    pub(crate) fn rise_end(&self) -> u32 {
+        if self.bump > 0 {
+            self.rise.min(self.bump_from)
+        } else {
+            self.rise
+        }
     }
 
     /// The interior sum of a rise of `rise` ticks to `peak` held over a pulse of `ticks`, and
@@ -103,16 +136,17 @@ impl Pulse {
         let (early, late) = (r / 2, r - r / 2);
         let (e, l) = (i128::from(early), i128::from(late));
         // Σ_{k=1}^{n−1} (q·k + min(k, e) + max(0, k − n + l)), twice, and the hold.
-        let rise_sum = mul_small(jerk, u32::try_from(triangle(rise)).ok()?)?
-            .checked_add(e * (n - 1) - e * (e - 1) / 2 + l * (l - 1) / 2)?;
+        let rise_sum =
+            jerk.checked_mul(triangle(rise))?.checked_add(e * (n - 1) - e * (e - 1) / 2 + l * (l - 1) / 2)?;
         let hold = i128::from(ticks - 2 * rise + 1);
         let total = rise_sum.checked_mul(2)?.checked_add(peak.checked_mul(hold)?)?;
         Some((total, jerk, early, late))
     }
 
     /// The pulse of `ticks` ticks whose interior sums to `sigma` sixths (signed), within `jerk`
-    /// sixths per tick (plus the bump's one) and `accel` sixths; `None` if it does not fit.
-    pub(crate) fn fit(sigma: i128, ticks: u32, jerk: i128, accel: i128) -> Option<Pulse> {
+    /// sixths per tick (plus the bump's one) and `accel` sixths, rising over at least
+    /// `min_rise` ticks; `None` if it does not fit.
+    pub(crate) fn fit(sigma: i128, ticks: u32, jerk: i128, accel: i128, min_rise: u32) -> Option<Pulse> {
         let negative = sigma < 0;
         let sigma = sigma.checked_abs()?;
         if sigma == 0 {
@@ -129,7 +163,11 @@ impl Pulse {
         let peak = if disc <= 0.0 { j * l * 0.5 } else { j * (l - sqrt(disc)) * 0.5 };
         let peak = peak.min(real(accel));
         let half = ticks / 2;
-        let mut rise = ceil_ticks(peak / j * (1.0 + 1.0 / 1_048_576.0)).unwrap_or(half).clamp(1, half);
+        if min_rise > half {
+            return None;
+        }
+        let estimate = ceil_ticks(peak / j * (1.0 + 1.0 / 1_048_576.0)).unwrap_or(half);
+        let mut rise = estimate.max(min_rise).clamp(1, half);
         for _ in 0..3 {
             let width = ticks - rise;
             let peak = div_floor(sigma, i128::from(width));
@@ -154,6 +192,8 @@ impl Pulse {
                 bump_from: 1 + (ticks - 1 - bump) / 2,
                 bump,
                 negative,
+                #[cfg(test)]
+                sigma: if negative { -sigma } else { sigma },
             });
         }
         None
@@ -173,7 +213,7 @@ impl Pulse {
         let mut ticks = ceil_ticks(estimate * (1.0 + 1.0 / 262_144.0))?.max(2);
         // The estimate may be a tick or two short (whole ticks, the rounding of the rise).
         for _ in 0..4 {
-            if let Some(pulse) = Pulse::fit(sigma, ticks, jerk, accel) {
+            if let Some(pulse) = Pulse::fit(sigma, ticks, jerk, accel, 0) {
                 return Some(pulse);
             }
             ticks = ticks.checked_add(1 + ticks / 1024)?;
@@ -194,6 +234,9 @@ pub(crate) struct Decay {
 }
 
 impl Decay {
+    /// No decay (a plan from zero acceleration).
+    pub(crate) const NONE: Decay = Decay { start: 0, jerk: 1, ticks: 0 };
+
     /// The decay of `a0` (2⁻⁶⁴ increments/tick², rounded away from zero to sixths) at `jerk`
     /// sixths per tick.
     pub(crate) fn new(a0: i128, jerk: i128) -> Option<Decay> {
@@ -206,6 +249,11 @@ impl Decay {
     /// Ticks of the decay.
     pub(crate) fn ticks(&self) -> u32 {
         self.ticks
+    }
+
+    /// The acceleration it starts from, in sixths (signed).
+    pub(crate) fn start(&self) -> i128 {
+        self.start
     }
 
     /// The acceleration in sixths at tick `k` of the decay.
@@ -280,12 +328,15 @@ mod tests {
                 continue;
             }
             for ticks in [pulse.ticks(), pulse.ticks() + ticks] {
-                let pulse = Pulse::fit(sigma, ticks, jerk, accel).expect("a longer pulse fits too");
+                let pulse = Pulse::fit(sigma, ticks, jerk, accel, 0).expect("a longer pulse fits too");
                 let alphas = (0..=ticks).map(|t| pulse.alpha(t));
                 let (dv, dp) = run(alphas.clone());
                 assert_eq!(dv, 6 * sigma, "case {case}: {pulse:?}");
                 // Distance L·(u + w)/2 from u = 0, up to the bump's asymmetry (at most 3 per bumped tick).
-                assert!((dp - i128::from(ticks) * dv / 2).abs() <= 3 * i128::from(ticks), "case {case}: {pulse:?} {dp}");
+                assert!(
+                    (dp - i128::from(ticks) * dv / 2).abs() <= 3 * i128::from(ticks),
+                    "case {case}: {pulse:?} {dp}"
+                );
                 let list: std::vec::Vec<i128> = alphas.collect();
                 for pair in list.windows(2) {
                     assert!((pair[1] - pair[0]).abs() <= jerk + 1, "case {case}: jerk {pair:?} {pulse:?}");

@@ -69,20 +69,50 @@
 //! set to the target: the correction is the division's remainder and the legs' spreading, a few
 //! units of 2⁻⁶⁴ increment per tick of the plan.
 
-use super::fixed::{ceil_ticks, div_ceil, div_floor, mul_small, real, sqrt};
-use super::trajectory::Exact;
-use super::{Limits, MotionError, TickRate};
+use super::fixed::{abs, cbrt, ceil_ticks, div_ceil, div_floor, mul_small, real, sqrt};
+use super::pulse::{Decay, Pulse};
+use super::{Limits, MotionError, ProfileType, TickRate};
+
+/// Position, velocity and acceleration in fixed point, per-tick units.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub(crate) struct Exact {
+    pub(crate) p: i128,
+    pub(crate) v: i128,
+    pub(crate) a: i128,
+}
 
 /// Legs of the longest plan (see the module docs).
 const MAX_LEGS: usize = 5;
 
-/// Times a leg is lengthened and the peak solved again before the fallback.
+/// Times a leg is lengthened and the peak solved again before the fallback: a trapezoid's,
+/// and a jerk-limited plan's (whose whole-tick pulses more often need a tick more than the
+/// layout's continuous durations).
 const ROUNDS: u32 = 3;
+const JERK_ROUNDS: u32 = 5;
 
-/// The limits of a trapezoid in fixed-point per-tick units, each rounded down.
+/// The limits of a plan in fixed-point per-tick units, each rounded down.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) struct RampLimits {
     velocity: i128,
+    acceleration: i128,
+    deceleration: i128,
+    /// The jerk-limited profile's limits, `None` for a trapezoid.
+    jerk: Option<JerkLimits>,
+}
+
+/// A jerk-limited profile's limits in sixths of 2⁻⁶⁴ increments per tick² and per tick³
+/// (`pulse.rs`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct JerkLimits {
+    /// The jerk of a pulse that raises the speed (the smaller of A and B: a pulse's rise and
+    /// fall are mirror images) and of one that lowers it (C, D), rounded down.
+    speed_up: i128,
+    slow_down: i128,
+    /// The jerk that ramps a present acceleration out: B while the speed rises, D while it
+    /// falls (rounded up: within the one sixth a jerk may exceed its limit).
+    end_up: i128,
+    end_down: i128,
+    /// The acceleration and deceleration, rounded down.
     acceleration: i128,
     deceleration: i128,
 }
@@ -91,11 +121,26 @@ impl RampLimits {
     /// `limits` at the tick `rate` (each at most the exact conversion and less than 2⁻³²
     /// per-tick units below it; no division).
     pub(crate) fn new(limits: &Limits, rate: TickRate) -> Self {
-        RampLimits {
-            velocity: rate.scale(limits.velocity, 1),
-            acceleration: rate.scale(limits.acceleration, 2).max(1),
-            deceleration: rate.scale(limits.deceleration, 2).max(1),
-        }
+        let acceleration = rate.scale(limits.acceleration, 2).max(1);
+        let deceleration = rate.scale(limits.deceleration, 2).max(1);
+        let jerk = match limits.profile {
+            ProfileType::Trapezoidal => None,
+            ProfileType::JerkLimited => {
+                let j = limits.jerk;
+                let sixths =
+                    |rate_a: u32, rate_b: u32| (rate.scale(rate_a, 3).min(rate.scale(rate_b, 3)) / 6).max(1);
+                let up = |jerk: u32| ((rate.scale(jerk, 3) + 5) / 6).max(1);
+                Some(JerkLimits {
+                    speed_up: sixths(j.accel_start, j.accel_end),
+                    slow_down: sixths(j.decel_start, j.decel_end),
+                    end_up: up(j.accel_end),
+                    end_down: up(j.decel_end),
+                    acceleration: (acceleration / 6).max(1),
+                    deceleration: (deceleration / 6).max(1),
+                })
+            }
+        };
+        RampLimits { velocity: rate.scale(limits.velocity, 1), acceleration, deceleration, jerk }
     }
 
     /// The rate of a leg from `u` to `w`: the acceleration if the speed rises (or from
@@ -111,20 +156,65 @@ impl RampLimits {
     }
 }
 
-/// A plan's legs: leg `i` runs `ticks[i]` ticks at one acceleration (spread in whole units)
-/// and ends at `aims[i]`.
+impl RampLimits {
+    /// The rounds before the fallback.
+    fn rounds(&self) -> u32 {
+        if self.jerk.is_some() {
+            JERK_ROUNDS
+        } else {
+            ROUNDS
+        }
+    }
+}
+
+impl JerkLimits {
+    /// The jerk and the acceleration (sixths) of a pulse from `u` to `w`, chosen as
+    /// [`RampLimits::rate`] chooses.
+    fn pulse(&self, u: i128, w: i128) -> (i128, i128) {
+        if u.signum() * w.signum() < 0 {
+            (self.speed_up.min(self.slow_down), self.acceleration.min(self.deceleration))
+        } else if w.unsigned_abs() >= u.unsigned_abs() {
+            (self.speed_up, self.acceleration)
+        } else {
+            (self.slow_down, self.deceleration)
+        }
+    }
+
+    /// The decay of the acceleration `a0` at velocity `v`: ramped out at B while it raises the
+    /// speed, at D while it lowers it.
+    fn decay(&self, v: i128, a0: i128) -> Option<Decay> {
+        let jerk = if a0.signum() * v.signum() < 0 { self.end_down } else { self.end_up };
+        Decay::new(a0, jerk)
+    }
+}
+
+/// A plan's legs: leg `i` runs `ticks[i]` ticks and ends at `aims[i]`, a trapezoid's at one
+/// acceleration (spread in whole units), a jerk-limited one's as `pulses[i]`, the first one
+/// with the `decay` of the acceleration the plan started with (after it, or `overlap`ping
+/// its pulse).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 struct Legs {
     ticks: [u32; MAX_LEGS],
     aims: [i128; MAX_LEGS],
+    pulses: [Pulse; MAX_LEGS],
+    decay: Decay,
+    overlap: bool,
     len: usize,
+    /// Jerk-limited: twice the distance the legs cover, as planned (for the tests).
+    #[cfg(test)]
+    covered2: i128,
 }
 
 impl Legs {
     fn push(&mut self, ticks: u32, aim: i128) -> Option<()> {
+        self.push_pulse(ticks, aim, Pulse::default())
+    }
+
+    fn push_pulse(&mut self, ticks: u32, aim: i128, pulse: Pulse) -> Option<()> {
         if ticks > 0 {
             *self.ticks.get_mut(self.len)? = ticks;
             *self.aims.get_mut(self.len)? = aim;
+            *self.pulses.get_mut(self.len)? = pulse;
             self.len += 1;
         }
         Some(())
@@ -204,14 +294,6 @@ fn layout_peak(distance: f32, u0: f32, ue: f32, vmax: f32, acc: f32, dec: f32) -
     (vp.max(low).min(high), false)
 }
 
-fn abs(x: f32) -> f32 {
-    if x < 0.0 {
-        -x
-    } else {
-        x
-    }
-}
-
 /// Whole ticks for a velocity change of `dv` at `rate` (both `f32` per-tick units).
 fn ticks_for(dv: f32, rate: f32) -> Option<u32> {
     // A hair more than the estimate: a duration of (nearly) whole ticks, rounded up exactly,
@@ -254,11 +336,94 @@ fn div_ticks(num: i128, den: u64) -> i128 {
     }
 }
 
+/// The continuous jerk-limited shape in `f32` per-tick units (for the layout): a velocity
+/// change is one mirror-image pulse at the limits [`JerkLimits::pulse`] chooses.
+struct Shape {
+    acceleration: f32,
+    deceleration: f32,
+    speed_up: f32,
+    slow_down: f32,
+}
+
+impl Shape {
+    fn new(limits: &RampLimits, jerk: &JerkLimits) -> Self {
+        Shape {
+            acceleration: real(limits.acceleration),
+            deceleration: real(limits.deceleration),
+            speed_up: real(jerk.speed_up) * 6.0,
+            slow_down: real(jerk.slow_down) * 6.0,
+        }
+    }
+
+    /// The duration of a change from `u` to `w` in one pulse.
+    fn duration(&self, u: f32, w: f32) -> f32 {
+        let (a, j) = if u * w < 0.0 {
+            (self.acceleration.min(self.deceleration), self.speed_up.min(self.slow_down))
+        } else if abs(w) >= abs(u) {
+            (self.acceleration, self.speed_up)
+        } else {
+            (self.deceleration, self.slow_down)
+        };
+        let dv = abs(w - u);
+        // Up to the acceleration limit and down again, with a hold at it if there is time.
+        if dv / a >= a / j {
+            dv / a + a / j
+        } else {
+            2.0 * sqrt(dv / j)
+        }
+    }
+
+    /// Whole ticks for a change from `u` to `w`.
+    fn ticks(&self, u: f32, w: f32) -> Option<u32> {
+        ceil_ticks(self.duration(u, w) * (1.0 + 1.0 / 1_048_576.0))
+    }
+
+    /// The distance of a change from `u` to `w`, split at zero as the legs are.
+    fn change(&self, u: f32, w: f32) -> f32 {
+        if u * w < 0.0 {
+            (self.duration(u, 0.0) * u + self.duration(0.0, w) * w) * 0.5
+        } else {
+            self.duration(u, w) * (u + w) * 0.5
+        }
+    }
+
+    /// The peak velocity of a move over `distance` from `u0` to `ue` and whether it cruises
+    /// at `vmax` (bisection: the distance is continuous in the peak).
+    fn peak(&self, distance: f32, u0: f32, ue: f32, vmax: f32) -> (f32, bool) {
+        let covered = |vp: f32| self.change(u0, vp) + self.change(vp, ue);
+        if covered(vmax) <= distance {
+            return (vmax, true);
+        }
+        if covered(-vmax) >= distance {
+            return (-vmax, true);
+        }
+        // Over the cube root of the peak: as fine relative to a small peak as to a large one
+        // (a short move's peak is a tiny fraction of the velocity limit).
+        let cube = |t: f32| t * t * t;
+        let top = cbrt(vmax);
+        let (mut low, mut high) = (-top, top);
+        for _ in 0..PEAK_STEPS {
+            let middle = (low + high) * 0.5;
+            if covered(cube(middle)) < distance {
+                low = middle;
+            } else {
+                high = middle;
+            }
+        }
+        (cube((low + high) * 0.5).max(-vmax).min(vmax), false)
+    }
+}
+
+/// Bisection steps of the jerk-limited layout's peak (over its cube root: 2⁻²³ of the limit's).
+const PEAK_STEPS: u32 = 24;
+
 /// The problem a plan solves: from velocity `u0`, cover `distance2 / 2` (fixed point) and end
 /// at `ue`.
 struct Move<'a> {
     distance2: i128,
     u0: i128,
+    /// The present acceleration (a jerk-limited plan ramps it out on its first leg).
+    a0: i128,
     ue: i128,
     limits: &'a RampLimits,
 }
@@ -275,6 +440,9 @@ struct Counts {
     cruise: u32,
     /// The peak is held by a cruise at the velocity limit.
     cruising: bool,
+    /// Jerk-limited: the first leg's pulse runs beside the decay of the present acceleration
+    /// (else after it).
+    overlap: bool,
 }
 
 impl Move<'_> {
@@ -282,6 +450,9 @@ impl Move<'_> {
     #[inline(never)]
     fn layout(&self, stop_first: bool) -> Option<Counts> {
         let limits = self.limits;
+        if let Some(jerk) = &limits.jerk {
+            return self.layout_jerk(jerk, stop_first);
+        }
         let (u0, ue) = (self.u0, self.ue);
         let (vmax, acc, dec) = (real(limits.velocity), real(limits.acceleration), real(limits.deceleration));
         let stop_ticks =
@@ -318,6 +489,7 @@ impl Move<'_> {
             from: ticks_for(to - peak, rate(peak, to))?,
             cruise: 0,
             cruising,
+            overlap: false,
         })
     }
 
@@ -340,6 +512,9 @@ impl Move<'_> {
     fn attempt(&self, counts: &mut Counts, legs: Option<&mut Legs>) -> Option<bool> {
         let distance2 = self.distance2;
         let limits = self.limits;
+        if let Some(jerk) = &limits.jerk {
+            return self.attempt_jerk(jerk, counts, legs);
+        }
         let (u0, ue) = (self.u0, self.ue);
         if counts.stop > 0 && !within(u0, counts.stop, limits.deceleration) {
             // The velocity grew since the layout (a plan made over several ticks).
@@ -355,19 +530,7 @@ impl Move<'_> {
             .checked_sub(mul_small(from, counts.to)?)?
             .checked_sub(mul_small(to, counts.from)?)?;
         let sides = u64::from(counts.to) + u64::from(counts.from);
-        if counts.cruising {
-            // The least cruise that keeps the peak within the velocity limit.
-            let needed = num.checked_abs()?;
-            let reach = |cruise: u32| {
-                let den = u32::try_from(sides + 2 * u64::from(cruise)).ok()?;
-                mul_small(limits.velocity, den)
-            };
-            let estimate = (real(needed) / real(limits.velocity) - sides as f32) * 0.5;
-            counts.cruise = ceil_ticks(estimate.max(0.0))?;
-            while reach(counts.cruise).is_some_and(|r| r < needed) {
-                counts.cruise = counts.cruise.checked_add(1)?;
-            }
-        }
+        self.cruise_for(counts, num, sides)?;
         let den = sides + 2 * u64::from(counts.cruise);
         if den == 0 {
             if num == 0 && from == to {
@@ -409,17 +572,273 @@ impl Move<'_> {
         Some(true)
     }
 
+    /// With a cruise at the velocity limit, its length: the least that keeps the peak within
+    /// the limit, for twice the distance `num` left to the legs at the peak, whose ticks add up
+    /// to `sides`.
+    fn cruise_for(&self, counts: &mut Counts, num: i128, sides: u64) -> Option<()> {
+        if counts.cruising {
+            let velocity = self.limits.velocity;
+            let needed = num.checked_abs()?;
+            let reach = |cruise: u32| {
+                let den = u32::try_from(sides + 2 * u64::from(cruise)).ok()?;
+                mul_small(velocity, den)
+            };
+            let estimate = (real(needed) / real(velocity) - sides as f32) * 0.5;
+            counts.cruise = ceil_ticks(estimate.max(0.0))?;
+            while reach(counts.cruise).is_some_and(|r| r < needed) {
+                counts.cruise = counts.cruise.checked_add(1)?;
+            }
+        }
+        Some(())
+    }
+
+    /// [`Self::layout`] for the jerk-limited profile: the decay of the present acceleration
+    /// on the first leg, then the continuous time-optimal peak of mirror-image pulses (found by
+    /// bisection in `f32`) from the velocity the decay leaves.
+    #[inline(never)]
+    fn layout_jerk(&self, jerk: &JerkLimits, stop_first: bool) -> Option<Counts> {
+        let limits = self.limits;
+        let decay = jerk.decay(self.u0, self.a0)?;
+        let (dv, dp) = decay.change()?;
+        let m = decay.ticks();
+        let (u0, ue) = (self.u0.checked_add(dv)?, self.ue);
+        let rest2 = self.distance2.checked_sub(mul_small(self.u0, m)?.checked_add(dp)?.checked_mul(2)?)?;
+        let shape = Shape::new(limits, jerk);
+        let vmax = real(limits.velocity);
+        let (fu0, fue) = (real(u0), real(ue));
+        let (peak, cruising, stop, start) = if stop_first {
+            let stop = if u0 != 0 { shape.ticks(fu0, 0.0)? } else { 0 };
+            let start = if ue != 0 { shape.ticks(0.0, fue)? } else { 0 };
+            let fixed = mul_small(u0, stop)?.checked_add(mul_small(ue, start)?)?;
+            let (peak, cruising) = shape.peak(real(rest2.checked_sub(fixed)?) * 0.5, 0.0, 0.0, vmax);
+            (peak, cruising, stop, start)
+        } else {
+            let (peak, cruising) = shape.peak(real(rest2) * 0.5, fu0, fue, vmax);
+            let opposite = |x: f32| (x > 0.0 && peak < 0.0) || (x < 0.0 && peak > 0.0);
+            let stop = if opposite(fu0) { shape.ticks(fu0, 0.0)? } else { 0 };
+            let start = if opposite(fue) { shape.ticks(0.0, fue)? } else { 0 };
+            (peak, cruising, stop, start)
+        };
+        let from = if stop > 0 { 0.0 } else { fu0 };
+        let to = if start > 0 { 0.0 } else { fue };
+        let mut counts = Counts {
+            stop,
+            start,
+            to: shape.ticks(from, peak)?,
+            from: shape.ticks(peak, to)?,
+            cruise: 0,
+            cruising,
+            overlap: false,
+        };
+        if m > 0 {
+            // Beside the first pulse where the acceleration already points its way and is
+            // within its limit; else before it.
+            let (aim, first) = if stop > 0 { (0.0, &mut counts.stop) } else { (peak, &mut counts.to) };
+            let accel = if fu0 * aim < 0.0 {
+                jerk.acceleration.min(jerk.deceleration)
+            } else if abs(aim) >= abs(fu0) {
+                jerk.acceleration
+            } else {
+                jerk.deceleration
+            };
+            let rising = if aim > fu0 { 1 } else { -1 };
+            counts.overlap = decay.start().signum() == rising && decay.start().abs() <= accel;
+            *first = if counts.overlap { (*first).max(2 * m) } else { first.checked_add(m)? };
+        }
+        Some(counts)
+    }
+
+    /// [`Self::attempt`] for the jerk-limited profile: the peak from the affine distance of
+    /// the legs' pulses (and of the first leg's decay), then each leg's pulse fitted from the
+    /// velocity the one before it really ends at.
+    fn attempt_jerk(&self, jerk: &JerkLimits, counts: &mut Counts, legs: Option<&mut Legs>) -> Option<bool> {
+        let limits = self.limits;
+        let (u0, ue) = (self.u0, self.ue);
+        let decay = jerk.decay(u0, self.a0)?;
+        let (dv, dp) = decay.change()?;
+        let m = decay.ticks();
+        let on_stop = counts.stop > 0;
+        let first = if on_stop { counts.stop } else { counts.to };
+        if m > 0 && first < m.checked_add(1)? {
+            let first = if on_stop { &mut counts.stop } else { &mut counts.to };
+            *first = m.checked_add(2)?;
+            return Some(false);
+        }
+        let overlap = counts.overlap && m > 0;
+        let (n, mi) = (i128::from(first), i128::from(m));
+        // Twice the first leg's distance: `fixed + coefficient·w` for its end velocity w.
+        let (fixed, coefficient) = if overlap {
+            let fixed =
+                mul_small(u0, first)?.checked_add(dp * 2)?.checked_add(dv.checked_mul(n - 2 * mi)?)?;
+            (fixed, first)
+        } else {
+            let fixed = mul_small(u0, m)?
+                .checked_add(dp)?
+                .checked_mul(2)?
+                .checked_add(mul_small(u0.checked_add(dv)?, first - m)?)?;
+            (fixed, first - m)
+        };
+        let to = if counts.start > 0 { 0 } else { ue };
+        let num = self
+            .distance2
+            .checked_sub(fixed)?
+            .checked_sub(mul_small(to, counts.from)?)?
+            .checked_sub(mul_small(ue, counts.start)?)?;
+        let sides = u64::from(if on_stop { counts.to } else { coefficient }) + u64::from(counts.from);
+        self.cruise_for(counts, num, sides)?;
+        let den = sides + 2 * u64::from(counts.cruise);
+        if den == 0 && num != 0 {
+            // No leg holds the peak, and the stop and the start alone do not land.
+            counts.to = 1;
+            return Some(false);
+        }
+        let peak = if den == 0 { 0 } else { div_ticks(num, den) };
+        if peak.checked_abs()? > limits.velocity {
+            counts.cruising = true;
+            return Some(false);
+        }
+        // The legs in order, each fitted from where the last one really ends.
+        let mut ticks = [counts.stop, counts.to, counts.cruise, counts.from, counts.start];
+        let aims = [0, peak, peak, to, ue];
+        let first_index = if on_stop { 0 } else { 1 };
+        let mut pulses = [Pulse::default(); MAX_LEGS];
+        let mut v = u0;
+        let mut fits = true;
+        let mut overlap_fits = true;
+        for (index, ((count, &aim), slot)) in ticks.iter_mut().zip(&aims).zip(pulses.iter_mut()).enumerate() {
+            if *count == 0 {
+                if index == 0 || index == MAX_LEGS - 1 {
+                    // No stop or start: the legs at the peak start or end the move.
+                    continue;
+                }
+                // No leg: the velocity must already be there (to the sixth).
+                let (jerk_limit, accel) = jerk.pulse(v, aim);
+                let sigma = aim.checked_sub(v)? / 6;
+                if sigma != 0 {
+                    fits = false;
+                    *count = Pulse::shortest(sigma, jerk_limit, accel)?.ticks();
+                    v = aim;
+                }
+                continue;
+            }
+            let (offset, carry, min_rise) = match index == first_index && m > 0 {
+                true if overlap => (0, dv, m),
+                true => (m, dv, 0),
+                false => (0, 0, 0),
+            };
+            let start = v.checked_add(carry)?;
+            let (jerk_limit, accel) = jerk.pulse(start, aim);
+            let change = aim.checked_sub(start)?;
+            let sigma = if change < 0 { -(change.checked_neg()? / 6) } else { change / 6 };
+            let length = *count - offset;
+            let fitted = Pulse::fit(sigma, length, jerk_limit, accel, min_rise).filter(|pulse| {
+                min_rise == 0 || (pulse.rise_end() >= m && sigma.signum() == decay.start().signum())
+            });
+            if let Some(pulse) = fitted {
+                *slot = pulse;
+                v = start.checked_add(sigma.checked_mul(6)?)?;
+                continue;
+            }
+            fits = false;
+            if min_rise > 0 && Pulse::fit(sigma, length, jerk_limit, accel, 0).is_some() {
+                // Long enough, but the pulse cannot run beside the decay.
+                overlap_fits = false;
+                break;
+            }
+            let shortest = Pulse::shortest(sigma, jerk_limit, accel)?.ticks().max(2 * min_rise);
+            *count = offset.checked_add(shortest.max(length + 1))?;
+            v = aim;
+        }
+        [counts.stop, counts.to, counts.cruise, counts.from, counts.start] = ticks;
+        if !overlap_fits {
+            // The pulse cannot run beside the decay: after it, on a leg as long again.
+            counts.overlap = false;
+            let first = if on_stop { &mut counts.stop } else { &mut counts.to };
+            *first = first.checked_add(m)?;
+        }
+        let Some(legs) = legs.filter(|_| fits) else {
+            return Some(false);
+        };
+        legs.len = 0;
+        legs.decay = decay;
+        legs.overlap = overlap;
+        for ((&count, &aim), &pulse) in ticks.iter().zip(&aims).zip(&pulses) {
+            legs.push_pulse(count, aim, pulse)?;
+        }
+        #[cfg(test)]
+        {
+            // The first leg as solved (`fixed + coefficient·w`), the others L·(u + w), from
+            // the velocities the pulses reach.
+            let mut v = u0;
+            legs.covered2 = 0;
+            for (index, &count) in ticks.iter().enumerate() {
+                if count == 0 {
+                    continue;
+                }
+                let carry = if index == first_index { dv } else { 0 };
+                let end = v + carry + 6 * pulses[index].sigma();
+                legs.covered2 += if index == first_index {
+                    fixed + i128::from(coefficient) * end
+                } else {
+                    i128::from(count) * (v + end)
+                };
+                v = end;
+            }
+        }
+        Some(true)
+    }
+
     /// The legs of the layout (or, with `stop_first`, of the fallback) at once, `None` if no
     /// peak conforms within the rounds.
     fn solve(&self, stop_first: bool, legs: &mut Legs) -> Option<()> {
         let mut counts = self.layout(stop_first)?;
-        for _ in 0..ROUNDS {
+        for _ in 0..self.limits.rounds() {
             if self.round(&mut counts, legs, None)? {
                 return Some(());
             }
         }
         None
     }
+}
+
+/// A jerk-limited velocity change from `v` (at acceleration `a0`) to `aim`, wherever it ends:
+/// the decay of `a0`, beside the pulse where it already points the pulse's way (and is within
+/// its limit), else before it. Returns the ticks, the pulse, whether it overlaps the decay,
+/// the decay, and twice the distance covered.
+fn ramp_jerk(jerk: &JerkLimits, v: i128, a0: i128, aim: i128) -> Option<(u32, Pulse, bool, Decay, i128)> {
+    let decay = jerk.decay(v, a0)?;
+    let (dv, dp) = decay.change()?;
+    let m = decay.ticks();
+    let start = v.checked_add(dv)?;
+    let change = aim.checked_sub(start)?;
+    let sigma = if change < 0 { -(change.checked_neg()? / 6) } else { change / 6 };
+    let (jerk_limit, accel) = jerk.pulse(start, aim);
+    let end = start.checked_add(sigma.checked_mul(6)?)?;
+    let beside = m > 0 && decay.start().signum() == sigma.signum() && decay.start().abs() <= accel;
+    let shortest = Pulse::shortest(sigma, jerk_limit, accel)?;
+    let mut length = shortest.ticks().max(2 * m);
+    for _ in 0..3 {
+        if !beside {
+            break;
+        }
+        let fitted = Pulse::fit(sigma, length, jerk_limit, accel, m).filter(|pulse| pulse.rise_end() >= m);
+        if let Some(pulse) = fitted {
+            // Twice the distance: N·(v + end) + 2·dp + dv·(N − 2m).
+            let n = i128::from(length);
+            let covered = mul_small(v.checked_add(end)?, length)?
+                .checked_add(dp.checked_mul(2)?)?
+                .checked_add(dv.checked_mul(n - 2 * i128::from(m))?)?;
+            return Some((length, pulse, true, decay, covered));
+        }
+        length = length.checked_add(1 + length / 64)?;
+    }
+    // After the decay: 2·(v·m + dp) + L·(start + end).
+    let length = shortest.ticks();
+    let covered = mul_small(v, m)?
+        .checked_add(dp)?
+        .checked_mul(2)?
+        .checked_add(mul_small(start.checked_add(end)?, length)?)?;
+    Some((m.checked_add(length)?, shortest, false, decay, covered))
 }
 
 /// Where a plan made over several ticks has got to.
@@ -457,8 +876,12 @@ pub(crate) struct Ramps {
     /// Twice the position (2⁻⁶⁵ increments).
     p2: i128,
     v: i128,
-    /// The acceleration of the next tick.
+    /// The acceleration of the next tick (trapezoid).
     a: i128,
+    /// Jerk-limited: the acceleration now, in sixths (`pulse.rs`).
+    alpha: i128,
+    /// The plan in progress is jerk-limited.
+    jerk_limited: bool,
     /// The leg in progress: its length, the ticks left, its base acceleration, and how many of
     /// its first and last ticks run one unit above it.
     ticks: u32,
@@ -482,12 +905,23 @@ impl Ramps {
     /// At `state` (its acceleration is dropped: a trapezoid's acceleration jumps).
     pub(crate) const fn at(state: Exact) -> Self {
         Ramps {
-            legs: Legs { ticks: [0; MAX_LEGS], aims: [0; MAX_LEGS], len: 0 },
+            legs: Legs {
+                ticks: [0; MAX_LEGS],
+                aims: [0; MAX_LEGS],
+                pulses: [Pulse::NONE; MAX_LEGS],
+                decay: Decay::NONE,
+                overlap: false,
+                len: 0,
+                #[cfg(test)]
+                covered2: 0,
+            },
             job: None,
             next: 0,
             p2: state.p.wrapping_mul(2),
             v: state.v,
             a: 0,
+            alpha: 0,
+            jerk_limited: false,
             ticks: 0,
             left: 0,
             base: 0,
@@ -511,6 +945,7 @@ impl Ramps {
         self.p2 = p.wrapping_mul(2);
         self.v = 0;
         self.a = 0;
+        self.alpha = 0;
         self.left = 0;
         self.remaining = 0;
         self.end_p2 = self.p2;
@@ -519,7 +954,16 @@ impl Ramps {
 
     /// The present state.
     pub(crate) fn now(&self) -> Exact {
-        Exact { p: self.p2 >> 1, v: self.v, a: self.a }
+        Exact { p: self.p2 >> 1, v: self.v, a: self.acceleration() }
+    }
+
+    /// The present acceleration: a trapezoid's of the next tick, a jerk-limited one's now.
+    fn acceleration(&self) -> i128 {
+        if self.jerk_limited {
+            self.alpha.wrapping_mul(6)
+        } else {
+            self.a
+        }
     }
 
     /// Plans a move to `target` (fixed point) that passes it at `last` (signed, fixed point).
@@ -529,12 +973,24 @@ impl Ramps {
         let problem = Move {
             distance2: end_p2.checked_sub(self.p2).ok_or(MotionError::OutOfRange)?,
             u0: self.v,
+            a0: self.acceleration(),
             ue: last,
             limits,
         };
         // Solved into a copy: on error the legs in progress stay.
         self.job = None;
         let mut legs = self.legs;
+        if problem.distance2 == 0 && problem.u0 == 0 && problem.a0 == 0 && last == 0 {
+            // Already there, at rest.
+            legs.len = 0;
+            #[cfg(test)]
+            {
+                legs.covered2 = 0;
+            }
+            self.legs = legs;
+            self.start(end_p2, 0, Made::Layout);
+            return Ok(0);
+        }
         let made = match problem.solve(false, &mut legs) {
             Some(()) => Made::Layout,
             None => {
@@ -543,21 +999,38 @@ impl Ramps {
             }
         };
         self.legs = legs;
+        self.jerk_limited = limits.jerk.is_some();
         self.start(end_p2, last, made);
         Ok(self.remaining)
     }
 
-    /// Ramps the velocity to zero at `deceleration` (fixed point per tick², > 0). Returns the
-    /// ticks until standstill.
-    pub(crate) fn stop(&mut self, deceleration: i128) -> Result<u64, MotionError> {
+    /// Ramps the velocity to `aim` (fixed point per tick) within `limits`, wherever that ends
+    /// (a stop, a pv ramp): one leg, a trapezoid's at the rate [`RampLimits::rate`] chooses,
+    /// a jerk-limited one's a pulse after (or beside) the decay of the present acceleration.
+    /// Returns the ticks until the velocity is reached.
+    pub(crate) fn velocity(&mut self, aim: i128, limits: &RampLimits) -> Result<u64, MotionError> {
+        let (ticks, pulse, overlap, decay, covered) = match &limits.jerk {
+            None => {
+                let ticks = exact_ticks(aim.wrapping_sub(self.v), limits.rate(self.v, aim));
+                let covered = ticks.and_then(|n| mul_small(self.v.checked_add(aim)?, n));
+                let (ticks, covered) = ticks.zip(covered).ok_or(MotionError::TooLong)?;
+                (ticks, Pulse::NONE, false, Decay::NONE, covered)
+            }
+            Some(jerk) => ramp_jerk(jerk, self.v, self.acceleration(), aim).ok_or(MotionError::TooLong)?,
+        };
+        let end_p2 = self.p2.checked_add(covered).ok_or(MotionError::TooLong)?;
         self.job = None;
-        let ticks = exact_ticks(self.v, deceleration.max(1)).ok_or(MotionError::TooLong)?;
-        // Where the stop ends: the leg covers n·(v + 0)/2 (up to its spreading).
-        let end_p2 =
-            mul_small(self.v, ticks).and_then(|d| self.p2.checked_add(d)).ok_or(MotionError::TooLong)?;
+        self.a = 0;
         self.legs.len = 0;
-        self.legs.push(ticks, 0).ok_or(MotionError::TooLong)?;
-        self.start(end_p2, 0, Made::Layout);
+        self.legs.decay = decay;
+        self.legs.overlap = overlap;
+        self.legs.push_pulse(ticks, aim, pulse).ok_or(MotionError::TooLong)?;
+        #[cfg(test)]
+        {
+            self.legs.covered2 = covered;
+        }
+        self.jerk_limited = limits.jerk.is_some();
+        self.start(end_p2, aim, Made::Layout);
         Ok(self.remaining)
     }
 
@@ -603,9 +1076,9 @@ impl Ramps {
         // Worked on in place (a job and the legs are some 200 bytes to copy).
         let (p2, v, a) = (self.p2, self.v, self.a);
         let Some(job) = self.job.as_mut() else { return };
-        let deceleration = job.limits.deceleration;
+        let limits = job.limits;
         let outcome = job.target2.checked_sub(p2).and_then(|distance2| {
-            let problem = Move { distance2, u0: v, ue: job.last, limits: &job.limits };
+            let problem = Move { distance2, u0: v, a0: a, ue: job.last, limits: &job.limits };
             // The state of the next tick, after this one's provisional acceleration `a`.
             let next = Move {
                 distance2: distance2.checked_sub(v.checked_mul(2)?.checked_add(a)?)?,
@@ -626,7 +1099,7 @@ impl Ramps {
                 Stage::Round { fallback, round } => {
                     match problem.round(&mut job.counts, &mut self.legs, Some(&next))? {
                         true => Some(Some((job.target2, job.last, made(fallback)))),
-                        false if round + 1 < ROUNDS => {
+                        false if round + 1 < job.limits.rounds() => {
                             job.stage = Stage::Round { fallback, round: round + 1 };
                             Some(None)
                         }
@@ -647,7 +1120,7 @@ impl Ramps {
             }
             // No plan conformed (not seen in the tests; the fallback always has): stop instead.
             None => {
-                let _ = self.stop(deceleration);
+                let _ = self.velocity(0, &limits);
             }
         }
     }
@@ -720,8 +1193,29 @@ impl Ramps {
         }
     }
 
+    /// Jerk-limited: the acceleration in sixths at tick `t` of the leg in progress (its pulse,
+    /// and on the first leg the decay of the acceleration the plan started with).
+    fn alpha_at(&self, t: u32) -> i128 {
+        let leg = self.next.wrapping_sub(1);
+        let pulse = self.legs.pulses.get(leg).unwrap_or(&Pulse::NONE);
+        if leg != 0 {
+            return pulse.alpha(t);
+        }
+        let decay = &self.legs.decay;
+        let offset = if self.legs.overlap { 0 } else { decay.ticks() };
+        let pulse = if t >= offset { pulse.alpha(t - offset) } else { 0 };
+        decay.alpha(t).wrapping_add(pulse)
+    }
+
     fn enter_next(&mut self) {
         match self.legs.get(self.next) {
+            Some((ticks, _)) if self.jerk_limited => {
+                self.next += 1;
+                self.ticks = ticks;
+                self.left = ticks;
+                self.a = 0;
+                self.alpha = self.alpha_at(0);
+            }
             Some((ticks, aim)) => {
                 self.next += 1;
                 let change = aim.wrapping_sub(self.v);
@@ -739,6 +1233,7 @@ impl Ramps {
                 self.p2 = self.end_p2;
                 self.v = self.end_v;
                 self.a = 0;
+                self.alpha = 0;
                 self.left = 0;
             }
         }
@@ -751,6 +1246,21 @@ impl Ramps {
             self.p2 = self.p2.saturating_add(self.v.saturating_mul(2)).saturating_add(self.a);
             self.v = self.v.saturating_add(self.a);
             self.a = self.provisional();
+            return;
+        }
+        if self.jerk_limited {
+            // p += v + 2α + α', v += 3·(α + α') for the acceleration 6α now and 6α' after.
+            let next = self.alpha_at(self.ticks - self.left + 1);
+            let (alpha, v) = (self.alpha, self.v);
+            let step = v.wrapping_add(alpha.wrapping_mul(2)).wrapping_add(next);
+            self.p2 = self.p2.wrapping_add(step.wrapping_mul(2));
+            self.v = v.wrapping_add(alpha.wrapping_add(next).wrapping_mul(3));
+            self.alpha = next;
+            self.left -= 1;
+            self.remaining = self.remaining.saturating_sub(1);
+            if self.left == 0 {
+                self.enter_next();
+            }
             return;
         }
         self.p2 = self.p2.wrapping_add(self.v.wrapping_mul(2)).wrapping_add(self.a);
@@ -785,6 +1295,9 @@ impl Ramps {
     /// `n·(u + w)` (twice the distance) and its spreading `(early − late)·(n − extra)`.
     #[cfg(test)]
     pub(crate) fn closing_error(&self) -> i128 {
+        if self.jerk_limited {
+            return (self.end_p2 - self.planned_from.0 - self.legs.covered2) / 2;
+        }
         let (mut p2, mut v) = self.planned_from;
         for (ticks, aim) in (0..self.legs.len).filter_map(|index| self.legs.get(index)) {
             let n = i128::from(ticks);

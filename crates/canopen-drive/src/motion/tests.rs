@@ -13,7 +13,7 @@ extern crate std;
 use std::format;
 
 use super::fixed::{per_tick, FRAC};
-use super::trajectory::Exact;
+use super::ramps::Exact;
 use super::*;
 
 const TOLERANCE_UNITS: f64 = 17_179_869_184.0; // 2^34 units = 2^-30 per-tick units

@@ -5,19 +5,12 @@
 //! acceleration is even, so `a/2` and `j/6` and `j/2` are integers.
 
 use super::fixed::{div_floor, mul_small};
+pub(crate) use super::ramps::Exact;
 
 /// Segments of the longest plan: a ramp of the present acceleration, two S-curve velocity
 /// changes on each side of the cruise (3 segments each), the cruise, and one more change for
 /// the fallback plan that stops first (see `planner`).
 pub(crate) const MAX_SEGMENTS: usize = 14;
-
-/// Position, velocity and acceleration in fixed point, per-tick units.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub(crate) struct Exact {
-    pub(crate) p: i128,
-    pub(crate) v: i128,
-    pub(crate) a: i128,
-}
 
 impl Exact {
     /// The state `ticks` ticks later under jerk `6·jerk6`, `None` on overflow: the closed form
