@@ -259,6 +259,24 @@ pub(crate) fn ceil_ticks(x: f32) -> Option<u32> {
     }
 }
 
+/// `⌈|dv| / rate⌉` exactly, as a tick count: an `f32` estimate corrected by products (a
+/// 128-bit division costs some ten times more).
+pub(crate) fn exact_ticks(dv: i128, rate: i128) -> Option<u32> {
+    let dv = dv.checked_abs()?;
+    let estimate = ceil_ticks(real(dv) / real(rate))?;
+    if estimate > 1 << 20 {
+        // Past 2²⁰ ticks the estimate may be off by more than a tick.
+        return u32::try_from(div_ceil(dv, rate)).ok();
+    }
+    // Within a tick of the answer: check the estimate, then its neighbour.
+    let reaches = |ticks: u32| mul_small(rate, ticks).is_none_or(|reach| reach >= dv);
+    if reaches(estimate) {
+        Some(if estimate > 0 && reaches(estimate - 1) { estimate - 1 } else { estimate })
+    } else {
+        Some(estimate.checked_add(1)?)
+    }
+}
+
 /// `x` fixed point (2⁻⁶⁴ units) as `f32` units.
 pub(crate) fn real(x: i128) -> f32 {
     // The top 32 significant bits, converted by the FPU, and their scale as an exponent: an

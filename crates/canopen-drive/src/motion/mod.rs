@@ -254,6 +254,8 @@ pub struct TickRate {
     /// these is the rate per tickᵏ in fixed point, rounded down, without a division at plan
     /// time.
     reciprocals: [u64; 3],
+    /// The last two over 6: rates in sixths per tick² and per tick³ (`pulse.rs`).
+    sixths: [u64; 2],
 }
 
 impl TickRate {
@@ -270,7 +272,8 @@ impl TickRate {
         } else {
             let per_tick = u64::MAX / hz as u64;
             let per_tick2 = per_tick / hz as u64;
-            Ok(TickRate { hz, reciprocals: [per_tick, per_tick2, per_tick2 / hz as u64] })
+            let per_tick3 = per_tick2 / hz as u64;
+            Ok(TickRate { hz, reciprocals: [per_tick, per_tick2, per_tick3], sixths: [per_tick2 / 6, per_tick3 / 6] })
         }
     }
 
@@ -287,6 +290,12 @@ impl TickRate {
             2 => self.reciprocals[1],
             _ => self.reciprocals[2],
         };
+        (rate as u128 * reciprocal as u128) as i128
+    }
+
+    /// [`Self::scale`] in sixths for k = 2, 3 (rounded down alike).
+    pub(crate) const fn sixths(self, rate: u32, k: usize) -> i128 {
+        let reciprocal = if k == 2 { self.sixths[0] } else { self.sixths[1] };
         (rate as u128 * reciprocal as u128) as i128
     }
 }

@@ -36,7 +36,7 @@
 //! velocity change and distance are closed forms of its length, so the first leg's distance
 //! stays affine in its end velocity.
 
-use super::fixed::{ceil_ticks, div_floor, mul_small, real, sqrt};
+use super::fixed::{ceil_ticks, div_floor, exact_ticks, mul_small, real, sqrt};
 
 /// One leg's acceleration pulse (see the module docs); all values in sixths, magnitudes (the
 /// sign is the leg's).
@@ -241,8 +241,8 @@ impl Decay {
     /// sixths per tick.
     pub(crate) fn new(a0: i128, jerk: i128) -> Option<Decay> {
         let jerk = jerk.max(1);
-        let sixths = a0.checked_abs()?.checked_add(5)? / 6;
-        let ticks = u32::try_from((sixths + jerk - 1) / jerk).ok()?;
+        let sixths = div_floor(a0.checked_abs()?.checked_add(5)?, 6);
+        let ticks = exact_ticks(sixths, jerk)?;
         Some(Decay { start: if a0 < 0 { -sixths } else { sixths }, jerk, ticks })
     }
 

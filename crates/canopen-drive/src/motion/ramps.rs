@@ -69,7 +69,7 @@
 //! set to the target: the correction is the division's remainder and the legs' spreading, a few
 //! units of 2⁻⁶⁴ increment per tick of the plan.
 
-use super::fixed::{abs, cbrt, ceil_ticks, div_ceil, div_floor, mul_small, real, sqrt};
+use super::fixed::{abs, cbrt, ceil_ticks, div_floor, exact_ticks, mul_small, real, sqrt};
 use super::pulse::{Decay, Pulse};
 use super::{Limits, MotionError, ProfileType, TickRate};
 
@@ -127,16 +127,16 @@ impl RampLimits {
             ProfileType::Trapezoidal => None,
             ProfileType::JerkLimited => {
                 let j = limits.jerk;
-                let sixths =
-                    |rate_a: u32, rate_b: u32| (rate.scale(rate_a, 3).min(rate.scale(rate_b, 3)) / 6).max(1);
-                let up = |jerk: u32| ((rate.scale(jerk, 3) + 5) / 6).max(1);
+                let sixths = |k: usize, a: u32, b: u32| rate.sixths(a.min(b), k).max(1);
+                // Rounded up: ⌈scale/6⌉ (the only divisions; the rest by reciprocals).
+                let up = |jerk: u32| div_floor(rate.scale(jerk, 3) + 5, 6).max(1);
                 Some(JerkLimits {
-                    speed_up: sixths(j.accel_start, j.accel_end),
-                    slow_down: sixths(j.decel_start, j.decel_end),
+                    speed_up: sixths(3, j.accel_start, j.accel_end),
+                    slow_down: sixths(3, j.decel_start, j.decel_end),
                     end_up: up(j.accel_end),
                     end_down: up(j.decel_end),
-                    acceleration: (acceleration / 6).max(1),
-                    deceleration: (deceleration / 6).max(1),
+                    acceleration: sixths(2, limits.acceleration, limits.acceleration),
+                    deceleration: sixths(2, limits.deceleration, limits.deceleration),
                 })
             }
         };
@@ -301,24 +301,6 @@ fn ticks_for(dv: f32, rate: f32) -> Option<u32> {
     ceil_ticks(abs(dv) / rate * (1.0 + 1.0 / 1_048_576.0))
 }
 
-/// `⌈|dv| / rate⌉` exactly, as a tick count: an `f32` estimate corrected by products (a
-/// 128-bit division costs some ten times more).
-fn exact_ticks(dv: i128, rate: i128) -> Option<u32> {
-    let dv = dv.checked_abs()?;
-    let estimate = ceil_ticks(real(dv) / real(rate))?;
-    if estimate > 1 << 20 {
-        // Past 2²⁰ ticks the estimate may be off by more than a tick.
-        return u32::try_from(div_ceil(dv, rate)).ok();
-    }
-    // Within a tick of the answer: check the estimate, then its neighbour.
-    let reaches = |ticks: u32| mul_small(rate, ticks).is_none_or(|reach| reach >= dv);
-    if reaches(estimate) {
-        Some(if estimate > 0 && reaches(estimate - 1) { estimate - 1 } else { estimate })
-    } else {
-        Some(estimate.checked_add(1)?)
-    }
-}
-
 /// `|dv| ≤ n·rate`.
 fn within(dv: i128, ticks: u32, rate: i128) -> bool {
     match (dv.checked_abs(), mul_small(rate, ticks)) {
@@ -397,12 +379,17 @@ impl Shape {
         if covered(-vmax) >= distance {
             return (-vmax, true);
         }
-        // Over the cube root of the peak: as fine relative to a small peak as to a large one
-        // (a short move's peak is a tiny fraction of the velocity limit).
+        // On the cube root of the peak (as fine relative to a small peak as to a large one):
+        // bisection to a bracket where the distance is smooth, then regula falsi with the
+        // Illinois rule, which shrinks it superlinearly from there.
         let cube = |t: f32| t * t * t;
         let top = cbrt(vmax);
         let (mut low, mut high) = (-top, top);
-        for _ in 0..PEAK_STEPS {
+        for _ in 0..BISECTION_STEPS {
+            // Until the bracket lies on one side of zero and within an eighth of its ends.
+            if (low > 0.0 || high < 0.0) && (high - low) * 8.0 <= abs(low).min(abs(high)) {
+                break;
+            }
             let middle = (low + high) * 0.5;
             if covered(cube(middle)) < distance {
                 low = middle;
@@ -410,12 +397,40 @@ impl Shape {
                 high = middle;
             }
         }
-        (cube((low + high) * 0.5).max(-vmax).min(vmax), false)
+        let (mut f_low, mut f_high) = (covered(cube(low)) - distance, covered(cube(high)) - distance);
+        let mut kept = 0i8;
+        let mut t = (low + high) * 0.5;
+        for _ in 0..SECANT_STEPS {
+            if !(f_high > f_low) {
+                break;
+            }
+            t = (low * f_high - high * f_low) / (f_high - f_low);
+            if !(t > low && t < high) {
+                t = (low + high) * 0.5;
+            }
+            let f = covered(cube(t)) - distance;
+            if f < 0.0 {
+                (low, f_low) = (t, f);
+                if kept == -1 {
+                    f_high *= 0.5;
+                }
+                kept = -1;
+            } else {
+                (high, f_high) = (t, f);
+                if kept == 1 {
+                    f_low *= 0.5;
+                }
+                kept = 1;
+            }
+        }
+        (cube(t).max(-vmax).min(vmax), false)
     }
 }
 
-/// Bisection steps of the jerk-limited layout's peak (over its cube root: 2⁻²³ of the limit's).
-const PEAK_STEPS: u32 = 24;
+/// The jerk-limited layout's search for the peak: at most so many bisection steps on its cube
+/// root (until the bracket is narrow: usually 6 to 12), then regula falsi steps.
+const BISECTION_STEPS: u32 = 24;
+const SECANT_STEPS: u32 = 5;
 
 /// The problem a plan solves: from velocity `u0`, cover `distance2 / 2` (fixed point) and end
 /// at `ue`.
@@ -713,7 +728,7 @@ impl Move<'_> {
                 }
                 // No leg: the velocity must already be there (to the sixth).
                 let (jerk_limit, accel) = jerk.pulse(v, aim);
-                let sigma = aim.checked_sub(v)? / 6;
+                let sigma = sixths(aim.checked_sub(v)?)?;
                 if sigma != 0 {
                     fits = false;
                     *count = Pulse::shortest(sigma, jerk_limit, accel)?.ticks();
@@ -729,7 +744,7 @@ impl Move<'_> {
             let start = v.checked_add(carry)?;
             let (jerk_limit, accel) = jerk.pulse(start, aim);
             let change = aim.checked_sub(start)?;
-            let sigma = if change < 0 { -(change.checked_neg()? / 6) } else { change / 6 };
+            let sigma = sixths(change)?;
             let length = *count - offset;
             let fitted = Pulse::fit(sigma, length, jerk_limit, accel, min_rise).filter(|pulse| {
                 min_rise == 0 || (pulse.rise_end() >= m && sigma.signum() == decay.start().signum())
@@ -801,6 +816,14 @@ impl Move<'_> {
     }
 }
 
+/// A velocity change in sixths of a pulse's sum, rounded toward zero (the leg then ends at most
+/// 5 units of 2⁻⁶⁴ increment/tick short of its aim). A 128-bit division by a constant is a
+/// bit-by-bit loop on a Cortex-M; this is four 64-by-32-bit steps.
+fn sixths(change: i128) -> Option<i128> {
+    let magnitude = div_floor(change.checked_abs()?, 6);
+    Some(if change < 0 { -magnitude } else { magnitude })
+}
+
 /// A jerk-limited velocity change from `v` (at acceleration `a0`) to `aim`, wherever it ends:
 /// the decay of `a0`, beside the pulse where it already points the pulse's way (and is within
 /// its limit), else before it. Returns the ticks, the pulse, whether it overlaps the decay,
@@ -811,7 +834,7 @@ fn ramp_jerk(jerk: &JerkLimits, v: i128, a0: i128, aim: i128) -> Option<(u32, Pu
     let m = decay.ticks();
     let start = v.checked_add(dv)?;
     let change = aim.checked_sub(start)?;
-    let sigma = if change < 0 { -(change.checked_neg()? / 6) } else { change / 6 };
+    let sigma = sixths(change)?;
     let (jerk_limit, accel) = jerk.pulse(start, aim);
     let end = start.checked_add(sigma.checked_mul(6)?)?;
     let beside = m > 0 && decay.start().signum() == sigma.signum() && decay.start().abs() <= accel;
@@ -977,9 +1000,10 @@ impl Ramps {
             ue: last,
             limits,
         };
-        // Solved into a copy: on error the legs in progress stay.
+        // A round writes the legs only when it completes the plan: on error the legs in
+        // progress stay.
         self.job = None;
-        let mut legs = self.legs;
+        let legs = &mut self.legs;
         if problem.distance2 == 0 && problem.u0 == 0 && problem.a0 == 0 && last == 0 {
             // Already there, at rest.
             legs.len = 0;
@@ -987,18 +1011,17 @@ impl Ramps {
             {
                 legs.covered2 = 0;
             }
-            self.legs = legs;
+            self.jerk_limited = limits.jerk.is_some();
             self.start(end_p2, 0, Made::Layout);
             return Ok(0);
         }
-        let made = match problem.solve(false, &mut legs) {
+        let made = match problem.solve(false, legs) {
             Some(()) => Made::Layout,
             None => {
-                problem.solve(true, &mut legs).ok_or(MotionError::TooLong)?;
+                problem.solve(true, legs).ok_or(MotionError::TooLong)?;
                 Made::Fallback
             }
         };
-        self.legs = legs;
         self.jerk_limited = limits.jerk.is_some();
         self.start(end_p2, last, made);
         Ok(self.remaining)
