@@ -273,7 +273,11 @@ impl TickRate {
             let per_tick = u64::MAX / hz as u64;
             let per_tick2 = per_tick / hz as u64;
             let per_tick3 = per_tick2 / hz as u64;
-            Ok(TickRate { hz, reciprocals: [per_tick, per_tick2, per_tick3], sixths: [per_tick2 / 6, per_tick3 / 6] })
+            Ok(TickRate {
+                hz,
+                reciprocals: [per_tick, per_tick2, per_tick3],
+                sixths: [per_tick2 / 6, per_tick3 / 6],
+            })
         }
     }
 

@@ -125,20 +125,7 @@ impl RampLimits {
         let deceleration = rate.scale(limits.deceleration, 2).max(1);
         let jerk = match limits.profile {
             ProfileType::Trapezoidal => None,
-            ProfileType::JerkLimited => {
-                let j = limits.jerk;
-                let sixths = |k: usize, a: u32, b: u32| rate.sixths(a.min(b), k).max(1);
-                // Rounded up: ⌈scale/6⌉ (the only divisions; the rest by reciprocals).
-                let up = |jerk: u32| div_floor(rate.scale(jerk, 3) + 5, 6).max(1);
-                Some(JerkLimits {
-                    speed_up: sixths(3, j.accel_start, j.accel_end),
-                    slow_down: sixths(3, j.decel_start, j.decel_end),
-                    end_up: up(j.accel_end),
-                    end_down: up(j.decel_end),
-                    acceleration: sixths(2, limits.acceleration, limits.acceleration),
-                    deceleration: sixths(2, limits.deceleration, limits.deceleration),
-                })
-            }
+            ProfileType::JerkLimited => Some(JerkLimits::new(limits, rate)),
         };
         RampLimits { velocity: rate.scale(limits.velocity, 1), acceleration, deceleration, jerk }
     }
@@ -168,6 +155,23 @@ impl RampLimits {
 }
 
 impl JerkLimits {
+    /// `limits` at the tick `rate` in sixths (out of line: a trapezoid's plan does not need it).
+    #[inline(never)]
+    fn new(limits: &Limits, rate: TickRate) -> Self {
+        let j = limits.jerk;
+        let sixths = |k: usize, a: u32, b: u32| rate.sixths(a.min(b), k).max(1);
+        // Rounded up: ⌈scale/6⌉ (the only divisions; the rest by reciprocals).
+        let up = |jerk: u32| div_floor(rate.scale(jerk, 3) + 5, 6).max(1);
+        JerkLimits {
+            speed_up: sixths(3, j.accel_start, j.accel_end),
+            slow_down: sixths(3, j.decel_start, j.decel_end),
+            end_up: up(j.accel_end),
+            end_down: up(j.decel_end),
+            acceleration: sixths(2, limits.acceleration, limits.acceleration),
+            deceleration: sixths(2, limits.deceleration, limits.deceleration),
+        }
+    }
+
     /// The jerk and the acceleration (sixths) of a pulse from `u` to `w`, chosen as
     /// [`RampLimits::rate`] chooses.
     fn pulse(&self, u: i128, w: i128) -> (i128, i128) {
@@ -380,57 +384,52 @@ impl Shape {
             return (-vmax, true);
         }
         // On the cube root of the peak (as fine relative to a small peak as to a large one):
-        // bisection to a bracket where the distance is smooth, then regula falsi with the
-        // Illinois rule, which shrinks it superlinearly from there.
+        // bisection while the bracket is wide or straddles zero, regula falsi with the Illinois
+        // rule once it is narrow (superlinear where the distance is smooth), bisection again
+        // whenever a secant step gains less than half the bracket. The distance need not be
+        // monotone in the peak (a slow deceleration to the end velocity), so the bracket's ends
+        // keep their signs and the result is the end nearer the root.
         let cube = |t: f32| t * t * t;
         let top = cbrt(vmax);
         let (mut low, mut high) = (-top, top);
-        for _ in 0..BISECTION_STEPS {
-            // Until the bracket lies on one side of zero and within an eighth of its ends.
-            if (low > 0.0 || high < 0.0) && (high - low) * 8.0 <= abs(low).min(abs(high)) {
-                break;
-            }
-            let middle = (low + high) * 0.5;
-            if covered(cube(middle)) < distance {
-                low = middle;
-            } else {
-                high = middle;
-            }
-        }
-        let (mut f_low, mut f_high) = (covered(cube(low)) - distance, covered(cube(high)) - distance);
+        let (mut f_low, mut f_high) = (covered(-vmax) - distance, covered(vmax) - distance);
         let mut kept = 0i8;
-        let mut t = (low + high) * 0.5;
-        for _ in 0..SECANT_STEPS {
-            if !(f_high > f_low) {
+        for _ in 0..PEAK_STEPS {
+            let width = high - low;
+            if width <= abs(low).max(abs(high)) * (1.0 / 1_048_576.0) {
                 break;
             }
-            t = (low * f_high - high * f_low) / (f_high - f_low);
-            if !(t > low && t < high) {
-                t = (low + high) * 0.5;
+            let narrow = (low > 0.0 || high < 0.0) && width * 8.0 <= abs(low).min(abs(high));
+            let mut t = (low + high) * 0.5;
+            if narrow && f_high > f_low {
+                let secant = (low * f_high - high * f_low) / (f_high - f_low);
+                if secant > low && secant < high {
+                    t = secant;
+                }
             }
             let f = covered(cube(t)) - distance;
             if f < 0.0 {
                 (low, f_low) = (t, f);
-                if kept == -1 {
+                if kept == -1 && narrow {
                     f_high *= 0.5;
                 }
                 kept = -1;
             } else {
                 (high, f_high) = (t, f);
-                if kept == 1 {
+                if kept == 1 && narrow {
                     f_low *= 0.5;
                 }
                 kept = 1;
             }
         }
+        let t = if -f_low < f_high { low } else { high };
         (cube(t).max(-vmax).min(vmax), false)
     }
 }
 
-/// The jerk-limited layout's search for the peak: at most so many bisection steps on its cube
-/// root (until the bracket is narrow: usually 6 to 12), then regula falsi steps.
-const BISECTION_STEPS: u32 = 24;
-const SECANT_STEPS: u32 = 5;
+/// Most steps of the jerk-limited layout's search for the peak (bisection and Illinois steps on
+/// its cube root, to 2⁻²⁰ of it; usually 10 to 20).
+const PEAK_STEPS: u32 = 40;
 
 /// The problem a plan solves: from velocity `u0`, cover `distance2 / 2` (fixed point) and end
 /// at `ue`.
@@ -718,6 +717,7 @@ impl Move<'_> {
         let first_index = if on_stop { 0 } else { 1 };
         let mut pulses = [Pulse::default(); MAX_LEGS];
         let mut v = u0;
+        let mut nominal = u0;
         let mut fits = true;
         let mut overlap_fits = true;
         for (index, ((count, &aim), slot)) in ticks.iter_mut().zip(&aims).zip(pulses.iter_mut()).enumerate() {
@@ -727,7 +727,8 @@ impl Move<'_> {
                     continue;
                 }
                 // No leg: the velocity must already be there (to the sixth).
-                let (jerk_limit, accel) = jerk.pulse(v, aim);
+                let (jerk_limit, accel) = jerk.pulse(nominal, aim);
+                nominal = aim;
                 let sigma = sixths(aim.checked_sub(v)?)?;
                 if sigma != 0 {
                     fits = false;
@@ -742,7 +743,11 @@ impl Move<'_> {
                 false => (0, 0, 0),
             };
             let start = v.checked_add(carry)?;
-            let (jerk_limit, accel) = jerk.pulse(start, aim);
+            // Limits chosen by where the leg starts as planned (the first from the state, the
+            // others from the aim before them): a start a few units off zero does not make a
+            // leg from a stop one that changes sign.
+            let (jerk_limit, accel) = jerk.pulse(if index == first_index { start } else { nominal }, aim);
+            nominal = aim;
             let change = aim.checked_sub(start)?;
             let sigma = sixths(change)?;
             let length = *count - offset;
@@ -881,7 +886,11 @@ enum Stage {
 struct Job {
     target2: i128,
     last: i128,
-    limits: RampLimits,
+    /// A trapezoid's limits (only trapezoids are planned over several ticks: their jerk-limited
+    /// limits would be some 100 bytes more to copy).
+    velocity: i128,
+    acceleration: i128,
+    deceleration: i128,
     /// For the provisional rule: the end velocity squared and 1 / deceleration (`f32`).
     end_squared: f32,
     per_deceleration: f32,
@@ -889,7 +898,18 @@ struct Job {
     counts: Counts,
 }
 
-/// Executes trapezoidal plans (see the module docs).
+impl Job {
+    fn limits(&self) -> RampLimits {
+        RampLimits {
+            velocity: self.velocity,
+            acceleration: self.acceleration,
+            deceleration: self.deceleration,
+            jerk: None,
+        }
+    }
+}
+
+/// Executes trapezoidal and jerk-limited plans (see the module docs).
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Ramps {
     legs: Legs,
@@ -1081,7 +1101,9 @@ impl Ramps {
         self.job = Some(Job {
             target2,
             last,
-            limits: *limits,
+            velocity: limits.velocity,
+            acceleration: limits.acceleration,
+            deceleration: limits.deceleration,
             end_squared: real(last) * real(last),
             per_deceleration: 1.0 / real(limits.deceleration),
             stage: Stage::Asked,
@@ -1099,9 +1121,9 @@ impl Ramps {
         // Worked on in place (a job and the legs are some 200 bytes to copy).
         let (p2, v, a) = (self.p2, self.v, self.a);
         let Some(job) = self.job.as_mut() else { return };
-        let limits = job.limits;
+        let limits = job.limits();
         let outcome = job.target2.checked_sub(p2).and_then(|distance2| {
-            let problem = Move { distance2, u0: v, a0: a, ue: job.last, limits: &job.limits };
+            let problem = Move { distance2, u0: v, a0: a, ue: job.last, limits: &limits };
             // The state of the next tick, after this one's provisional acceleration `a`.
             let next = Move {
                 distance2: distance2.checked_sub(v.checked_mul(2)?.checked_add(a)?)?,
@@ -1122,7 +1144,7 @@ impl Ramps {
                 Stage::Round { fallback, round } => {
                     match problem.round(&mut job.counts, &mut self.legs, Some(&next))? {
                         true => Some(Some((job.target2, job.last, made(fallback)))),
-                        false if round + 1 < job.limits.rounds() => {
+                        false if round + 1 < limits.rounds() => {
                             job.stage = Stage::Round { fallback, round: round + 1 };
                             Some(None)
                         }
@@ -1156,7 +1178,7 @@ impl Ramps {
     /// from wherever it has brought the axis.
     fn provisional(&self) -> i128 {
         let Some(job) = self.job.as_ref() else { return 0 };
-        let limits = &job.limits;
+        let limits = &job.limits();
         let distance2 = job.target2.saturating_sub(self.p2);
         // Along the target's direction (a sign is applied by negation: a 128-bit product by
         // ±1 is a long call on a Cortex-M).
@@ -1272,18 +1294,7 @@ impl Ramps {
             return;
         }
         if self.jerk_limited {
-            // p += v + 2α + α', v += 3·(α + α') for the acceleration 6α now and 6α' after.
-            let next = self.alpha_at(self.ticks - self.left + 1);
-            let (alpha, v) = (self.alpha, self.v);
-            let step = v.wrapping_add(alpha.wrapping_mul(2)).wrapping_add(next);
-            self.p2 = self.p2.wrapping_add(step.wrapping_mul(2));
-            self.v = v.wrapping_add(alpha.wrapping_add(next).wrapping_mul(3));
-            self.alpha = next;
-            self.left -= 1;
-            self.remaining = self.remaining.saturating_sub(1);
-            if self.left == 0 {
-                self.enter_next();
-            }
+            self.step_jerk();
             return;
         }
         self.p2 = self.p2.wrapping_add(self.v.wrapping_mul(2)).wrapping_add(self.a);
@@ -1294,6 +1305,23 @@ impl Ramps {
             self.enter_next();
         } else {
             self.a = self.accel();
+        }
+    }
+
+    /// A jerk-limited plan's tick (out of line: a trapezoid's tick does not need it): the
+    /// acceleration `6α` now and `6α'` after, `p += v + 2α + α'`, `v += 3·(α + α')`.
+    #[inline(never)]
+    fn step_jerk(&mut self) {
+        let next = self.alpha_at(self.ticks - self.left + 1);
+        let (alpha, v) = (self.alpha, self.v);
+        let step = v.wrapping_add(alpha.wrapping_mul(2)).wrapping_add(next);
+        self.p2 = self.p2.wrapping_add(step.wrapping_mul(2));
+        self.v = v.wrapping_add(alpha.wrapping_add(next).wrapping_mul(3));
+        self.alpha = next;
+        self.left -= 1;
+        self.remaining = self.remaining.saturating_sub(1);
+        if self.left == 0 {
+            self.enter_next();
         }
     }
 
