@@ -382,7 +382,7 @@ that a tick divides again only when a master changes one, and the inputs and dem
 last idle tick (some 80 B with the dictionary's revision and the TPDOs' wake time), so that an
 idle tick repeats them while nothing changed (the revision and the sample). Without the
 optional modes (`drive-cyclic`: cargo features `pp`, `hm`, `ip`, `vl`, `touch-probe` off) the
-drive takes a little over half the full image's flash — the exact trajectory planner of pp and
+drive takes a little over half the full image's flash — the trajectory generator of pp and
 hm and the code of those modes are the difference — and some 1.4 KiB less static RAM: the
 variants of pp and hm, with their planners, exist only in the builds that run them. The budgets in `benches/footprint/budgets.txt` are therefore
 set at the measured values plus 3 % (`scripts/footprint.py --update`) so that CI catches
@@ -396,13 +396,12 @@ arithmetic, comparisons and `Option`/`Result` handling expand to is counted as `
 
 Read with the symbols below: `Profile::tick` is one function of about 27 KiB after inlining
 (the common part, and each mode's step, which it inlines as its only caller: one mode runs at a
-time, but every mode of the build is in the image), the exact fixed-point
-trajectory planner (`motion::solve`, `legs`, `planner`, `fixed`, `shape`) about 20 KiB with
-most of the `core` integer arithmetic above (128-bit divisions and checked products go through
-out-of-line functions, `crate::wide`), and the dictionary's descriptions (40 bytes per entry
-without names, 56 per object) most of `.rodata`. The goal of 48 KiB is beyond what the open
-items can give: the planner's functions with the arithmetic inlined in them are some 28 KiB,
-so even a drive without any planner would be about 100 KiB, and descriptors of 16 bytes
+time, but every mode of the build is in the image), the bounded trajectory generator
+(`motion::ramps`, `pulse`, `planner`, `fixed`) about 19 KiB, much of it 128-bit arithmetic
+inlined (checked sums and products; the divisions go through `fixed` and `crate::wide`), and
+the dictionary's descriptions (40 bytes per entry without names, 56 per object) most of
+`.rodata`. The goal of 48 KiB is beyond what the open items can give: the motion code alone
+is some 19 KiB and `Profile::tick` 27 KiB, and descriptors of 16 bytes
 (issue 17 item 2) would save some 6 KiB of `.rodata`. The rest is spread over parts of a size
 each: the CiA 301 services, the dictionary, the modes, the profile's run-time and the `core`
 code they inline (Option/Result handling, comparisons, copies).
@@ -418,8 +417,9 @@ the *build* column is then about one drive's worth of stack (the drive is assemb
 written into its place). Built by value with `Drive::new` and moved into a static, the same
 image needed about 43 KiB (several copies in the constructor's frame) — more than a 32 KiB
 part has. The tick's
-depth comes from `Profile::tick` and the trajectory planner (`PositionPlanner::plan` and
-`::stop` reserve about 3.5 and 2 KiB on thumbv7em); the deepest communication call is an NMT
+depth comes from `Profile::tick` and, in the ticks that plan, the trajectory generator (a
+jerk-limited plan's rounds keep five fitted pulses of some 80 bytes each); the deepest
+communication call is an NMT
 reset (`Drive::nmt_command` reserves about 4 KiB).
 """
 
