@@ -200,7 +200,8 @@ impl JerkLimits {
 
 /// A plan's legs: leg `i` runs `ticks[i]` ticks and ends at `aims[i]`, a trapezoid's at one
 /// acceleration (spread in whole units), a jerk-limited one's as `pulses[i]`, the first one
-/// with the `decay` of the acceleration the plan started with (after it, or `overlap`ping
+/// with the `decay` of the acceleration the plan started with, its pulse from tick `offset`
+/// (beside the decay when that is before the decay's end, else after it)
 /// its pulse).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 struct Legs {
@@ -208,7 +209,7 @@ struct Legs {
     aims: [i128; MAX_LEGS],
     pulses: [Pulse; MAX_LEGS],
     decay: Decay,
-    overlap: bool,
+    offset: u32,
     len: usize,
     /// Jerk-limited: twice the distance the legs cover, as planned (for the tests).
     #[cfg(test)]
@@ -444,6 +445,9 @@ struct Move<'a> {
     u0: i128,
     /// The present acceleration (a jerk-limited plan ramps it out on its first leg).
     a0: i128,
+    /// Jerk-limited: the first tick of the plan at which its first pulse may start (the ticks
+    /// a plan made over several ticks takes; 0 for one made at once).
+    delay: u32,
     ue: i128,
     limits: &'a RampLimits,
 }
@@ -622,7 +626,12 @@ impl Move<'_> {
         let (dv, dp) = decay.change()?;
         let m = decay.ticks();
         let (u0, ue) = (self.u0.checked_add(dv)?, self.ue);
-        let rest2 = self.distance2.checked_sub(mul_small(self.u0, m)?.checked_add(dp)?.checked_mul(2)?)?;
+        // What the decay covers, and the coast after it until the pulse may start.
+        let coast = self.delay.saturating_sub(m);
+        let rest2 = self
+            .distance2
+            .checked_sub(mul_small(self.u0, m)?.checked_add(dp)?.checked_mul(2)?)?
+            .checked_sub(mul_small(u0, coast)?.checked_mul(2)?)?;
         let shape = Shape::new(limits, jerk);
         let vmax = real(limits.velocity);
         let (fu0, fue) = (real(u0), real(ue));
@@ -650,7 +659,8 @@ impl Move<'_> {
             cruising,
             overlap: false,
         };
-        if m > 0 {
+        let delay = self.delay;
+        if m > 0 || delay > 0 {
             // Beside the first pulse where the acceleration already points its way and is
             // within its limit; else before it.
             let (aim, first) = if stop > 0 { (0.0, &mut counts.stop) } else { (peak, &mut counts.to) };
@@ -662,8 +672,12 @@ impl Move<'_> {
                 jerk.deceleration
             };
             let rising = if aim > fu0 { 1 } else { -1 };
-            counts.overlap = decay.start().signum() == rising && decay.start().abs() <= accel;
-            *first = if counts.overlap { (*first).max(2 * m) } else { first.checked_add(m)? };
+            counts.overlap = m > delay && decay.start().signum() == rising && decay.start().abs() <= accel;
+            *first = if counts.overlap {
+                (*first).max(2 * (m - delay)).checked_add(delay)?
+            } else {
+                first.checked_add(m.max(delay))?
+            };
         }
         Some(counts)
     }
@@ -678,26 +692,24 @@ impl Move<'_> {
         let (dv, dp) = decay.change()?;
         let m = decay.ticks();
         let on_stop = counts.stop > 0;
+        let delay = self.delay;
+        // The first pulse's start: beside the decay from the delay, or after both.
+        let overlap = counts.overlap && m > delay;
+        let offset = if overlap { delay } else { m.max(delay) };
         let first = if on_stop { counts.stop } else { counts.to };
-        if m > 0 && first < m.checked_add(1)? {
+        if offset > 0 && first <= offset {
             let first = if on_stop { &mut counts.stop } else { &mut counts.to };
-            *first = m.checked_add(2)?;
+            *first = offset.checked_add(2)?;
             return Some(false);
         }
-        let overlap = counts.overlap && m > 0;
-        let (n, mi) = (i128::from(first), i128::from(m));
-        // Twice the first leg's distance: `fixed + coefficient·w` for its end velocity w.
-        let (fixed, coefficient) = if overlap {
-            let fixed =
-                mul_small(u0, first)?.checked_add(dp * 2)?.checked_add(dv.checked_mul(n - 2 * mi)?)?;
-            (fixed, first)
-        } else {
-            let fixed = mul_small(u0, m)?
-                .checked_add(dp)?
-                .checked_mul(2)?
-                .checked_add(mul_small(u0.checked_add(dv)?, first - m)?)?;
-            (fixed, first - m)
-        };
+        // Twice the first leg's distance, `fixed + coefficient·w` for its end velocity w:
+        // u0·(N + s) + (N − s)·w + 2·dp + dv·(N − 2m + s) for its pulse from tick s (the decay
+        // m ticks long, beside the pulse or before it and a coast).
+        let (n, mi, si) = (i128::from(first), i128::from(m), i128::from(offset));
+        let fixed = mul_small(u0, first.checked_add(offset)?)?
+            .checked_add(dp.checked_mul(2)?)?
+            .checked_add(dv.checked_mul(n - 2 * mi + si)?)?;
+        let coefficient = first - offset;
         let to = if counts.start > 0 { 0 } else { ue };
         let num = self
             .distance2
@@ -743,9 +755,8 @@ impl Move<'_> {
                 }
                 continue;
             }
-            let (offset, carry, min_rise) = match index == first_index && m > 0 {
-                true if overlap => (0, dv, m),
-                true => (m, dv, 0),
+            let (offset, carry, min_rise) = match index == first_index {
+                true => (offset, dv, m.saturating_sub(offset)),
                 false => (0, 0, 0),
             };
             let start = v.checked_add(carry)?;
@@ -758,7 +769,7 @@ impl Move<'_> {
             let sigma = sixths(change)?;
             let length = *count - offset;
             let fitted = Pulse::fit(sigma, length, jerk_limit, accel, min_rise).filter(|pulse| {
-                min_rise == 0 || (pulse.rise_end() >= m && sigma.signum() == decay.start().signum())
+                min_rise == 0 || (pulse.rise_end() >= min_rise && sigma.signum() == decay.start().signum())
             });
             if let Some(pulse) = fitted {
                 *slot = pulse;
@@ -777,17 +788,17 @@ impl Move<'_> {
         }
         [counts.stop, counts.to, counts.cruise, counts.from, counts.start] = ticks;
         if !overlap_fits {
-            // The pulse cannot run beside the decay: after it, on a leg as long again.
+            // The pulse cannot run beside the decay: after it, on a leg as much longer.
             counts.overlap = false;
             let first = if on_stop { &mut counts.stop } else { &mut counts.to };
-            *first = first.checked_add(m)?;
+            *first = first.checked_add(m - delay)?;
         }
         let Some(legs) = legs.filter(|_| fits) else {
             return Some(false);
         };
         legs.len = 0;
         legs.decay = decay;
-        legs.overlap = overlap;
+        legs.offset = offset;
         for ((&count, &aim), &pulse) in ticks.iter().zip(&aims).zip(&pulses) {
             legs.push_pulse(count, aim, pulse)?;
         }
@@ -837,9 +848,9 @@ fn sixths(change: i128) -> Option<i128> {
 
 /// A jerk-limited velocity change from `v` (at acceleration `a0`) to `aim`, wherever it ends:
 /// the decay of `a0`, beside the pulse where it already points the pulse's way (and is within
-/// its limit), else before it. Returns the ticks, the pulse, whether it overlaps the decay,
-/// the decay, and twice the distance covered.
-fn ramp_jerk(jerk: &JerkLimits, v: i128, a0: i128, aim: i128) -> Option<(u32, Pulse, bool, Decay, i128)> {
+/// its limit), else before it. Returns the ticks, the pulse, the tick it starts at, the decay,
+/// and twice the distance covered.
+fn ramp_jerk(jerk: &JerkLimits, v: i128, a0: i128, aim: i128) -> Option<(u32, Pulse, u32, Decay, i128)> {
     let decay = jerk.decay(v, a0)?;
     let (dv, dp) = decay.change()?;
     let m = decay.ticks();
@@ -862,7 +873,7 @@ fn ramp_jerk(jerk: &JerkLimits, v: i128, a0: i128, aim: i128) -> Option<(u32, Pu
             let covered = mul_small(v.checked_add(end)?, length)?
                 .checked_add(dp.checked_mul(2)?)?
                 .checked_add(dv.checked_mul(n - 2 * i128::from(m))?)?;
-            return Some((length, pulse, true, decay, covered));
+            return Some((length, pulse, 0, decay, covered));
         }
         length = length.checked_add(1 + length / 64)?;
     }
@@ -872,7 +883,7 @@ fn ramp_jerk(jerk: &JerkLimits, v: i128, a0: i128, aim: i128) -> Option<(u32, Pu
         .checked_add(dp)?
         .checked_mul(2)?
         .checked_add(mul_small(start.checked_add(end)?, length)?)?;
-    Some((m.checked_add(length)?, shortest, false, decay, covered))
+    Some((m.checked_add(length)?, shortest, m, decay, covered))
 }
 
 /// Where a plan made over several ticks has got to.
@@ -959,7 +970,7 @@ impl Ramps {
                 aims: [0; MAX_LEGS],
                 pulses: [Pulse::NONE; MAX_LEGS],
                 decay: Decay::NONE,
-                overlap: false,
+                offset: 0,
                 len: 0,
                 #[cfg(test)]
                 covered2: 0,
@@ -1023,6 +1034,7 @@ impl Ramps {
             distance2: end_p2.checked_sub(self.p2).ok_or(MotionError::OutOfRange)?,
             u0: self.v,
             a0: self.acceleration(),
+            delay: 0,
             ue: last,
             limits,
         };
@@ -1058,12 +1070,12 @@ impl Ramps {
     /// a jerk-limited one's a pulse after (or beside) the decay of the present acceleration.
     /// Returns the ticks until the velocity is reached.
     pub(crate) fn velocity(&mut self, aim: i128, limits: &RampLimits) -> Result<u64, MotionError> {
-        let (ticks, pulse, overlap, decay, covered) = match &limits.jerk {
+        let (ticks, pulse, offset, decay, covered) = match &limits.jerk {
             None => {
                 let ticks = exact_ticks(aim.wrapping_sub(self.v), limits.rate(self.v, aim));
                 let covered = ticks.and_then(|n| mul_small(self.v.checked_add(aim)?, n));
                 let (ticks, covered) = ticks.zip(covered).ok_or(MotionError::TooLong)?;
-                (ticks, Pulse::NONE, false, Decay::NONE, covered)
+                (ticks, Pulse::NONE, 0, Decay::NONE, covered)
             }
             Some(jerk) => ramp_jerk(jerk, self.v, self.acceleration(), aim).ok_or(MotionError::TooLong)?,
         };
@@ -1072,7 +1084,7 @@ impl Ramps {
         self.a = 0;
         self.legs.len = 0;
         self.legs.decay = decay;
-        self.legs.overlap = overlap;
+        self.legs.offset = offset;
         self.legs.push_pulse(ticks, aim, pulse).ok_or(MotionError::TooLong)?;
         #[cfg(test)]
         {
@@ -1129,7 +1141,7 @@ impl Ramps {
         let Some(job) = self.job.as_mut() else { return };
         let limits = job.limits();
         let outcome = job.target2.checked_sub(p2).and_then(|distance2| {
-            let problem = Move { distance2, u0: v, a0: a, ue: job.last, limits: &limits };
+            let problem = Move { distance2, u0: v, a0: a, delay: 0, ue: job.last, limits: &limits };
             // The state of the next tick, after this one's provisional acceleration `a`.
             let next = Move {
                 distance2: distance2.checked_sub(v.checked_mul(2)?.checked_add(a)?)?,
@@ -1253,7 +1265,7 @@ impl Ramps {
             return pulse.alpha(t);
         }
         let decay = &self.legs.decay;
-        let offset = if self.legs.overlap { 0 } else { decay.ticks() };
+        let offset = self.legs.offset;
         let pulse = if t >= offset { pulse.alpha(t - offset) } else { 0 };
         decay.alpha(t).wrapping_add(pulse)
     }
