@@ -380,63 +380,108 @@ impl Shape {
         }
     }
 
-    /// The peak velocity of a move over `distance` from `u0` to `ue` and whether it cruises
-    /// at `vmax` (bisection: the distance is continuous in the peak).
-    fn peak(&self, distance: f32, u0: f32, ue: f32, vmax: f32) -> (f32, bool) {
-        let covered = |vp: f32| self.change(u0, vp) + self.change(vp, ue);
-        if covered(vmax) <= distance {
-            return (vmax, true);
+    /// The search for the peak velocity of a move over `distance` from `u0` to `ue`, set up:
+    /// done at once if the peak is the velocity limit `vmax` (with a cruise).
+    fn search(&self, distance: f32, u0: f32, ue: f32, vmax: f32) -> PeakSearch {
+        let mut search = PeakSearch { distance, u0, ue, vmax, ..PeakSearch::default() };
+        let (f_low, f_high) = (self.covered(&search, -vmax), self.covered(&search, vmax));
+        if f_high <= 0.0 {
+            search.found = Some((vmax, true));
+        } else if f_low >= 0.0 {
+            search.found = Some((-vmax, true));
         }
-        if covered(-vmax) >= distance {
-            return (-vmax, true);
-        }
-        // On the cube root of the peak (as fine relative to a small peak as to a large one):
-        // bisection while the bracket is wide or straddles zero, regula falsi with the Illinois
-        // rule once it is narrow (superlinear where the distance is smooth), bisection again
-        // whenever a secant step gains less than half the bracket. The distance need not be
-        // monotone in the peak (a slow deceleration to the end velocity), so the bracket's ends
-        // keep their signs and the result is the end nearer the root.
-        let cube = |t: f32| t * t * t;
         let top = cbrt(vmax);
-        let (mut low, mut high) = (-top, top);
-        let (mut f_low, mut f_high) = (covered(-vmax) - distance, covered(vmax) - distance);
-        let mut kept = 0i8;
-        for _ in 0..PEAK_STEPS {
-            let width = high - low;
-            if width <= abs(low).max(abs(high)) * (1.0 / 1_048_576.0) {
-                break;
+        (search.low, search.high, search.f_low, search.f_high) = (-top, top, f_low, f_high);
+        search
+    }
+
+    /// The distance covered at the peak `vp`, less the distance to cover.
+    fn covered(&self, search: &PeakSearch, vp: f32) -> f32 {
+        self.change(search.u0, vp) + self.change(vp, search.ue) - search.distance
+    }
+
+    /// At most `steps` steps of the search (none once it is done).
+    ///
+    /// On the cube root of the peak (as fine relative to a small peak as to a large one):
+    /// bisection while the bracket is wide or straddles zero, regula falsi with the Illinois
+    /// rule once it is narrow (superlinear where the distance is smooth). The distance need not
+    /// be monotone in the peak (a slow deceleration to the end velocity), so the bracket's ends
+    /// keep their signs and the result is the end nearer the root.
+    fn advance(&self, search: &mut PeakSearch, steps: u32) {
+        let cube = |t: f32| t * t * t;
+        for _ in 0..steps {
+            if search.found.is_some() {
+                return;
             }
+            let (low, high) = (search.low, search.high);
+            let width = high - low;
+            if width <= abs(low).max(abs(high)) * (1.0 / 1_048_576.0) || search.steps >= PEAK_STEPS {
+                let t = if -search.f_low < search.f_high { low } else { high };
+                search.found = Some((cube(t).max(-search.vmax).min(search.vmax), false));
+                return;
+            }
+            search.steps += 1;
             let narrow = (low > 0.0 || high < 0.0) && width * 8.0 <= abs(low).min(abs(high));
             let mut t = (low + high) * 0.5;
-            if narrow && f_high > f_low {
-                let secant = (low * f_high - high * f_low) / (f_high - f_low);
+            if narrow && search.f_high > search.f_low {
+                let secant = (low * search.f_high - high * search.f_low) / (search.f_high - search.f_low);
                 if secant > low && secant < high {
                     t = secant;
                 }
             }
-            let f = covered(cube(t)) - distance;
+            let f = self.covered(search, cube(t));
             if f < 0.0 {
-                (low, f_low) = (t, f);
-                if kept == -1 && narrow {
-                    f_high *= 0.5;
+                (search.low, search.f_low) = (t, f);
+                if search.kept == -1 && narrow {
+                    search.f_high *= 0.5;
                 }
-                kept = -1;
+                search.kept = -1;
             } else {
-                (high, f_high) = (t, f);
-                if kept == 1 && narrow {
-                    f_low *= 0.5;
+                (search.high, search.f_high) = (t, f);
+                if search.kept == 1 && narrow {
+                    search.f_low *= 0.5;
                 }
-                kept = 1;
+                search.kept = 1;
             }
         }
-        let t = if -f_low < f_high { low } else { high };
-        (cube(t).max(-vmax).min(vmax), false)
+    }
+}
+
+/// The jerk-limited layout's search for the peak velocity (`f32` per-tick units), resumable:
+/// a plan made over several ticks runs a few steps per tick.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+struct PeakSearch {
+    /// The continuous problem: cover `distance` from `u0` to `ue` within `vmax`.
+    distance: f32,
+    u0: f32,
+    ue: f32,
+    vmax: f32,
+    /// The bracket on the peak's cube root, and the distance missed at its ends.
+    low: f32,
+    high: f32,
+    f_low: f32,
+    f_high: f32,
+    /// The end the last step kept (Illinois), and the steps so far.
+    kept: i8,
+    steps: u32,
+    /// The peak and whether it cruises at the limit, once found.
+    found: Option<(f32, bool)>,
+    /// The fallback's stop and start (it stops first and starts again).
+    stop_first: Option<(u32, u32)>,
+}
+
+impl PeakSearch {
+    fn result(&self) -> Option<(f32, bool)> {
+        self.found
     }
 }
 
 /// Most steps of the jerk-limited layout's search for the peak (bisection and Illinois steps on
 /// its cube root, to 2⁻²⁰ of it; usually 10 to 20).
 const PEAK_STEPS: u32 = 40;
+
+/// Steps of that search per tick in a plan made over several ticks.
+const SEARCH_STEPS_PER_TICK: u32 = 4;
 
 /// The problem a plan solves: from velocity `u0`, cover `distance2 / 2` (fixed point) and end
 /// at `ue`.
@@ -467,6 +512,45 @@ struct Counts {
     /// Jerk-limited: the first leg's pulse runs beside the decay of the present acceleration
     /// (else after it).
     overlap: bool,
+    /// Jerk-limited: the delay of the first pulse the counts were made for.
+    delay: u32,
+}
+
+impl Counts {
+    /// The ticks of leg `index` (stop, to the peak, cruise, from the peak, start).
+    fn slot(&mut self, index: usize) -> Option<&mut u32> {
+        match index {
+            0 => Some(&mut self.stop),
+            1 => Some(&mut self.to),
+            2 => Some(&mut self.cruise),
+            3 => Some(&mut self.from),
+            4 => Some(&mut self.start),
+            _ => None,
+        }
+    }
+}
+
+/// A jerk-limited round after its peak: the legs fitted one after the other (over several
+/// ticks when the plan is made so).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+struct Fitting {
+    peak: i128,
+    /// Where the legs fitted so far end, and where they were planned to end.
+    v: i128,
+    nominal: i128,
+    /// The next leg to fit.
+    next: usize,
+    /// The first leg, its decay (and the velocity it adds), and the first pulse's start.
+    first: usize,
+    decay: Decay,
+    dv: i128,
+    offset: u32,
+    /// Every leg so far fits; the first pulse can run beside the decay.
+    fits: bool,
+    beside: bool,
+    /// Twice the first leg's distance, `fixed + coefficient·w` (for the tests).
+    fixed: i128,
+    coefficient: u32,
 }
 
 impl Move<'_> {
@@ -514,6 +598,7 @@ impl Move<'_> {
             cruise: 0,
             cruising,
             overlap: false,
+            delay: 0,
         })
     }
 
@@ -617,39 +702,68 @@ impl Move<'_> {
     }
 
     /// [`Self::layout`] for the jerk-limited profile: the decay of the present acceleration
-    /// on the first leg, then the continuous time-optimal peak of mirror-image pulses (found by
-    /// bisection in `f32`) from the velocity the decay leaves.
+    /// on the first leg, then the continuous time-optimal peak of mirror-image pulses (a search
+    /// in `f32`) from the velocity the decay leaves.
     #[inline(never)]
     fn layout_jerk(&self, jerk: &JerkLimits, stop_first: bool) -> Option<Counts> {
-        let limits = self.limits;
+        let mut search = self.search_jerk(jerk, stop_first)?;
+        // One step more than the most: the last one takes the result.
+        Shape::new(self.limits, jerk).advance(&mut search, PEAK_STEPS + 1);
+        self.counts_jerk(jerk, &search)
+    }
+
+    /// The decay of the present acceleration: it, its velocity change and distance.
+    fn decay(&self, jerk: &JerkLimits) -> Option<(Decay, i128, i128)> {
         let decay = jerk.decay(self.u0, self.a0)?;
         let (dv, dp) = decay.change()?;
+        Some((decay, dv, dp))
+    }
+
+    /// The layout's search for the peak, set up (and finished if the peak is the velocity
+    /// limit): the continuous problem from where the decay (and a coast until the delay) leave
+    /// the axis.
+    fn search_jerk(&self, jerk: &JerkLimits, stop_first: bool) -> Option<PeakSearch> {
+        let (decay, dv, dp) = self.decay(jerk)?;
         let m = decay.ticks();
         let (u0, ue) = (self.u0.checked_add(dv)?, self.ue);
-        // What the decay covers, and the coast after it until the pulse may start.
         let coast = self.delay.saturating_sub(m);
         let rest2 = self
             .distance2
             .checked_sub(mul_small(self.u0, m)?.checked_add(dp)?.checked_mul(2)?)?
             .checked_sub(mul_small(u0, coast)?.checked_mul(2)?)?;
-        let shape = Shape::new(limits, jerk);
-        let vmax = real(limits.velocity);
-        let (fu0, fue) = (real(u0), real(ue));
-        let (peak, cruising, stop, start) = if stop_first {
-            let stop = if u0 != 0 { shape.ticks(fu0, 0.0)? } else { 0 };
-            let start = if ue != 0 { shape.ticks(0.0, fue)? } else { 0 };
+        let shape = Shape::new(self.limits, jerk);
+        let vmax = real(self.limits.velocity);
+        Some(if stop_first {
+            let stop = if u0 != 0 { shape.ticks(real(u0), 0.0)? } else { 0 };
+            let start = if ue != 0 { shape.ticks(0.0, real(ue))? } else { 0 };
             let fixed = mul_small(u0, stop)?.checked_add(mul_small(ue, start)?)?;
-            let (peak, cruising) = shape.peak(real(rest2.checked_sub(fixed)?) * 0.5, 0.0, 0.0, vmax);
-            (peak, cruising, stop, start)
+            let mut search = shape.search(real(rest2.checked_sub(fixed)?) * 0.5, 0.0, 0.0, vmax);
+            search.stop_first = Some((stop, start));
+            search
         } else {
-            let (peak, cruising) = shape.peak(real(rest2) * 0.5, fu0, fue, vmax);
-            let opposite = |x: f32| (x > 0.0 && peak < 0.0) || (x < 0.0 && peak > 0.0);
-            let stop = if opposite(fu0) { shape.ticks(fu0, 0.0)? } else { 0 };
-            let start = if opposite(fue) { shape.ticks(0.0, fue)? } else { 0 };
-            (peak, cruising, stop, start)
+            shape.search(real(rest2) * 0.5, real(u0), real(ue), vmax)
+        })
+    }
+
+    /// The tick counts of the layout from its peak (`search` done).
+    fn counts_jerk(&self, jerk: &JerkLimits, search: &PeakSearch) -> Option<Counts> {
+        let (decay, dv, _) = self.decay(jerk)?;
+        let m = decay.ticks();
+        let shape = Shape::new(self.limits, jerk);
+        let (fu0, fue) = (real(self.u0.checked_add(dv)?), real(self.ue));
+        let (peak, cruising) = search.result()?;
+        let (stop, start) = match search.stop_first {
+            Some(ticks) => ticks,
+            None => {
+                let opposite = |x: f32| (x > 0.0 && peak < 0.0) || (x < 0.0 && peak > 0.0);
+                let stop = if opposite(fu0) { shape.ticks(fu0, 0.0)? } else { 0 };
+                let start = if opposite(fue) { shape.ticks(0.0, fue)? } else { 0 };
+                (stop, start)
+            }
         };
         let from = if stop > 0 { 0.0 } else { fu0 };
         let to = if start > 0 { 0.0 } else { fue };
+        let delay = self.delay;
         let mut counts = Counts {
             stop,
             start,
@@ -658,8 +772,8 @@ impl Move<'_> {
             cruise: 0,
             cruising,
             overlap: false,
+            delay,
         };
-        let delay = self.delay;
         if m > 0 || delay > 0 {
             // Beside the first pulse where the acceleration already points its way and is
             // within its limit; else before it.
@@ -686,13 +800,33 @@ impl Move<'_> {
     /// the legs' pulses (and of the first leg's decay), then each leg's pulse fitted from the
     /// velocity the one before it really ends at.
     fn attempt_jerk(&self, jerk: &JerkLimits, counts: &mut Counts, legs: Option<&mut Legs>) -> Option<bool> {
+        let Some(mut fitting) = self.peak_jerk(jerk, counts)? else {
+            return Some(false);
+        };
+        let mut pulses = [Pulse::NONE; MAX_LEGS];
+        while fitting.next < MAX_LEGS {
+            self.fit_jerk(jerk, counts, &mut fitting, &mut pulses)?;
+        }
+        self.finish_jerk(counts, &fitting, &pulses, legs)
+    }
+
+    /// The first part of a jerk-limited round: the peak for `counts`, `None` inside if a count
+    /// had to change first (the round failed).
+    fn peak_jerk(&self, jerk: &JerkLimits, counts: &mut Counts) -> Option<Option<Fitting>> {
         let limits = self.limits;
         let (u0, ue) = (self.u0, self.ue);
-        let decay = jerk.decay(u0, self.a0)?;
-        let (dv, dp) = decay.change()?;
+        let (decay, dv, dp) = self.decay(jerk)?;
         let m = decay.ticks();
         let on_stop = counts.stop > 0;
         let delay = self.delay;
+        {
+            // Laid out for an earlier delay: the first leg as much longer, its pulse as long.
+            let first = if on_stop { &mut counts.stop } else { &mut counts.to };
+            if delay > counts.delay && *first > 0 {
+                *first = first.checked_add(delay - counts.delay)?;
+            }
+            counts.delay = delay;
+        }
         // The first pulse's start: beside the decay from the delay, or after both.
         let overlap = counts.overlap && m > delay;
         let offset = if overlap { delay } else { m.max(delay) };
@@ -700,7 +834,7 @@ impl Move<'_> {
         if offset > 0 && first <= offset {
             let first = if on_stop { &mut counts.stop } else { &mut counts.to };
             *first = offset.checked_add(2)?;
-            return Some(false);
+            return Some(None);
         }
         // Twice the first leg's distance, `fixed + coefficient·w` for its end velocity w:
         // u0·(N + s) + (N − s)·w + 2·dp + dv·(N − 2m + s) for its pulse from tick s (the decay
@@ -722,100 +856,135 @@ impl Move<'_> {
         if den == 0 && num != 0 {
             // No leg holds the peak, and the stop and the start alone do not land.
             counts.to = 1;
-            return Some(false);
+            return Some(None);
         }
         let peak = if den == 0 { 0 } else { div_ticks(num, den) };
         if peak.checked_abs()? > limits.velocity {
             counts.cruising = true;
+            return Some(None);
+        }
+        Some(Some(Fitting {
+            peak,
+            v: u0,
+            nominal: u0,
+            next: 0,
+            first: if on_stop { 0 } else { 1 },
+            decay,
+            dv,
+            offset,
+            fits: true,
+            beside: true,
+            fixed,
+            coefficient,
+        }))
+    }
+
+    /// Fits the next leg of a jerk-limited round (in the order stop, to the peak, cruise, from
+    /// the peak, start), from the velocity the legs before it really end at.
+    fn fit_jerk(
+        &self,
+        jerk: &JerkLimits,
+        counts: &mut Counts,
+        fitting: &mut Fitting,
+        pulses: &mut [Pulse; MAX_LEGS],
+    ) -> Option<()> {
+        let index = fitting.next;
+        fitting.next += 1;
+        let to = if counts.start > 0 { 0 } else { self.ue };
+        let aim = [0, fitting.peak, fitting.peak, to, self.ue][index.min(MAX_LEGS - 1)];
+        let count = counts.slot(index)?;
+        if *count == 0 {
+            if index == 0 || index == MAX_LEGS - 1 {
+                // No stop or start: the legs at the peak start or end the move.
+                return Some(());
+            }
+            // No leg: the velocity must already be there (to the sixth).
+            let (jerk_limit, accel) = jerk.pulse(fitting.nominal, aim);
+            fitting.nominal = aim;
+            let sigma = sixths(aim.checked_sub(fitting.v)?)?;
+            if sigma != 0 {
+                fitting.fits = false;
+                *count = Pulse::shortest(sigma, jerk_limit, accel)?.ticks();
+                fitting.v = aim;
+            }
+            return Some(());
+        }
+        let first = index == fitting.first;
+        let (offset, carry, min_rise) = match first {
+            true => (fitting.offset, fitting.dv, fitting.decay.ticks().saturating_sub(fitting.offset)),
+            false => (0, 0, 0),
+        };
+        let start = fitting.v.checked_add(carry)?;
+        // Limits chosen by where the leg starts as planned (the first from the state, the
+        // others from the aim before them): a start a few units off zero does not make a leg
+        // from a stop one that changes sign.
+        let (jerk_limit, accel) = jerk.pulse(if first { start } else { fitting.nominal }, aim);
+        fitting.nominal = aim;
+        let sigma = sixths(aim.checked_sub(start)?)?;
+        let length = *count - offset;
+        let sign = fitting.decay.start().signum();
+        let fitted = Pulse::fit(sigma, length, jerk_limit, accel, min_rise)
+            .filter(|pulse| min_rise == 0 || (pulse.rise_end() >= min_rise && sigma.signum() == sign));
+        if let Some(pulse) = fitted {
+            *pulses.get_mut(index)? = pulse;
+            fitting.v = start.checked_add(sigma.checked_mul(6)?)?;
+            return Some(());
+        }
+        fitting.fits = false;
+        if min_rise > 0 && Pulse::fit(sigma, length, jerk_limit, accel, 0).is_some() {
+            // Long enough, but the pulse cannot run beside the decay: the round ends here.
+            fitting.beside = false;
+            fitting.next = MAX_LEGS;
+            return Some(());
+        }
+        let shortest = Pulse::shortest(sigma, jerk_limit, accel)?.ticks().max(2 * min_rise);
+        *count = offset.checked_add(shortest.max(length + 1))?;
+        fitting.v = aim;
+        Some(())
+    }
+
+    /// The end of a jerk-limited round: `Some(true)` with the legs in `legs` if every leg fits.
+    fn finish_jerk(
+        &self,
+        counts: &mut Counts,
+        fitting: &Fitting,
+        pulses: &[Pulse; MAX_LEGS],
+        legs: Option<&mut Legs>,
+    ) -> Option<bool> {
+        if !fitting.beside {
+            // After the decay instead: the first leg as much longer.
+            counts.overlap = false;
+            let m = fitting.decay.ticks();
+            let first = counts.slot(fitting.first)?;
+            *first = first.checked_add(m.saturating_sub(self.delay))?;
             return Some(false);
         }
-        // The legs in order, each fitted from where the last one really ends.
-        let mut ticks = [counts.stop, counts.to, counts.cruise, counts.from, counts.start];
-        let aims = [0, peak, peak, to, ue];
-        let first_index = if on_stop { 0 } else { 1 };
-        let mut pulses = [Pulse::default(); MAX_LEGS];
-        let mut v = u0;
-        let mut nominal = u0;
-        let mut fits = true;
-        let mut overlap_fits = true;
-        for (index, ((count, &aim), slot)) in ticks.iter_mut().zip(&aims).zip(pulses.iter_mut()).enumerate() {
-            if *count == 0 {
-                if index == 0 || index == MAX_LEGS - 1 {
-                    // No stop or start: the legs at the peak start or end the move.
-                    continue;
-                }
-                // No leg: the velocity must already be there (to the sixth).
-                let (jerk_limit, accel) = jerk.pulse(nominal, aim);
-                nominal = aim;
-                let sigma = sixths(aim.checked_sub(v)?)?;
-                if sigma != 0 {
-                    fits = false;
-                    *count = Pulse::shortest(sigma, jerk_limit, accel)?.ticks();
-                    v = aim;
-                }
-                continue;
-            }
-            let (offset, carry, min_rise) = match index == first_index {
-                true => (offset, dv, m.saturating_sub(offset)),
-                false => (0, 0, 0),
-            };
-            let start = v.checked_add(carry)?;
-            // Limits chosen by where the leg starts as planned (the first from the state, the
-            // others from the aim before them): a start a few units off zero does not make a
-            // leg from a stop one that changes sign.
-            let (jerk_limit, accel) = jerk.pulse(if index == first_index { start } else { nominal }, aim);
-            nominal = aim;
-            let change = aim.checked_sub(start)?;
-            let sigma = sixths(change)?;
-            let length = *count - offset;
-            let fitted = Pulse::fit(sigma, length, jerk_limit, accel, min_rise).filter(|pulse| {
-                min_rise == 0 || (pulse.rise_end() >= min_rise && sigma.signum() == decay.start().signum())
-            });
-            if let Some(pulse) = fitted {
-                *slot = pulse;
-                v = start.checked_add(sigma.checked_mul(6)?)?;
-                continue;
-            }
-            fits = false;
-            if min_rise > 0 && Pulse::fit(sigma, length, jerk_limit, accel, 0).is_some() {
-                // Long enough, but the pulse cannot run beside the decay.
-                overlap_fits = false;
-                break;
-            }
-            let shortest = Pulse::shortest(sigma, jerk_limit, accel)?.ticks().max(2 * min_rise);
-            *count = offset.checked_add(shortest.max(length + 1))?;
-            v = aim;
-        }
-        [counts.stop, counts.to, counts.cruise, counts.from, counts.start] = ticks;
-        if !overlap_fits {
-            // The pulse cannot run beside the decay: after it, on a leg as much longer.
-            counts.overlap = false;
-            let first = if on_stop { &mut counts.stop } else { &mut counts.to };
-            *first = first.checked_add(m - delay)?;
-        }
-        let Some(legs) = legs.filter(|_| fits) else {
+        let Some(legs) = legs.filter(|_| fitting.fits) else {
             return Some(false);
         };
+        let to = if counts.start > 0 { 0 } else { self.ue };
+        let ticks = [counts.stop, counts.to, counts.cruise, counts.from, counts.start];
+        let aims = [0, fitting.peak, fitting.peak, to, self.ue];
         legs.len = 0;
-        legs.decay = decay;
-        legs.offset = offset;
-        for ((&count, &aim), &pulse) in ticks.iter().zip(&aims).zip(&pulses) {
+        legs.decay = fitting.decay;
+        legs.offset = fitting.offset;
+        for ((&count, &aim), &pulse) in ticks.iter().zip(&aims).zip(pulses) {
             legs.push_pulse(count, aim, pulse)?;
         }
         #[cfg(test)]
         {
             // The first leg as solved (`fixed + coefficient·w`), the others L·(u + w), from
             // the velocities the pulses reach.
-            let mut v = u0;
+            let mut v = self.u0;
             legs.covered2 = 0;
             for (index, &count) in ticks.iter().enumerate() {
                 if count == 0 {
                     continue;
                 }
-                let carry = if index == first_index { dv } else { 0 };
+                let carry = if index == fitting.first { fitting.dv } else { 0 };
                 let end = v + carry + 6 * pulses[index].sigma();
-                legs.covered2 += if index == first_index {
-                    fixed + i128::from(coefficient) * end
+                legs.covered2 += if index == fitting.first {
+                    fitting.fixed + i128::from(fitting.coefficient) * end
                 } else {
                     i128::from(count) * (v + end)
                 };
