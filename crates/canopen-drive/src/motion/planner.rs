@@ -107,6 +107,9 @@ impl PositionPlanner {
         let ticks = if sliced && trapezoid {
             self.ramps.request(target_fixed, last, &limits)?;
             0
+        } else if sliced {
+            self.ramps.request_jerk(target_fixed, last, &limits)?;
+            0
         } else {
             self.ramps.plan(target_fixed, last, &limits)?
         };

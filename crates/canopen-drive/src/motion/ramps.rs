@@ -820,10 +820,11 @@ impl Move<'_> {
         let on_stop = counts.stop > 0;
         let delay = self.delay;
         {
-            // Laid out for an earlier delay: the first leg as much longer, its pulse as long.
+            // Laid out for another delay: the first leg as much longer (or shorter), its pulse
+            // as long.
             let first = if on_stop { &mut counts.stop } else { &mut counts.to };
-            if delay > counts.delay && *first > 0 {
-                *first = first.checked_add(delay - counts.delay)?;
+            if *first > 0 {
+                *first = first.checked_add(delay)?.saturating_sub(counts.delay).max(1);
             }
             counts.delay = delay;
         }
@@ -891,7 +892,7 @@ impl Move<'_> {
         let index = fitting.next;
         fitting.next += 1;
         let to = if counts.start > 0 { 0 } else { self.ue };
-        let aim = [0, fitting.peak, fitting.peak, to, self.ue][index.min(MAX_LEGS - 1)];
+        let aim = *[0, fitting.peak, fitting.peak, to, self.ue].get(index)?;
         let count = counts.slot(index)?;
         if *count == 0 {
             if index == 0 || index == MAX_LEGS - 1 {
@@ -1084,6 +1085,65 @@ struct Job {
     counts: Counts,
 }
 
+/// Where a jerk-limited plan made over several ticks has got to.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum JerkStage {
+    /// Asked for in this tick: the work starts in the next.
+    Asked,
+    /// Next: steps of the layout's search (the fallback's with `true`).
+    Search(bool),
+    /// Next: the layout's tick counts from its peak.
+    Counts(bool),
+    /// Next: the peak of round `round`, or the fitting of its next leg.
+    Peak {
+        fallback: bool,
+        round: u32,
+    },
+    Fit {
+        fallback: bool,
+        round: u32,
+    },
+}
+
+/// A jerk-limited plan made over several ticks ([`Ramps::request_jerk`]). It is made for the
+/// state of the request while the axis runs the first stretch of its first leg — the decay of
+/// its acceleration, then a coast at the velocity that leaves — which every plan made for that
+/// state begins with: its first pulse starts no earlier than the tick that completes it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct JerkJob {
+    /// The request's state: twice the position, the velocity, the acceleration.
+    p2: i128,
+    v: i128,
+    a0: i128,
+    target2: i128,
+    last: i128,
+    limits: RampLimits,
+    /// The delay of the first pulse the layout is made for.
+    delay: u32,
+    stage: JerkStage,
+    search: PeakSearch,
+    counts: Counts,
+    fitting: Fitting,
+}
+
+impl JerkJob {
+    /// The problem within `limits` (the job's, copied), with the first pulse `delay` ticks
+    /// after the request.
+    fn problem<'a>(&self, limits: &'a RampLimits, delay: u32) -> Option<Move<'a>> {
+        Some(Move {
+            distance2: self.target2.checked_sub(self.p2)?,
+            u0: self.v,
+            a0: self.a0,
+            delay,
+            ue: self.last,
+            limits,
+        })
+    }
+}
+
+/// Ticks a jerk-limited plan made over several ticks lays out for: about the ticks it takes.
+const JERK_LAYOUT_DELAY: u32 = 12;
+
 impl Job {
     fn limits(&self) -> RampLimits {
         RampLimits {
@@ -1101,6 +1161,8 @@ pub(crate) struct Ramps {
     legs: Legs,
     /// A plan being made over several ticks.
     job: Option<Job>,
+    /// A jerk-limited plan being made over several ticks.
+    jerk_job: Option<JerkJob>,
     next: usize,
     /// Twice the position (2⁻⁶⁵ increments).
     p2: i128,
@@ -1145,6 +1207,7 @@ impl Ramps {
                 covered2: 0,
             },
             job: None,
+            jerk_job: None,
             next: 0,
             p2: state.p.wrapping_mul(2),
             v: state.v,
@@ -1170,6 +1233,7 @@ impl Ramps {
     pub(crate) fn hold(&mut self, p: i128) {
         self.legs.len = 0;
         self.job = None;
+        self.jerk_job = None;
         self.next = 0;
         self.p2 = p.wrapping_mul(2);
         self.v = 0;
@@ -1210,6 +1274,7 @@ impl Ramps {
         // A round writes the legs only when it completes the plan: on error the legs in
         // progress stay.
         self.job = None;
+        self.jerk_job = None;
         let legs = &mut self.legs;
         if problem.distance2 == 0 && problem.u0 == 0 && problem.a0 == 0 && last == 0 {
             // Already there, at rest.
@@ -1250,6 +1315,7 @@ impl Ramps {
         };
         let end_p2 = self.p2.checked_add(covered).ok_or(MotionError::TooLong)?;
         self.job = None;
+        self.jerk_job = None;
         self.a = 0;
         self.legs.len = 0;
         self.legs.decay = decay;
@@ -1301,9 +1367,193 @@ impl Ramps {
         Ok(())
     }
 
+    /// [`Self::request`] for the jerk-limited profile: the plan is made over the next ticks
+    /// ([`Self::work`]: a few steps of the layout's search per tick, then its counts, then per
+    /// round the peak and one leg's fit per tick) for the state of this tick, while the axis
+    /// ramps its acceleration out and coasts — the start of every plan from this state. The
+    /// first pulse starts in the tick that completes the plan (usually the 10th to the 15th).
+    pub(crate) fn request_jerk(
+        &mut self,
+        target: i128,
+        last: i128,
+        limits: &RampLimits,
+    ) -> Result<(), MotionError> {
+        let jerk = limits.jerk.ok_or(MotionError::ZeroJerk)?;
+        let target2 = target.checked_mul(2).ok_or(MotionError::OutOfRange)?;
+        target2.checked_sub(self.p2).ok_or(MotionError::OutOfRange)?;
+        let a0 = self.acceleration();
+        let decay = jerk.decay(self.v, a0).ok_or(MotionError::TooLong)?;
+        self.job = None;
+        // The first leg's start as it runs meanwhile: the decay, then a coast.
+        self.legs.len = 0;
+        self.legs.push_pulse(u32::MAX, 0, Pulse::NONE).ok_or(MotionError::TooLong)?;
+        self.legs.decay = decay;
+        self.legs.offset = u32::MAX;
+        self.jerk_limited = true;
+        self.next = 1;
+        self.ticks = u32::MAX;
+        self.left = u32::MAX;
+        self.a = 0;
+        self.alpha = decay.alpha(0);
+        self.remaining = 0;
+        self.jerk_job = Some(JerkJob {
+            p2: self.p2,
+            v: self.v,
+            a0,
+            target2,
+            last,
+            limits: *limits,
+            delay: 0,
+            stage: JerkStage::Asked,
+            search: PeakSearch::default(),
+            counts: Counts::default(),
+            fitting: Fitting::default(),
+        });
+        Ok(())
+    }
+
+    /// One tick's share of a jerk-limited plan [`Self::request_jerk`] asked for.
+    #[inline(never)]
+    fn work_jerk(&mut self) {
+        // Ticks since the request: the axis is that far into the first leg.
+        let done = self.ticks.wrapping_sub(self.left);
+        let Some(job) = self.jerk_job.as_mut() else { return };
+        let limits = job.limits;
+        let Some(jerk) = limits.jerk else { return };
+        let outcome = (|| -> Option<Option<bool>> {
+            match job.stage {
+                JerkStage::Asked => job.stage = JerkStage::Search(false),
+                JerkStage::Search(fallback) => {
+                    let shape = Shape::new(&limits, &jerk);
+                    if job.search.steps == 0 && job.search.found.is_none() {
+                        job.delay = done.checked_add(JERK_LAYOUT_DELAY)?;
+                        let search = job.problem(&limits, job.delay)?.search_jerk(&jerk, fallback)?;
+                        job.search = search;
+                    }
+                    shape.advance(&mut job.search, SEARCH_STEPS_PER_TICK);
+                    if job.search.found.is_some() {
+                        job.stage = JerkStage::Counts(fallback);
+                    }
+                }
+                JerkStage::Counts(fallback) => {
+                    let counts = job.problem(&limits, job.delay)?.counts_jerk(&jerk, &job.search)?;
+                    job.counts = counts;
+                    job.stage = JerkStage::Peak { fallback, round: 0 };
+                }
+                JerkStage::Peak { fallback, round } => {
+                    // The first pulse after the ticks the fitting takes (one per leg): the
+                    // delay so far if it leaves them, else room for two rounds more (a delay
+                    // moved every round moves the problem every round).
+                    let fitting_ticks = MAX_LEGS as u32 + 1;
+                    let delay = if job.delay >= done.checked_add(fitting_ticks)? {
+                        job.delay
+                    } else {
+                        done.checked_add(2 * fitting_ticks)?
+                    };
+                    let problem = job.problem(&limits, delay)?;
+                    let mut counts = job.counts;
+                    let peak = problem.peak_jerk(&jerk, &mut counts)?;
+                    job.counts = counts;
+                    match peak {
+                        Some(fitting) => {
+                            job.fitting = fitting;
+                            job.delay = delay;
+                            job.stage = JerkStage::Fit { fallback, round };
+                        }
+                        None => return Some(Some(false)),
+                    }
+                }
+                JerkStage::Fit { .. } => {
+                    let problem = job.problem(&limits, job.delay)?;
+                    let (mut counts, mut fitting) = (job.counts, job.fitting);
+                    // One leg (and the empty stop or start around it, which cost nothing).
+                    loop {
+                        let index = fitting.next;
+                        let empty = (index == 0 || index == MAX_LEGS - 1)
+                            && counts.slot(index).is_some_and(|ticks| *ticks == 0);
+                        problem.fit_jerk(&jerk, &mut counts, &mut fitting, &mut self.legs.pulses)?;
+                        if !empty || fitting.next >= MAX_LEGS {
+                            break;
+                        }
+                    }
+                    if fitting.next == MAX_LEGS - 1 && counts.start == 0 {
+                        fitting.next += 1;
+                    }
+                    let done_fitting = fitting.next >= MAX_LEGS || !fitting.beside;
+                    let finished = if done_fitting {
+                        let pulses = self.legs.pulses;
+                        Some(problem.finish_jerk(&mut counts, &fitting, &pulses, Some(&mut self.legs))?)
+                    } else {
+                        None
+                    };
+                    (job.counts, job.fitting) = (counts, fitting);
+                    return Some(finished);
+                }
+            }
+            Some(None)
+        })();
+        let Some(job) = self.jerk_job.as_mut() else { return };
+        match outcome {
+            Some(None) => {}
+            Some(Some(true)) => {
+                let (end_p2, end_v, fallback) =
+                    (job.target2, job.last, matches!(job.stage, JerkStage::Fit { fallback: true, .. }));
+                self.jerk_job = None;
+                self.resume(done, end_p2, end_v, if fallback { Made::Fallback } else { Made::Layout });
+            }
+            Some(Some(false)) => {
+                // The round failed: the next one, or the fallback's layout.
+                job.stage = match job.stage {
+                    JerkStage::Peak { fallback, round } | JerkStage::Fit { fallback, round }
+                        if round + 1 < JERK_ROUNDS =>
+                    {
+                        JerkStage::Peak { fallback, round: round + 1 }
+                    }
+                    JerkStage::Peak { fallback: false, .. } | JerkStage::Fit { fallback: false, .. } => {
+                        job.search = PeakSearch::default();
+                        JerkStage::Search(true)
+                    }
+                    _ => {
+                        let limits = job.limits;
+                        self.jerk_job = None;
+                        let _ = self.velocity(0, &limits);
+                        return;
+                    }
+                };
+            }
+            // No plan conformed (not seen in the tests): stop instead.
+            None => {
+                let limits = job.limits;
+                self.jerk_job = None;
+                let _ = self.velocity(0, &limits);
+            }
+        }
+    }
+
+    /// Starts the legs a plan made over several ticks completed, `done` ticks into its first
+    /// leg (which the axis ran meanwhile).
+    fn resume(&mut self, done: u32, end_p2: i128, end_v: i128, made: Made) {
+        self.end_p2 = end_p2;
+        self.end_v = end_v;
+        self.next = 1;
+        self.ticks = self.legs.ticks[0];
+        self.left = self.ticks.saturating_sub(done).max(1);
+        self.remaining = self.legs.total().saturating_sub(u64::from(done));
+        #[cfg(test)]
+        {
+            self.made = made;
+        }
+        #[cfg(not(test))]
+        let _ = made;
+    }
+
     /// One tick's share of the plan [`Self::request`] asked for: a layout or a round. When a
     /// round completes the plan, its legs start from the present state.
     pub(crate) fn work(&mut self) {
+        if self.jerk_job.is_some() {
+            self.work_jerk();
+            return;
+        }
         let made = |fallback: bool| if fallback { Made::Fallback } else { Made::Layout };
         // Worked on in place (a job and the legs are some 200 bytes to copy).
         let (p2, v, a) = (self.p2, self.v, self.a);
@@ -1348,6 +1598,7 @@ impl Ramps {
             Some(None) => {}
             Some(Some((end_p2, end_v, made))) => {
                 self.job = None;
+                self.jerk_job = None;
                 self.start(end_p2, end_v, made);
             }
             // No plan conformed (not seen in the tests; the fallback always has): stop instead.
@@ -1397,7 +1648,7 @@ impl Ramps {
     /// True while a requested plan is being made (for the tests).
     #[cfg(test)]
     pub(crate) fn is_planning(&self) -> bool {
-        self.job.is_some()
+        self.job.is_some() || self.jerk_job.is_some()
     }
 
     fn start(&mut self, end_p2: i128, end_v: i128, made: Made) {
@@ -1514,7 +1765,7 @@ impl Ramps {
 
     /// True when every leg has been stepped and no plan is being made.
     pub(crate) fn is_finished(&self) -> bool {
-        self.left == 0 && self.job.is_none()
+        self.left == 0 && self.job.is_none() && self.jerk_job.is_none()
     }
 
     /// Ticks until the plan is finished.
