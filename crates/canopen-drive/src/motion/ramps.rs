@@ -471,6 +471,22 @@ struct PeakSearch {
 }
 
 impl PeakSearch {
+    /// A search not yet set up.
+    const NEW: PeakSearch = PeakSearch {
+        distance: 0.0,
+        u0: 0.0,
+        ue: 0.0,
+        vmax: 0.0,
+        low: 0.0,
+        high: 0.0,
+        f_low: 0.0,
+        f_high: 0.0,
+        kept: 0,
+        steps: 0,
+        found: None,
+        stop_first: None,
+    };
+
     fn result(&self) -> Option<(f32, bool)> {
         self.found
     }
@@ -517,6 +533,9 @@ struct Counts {
 }
 
 impl Counts {
+    const NONE: Counts =
+        Counts { stop: 0, start: 0, to: 0, from: 0, cruise: 0, cruising: false, overlap: false, delay: 0 };
+
     /// The ticks of leg `index` (stop, to the peak, cruise, from the peak, start).
     fn slot(&mut self, index: usize) -> Option<&mut u32> {
         match index {
@@ -532,7 +551,7 @@ impl Counts {
 
 /// A jerk-limited round after its peak: the legs fitted one after the other (over several
 /// ticks when the plan is made so).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 struct Fitting {
     peak: i128,
     /// Where the legs fitted so far end, and where they were planned to end.
@@ -551,6 +570,23 @@ struct Fitting {
     /// Twice the first leg's distance, `fixed + coefficient·w` (for the tests).
     fixed: i128,
     coefficient: u32,
+}
+
+impl Fitting {
+    const NONE: Fitting = Fitting {
+        peak: 0,
+        v: 0,
+        nominal: 0,
+        next: 0,
+        first: 0,
+        decay: Decay::NONE,
+        dv: 0,
+        offset: 0,
+        fits: false,
+        beside: false,
+        fixed: 0,
+        coefficient: 0,
+    };
 }
 
 impl Move<'_> {
@@ -807,7 +843,7 @@ impl Move<'_> {
         while fitting.next < MAX_LEGS {
             self.fit_jerk(jerk, counts, &mut fitting, &mut pulses)?;
         }
-        self.finish_jerk(counts, &fitting, &pulses, legs)
+        self.finish_jerk(counts, &fitting, Some(&pulses), legs)
     }
 
     /// The first part of a jerk-limited round: the peak for `counts`, `None` inside if a count
@@ -945,11 +981,12 @@ impl Move<'_> {
     }
 
     /// The end of a jerk-limited round: `Some(true)` with the legs in `legs` if every leg fits.
+    /// `pulses` by leg, or `None` if they are in `legs` by leg already.
     fn finish_jerk(
         &self,
         counts: &mut Counts,
         fitting: &Fitting,
-        pulses: &[Pulse; MAX_LEGS],
+        pulses: Option<&[Pulse; MAX_LEGS]>,
         legs: Option<&mut Legs>,
     ) -> Option<bool> {
         if !fitting.beside {
@@ -969,7 +1006,12 @@ impl Move<'_> {
         legs.len = 0;
         legs.decay = fitting.decay;
         legs.offset = fitting.offset;
-        for ((&count, &aim), &pulse) in ticks.iter().zip(&aims).zip(pulses) {
+        for (index, (&count, &aim)) in ticks.iter().zip(&aims).enumerate() {
+            // In place, the legs only move down (`len ≤ index`).
+            let pulse = match pulses {
+                Some(pulses) => *pulses.get(index)?,
+                None => *legs.pulses.get(index)?,
+            };
             legs.push_pulse(count, aim, pulse)?;
         }
         #[cfg(test)]
@@ -978,12 +1020,21 @@ impl Move<'_> {
             // the velocities the pulses reach.
             let mut v = self.u0;
             legs.covered2 = 0;
+            // The legs' sums, by leg (the pushed pulses are compacted).
+            let mut sigmas = [0i128; MAX_LEGS];
+            let mut pushed = 0;
+            for (index, &count) in ticks.iter().enumerate() {
+                if count > 0 {
+                    sigmas[index] = legs.pulses[pushed].sigma();
+                    pushed += 1;
+                }
+            }
             for (index, &count) in ticks.iter().enumerate() {
                 if count == 0 {
                     continue;
                 }
                 let carry = if index == fitting.first { fitting.dv } else { 0 };
-                let end = v + carry + 6 * pulses[index].sigma();
+                let end = v + carry + 6 * sigmas[index];
                 legs.covered2 += if index == fitting.first {
                     fitting.fixed + i128::from(fitting.coefficient) * end
                 } else {
@@ -1088,6 +1139,8 @@ struct Job {
 /// Where a jerk-limited plan made over several ticks has got to.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum JerkStage {
+    /// No plan is being made.
+    Idle,
     /// Asked for in this tick: the work starts in the next.
     Asked,
     /// Next: steps of the layout's search (the fallback's with `true`).
@@ -1127,18 +1180,19 @@ struct JerkJob {
 }
 
 impl JerkJob {
-    /// The problem within `limits` (the job's, copied), with the first pulse `delay` ticks
-    /// after the request.
-    fn problem<'a>(&self, limits: &'a RampLimits, delay: u32) -> Option<Move<'a>> {
-        Some(Move {
-            distance2: self.target2.checked_sub(self.p2)?,
-            u0: self.v,
-            a0: self.a0,
-            delay,
-            ue: self.last,
-            limits,
-        })
-    }
+    const IDLE: JerkJob = JerkJob {
+        p2: 0,
+        v: 0,
+        a0: 0,
+        target2: 0,
+        last: 0,
+        limits: RampLimits { velocity: 0, acceleration: 0, deceleration: 0, jerk: None },
+        delay: 0,
+        stage: JerkStage::Idle,
+        search: PeakSearch::NEW,
+        counts: Counts::NONE,
+        fitting: Fitting::NONE,
+    };
 }
 
 /// Ticks a jerk-limited plan made over several ticks lays out for: about the ticks it takes.
@@ -1161,8 +1215,8 @@ pub(crate) struct Ramps {
     legs: Legs,
     /// A plan being made over several ticks.
     job: Option<Job>,
-    /// A jerk-limited plan being made over several ticks.
-    jerk_job: Option<JerkJob>,
+    /// A jerk-limited plan being made over several ticks (in place: it is some 500 bytes).
+    jerk_job: JerkJob,
     next: usize,
     /// Twice the position (2⁻⁶⁵ increments).
     p2: i128,
@@ -1207,7 +1261,7 @@ impl Ramps {
                 covered2: 0,
             },
             job: None,
-            jerk_job: None,
+            jerk_job: JerkJob::IDLE,
             next: 0,
             p2: state.p.wrapping_mul(2),
             v: state.v,
@@ -1233,7 +1287,7 @@ impl Ramps {
     pub(crate) fn hold(&mut self, p: i128) {
         self.legs.len = 0;
         self.job = None;
-        self.jerk_job = None;
+        self.jerk_job.stage = JerkStage::Idle;
         self.next = 0;
         self.p2 = p.wrapping_mul(2);
         self.v = 0;
@@ -1274,7 +1328,7 @@ impl Ramps {
         // A round writes the legs only when it completes the plan: on error the legs in
         // progress stay.
         self.job = None;
-        self.jerk_job = None;
+        self.jerk_job.stage = JerkStage::Idle;
         let legs = &mut self.legs;
         if problem.distance2 == 0 && problem.u0 == 0 && problem.a0 == 0 && last == 0 {
             // Already there, at rest.
@@ -1315,7 +1369,7 @@ impl Ramps {
         };
         let end_p2 = self.p2.checked_add(covered).ok_or(MotionError::TooLong)?;
         self.job = None;
-        self.jerk_job = None;
+        self.jerk_job.stage = JerkStage::Idle;
         self.a = 0;
         self.legs.len = 0;
         self.legs.decay = decay;
@@ -1396,19 +1450,13 @@ impl Ramps {
         self.a = 0;
         self.alpha = decay.alpha(0);
         self.remaining = 0;
-        self.jerk_job = Some(JerkJob {
-            p2: self.p2,
-            v: self.v,
-            a0,
-            target2,
-            last,
-            limits: *limits,
-            delay: 0,
-            stage: JerkStage::Asked,
-            search: PeakSearch::default(),
-            counts: Counts::default(),
-            fitting: Fitting::default(),
-        });
+        // Written in place, field by field.
+        let job = &mut self.jerk_job;
+        (job.p2, job.v, job.a0, job.target2, job.last) = (self.p2, self.v, a0, target2, last);
+        job.limits = *limits;
+        job.stage = JerkStage::Asked;
+        job.search.steps = 0;
+        job.search.found = None;
         Ok(())
     }
 
@@ -1417,61 +1465,57 @@ impl Ramps {
     fn work_jerk(&mut self) {
         // Ticks since the request: the axis is that far into the first leg.
         let done = self.ticks.wrapping_sub(self.left);
-        let Some(job) = self.jerk_job.as_mut() else { return };
-        let limits = job.limits;
-        let Some(jerk) = limits.jerk else { return };
+        // The job's parts borrowed apart (the limits stay put while the counts change).
+        let JerkJob { p2, v, a0, target2, last, limits, delay, stage, search, counts, fitting } =
+            &mut self.jerk_job;
+        let Some(jerk) = limits.jerk.as_ref() else { return };
+        let limits = &*limits;
+        let problem = |delay: u32| {
+            Some(Move { distance2: target2.checked_sub(*p2)?, u0: *v, a0: *a0, delay, ue: *last, limits })
+        };
+        let legs = &mut self.legs;
         let outcome = (|| -> Option<Option<bool>> {
-            match job.stage {
-                JerkStage::Asked => job.stage = JerkStage::Search(false),
+            match *stage {
+                JerkStage::Idle => {}
+                JerkStage::Asked => *stage = JerkStage::Search(false),
                 JerkStage::Search(fallback) => {
-                    let shape = Shape::new(&limits, &jerk);
-                    if job.search.steps == 0 && job.search.found.is_none() {
-                        job.delay = done.checked_add(JERK_LAYOUT_DELAY)?;
-                        let search = job.problem(&limits, job.delay)?.search_jerk(&jerk, fallback)?;
-                        job.search = search;
+                    if search.steps == 0 && search.found.is_none() {
+                        *delay = done.checked_add(JERK_LAYOUT_DELAY)?;
+                        *search = problem(*delay)?.search_jerk(jerk, fallback)?;
                     }
-                    shape.advance(&mut job.search, SEARCH_STEPS_PER_TICK);
-                    if job.search.found.is_some() {
-                        job.stage = JerkStage::Counts(fallback);
+                    Shape::new(limits, jerk).advance(search, SEARCH_STEPS_PER_TICK);
+                    if search.found.is_some() {
+                        *stage = JerkStage::Counts(fallback);
                     }
                 }
                 JerkStage::Counts(fallback) => {
-                    let counts = job.problem(&limits, job.delay)?.counts_jerk(&jerk, &job.search)?;
-                    job.counts = counts;
-                    job.stage = JerkStage::Peak { fallback, round: 0 };
+                    *counts = problem(*delay)?.counts_jerk(jerk, search)?;
+                    *stage = JerkStage::Peak { fallback, round: 0 };
                 }
                 JerkStage::Peak { fallback, round } => {
                     // The first pulse after the ticks the fitting takes (one per leg): the
                     // delay so far if it leaves them, else room for two rounds more (a delay
                     // moved every round moves the problem every round).
                     let fitting_ticks = MAX_LEGS as u32 + 1;
-                    let delay = if job.delay >= done.checked_add(fitting_ticks)? {
-                        job.delay
-                    } else {
-                        done.checked_add(2 * fitting_ticks)?
-                    };
-                    let problem = job.problem(&limits, delay)?;
-                    let mut counts = job.counts;
-                    let peak = problem.peak_jerk(&jerk, &mut counts)?;
-                    job.counts = counts;
-                    match peak {
-                        Some(fitting) => {
-                            job.fitting = fitting;
-                            job.delay = delay;
-                            job.stage = JerkStage::Fit { fallback, round };
+                    if *delay < done.checked_add(fitting_ticks)? {
+                        *delay = done.checked_add(2 * fitting_ticks)?;
+                    }
+                    match problem(*delay)?.peak_jerk(jerk, counts)? {
+                        Some(peak) => {
+                            *fitting = peak;
+                            *stage = JerkStage::Fit { fallback, round };
                         }
                         None => return Some(Some(false)),
                     }
                 }
                 JerkStage::Fit { .. } => {
-                    let problem = job.problem(&limits, job.delay)?;
-                    let (mut counts, mut fitting) = (job.counts, job.fitting);
+                    let problem = problem(*delay)?;
                     // One leg (and the empty stop or start around it, which cost nothing).
                     loop {
                         let index = fitting.next;
                         let empty = (index == 0 || index == MAX_LEGS - 1)
                             && counts.slot(index).is_some_and(|ticks| *ticks == 0);
-                        problem.fit_jerk(&jerk, &mut counts, &mut fitting, &mut self.legs.pulses)?;
+                        problem.fit_jerk(jerk, counts, fitting, &mut legs.pulses)?;
                         if !empty || fitting.next >= MAX_LEGS {
                             break;
                         }
@@ -1479,30 +1523,25 @@ impl Ramps {
                     if fitting.next == MAX_LEGS - 1 && counts.start == 0 {
                         fitting.next += 1;
                     }
-                    let done_fitting = fitting.next >= MAX_LEGS || !fitting.beside;
-                    let finished = if done_fitting {
-                        let pulses = self.legs.pulses;
-                        Some(problem.finish_jerk(&mut counts, &fitting, &pulses, Some(&mut self.legs))?)
-                    } else {
-                        None
-                    };
-                    (job.counts, job.fitting) = (counts, fitting);
-                    return Some(finished);
+                    if fitting.next >= MAX_LEGS || !fitting.beside {
+                        // The pulses are in the legs already, by leg.
+                        return Some(Some(problem.finish_jerk(counts, fitting, None, Some(legs))?));
+                    }
                 }
             }
             Some(None)
         })();
-        let Some(job) = self.jerk_job.as_mut() else { return };
+        let job = &mut self.jerk_job;
         match outcome {
             Some(None) => {}
             Some(Some(true)) => {
-                let (end_p2, end_v, fallback) =
-                    (job.target2, job.last, matches!(job.stage, JerkStage::Fit { fallback: true, .. }));
-                self.jerk_job = None;
+                let fallback = matches!(job.stage, JerkStage::Fit { fallback: true, .. });
+                let (end_p2, end_v) = (job.target2, job.last);
+                job.stage = JerkStage::Idle;
                 self.resume(done, end_p2, end_v, if fallback { Made::Fallback } else { Made::Layout });
             }
             Some(Some(false)) => {
-                // The round failed: the next one, or the fallback's layout.
+                // The round failed: the next one, or the fallback's layout, or a stop.
                 job.stage = match job.stage {
                     JerkStage::Peak { fallback, round } | JerkStage::Fit { fallback, round }
                         if round + 1 < JERK_ROUNDS =>
@@ -1510,21 +1549,21 @@ impl Ramps {
                         JerkStage::Peak { fallback, round: round + 1 }
                     }
                     JerkStage::Peak { fallback: false, .. } | JerkStage::Fit { fallback: false, .. } => {
-                        job.search = PeakSearch::default();
+                        (job.search.steps, job.search.found) = (0, None);
                         JerkStage::Search(true)
                     }
-                    _ => {
-                        let limits = job.limits;
-                        self.jerk_job = None;
-                        let _ = self.velocity(0, &limits);
-                        return;
-                    }
+                    _ => JerkStage::Idle,
                 };
+                if job.stage == JerkStage::Idle {
+                    // Not seen in the tests: every request has found a plan.
+                    let limits = job.limits;
+                    let _ = self.velocity(0, &limits);
+                }
             }
-            // No plan conformed (not seen in the tests): stop instead.
+            // Out of range (not seen in the tests): stop instead.
             None => {
+                job.stage = JerkStage::Idle;
                 let limits = job.limits;
-                self.jerk_job = None;
                 let _ = self.velocity(0, &limits);
             }
         }
@@ -1550,7 +1589,7 @@ impl Ramps {
     /// One tick's share of the plan [`Self::request`] asked for: a layout or a round. When a
     /// round completes the plan, its legs start from the present state.
     pub(crate) fn work(&mut self) {
-        if self.jerk_job.is_some() {
+        if self.jerk_job.stage != JerkStage::Idle {
             self.work_jerk();
             return;
         }
@@ -1598,7 +1637,7 @@ impl Ramps {
             Some(None) => {}
             Some(Some((end_p2, end_v, made))) => {
                 self.job = None;
-                self.jerk_job = None;
+                self.jerk_job.stage = JerkStage::Idle;
                 self.start(end_p2, end_v, made);
             }
             // No plan conformed (not seen in the tests; the fallback always has): stop instead.
@@ -1648,7 +1687,7 @@ impl Ramps {
     /// True while a requested plan is being made (for the tests).
     #[cfg(test)]
     pub(crate) fn is_planning(&self) -> bool {
-        self.job.is_some() || self.jerk_job.is_some()
+        self.job.is_some() || self.jerk_job.stage != JerkStage::Idle
     }
 
     fn start(&mut self, end_p2: i128, end_v: i128, made: Made) {
@@ -1765,7 +1804,7 @@ impl Ramps {
 
     /// True when every leg has been stepped and no plan is being made.
     pub(crate) fn is_finished(&self) -> bool {
-        self.left == 0 && self.job.is_none() && self.jerk_job.is_none()
+        self.left == 0 && self.job.is_none() && self.jerk_job.stage == JerkStage::Idle
     }
 
     /// Ticks until the plan is finished.
