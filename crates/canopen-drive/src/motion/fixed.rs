@@ -299,6 +299,17 @@ mod unit_tests {
     use super::*;
 
     #[test]
+    fn jerk_sixths_rounded_up_without_division() {
+        for hz in [100, 1000, 4000, 16_000, 65_535, 1_000_000] {
+            let rate = crate::motion::TickRate::new(hz).unwrap();
+            for jerk in [0u32, 1, 5, 6, 7, 1000, 123_456_789, u32::MAX] {
+                let exact = div_floor(rate.scale(jerk, 3) + 5, 6);
+                assert_eq!(rate.sixths_up3(jerk), exact, "{hz} Hz, {jerk}");
+            }
+        }
+    }
+
+    #[test]
     fn rounding_division() {
         assert_eq!((div_floor(7, 2), div_floor(-7, 2), div_floor(-6, 2)), (3, -4, -3));
         assert_eq!((div_ceil(7, 2), div_ceil(-7, 2), div_ceil(6, 2)), (4, -3, 3));

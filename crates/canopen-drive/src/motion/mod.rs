@@ -236,6 +236,15 @@ impl TickRate {
         let reciprocal = if k == 2 { self.sixths[0] } else { self.sixths[1] };
         (rate as u128 * reciprocal as u128) as i128
     }
+
+    /// `⌈scale(rate, 3)/6⌉` without a 128-bit division: with `r = 6·q + c` the reciprocal,
+    /// `rate·r/6 = rate·q + (rate/6)·c + (rate mod 6)·c/6` (the last part rounded up).
+    pub(crate) const fn sixths_up3(self, rate: u32) -> i128 {
+        let q = self.sixths[1];
+        let c = (self.reciprocals[2] - 6 * q) as u32;
+        let (whole, rest) = (rate / 6, rate % 6);
+        (rate as u128 * q as u128) as i128 + whole as i128 * c as i128 + (rest * c).div_ceil(6) as i128
+    }
 }
 
 /// Motion profile type, 6086h (`spec/cia402.md` §9.5). The discriminants are the object's values.

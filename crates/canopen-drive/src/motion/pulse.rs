@@ -237,13 +237,20 @@ impl Decay {
     /// No decay (a plan from zero acceleration).
     pub(crate) const NONE: Decay = Decay { start: 0, jerk: 1, ticks: 0 };
 
-    /// The decay of `a0` (2⁻⁶⁴ increments/tick², rounded away from zero to sixths) at `jerk`
-    /// sixths per tick.
-    pub(crate) fn new(a0: i128, jerk: i128) -> Option<Decay> {
+    /// The decay of the acceleration `start` (in sixths, signed) at `jerk` sixths per tick.
+    pub(crate) fn new(start: i128, jerk: i128) -> Option<Decay> {
         let jerk = jerk.max(1);
-        let sixths = div_floor(a0.checked_abs()?.checked_add(5)?, 6);
-        let ticks = exact_ticks(sixths, jerk)?;
-        Some(Decay { start: if a0 < 0 { -sixths } else { sixths }, jerk, ticks })
+        let ticks = exact_ticks(start, jerk)?;
+        Some(Decay { start, jerk, ticks })
+    }
+
+    /// `a` (2⁻⁶⁴ increments/tick²) in sixths, rounded away from zero.
+    pub(crate) fn sixths(a: i128) -> Option<i128> {
+        if a == 0 {
+            return Some(0);
+        }
+        let magnitude = div_floor(a.checked_abs()?.checked_add(5)?, 6);
+        Some(if a < 0 { -magnitude } else { magnitude })
     }
 
     /// Ticks of the decay.
@@ -359,7 +366,7 @@ mod tests {
     #[test]
     fn decays_match_their_closed_form() {
         for (a0, jerk) in [(600i128, 7i128), (-6001, 13), (5, 1), (123_456_789, 1000), (-42, 100)] {
-            let decay = Decay::new(a0, jerk).unwrap();
+            let decay = Decay::new(Decay::sixths(a0).unwrap(), jerk).unwrap();
             let (dv, dp) = run((0..=decay.ticks()).map(|k| decay.alpha(k)));
             assert_eq!(decay.change(), Some((dv, dp)), "{a0} {jerk}");
             assert_eq!(decay.alpha(decay.ticks()), 0);

@@ -166,8 +166,8 @@ impl JerkLimits {
     fn new(limits: &Limits, rate: TickRate) -> Self {
         let j = limits.jerk;
         let sixths = |k: usize, a: u32, b: u32| rate.sixths(a.min(b), k).max(1);
-        // Rounded up: ⌈scale/6⌉ (the only divisions; the rest by reciprocals).
-        let up = |jerk: u32| div_floor(rate.scale(jerk, 3) + 5, 6).max(1);
+        // Rounded up: ⌈scale/6⌉.
+        let up = |jerk: u32| rate.sixths_up3(jerk).max(1);
         JerkLimits {
             speed_up: sixths(3, j.accel_start, j.accel_end),
             slow_down: sixths(3, j.decel_start, j.decel_end),
@@ -192,9 +192,11 @@ impl JerkLimits {
 
     /// The decay of the acceleration `a0` at velocity `v`: ramped out at B while it raises the
     /// speed, at D while it lowers it.
-    fn decay(&self, v: i128, a0: i128) -> Option<Decay> {
-        let jerk = if a0.signum() * v.signum() < 0 { self.end_down } else { self.end_up };
-        Decay::new(a0, jerk)
+    /// The decay of the acceleration `alpha0` (sixths) at velocity `v`: ramped out at B while
+    /// it raises the speed, at D while it lowers it.
+    fn decay(&self, v: i128, alpha0: i128) -> Option<Decay> {
+        let jerk = if alpha0.signum() * v.signum() < 0 { self.end_down } else { self.end_up };
+        Decay::new(alpha0, jerk)
     }
 }
 
@@ -504,8 +506,9 @@ const SEARCH_STEPS_PER_TICK: u32 = 4;
 struct Move<'a> {
     distance2: i128,
     u0: i128,
-    /// The present acceleration (a jerk-limited plan ramps it out on its first leg).
-    a0: i128,
+    /// The present acceleration in sixths, rounded away from zero (a jerk-limited plan ramps
+    /// it out on its first leg).
+    alpha0: i128,
     /// Jerk-limited: the first tick of the plan at which its first pulse may start (the ticks
     /// a plan made over several ticks takes; 0 for one made at once).
     delay: u32,
@@ -750,7 +753,7 @@ impl Move<'_> {
 
     /// The decay of the present acceleration: it, its velocity change and distance.
     fn decay(&self, jerk: &JerkLimits) -> Option<(Decay, i128, i128)> {
-        let decay = jerk.decay(self.u0, self.a0)?;
+        let decay = jerk.decay(self.u0, self.alpha0)?;
         let (dv, dp) = decay.change()?;
         Some((decay, dv, dp))
     }
@@ -1071,8 +1074,8 @@ fn sixths(change: i128) -> Option<i128> {
 /// the decay of `a0`, beside the pulse where it already points the pulse's way (and is within
 /// its limit), else before it. Returns the ticks, the pulse, the tick it starts at, the decay,
 /// and twice the distance covered.
-fn ramp_jerk(jerk: &JerkLimits, v: i128, a0: i128, aim: i128) -> Option<(u32, Pulse, u32, Decay, i128)> {
-    let decay = jerk.decay(v, a0)?;
+fn ramp_jerk(jerk: &JerkLimits, v: i128, alpha0: i128, aim: i128) -> Option<(u32, Pulse, u32, Decay, i128)> {
+    let decay = jerk.decay(v, alpha0)?;
     let (dv, dp) = decay.change()?;
     let m = decay.ticks();
     let start = v.checked_add(dv)?;
@@ -1167,7 +1170,7 @@ struct JerkJob {
     /// The request's state: twice the position, the velocity, the acceleration.
     p2: i128,
     v: i128,
-    a0: i128,
+    alpha0: i128,
     target2: i128,
     last: i128,
     limits: RampLimits,
@@ -1183,7 +1186,7 @@ impl JerkJob {
     const IDLE: JerkJob = JerkJob {
         p2: 0,
         v: 0,
-        a0: 0,
+        alpha0: 0,
         target2: 0,
         last: 0,
         limits: RampLimits { velocity: 0, acceleration: 0, deceleration: 0, jerk: None },
@@ -1304,6 +1307,16 @@ impl Ramps {
         Exact { p: self.p2 >> 1, v: self.v, a: self.acceleration() }
     }
 
+    /// The present acceleration in sixths, rounded away from zero (exact for a jerk-limited
+    /// plan's state; a trapezoid's is divided).
+    fn alpha_now(&self) -> Option<i128> {
+        if self.jerk_limited {
+            Some(self.alpha)
+        } else {
+            Decay::sixths(self.a)
+        }
+    }
+
     /// The present acceleration: a trapezoid's of the next tick, a jerk-limited one's now.
     fn acceleration(&self) -> i128 {
         if self.jerk_limited {
@@ -1320,7 +1333,7 @@ impl Ramps {
         let problem = Move {
             distance2: end_p2.checked_sub(self.p2).ok_or(MotionError::OutOfRange)?,
             u0: self.v,
-            a0: self.acceleration(),
+            alpha0: self.alpha_now().ok_or(MotionError::TooLong)?,
             delay: 0,
             ue: last,
             limits,
@@ -1330,7 +1343,7 @@ impl Ramps {
         self.job = None;
         self.jerk_job.stage = JerkStage::Idle;
         let legs = &mut self.legs;
-        if problem.distance2 == 0 && problem.u0 == 0 && problem.a0 == 0 && last == 0 {
+        if problem.distance2 == 0 && problem.u0 == 0 && problem.alpha0 == 0 && last == 0 {
             // Already there, at rest.
             legs.len = 0;
             #[cfg(test)]
@@ -1365,7 +1378,10 @@ impl Ramps {
                 let (ticks, covered) = ticks.zip(covered).ok_or(MotionError::TooLong)?;
                 (ticks, Pulse::NONE, 0, Decay::NONE, covered)
             }
-            Some(jerk) => ramp_jerk(jerk, self.v, self.acceleration(), aim).ok_or(MotionError::TooLong)?,
+            Some(jerk) => self
+                .alpha_now()
+                .and_then(|alpha0| ramp_jerk(jerk, self.v, alpha0, aim))
+                .ok_or(MotionError::TooLong)?,
         };
         let end_p2 = self.p2.checked_add(covered).ok_or(MotionError::TooLong)?;
         self.job = None;
@@ -1435,8 +1451,8 @@ impl Ramps {
         let jerk = limits.jerk.ok_or(MotionError::ZeroJerk)?;
         let target2 = target.checked_mul(2).ok_or(MotionError::OutOfRange)?;
         target2.checked_sub(self.p2).ok_or(MotionError::OutOfRange)?;
-        let a0 = self.acceleration();
-        let decay = jerk.decay(self.v, a0).ok_or(MotionError::TooLong)?;
+        let alpha0 = self.alpha_now().ok_or(MotionError::TooLong)?;
+        let decay = jerk.decay(self.v, alpha0).ok_or(MotionError::TooLong)?;
         self.job = None;
         // The first leg's start as it runs meanwhile: the decay, then a coast.
         self.legs.len = 0;
@@ -1452,7 +1468,7 @@ impl Ramps {
         self.remaining = 0;
         // Written in place, field by field.
         let job = &mut self.jerk_job;
-        (job.p2, job.v, job.a0, job.target2, job.last) = (self.p2, self.v, a0, target2, last);
+        (job.p2, job.v, job.alpha0, job.target2, job.last) = (self.p2, self.v, alpha0, target2, last);
         job.limits = *limits;
         job.stage = JerkStage::Asked;
         job.search.steps = 0;
@@ -1466,12 +1482,19 @@ impl Ramps {
         // Ticks since the request: the axis is that far into the first leg.
         let done = self.ticks.wrapping_sub(self.left);
         // The job's parts borrowed apart (the limits stay put while the counts change).
-        let JerkJob { p2, v, a0, target2, last, limits, delay, stage, search, counts, fitting } =
+        let JerkJob { p2, v, alpha0, target2, last, limits, delay, stage, search, counts, fitting } =
             &mut self.jerk_job;
         let Some(jerk) = limits.jerk.as_ref() else { return };
         let limits = &*limits;
         let problem = |delay: u32| {
-            Some(Move { distance2: target2.checked_sub(*p2)?, u0: *v, a0: *a0, delay, ue: *last, limits })
+            Some(Move {
+                distance2: target2.checked_sub(*p2)?,
+                u0: *v,
+                alpha0: *alpha0,
+                delay,
+                ue: *last,
+                limits,
+            })
         };
         let legs = &mut self.legs;
         let outcome = (|| -> Option<Option<bool>> {
@@ -1599,7 +1622,7 @@ impl Ramps {
         let Some(job) = self.job.as_mut() else { return };
         let limits = job.limits();
         let outcome = job.target2.checked_sub(p2).and_then(|distance2| {
-            let problem = Move { distance2, u0: v, a0: a, delay: 0, ue: job.last, limits: &limits };
+            let problem = Move { distance2, u0: v, alpha0: 0, delay: 0, ue: job.last, limits: &limits };
             // The state of the next tick, after this one's provisional acceleration `a`.
             let next = Move {
                 distance2: distance2.checked_sub(v.checked_mul(2)?.checked_add(a)?)?,
