@@ -208,8 +208,13 @@ impl Pulse {
         }
         let (jerk, accel) = (jerk.max(1), accel.max(1));
         let (s, j, a) = (real(magnitude), real(jerk), real(accel.max(2) - 1));
-        // Continuous: σ/a + a/j with a ramp to the limit, else 2·√(σ/j).
-        let estimate = if s / a >= a / j { s / a + a / j } else { 2.0 * sqrt(s / j) };
+        // Continuous: σ/a + a/j with a ramp to the limit, else 2·√(σ/j); in whole ticks the
+        // rise is whole too (one tick more on each side at most).
+        let estimate = if s / a >= a / j {
+            s / a + ceil_ticks(a / j)? as f32
+        } else {
+            2.0 * sqrt(s / j) + 1.0
+        };
         let mut ticks = ceil_ticks(estimate * (1.0 + 1.0 / 262_144.0))?.max(2);
         // The estimate may be a tick or two short (whole ticks, the rounding of the rise).
         for _ in 0..4 {
