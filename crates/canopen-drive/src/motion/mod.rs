@@ -44,9 +44,13 @@
 //!    most 3 rounds (5 jerk-limited).
 //! 3. **Fallback**: stop first, move from standstill, and start again for an end velocity.
 //!
-//! A trapezoid's plan is made over several ticks by [`PositionPlanner::request`] (the layout in
-//! one tick, a round in each following one, the axis meanwhile under a provisional rule); a
-//! jerk-limited plan is still made at once (next step: the same slicing, see `ramps.rs`).
+//! A drive makes its plans over several ticks with [`PositionPlanner::request`]. A trapezoid's:
+//! the layout in one tick, a round in each following one, the axis meanwhile under a
+//! provisional rule. A jerk-limited one: a few steps of the search per tick, then the counts,
+//! then per round the peak and one leg's fit per tick, for the state of the request — the axis
+//! meanwhile ramps its acceleration out and coasts, which is how every plan from that state
+//! begins (its first pulse is delayed until the plan is complete, usually 10 to 15 ticks).
+//! Halts and quick stops ([`PositionPlanner::stop`]) are still made at once.
 //!
 //! # Numeric representation, and why
 //!

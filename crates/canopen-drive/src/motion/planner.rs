@@ -69,8 +69,12 @@ impl PositionPlanner {
     /// step, none in the step of the tick that asks; meanwhile the axis already moves under a
     /// provisional rule (towards the target at the acceleration while the velocity limit and
     /// the room to slow down allow, else slowing down), and the plan starts, usually in the
-    /// third step, from wherever that brought it. [`Self::is_finished`] is false until the plan
-    /// is complete. (A jerk-limited plan is still made at once, by the exact planner.)
+    /// third step, from wherever that brought it. A jerk-limited plan is made for the state of
+    /// this tick over the following steps (a few steps of its search, its counts, then per
+    /// round its peak and one leg per step), while the axis ramps its acceleration out and
+    /// coasts as that plan begins; its first pulse starts in the step that completes it
+    /// (usually the 10th to the 15th). [`Self::is_finished`] is false until the plan is
+    /// complete.
     pub fn request(&mut self, target: i64, end_velocity: u32, limits: &Limits) -> Result<(), MotionError> {
         let result = self.plan_from_here(target, end_velocity, limits, true);
         if !matches!(limits.profile, ProfileType::Trapezoidal) {

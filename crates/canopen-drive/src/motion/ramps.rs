@@ -1,12 +1,12 @@
 //! Plans of bounded cost, trapezoidal (6086h = 0) and jerk-limited (6086h = 3): a plan is a
 //! layout in `f32` and a few rounds of exact integer operations, without a search over ticks;
-//! a drive makes a trapezoid's over several ticks (a layout or a round per tick) while the axis
-//! already moves. A jerk-limited leg is a pulse of the acceleration (`pulse.rs`); what follows
-//! describes the trapezoid, and the jerk-limited plan differs only where said (its layout is a
-//! search on the cube root of the peak; the first leg carries the decay of the present
-//! acceleration; its rounds fit pulses instead of checking an acceleration; it is made at once:
-//! slicing it over ticks as below is the next step, with the pulse's start on the first leg
-//! delayed by the ticks the plan takes, so the plan can be made for the state of the request).
+//! a drive makes its plans over several ticks while the axis already moves. A jerk-limited leg
+//! is a pulse of the acceleration (`pulse.rs`); what follows describes the trapezoid, and the
+//! jerk-limited plan differs where said: its layout is a search on the cube root of the peak,
+//! the first leg carries the decay of the present acceleration, its rounds fit pulses instead
+//! of checking an acceleration, and over several ticks ([`Ramps::request_jerk`]) it is made for
+//! the state of the request, its first pulse delayed until the plan is complete (the axis
+//! meanwhile ramps its acceleration out and coasts, the start of that very plan).
 //!
 //! # Shape
 //!
