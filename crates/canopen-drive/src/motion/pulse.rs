@@ -210,11 +210,8 @@ impl Pulse {
         let (s, j, a) = (real(magnitude), real(jerk), real(accel.max(2) - 1));
         // Continuous: σ/a + a/j with a ramp to the limit, else 2·√(σ/j); in whole ticks the
         // rise is whole too (one tick more on each side at most).
-        let estimate = if s / a >= a / j {
-            s / a + ceil_ticks(a / j)? as f32
-        } else {
-            2.0 * sqrt(s / j) + 1.0
-        };
+        let estimate =
+            if s / a >= a / j { s / a + ceil_ticks(a / j)? as f32 } else { 2.0 * sqrt(s / j) + 1.0 };
         let mut ticks = ceil_ticks(estimate * (1.0 + 1.0 / 262_144.0))?.max(2);
         // The estimate may be a tick or two short (whole ticks, the rounding of the rise).
         for _ in 0..4 {
@@ -323,13 +320,8 @@ mod tests {
 
     #[test]
     fn pulses_are_exact_and_within_their_limits() {
-        let mut seed = 0x2545_F491_4F6C_DD1Du64;
-        let mut next = || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            seed
-        };
+        let mut rng = super::super::tests::Rng(0x2545_F491_4F6C_DD1D);
+        let mut next = || rng.next();
         for case in 0..4000 {
             let jerk = 1 + i128::from(next() % 1_000_000);
             let accel = 2 + i128::from(next() % 100_000_000);
