@@ -126,6 +126,7 @@ struct JerkLimits {
 impl RampLimits {
     /// `limits` at the tick `rate` (each at most the exact conversion and less than 2⁻³²
     /// per-tick units below it; no division).
+    #[inline(always)]
     pub(crate) fn new(limits: &Limits, rate: TickRate) -> Self {
         let acceleration = rate.scale(limits.acceleration, 2).max(1);
         let deceleration = rate.scale(limits.deceleration, 2).max(1);
@@ -498,8 +499,14 @@ impl PeakSearch {
 /// its cube root, to 2⁻²⁰ of it; usually 10 to 20).
 const PEAK_STEPS: u32 = 40;
 
-/// Steps of that search per tick in a plan made over several ticks.
+/// Steps of that search per tick in a plan made over several ticks: four where `f32` is in
+/// hardware, one on a core without it (a step is some 5 000 instructions of software floating
+/// point on a Cortex-M0). Cores without 32-bit atomics stand for ARMv6-M, as in
+/// `fixed::wide_product`.
+#[cfg(target_has_atomic = "32")]
 const SEARCH_STEPS_PER_TICK: u32 = 4;
+#[cfg(not(target_has_atomic = "32"))]
+const SEARCH_STEPS_PER_TICK: u32 = 1;
 
 /// The problem a plan solves: from velocity `u0`, cover `distance2 / 2` (fixed point) and end
 /// at `ue`.
@@ -1202,6 +1209,7 @@ impl JerkJob {
 const JERK_LAYOUT_DELAY: u32 = 12;
 
 impl Job {
+    #[inline(always)]
     fn limits(&self) -> RampLimits {
         RampLimits {
             velocity: self.velocity,
