@@ -81,9 +81,9 @@
 //! The limits are converted to fixed point rounded down, so this holds for the configured
 //! limits exactly. The random test (`limit_tests`, 1 200 scenarios, 7 372 plans with lowered
 //! and raised limits, both profiles, per-corner jerks, end velocities and stops) checks every
-//! tick with these bounds; its worst values are 1.0000000 × the velocity, the acceleration and
-//! the jerk limit, and the largest velocity correction at the end of a plan is 5 units of 2⁻⁶⁴
-//! increment/tick.
+//! tick with these bounds; its worst values are 1.0000000 × the velocity and the jerk limit and
+//! 0.9999998 × the acceleration limit, and the largest velocity correction at the end of a plan
+//! is 5 units of 2⁻⁶⁴ increment/tick.
 //!
 //! One exception, by physics: a state that already breaks the limits at the re-plan (limits
 //! lowered while moving). Its acceleration is first ramped out (the speed may rise by what that

@@ -140,12 +140,48 @@ impl RampLimits {
     /// The rate of a leg from `u` to `w`: the acceleration if the speed rises (or from
     /// standstill), the deceleration if it falls, the smaller if the velocity changes sign.
     fn rate(&self, u: i128, w: i128) -> i128 {
+        Change::of(u, w).pick(self.acceleration, self.deceleration)
+    }
+}
+
+/// What a velocity change does to the speed, which chooses its limits: those of a rising
+/// speed (or from standstill), of a falling one, or the smaller of both across zero.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Change {
+    Crosses,
+    Rises,
+    Falls,
+}
+
+impl Change {
+    /// The change from `u` to `w`.
+    fn of(u: i128, w: i128) -> Self {
         if u.signum() * w.signum() < 0 {
-            self.acceleration.min(self.deceleration)
+            Change::Crosses
         } else if w.unsigned_abs() >= u.unsigned_abs() {
-            self.acceleration
+            Change::Rises
         } else {
-            self.deceleration
+            Change::Falls
+        }
+    }
+
+    /// [`Self::of`] for `f32` velocities (the layouts).
+    fn of_real(u: f32, w: f32) -> Self {
+        if u * w < 0.0 {
+            Change::Crosses
+        } else if abs(w) >= abs(u) {
+            Change::Rises
+        } else {
+            Change::Falls
+        }
+    }
+
+    /// The limit of this change from the one for a rising and a falling speed.
+    fn pick<T: PartialOrd>(self, rising: T, falling: T) -> T {
+        match self {
+            Change::Crosses if falling < rising => falling,
+            Change::Crosses | Change::Rises => rising,
+            Change::Falls => falling,
         }
     }
 }
@@ -182,13 +218,8 @@ impl JerkLimits {
     /// The jerk and the acceleration (sixths) of a pulse from `u` to `w`, chosen as
     /// [`RampLimits::rate`] chooses.
     fn pulse(&self, u: i128, w: i128) -> (i128, i128) {
-        if u.signum() * w.signum() < 0 {
-            (self.speed_up.min(self.slow_down), self.acceleration.min(self.deceleration))
-        } else if w.unsigned_abs() >= u.unsigned_abs() {
-            (self.speed_up, self.acceleration)
-        } else {
-            (self.slow_down, self.deceleration)
-        }
+        let change = Change::of(u, w);
+        (change.pick(self.speed_up, self.slow_down), change.pick(self.acceleration, self.deceleration))
     }
 
     /// The decay of the acceleration `a0` at velocity `v`: ramped out at B while it raises the
@@ -353,13 +384,9 @@ impl Shape {
 
     /// The duration of a change from `u` to `w` in one pulse.
     fn duration(&self, u: f32, w: f32) -> f32 {
-        let (a, j) = if u * w < 0.0 {
-            (self.acceleration.min(self.deceleration), self.speed_up.min(self.slow_down))
-        } else if abs(w) >= abs(u) {
-            (self.acceleration, self.speed_up)
-        } else {
-            (self.deceleration, self.slow_down)
-        };
+        let change = Change::of_real(u, w);
+        let (a, j) =
+            (change.pick(self.acceleration, self.deceleration), change.pick(self.speed_up, self.slow_down));
         let dv = abs(w - u);
         // Up to the acceleration limit and down again, with a hold at it if there is time.
         if dv / a >= a / j {
@@ -489,10 +516,6 @@ impl PeakSearch {
         found: None,
         stop_first: None,
     };
-
-    fn result(&self) -> Option<(f32, bool)> {
-        self.found
-    }
 }
 
 /// Most steps of the jerk-limited layout's search for the peak (bisection and Illinois steps on
@@ -627,15 +650,7 @@ impl Move<'_> {
         };
         let from = if stop > 0 { 0.0 } else { real(u0) };
         let to = if start > 0 { 0.0 } else { real(ue) };
-        let rate = |u: f32, w: f32| {
-            if u * w < 0.0 {
-                acc.min(dec)
-            } else if abs(w) >= abs(u) {
-                acc
-            } else {
-                dec
-            }
-        };
+        let rate = |u: f32, w: f32| Change::of_real(u, w).pick(acc, dec);
         Some(Counts {
             stop,
             start,
@@ -797,7 +812,7 @@ impl Move<'_> {
         let m = decay.ticks();
         let shape = Shape::new(self.limits, jerk);
         let (fu0, fue) = (real(self.u0.checked_add(dv)?), real(self.ue));
-        let (peak, cruising) = search.result()?;
+        let (peak, cruising) = search.found?;
         let (stop, start) = match search.stop_first {
             Some(ticks) => ticks,
             None => {
@@ -824,13 +839,7 @@ impl Move<'_> {
             // Beside the first pulse where the acceleration already points its way and is
             // within its limit; else before it.
             let (aim, first) = if stop > 0 { (0.0, &mut counts.stop) } else { (peak, &mut counts.to) };
-            let accel = if fu0 * aim < 0.0 {
-                jerk.acceleration.min(jerk.deceleration)
-            } else if abs(aim) >= abs(fu0) {
-                jerk.acceleration
-            } else {
-                jerk.deceleration
-            };
+            let accel = Change::of_real(fu0, aim).pick(jerk.acceleration, jerk.deceleration);
             let rising = if aim > fu0 { 1 } else { -1 };
             counts.overlap = m > delay && decay.start().signum() == rising && decay.start().abs() <= accel;
             *first = if counts.overlap {
