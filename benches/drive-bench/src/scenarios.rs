@@ -78,6 +78,11 @@ pub(crate) static ALL: &[Measurement] = &[
         worst_tick_pp_move,
     ),
     m(
+        "worst-tick-pp-halt",
+        "worst tick of a whole halt, S-curve: from full speed (bit 8 set) to standstill",
+        worst_tick_pp_halt,
+    ),
+    m(
         "worst-tick-hm-run",
         "worst tick of a whole homing run, method 17: start to homing attained",
         worst_tick_hm_run,
@@ -313,7 +318,9 @@ fn tick_pp_halt() -> Result<Prepared, SetupError> {
     let mut rig = pp_full_speed()?;
     let cruise = velocity_demand_of(&rig.drive);
     rig.write(0x6040, 0, &0x010Fu16.to_le_bytes())?;
-    after_tick(&rig, |d| (1..cruise).contains(&velocity_demand_of(d)))?;
+    // The stop's pulse is fitted over the next ticks (the axis coasts until it starts): within
+    // a few ticks the demand slows down.
+    after_ticks(&rig, 4, |d| (1..cruise).contains(&velocity_demand_of(d)))?;
     Ok(tick_state(rig))
 }
 
@@ -404,6 +411,21 @@ fn pp_move(rig: &mut Rig) -> Result<u32, SetupError> {
     })?;
     check(rig.read(0x6064, 0)? as i32 == MOVE, "pp: at the target")?;
     Ok(taken + moved)
+}
+
+/// From the state of [`pp_full_speed`], the halt (010Fh written between two ticks) and every
+/// tick until the demand stands still: the tick that takes it, the ticks that plan the stop,
+/// the stop itself.
+fn worst_tick_pp_halt() -> Result<Prepared, SetupError> {
+    let mut rig = pp_full_speed()?;
+    rig.write(0x6040, 0, &0x010Fu16.to_le_bytes())?;
+    Ok(Prepared::Run { rig, script: pp_halt })
+}
+
+fn pp_halt(rig: &mut Rig) -> Result<u32, SetupError> {
+    let ticks = counted_until(rig, 5000, "pp: halted", |r| velocity_demand_of(&r.drive) == 0)?;
+    check(statusword_of(&rig.drive) & 0x0400 != 0, "pp: halted, bit 10 set")?;
+    Ok(ticks)
 }
 
 /// From the state of [`hm_ready`], every tick until homing is attained at rest (statusword

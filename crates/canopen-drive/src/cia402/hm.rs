@@ -728,7 +728,7 @@ impl Homing {
 
     /// Stops with `deceleration` (quick stop, fault reaction): the run is interrupted.
     pub fn stop(&mut self, planner: &mut PositionPlanner, deceleration: u32, limits: &Limits) {
-        let _ = planner.stop(deceleration.max(1), limits);
+        let _ = planner.request_stop(deceleration.max(1), limits);
         if matches!(self.phase, Phase::Running(_) | Phase::Finishing) {
             self.phase = Phase::Stopping { error: false };
         }
@@ -807,7 +807,7 @@ impl Homing {
 
     fn fail(&mut self, planner: &mut PositionPlanner, acceleration: u32, outcome: &mut Outcome) {
         let limits = self.limits(u32::MAX, acceleration);
-        let _ = planner.stop(acceleration.max(1), &limits);
+        let _ = planner.request_stop(acceleration.max(1), &limits);
         self.phase = Phase::Stopping { error: true };
         outcome.error = true;
     }
@@ -841,7 +841,7 @@ impl Homing {
         let running = matches!(self.phase, Phase::Running(_) | Phase::Finishing);
         if running && (halt || !bit4) {
             let limits = self.limits(u32::MAX, halt_deceleration);
-            let _ = planner.stop(halt_deceleration.max(1), &limits);
+            let _ = planner.request_stop(halt_deceleration.max(1), &limits);
             self.phase = Phase::Stopping { error: false };
         }
         if running && input.following_error {

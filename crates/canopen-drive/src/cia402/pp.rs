@@ -258,7 +258,7 @@ impl ProfilePosition {
         self.queue = [None; SLOTS];
         // A refused stop (deceleration 0) keeps the motion; the caller's limits never give 0
         // because the FSA stops use non-zero ramps or coast.
-        let _ = self.planner.stop(deceleration.max(1), limits);
+        let _ = self.planner.request_stop(deceleration.max(1), limits);
     }
 
     /// One tick of a stop started by [`Self::stop`].
@@ -409,7 +409,7 @@ impl ProfilePosition {
         let halt = input.controlword.contains(Controlword::HALT);
         if halt && !self.halted {
             self.halted = true;
-            let _ = self.planner.stop(halt_deceleration.max(1), &limits);
+            let _ = self.planner.request_stop(halt_deceleration.max(1), &limits);
         } else if !halt && self.halted {
             self.halted = false;
             let _ = self.plan_active(&limits, end_velocity);

@@ -208,15 +208,20 @@ impl TickRate {
         if hz < Self::MIN_HZ || hz > Self::MAX_HZ {
             Err(MotionError::TickRate)
         } else {
-            let per_tick = u64::MAX / hz as u64;
-            let per_tick2 = per_tick / hz as u64;
-            let per_tick3 = per_tick2 / hz as u64;
-            Ok(TickRate {
-                hz,
-                reciprocals: [per_tick, per_tick2, per_tick3],
-                sixths: [per_tick2 / 6, per_tick3 / 6],
-            })
+            Ok(Self::at(hz))
         }
+    }
+
+    /// [`Self::MIN_HZ`] (a placeholder where no rate is in use yet).
+    pub(crate) const SLOWEST: TickRate = TickRate::at(Self::MIN_HZ);
+
+    /// `hz` (at least 1).
+    const fn at(hz: u32) -> Self {
+        let hz64 = if hz == 0 { 1 } else { hz as u64 };
+        let per_tick = u64::MAX / hz64;
+        let per_tick2 = per_tick / hz64;
+        let per_tick3 = per_tick2 / hz64;
+        TickRate { hz, reciprocals: [per_tick, per_tick2, per_tick3], sixths: [per_tick2 / 6, per_tick3 / 6] }
     }
 
     /// Ticks per second.

@@ -78,8 +78,9 @@ impl PositionPlanner {
     pub fn request(&mut self, target: i64, end_velocity: u32, limits: &Limits) -> Result<(), MotionError> {
         let result = self.plan_from_here(target, end_velocity, limits, true);
         if !matches!(limits.profile, ProfileType::Trapezoidal) {
-            // A trapezoid's request leaves the state as it is; a jerk-limited plan starts.
-            self.state = state_of(&self.ramps.now(), self.hz);
+            // A trapezoid's request leaves the state as it is; a jerk-limited one keeps the
+            // position and the velocity, and its acceleration in sixths (the decay's start).
+            self.state.acceleration = to_whole_si(self.ramps.now().a, self.hz, 2);
         }
         result.map(|_| ())
     }
@@ -107,15 +108,15 @@ impl PositionPlanner {
         let end_speed = end_velocity.min(limits.velocity);
         let last = if end_speed == 0 { 0 } else { to_go.signum() * per_tick(end_speed, self.hz, 1) };
         let trapezoid = matches!(limits.profile, ProfileType::Trapezoidal);
-        let limits = RampLimits::new(limits, self.rate);
-        let ticks = if sliced && trapezoid {
-            self.ramps.request(target_fixed, last, &limits)?;
+        let ticks = if sliced && !trapezoid {
+            // Its limits are converted in the next tick.
+            self.ramps.request_jerk(target_fixed, last, limits, self.rate)?;
             0
         } else if sliced {
-            self.ramps.request_jerk(target_fixed, last, &limits)?;
+            self.ramps.request(target_fixed, last, &RampLimits::new(limits, self.rate))?;
             0
         } else {
-            self.ramps.plan(target_fixed, last, &limits)?
+            self.ramps.plan(target_fixed, last, &RampLimits::new(limits, self.rate))?
         };
         self.target = target;
         u32::try_from(ticks).map_err(|_| MotionError::TooLong)
@@ -132,6 +133,28 @@ impl PositionPlanner {
         let ticks = self.ramps.velocity(0, &RampLimits::new(&stop_limits, self.rate))?;
         self.state = state_of(&self.ramps.now(), self.hz);
         u32::try_from(ticks).map_err(|_| MotionError::TooLong)
+    }
+
+    /// [`Self::stop`] in bounded time per tick, as a drive's tick needs it. A trapezoid's stop
+    /// is one leg, planned at once; a jerk-limited one is planned over the following
+    /// [`Self::step`]s: its present acceleration ramps out from this step on, its limits are
+    /// converted in the next, and its pulse is fitted in the one after (usually; the axis
+    /// coasts until the pulse starts). [`Self::is_finished`] turns true at standstill.
+    pub fn request_stop(&mut self, deceleration: u32, limits: &Limits) -> Result<(), MotionError> {
+        if deceleration == 0 {
+            return Err(MotionError::ZeroDeceleration);
+        }
+        let stop_limits = Limits { acceleration: deceleration, deceleration, ..*limits };
+        match limits.profile {
+            ProfileType::Trapezoidal => {
+                self.ramps.velocity(0, &RampLimits::new(&stop_limits, self.rate))?;
+            }
+            ProfileType::JerkLimited => self.ramps.request_velocity(0, &stop_limits, self.rate)?,
+        }
+        // The position and the velocity stay (the acceleration of a trapezoid's stop is the
+        // next tick's, of a jerk-limited one the decay's start).
+        self.state.acceleration = to_whole_si(self.ramps.now().a, self.hz, 2);
+        Ok(())
     }
 
     /// Advances one tick and returns the new demand.

@@ -202,25 +202,39 @@ impl Pulse {
     /// The fewest ticks of a pulse for `sigma` sixths within `jerk` and `accel` (see
     /// [`Self::fit`]), with the pulse; `None` past `u32::MAX` ticks.
     pub(crate) fn shortest(sigma: i128, jerk: i128, accel: i128) -> Option<Pulse> {
-        let magnitude = sigma.checked_abs()?;
-        if magnitude == 0 {
+        if sigma == 0 {
             return Some(Pulse::default());
         }
+        let mut ticks = Pulse::estimate(sigma, jerk, accel)?;
+        for _ in 0..Pulse::TRIES {
+            if let Some(pulse) = Pulse::fit(sigma, ticks, jerk, accel, 0) {
+                return Some(pulse);
+            }
+            ticks = Pulse::longer(ticks)?;
+        }
+        None
+    }
+
+    /// Tries of [`Self::shortest`] from the estimate: it may be a tick or two short (whole
+    /// ticks, the rounding of the rise).
+    pub(crate) const TRIES: u32 = 4;
+
+    /// The next length [`Self::shortest`] tries after `ticks`.
+    pub(crate) fn longer(ticks: u32) -> Option<u32> {
+        ticks.checked_add(1 + ticks / 1024)
+    }
+
+    /// The first length [`Self::shortest`] tries: the continuous optimum rounded up to whole
+    /// ticks (at least 2).
+    pub(crate) fn estimate(sigma: i128, jerk: i128, accel: i128) -> Option<u32> {
+        let magnitude = sigma.checked_abs()?;
         let (jerk, accel) = (jerk.max(1), accel.max(1));
         let (s, j, a) = (real(magnitude), real(jerk), real(accel.max(2) - 1));
         // Continuous: σ/a + a/j with a ramp to the limit, else 2·√(σ/j); in whole ticks the
         // rise is whole too (one tick more on each side at most).
         let estimate =
             if s / a >= a / j { s / a + ceil_ticks(a / j)? as f32 } else { 2.0 * sqrt(s / j) + 1.0 };
-        let mut ticks = ceil_ticks(estimate * (1.0 + 1.0 / 262_144.0))?.max(2);
-        // The estimate may be a tick or two short (whole ticks, the rounding of the rise).
-        for _ in 0..4 {
-            if let Some(pulse) = Pulse::fit(sigma, ticks, jerk, accel, 0) {
-                return Some(pulse);
-            }
-            ticks = ticks.checked_add(1 + ticks / 1024)?;
-        }
-        None
+        Some(ceil_ticks(estimate * (1.0 + 1.0 / 262_144.0))?.max(2))
     }
 }
 

@@ -227,9 +227,21 @@ impl JerkLimits {
     /// The decay of the acceleration `alpha0` (sixths) at velocity `v`: ramped out at B while
     /// it raises the speed, at D while it lowers it.
     fn decay(&self, v: i128, alpha0: i128) -> Option<Decay> {
-        let jerk = if alpha0.signum() * v.signum() < 0 { self.end_down } else { self.end_up };
+        let jerk = if lowers_speed(v, alpha0) { self.end_down } else { self.end_up };
         Decay::new(alpha0, jerk)
     }
+
+    /// [`Self::decay`] from the limits as asked for (only its jerk converted).
+    fn decay_of(limits: &Limits, rate: TickRate, v: i128, alpha0: i128) -> Option<Decay> {
+        let j = &limits.jerk;
+        let jerk = if lowers_speed(v, alpha0) { j.decel_end } else { j.accel_end };
+        Decay::new(alpha0, rate.sixths_up3(jerk).max(1))
+    }
+}
+
+/// The acceleration `alpha0` lowers the speed of velocity `v`.
+fn lowers_speed(v: i128, alpha0: i128) -> bool {
+    alpha0.signum() * v.signum() < 0
 }
 
 /// A plan's legs: leg `i` runs `ticks[i]` ticks and ends at `aims[i]`, a trapezoid's at one
@@ -664,18 +676,12 @@ impl Move<'_> {
     }
 
     /// One round: the peak for `counts` from the present state. `Some(true)` when every leg
-    /// conforms (the legs are then in `legs`), `Some(false)` when a leg was lengthened. With
-    /// the problem of the `next` tick (a plan made over several ticks, where the next round
-    /// solves from there), a failed round lengthens the legs for that state too.
+    /// conforms (the legs are then in `legs`), `Some(false)` when a leg was lengthened (a plan
+    /// made over several ticks then lengthens the legs for the state of the tick where its
+    /// next round solves, in a tick of its own).
     #[inline(never)]
-    fn round(&self, counts: &mut Counts, legs: &mut Legs, next: Option<&Move<'_>>) -> Option<bool> {
-        if self.attempt(counts, Some(legs))? {
-            return Some(true);
-        }
-        if let Some(next) = next {
-            next.attempt(counts, None)?;
-        }
-        Some(false)
+    fn round(&self, counts: &mut Counts, legs: &mut Legs) -> Option<bool> {
+        self.attempt(counts, Some(legs))
     }
 
     /// [`Self::round`], writing the legs to `legs` if given.
@@ -1070,7 +1076,7 @@ impl Move<'_> {
     fn solve(&self, stop_first: bool, legs: &mut Legs) -> Option<()> {
         let mut counts = self.layout(stop_first)?;
         for _ in 0..self.limits.rounds() {
-            if self.round(&mut counts, legs, None)? {
+            if self.round(&mut counts, legs)? {
                 return Some(());
             }
         }
@@ -1086,45 +1092,159 @@ fn sixths(change: i128) -> Option<i128> {
     Some(if change < 0 { -magnitude } else { magnitude })
 }
 
-/// A jerk-limited velocity change from `v` (at acceleration `a0`) to `aim`, wherever it ends:
-/// the decay of `a0`, beside the pulse where it already points the pulse's way (and is within
-/// its limit), else before it. Returns the ticks, the pulse, the tick it starts at, the decay,
-/// and twice the distance covered.
-fn ramp_jerk(jerk: &JerkLimits, v: i128, alpha0: i128, aim: i128) -> Option<(u32, Pulse, u32, Decay, i128)> {
-    let decay = jerk.decay(v, alpha0)?;
-    let (dv, dp) = decay.change()?;
-    let m = decay.ticks();
-    let start = v.checked_add(dv)?;
-    let change = aim.checked_sub(start)?;
-    let sigma = sixths(change)?;
-    let (jerk_limit, accel) = jerk.pulse(start, aim);
-    let end = start.checked_add(sigma.checked_mul(6)?)?;
-    let beside = m > 0 && decay.start().signum() == sigma.signum() && decay.start().abs() <= accel;
-    let shortest = Pulse::shortest(sigma, jerk_limit, accel)?;
-    let mut length = shortest.ticks().max(2 * m);
-    for _ in 0..3 {
-        if !beside {
-            break;
-        }
-        let fitted = Pulse::fit(sigma, length, jerk_limit, accel, m).filter(|pulse| pulse.rise_end() >= m);
-        if let Some(pulse) = fitted {
-            // Twice the distance: N·(v + end) + 2·dp + dv·(N − 2m).
-            let n = i128::from(length);
-            let covered = mul_small(v.checked_add(end)?, length)?
-                .checked_add(dp.checked_mul(2)?)?
-                .checked_add(dv.checked_mul(n - 2 * i128::from(m))?)?;
-            return Some((length, pulse, 0, decay, covered));
-        }
-        length = length.checked_add(1 + length / 64)?;
-    }
-    // After the decay: 2·(v·m + dp) + L·(start + end).
-    let length = shortest.ticks();
-    let covered = mul_small(v, m)?
-        .checked_add(dp)?
-        .checked_mul(2)?
-        .checked_add(mul_small(start.checked_add(end)?, length)?)?;
-    Some((m.checked_add(length)?, shortest, m, decay, covered))
+/// A jerk-limited velocity change from a state to an aim, wherever it ends (a stop, a halt, a
+/// pv ramp): the decay of the present acceleration, and one pulse beside it where the
+/// acceleration already points the pulse's way (and is within its limit), else after it.
+/// Fitted one length per try ([`Self::try_fit`]), so that a drive can spread the tries over
+/// its ticks.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Ramp {
+    /// The request's velocity and the aim.
+    v: i128,
+    aim: i128,
+    /// The decay, the velocity it adds and its distance.
+    decay: Decay,
+    dv: i128,
+    dp: i128,
+    /// The pulse's sum, jerk and acceleration limits (sixths).
+    sigma: i128,
+    jerk: i128,
+    accel: i128,
+    /// The pulse may run beside the decay; the shortest pulse has been found (its length).
+    beside: bool,
+    found: bool,
+    shortest: u32,
+    /// Beside the decay: the earliest tick the pulse may start at.
+    skip: u32,
+    /// The pulse's length to try next (beside the decay: the leg's), and the tries so far
+    /// (of this kind).
+    length: u32,
+    tries: u32,
 }
+
+impl Ramp {
+    const NONE: Ramp = Ramp {
+        v: 0,
+        aim: 0,
+        decay: Decay::NONE,
+        dv: 0,
+        dp: 0,
+        sigma: 0,
+        jerk: 1,
+        accel: 1,
+        beside: false,
+        found: false,
+        shortest: 0,
+        skip: 0,
+        length: 0,
+        tries: 0,
+    };
+
+    /// The ramp from velocity `v` at acceleration `alpha0` (sixths) to `aim`.
+    fn new(jerk: &JerkLimits, v: i128, alpha0: i128, aim: i128) -> Option<Ramp> {
+        let decay = jerk.decay(v, alpha0)?;
+        let (dv, dp) = decay.change()?;
+        let start = v.checked_add(dv)?;
+        let sigma = sixths(aim.checked_sub(start)?)?;
+        let (jerk, accel) = jerk.pulse(start, aim);
+        let beside =
+            decay.ticks() > 0 && decay.start().signum() == sigma.signum() && decay.start().abs() <= accel;
+        let length = if sigma == 0 { 0 } else { Pulse::estimate(sigma, jerk, accel)? };
+        let found = sigma == 0;
+        Some(Ramp {
+            v,
+            aim,
+            decay,
+            dv,
+            dp,
+            sigma,
+            jerk,
+            accel,
+            beside,
+            found,
+            shortest: length,
+            skip: 0,
+            length,
+            tries: 0,
+        })
+    }
+
+    /// One try, for a pulse that starts no earlier than tick `delay`: first the shortest
+    /// pulse (after the decay; the estimate lengthened as [`Pulse::shortest`] does), then,
+    /// where it may run beside the decay, one long enough to rise past the decay's end
+    /// (lengthened by 1/64 per try, three tries, else after the decay as the shortest). The
+    /// leg's ticks, the pulse, the tick it starts at and twice the distance covered; `None`
+    /// inside when this try did not fit.
+    fn try_fit(&mut self, delay: u32) -> Option<Option<(u32, Pulse, u32, i128)>> {
+        let m = self.decay.ticks();
+        let may_overlap = self.beside && delay.max(self.skip) < m;
+        // Beside only where it can be shorter than after the decay: its rise must outlast
+        // the decay, so the leg is at least `offset + 2·(m − offset)`, against `m + shortest`.
+        let beside = self.found && may_overlap && m - delay.max(self.skip) < self.shortest;
+        let offset = if beside { delay.max(self.skip) } else { delay.max(m) };
+        let min_rise = m.saturating_sub(offset);
+        // Beside, `length` is the leg's (the pulse from `offset` to its end).
+        let length = if beside {
+            self.length.saturating_sub(offset).max(2 * min_rise).max(self.shortest)
+        } else {
+            self.length
+        };
+        let fitted = if self.sigma == 0 {
+            Some(Pulse::NONE)
+        } else {
+            Pulse::fit(self.sigma, length, self.jerk, self.accel, min_rise)
+                .filter(|p| p.rise_end() >= min_rise)
+        };
+        self.tries += 1;
+        match fitted {
+            None if beside => {
+                // The bump (`pulse.rs`) cut into the rise: a longer leg, and a later start
+                // (a third of the way to the decay's end) that leaves the rise less to cover.
+                let leg = offset.checked_add(length)?;
+                self.length = leg.checked_add(1 + leg / 64)?;
+                self.skip = offset + (m - offset).div_ceil(4);
+                if self.tries >= BESIDE_TRIES {
+                    (self.beside, self.length, self.tries) = (false, self.shortest, 0);
+                }
+            }
+            None if self.tries >= Pulse::TRIES => return None,
+            None => self.length = Pulse::longer(length)?,
+            Some(_) if !self.found && may_overlap => {
+                (self.found, self.shortest, self.tries) = (true, length, 0);
+            }
+            Some(pulse) => {
+                // u·(N + s) + (N − s)·w + 2·dp + dv·(N − 2m + s) for the pulse from tick s.
+                let ticks = offset.checked_add(length)?;
+                let end = self.v.checked_add(self.dv)?.checked_add(self.sigma.checked_mul(6)?)?;
+                let spans = i128::from(ticks) - 2 * i128::from(m) + i128::from(offset);
+                let covered = mul_small(self.v, ticks.checked_add(offset)?)?
+                    .checked_add(mul_small(end, length)?)?
+                    .checked_add(self.dp.checked_mul(2)?)?
+                    .checked_add(self.dv.checked_mul(spans)?)?;
+                return Some(Some((ticks, pulse, offset, covered)));
+            }
+        }
+        Some(None)
+    }
+
+    /// [`Self::try_fit`] until it fits, for a pulse that may start at once.
+    fn fit_at_once(&mut self) -> Option<(u32, Pulse, u32, i128)> {
+        for _ in 0..RAMP_TRIES {
+            if let Some(fit) = self.try_fit(0)? {
+                return Some(fit);
+            }
+        }
+        None
+    }
+}
+
+/// Tries of a [`Ramp`]'s pulse beside the decay: the bump (`pulse.rs`) may cut into the rise
+/// (it depends on the remainder), so a few lengths and starts are tried.
+const BESIDE_TRIES: u32 = 8;
+
+/// The most tries of a [`Ramp`]: the shortest pulse's, those beside the decay, and the
+/// shortest's again after it.
+const RAMP_TRIES: u32 = 2 * Pulse::TRIES + BESIDE_TRIES;
 
 /// Where a plan made over several ticks has got to.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -1136,6 +1256,9 @@ enum Stage {
     Layout(bool),
     /// Next: round `round` of the layout (or of the fallback).
     Round { fallback: bool, round: u32 },
+    /// Next: after a failed round, the legs lengthened for the state of the tick after (where
+    /// round `round` solves).
+    Lengthen { fallback: bool, round: u32 },
 }
 
 /// A plan made over several ticks while the present motion continues ([`Ramps::request`]).
@@ -1160,8 +1283,12 @@ struct Job {
 enum JerkStage {
     /// No plan is being made.
     Idle,
-    /// Asked for in this tick: the work starts in the next.
-    Asked,
+    /// Asked for in this tick (a velocity ramp with `true`): the work starts in the next.
+    Asked(bool),
+    /// Next: the limits converted (a velocity ramp's first try estimated).
+    Convert(bool),
+    /// Next: a velocity ramp's try.
+    Ramp,
     /// Next: steps of the layout's search (the fallback's with `true`).
     Search(bool),
     /// Next: the layout's tick counts from its peak.
@@ -1187,8 +1314,12 @@ struct JerkJob {
     p2: i128,
     v: i128,
     alpha0: i128,
+    /// The target (twice) and the velocity it is passed at, or a velocity ramp's aim.
     target2: i128,
     last: i128,
+    /// The limits as asked for, converted in the tick after the request.
+    asked: Limits,
+    rate: TickRate,
     limits: RampLimits,
     /// The delay of the first pulse the layout is made for.
     delay: u32,
@@ -1196,6 +1327,7 @@ struct JerkJob {
     search: PeakSearch,
     counts: Counts,
     fitting: Fitting,
+    ramp: Ramp,
 }
 
 impl JerkJob {
@@ -1205,12 +1337,15 @@ impl JerkJob {
         alpha0: 0,
         target2: 0,
         last: 0,
+        asked: Limits::new(0, 0, 0),
+        rate: TickRate::SLOWEST,
         limits: RampLimits { velocity: 0, acceleration: 0, deceleration: 0, jerk: None },
         delay: 0,
         stage: JerkStage::Idle,
         search: PeakSearch::NEW,
         counts: Counts::NONE,
         fitting: Fitting::NONE,
+        ramp: Ramp::NONE,
     };
 }
 
@@ -1395,10 +1530,12 @@ impl Ramps {
                 let (ticks, covered) = ticks.zip(covered).ok_or(MotionError::TooLong)?;
                 (ticks, Pulse::NONE, 0, Decay::NONE, covered)
             }
-            Some(jerk) => self
-                .alpha_now()
-                .and_then(|alpha0| ramp_jerk(jerk, self.v, alpha0, aim))
-                .ok_or(MotionError::TooLong)?,
+            Some(jerk) => {
+                let alpha0 = self.alpha_now().ok_or(MotionError::TooLong)?;
+                let mut ramp = Ramp::new(jerk, self.v, alpha0, aim).ok_or(MotionError::TooLong)?;
+                let (ticks, pulse, offset, covered) = ramp.fit_at_once().ok_or(MotionError::TooLong)?;
+                (ticks, pulse, offset, ramp.decay, covered)
+            }
         };
         let end_p2 = self.p2.checked_add(covered).ok_or(MotionError::TooLong)?;
         self.job = None;
@@ -1455,23 +1592,50 @@ impl Ramps {
     }
 
     /// [`Self::request`] for the jerk-limited profile: the plan is made over the next ticks
-    /// ([`Self::work`]: a few steps of the layout's search per tick, then its counts, then per
-    /// round the peak and one leg's fit per tick) for the state of this tick, while the axis
-    /// ramps its acceleration out and coasts — the start of every plan from this state. The
-    /// first pulse starts in the tick that completes the plan (usually the 10th to the 15th).
+    /// ([`Self::work`]: the limits converted, a few steps of the layout's search per tick,
+    /// then its counts, then per round the peak and one leg's fit per tick) for the state of
+    /// this tick, while the axis ramps its acceleration out and coasts — the start of every
+    /// plan from this state. The first pulse starts in the tick that completes the plan
+    /// (usually the 12th to the 17th).
     pub(crate) fn request_jerk(
         &mut self,
         target: i128,
         last: i128,
-        limits: &RampLimits,
+        limits: &Limits,
+        rate: TickRate,
     ) -> Result<(), MotionError> {
-        let jerk = limits.jerk.ok_or(MotionError::ZeroJerk)?;
         let target2 = target.checked_mul(2).ok_or(MotionError::OutOfRange)?;
         target2.checked_sub(self.p2).ok_or(MotionError::OutOfRange)?;
+        self.ask_jerk(target2, last, limits, rate, false)
+    }
+
+    /// [`Self::velocity`] for the jerk-limited profile over the next ticks (a drive's stops):
+    /// the acceleration ramps out at once, the limits are converted in the next tick, and from
+    /// the one after, a length of the pulse is tried per tick ([`Ramp::try_fit`]), usually
+    /// one; the pulse starts in the tick whose try fits (the axis coasts until then).
+    pub(crate) fn request_velocity(
+        &mut self,
+        aim: i128,
+        limits: &Limits,
+        rate: TickRate,
+    ) -> Result<(), MotionError> {
+        self.ask_jerk(0, aim, limits, rate, true)
+    }
+
+    /// The request of [`Self::request_jerk`] (`target2`, `last`) or [`Self::request_velocity`]
+    /// (`last`, the aim): the first leg's start as the axis runs it meanwhile (the decay of
+    /// the present acceleration, then a coast), and the job.
+    fn ask_jerk(
+        &mut self,
+        target2: i128,
+        last: i128,
+        limits: &Limits,
+        rate: TickRate,
+        ramp: bool,
+    ) -> Result<(), MotionError> {
         let alpha0 = self.alpha_now().ok_or(MotionError::TooLong)?;
-        let decay = jerk.decay(self.v, alpha0).ok_or(MotionError::TooLong)?;
+        let decay = JerkLimits::decay_of(limits, rate, self.v, alpha0).ok_or(MotionError::TooLong)?;
         self.job = None;
-        // The first leg's start as it runs meanwhile: the decay, then a coast.
         self.legs.len = 0;
         self.legs.push_pulse(u32::MAX, 0, Pulse::NONE).ok_or(MotionError::TooLong)?;
         self.legs.decay = decay;
@@ -1481,13 +1645,14 @@ impl Ramps {
         self.ticks = u32::MAX;
         self.left = u32::MAX;
         self.a = 0;
-        self.alpha = decay.alpha(0);
+        // The decay starts from the present acceleration (`decay.alpha(0)`).
+        self.alpha = alpha0;
         self.remaining = 0;
         // Written in place, field by field.
         let job = &mut self.jerk_job;
         (job.p2, job.v, job.alpha0, job.target2, job.last) = (self.p2, self.v, alpha0, target2, last);
-        job.limits = *limits;
-        job.stage = JerkStage::Asked;
+        (job.asked, job.rate) = (*limits, rate);
+        job.stage = JerkStage::Asked(ramp);
         job.search.steps = 0;
         job.search.found = None;
         Ok(())
@@ -1498,8 +1663,55 @@ impl Ramps {
     fn work_jerk(&mut self) {
         // Ticks since the request: the axis is that far into the first leg.
         let done = self.ticks.wrapping_sub(self.left);
+        let job = &mut self.jerk_job;
+        match job.stage {
+            JerkStage::Asked(ramp) => {
+                job.stage = JerkStage::Convert(ramp);
+                return;
+            }
+            JerkStage::Convert(ramp) => {
+                job.limits = RampLimits::new(&job.asked, job.rate);
+                job.stage = JerkStage::Search(false);
+                if ramp {
+                    let made = job
+                        .limits
+                        .jerk
+                        .as_ref()
+                        .and_then(|jerk| Ramp::new(jerk, job.v, job.alpha0, job.last));
+                    job.stage = JerkStage::Ramp;
+                    match made {
+                        Some(ramp) => job.ramp = ramp,
+                        None => self.give_up(),
+                    }
+                }
+                return;
+            }
+            JerkStage::Ramp => {
+                match job.ramp.try_fit(done) {
+                    Some(None) => {}
+                    Some(Some((ticks, pulse, offset, covered))) => {
+                        let (aim, end_p2) = (job.last, job.p2.checked_add(covered));
+                        job.stage = JerkStage::Idle;
+                        let legs = &mut self.legs;
+                        legs.len = 0;
+                        legs.offset = offset;
+                        #[cfg(test)]
+                        {
+                            legs.covered2 = covered;
+                        }
+                        match (end_p2, legs.push_pulse(ticks, aim, pulse)) {
+                            (Some(end_p2), Some(())) => self.resume(done, end_p2, aim, Made::Layout),
+                            _ => self.give_up(),
+                        }
+                    }
+                    None => self.give_up(),
+                }
+                return;
+            }
+            _ => {}
+        }
         // The job's parts borrowed apart (the limits stay put while the counts change).
-        let JerkJob { p2, v, alpha0, target2, last, limits, delay, stage, search, counts, fitting } =
+        let JerkJob { p2, v, alpha0, target2, last, limits, delay, stage, search, counts, fitting, .. } =
             &mut self.jerk_job;
         let Some(jerk) = limits.jerk.as_ref() else { return };
         let limits = &*limits;
@@ -1516,14 +1728,16 @@ impl Ramps {
         let legs = &mut self.legs;
         let outcome = (|| -> Option<Option<bool>> {
             match *stage {
-                JerkStage::Idle => {}
-                JerkStage::Asked => *stage = JerkStage::Search(false),
+                JerkStage::Idle | JerkStage::Asked(_) | JerkStage::Convert(_) | JerkStage::Ramp => {}
                 JerkStage::Search(fallback) => {
+                    let mut steps = SEARCH_STEPS_PER_TICK;
                     if search.steps == 0 && search.found.is_none() {
+                        // The set-up (two evaluations and a cube root) takes a step's place.
                         *delay = done.checked_add(JERK_LAYOUT_DELAY)?;
                         *search = problem(*delay)?.search_jerk(jerk, fallback)?;
+                        steps -= 1;
                     }
-                    Shape::new(limits, jerk).advance(search, SEARCH_STEPS_PER_TICK);
+                    Shape::new(limits, jerk).advance(search, steps);
                     if search.found.is_some() {
                         *stage = JerkStage::Counts(fallback);
                     }
@@ -1595,23 +1809,29 @@ impl Ramps {
                     _ => JerkStage::Idle,
                 };
                 if job.stage == JerkStage::Idle {
-                    // Not seen in the tests: every request has found a plan.
-                    let limits = job.limits;
-                    let _ = self.velocity(0, &limits);
+                    self.give_up();
                 }
             }
             // Out of range (not seen in the tests): stop instead.
-            None => {
-                job.stage = JerkStage::Idle;
-                let limits = job.limits;
-                let _ = self.velocity(0, &limits);
-            }
+            None => self.give_up(),
         }
+    }
+
+    /// A jerk-limited plan made over several ticks that found nothing (not seen in the
+    /// tests: every request has found one): a stop at once instead.
+    fn give_up(&mut self) {
+        self.jerk_job.stage = JerkStage::Idle;
+        let limits = self.jerk_job.limits;
+        let _ = self.velocity(0, &limits);
     }
 
     /// Starts the legs a plan made over several ticks completed, `done` ticks into its first
     /// leg (which the axis ran meanwhile).
     fn resume(&mut self, done: u32, end_p2: i128, end_v: i128, made: Made) {
+        #[cfg(test)]
+        {
+            self.planned_from = (self.jerk_job.p2, self.jerk_job.v);
+        }
         self.end_p2 = end_p2;
         self.end_v = end_v;
         self.next = 1;
@@ -1657,19 +1877,24 @@ impl Ramps {
                     job.stage = Stage::Round { fallback, round: 0 };
                     Some(None)
                 }
-                Stage::Round { fallback, round } => {
-                    match problem.round(&mut job.counts, &mut self.legs, Some(&next))? {
-                        true => Some(Some((job.target2, job.last, made(fallback)))),
-                        false if round + 1 < limits.rounds() => {
-                            job.stage = Stage::Round { fallback, round: round + 1 };
-                            Some(None)
-                        }
-                        false if !fallback => {
-                            job.stage = Stage::Layout(true);
-                            Some(None)
-                        }
-                        false => None,
+                Stage::Round { fallback, round } => match problem.round(&mut job.counts, &mut self.legs)? {
+                    true => Some(Some((job.target2, job.last, made(fallback)))),
+                    false if round + 1 < limits.rounds() => {
+                        job.stage = Stage::Lengthen { fallback, round: round + 1 };
+                        Some(None)
                     }
+                    false if !fallback => {
+                        job.stage = Stage::Layout(true);
+                        Some(None)
+                    }
+                    false => None,
+                },
+                // A tick of its own: a round and this together were the dearest tick of a
+                // plan.
+                Stage::Lengthen { fallback, round } => {
+                    next.attempt(&mut job.counts, None)?;
+                    job.stage = Stage::Round { fallback, round };
+                    Some(None)
                 }
             }
         });

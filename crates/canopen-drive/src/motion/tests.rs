@@ -536,3 +536,67 @@ fn requested_plans(profile: ProfileType, scenarios: usize) -> i64 {
     }
     worst_extra
 }
+
+#[test]
+fn requested_stops_land_like_immediate_ones() {
+    // A stop made over several ticks (`request_stop`, as a drive's halt and quick stop): from
+    // any point of a move, within the stop's limits tick by tick from the request on, never
+    // reversing, at standstill with no acceleration when finished, and at most a few ticks
+    // longer than the stop made at once (the coast while its pulse is fitted).
+    let mut rng = Rng(0x57_0915);
+    let mut worst_extra = [0i64; 2];
+    let mut extras = std::vec::Vec::<i64>::new();
+    for scenario in 0..1200 {
+        let jerk_limited = scenario % 2 == 1;
+        let profile = if jerk_limited { ProfileType::JerkLimited } else { ProfileType::Trapezoidal };
+        let limits = random_limits(&mut rng, profile);
+        let hz = [1000, 4000, 16_000][scenario % 3];
+        let mut planner = PositionPlanner::new(TickRate::new(hz).unwrap(), 0);
+        let target = (f64::from(limits.velocity) * rng.range(-2.0, 2.0)) as i64;
+        let ticks = planner.plan(target, 0, &limits).unwrap();
+        for _ in 0..(rng.unit() * f64::from(ticks)) as u32 {
+            planner.step();
+        }
+        let deceleration = (f64::from(limits.deceleration) * rng.range(0.5, 2.0)) as u32 + 1;
+        let before = planner.exact();
+        let context = format!(
+            "scenario {scenario}: {limits:?} at {hz} Hz from {before:?}, deceleration {deceleration}"
+        );
+        let at_once = planner.clone().stop(deceleration, &limits).unwrap();
+        planner.request_stop(deceleration, &limits).unwrap_or_else(|e| panic!("{context}: {e:?}"));
+        let stop_limits = Limits { acceleration: deceleration, deceleration, ..limits };
+        let mut checker = super::limit_tests::Strict::new(&stop_limits, hz, before);
+        let direction = before.v.signum();
+        let mut ticks = 0u32;
+        while !planner.is_finished() {
+            let previous = planner.exact();
+            planner.step();
+            let now = planner.exact();
+            checker.check(now).unwrap_or_else(|e| panic!("{context} at tick {ticks}: {e}"));
+            assert!(
+                (now.p - previous.p) * direction >= 0,
+                "{context} at tick {ticks}: a stop never reverses"
+            );
+            ticks += 1;
+            assert!(ticks < 50_000_000, "{context}: never finished");
+        }
+        assert_eq!((planner.exact().v, planner.exact().a), (0, 0), "{context}");
+        if jerk_limited {
+            extras.push(i64::from(ticks) - i64::from(at_once));
+        }
+        let extra = &mut worst_extra[usize::from(jerk_limited)];
+        *extra = (*extra).max(i64::from(ticks) - i64::from(at_once));
+    }
+    extras.sort_unstable();
+    let share = |q: usize| extras.get(extras.len() * q / 100).copied().unwrap_or(0);
+    std::eprintln!(
+        "a requested stop takes at most {} ticks (trapezoid) and {} ticks (jerk-limited) more than one made at once; jerk-limited: median {}, 90 % {}, 99 % {}",
+        worst_extra[0],
+        worst_extra[1],
+        share(50),
+        share(90),
+        share(99)
+    );
+    assert!(worst_extra[0] <= 0, "a trapezoid's stop is made at once");
+    assert!(worst_extra[1] <= 8, "{} ticks more", worst_extra[1]);
+}
