@@ -263,18 +263,23 @@ struct Legs {
 }
 
 impl Legs {
+    /// A trapezoid's leg (its pulse is left as it is: a trapezoid never reads it, and writing
+    /// one is some 80 bytes).
     fn push(&mut self, ticks: u32, aim: i128) -> Option<()> {
-        self.push_pulse(ticks, aim, Pulse::default())
-    }
-
-    fn push_pulse(&mut self, ticks: u32, aim: i128, pulse: Pulse) -> Option<()> {
         if ticks > 0 {
             *self.ticks.get_mut(self.len)? = ticks;
             *self.aims.get_mut(self.len)? = aim;
-            *self.pulses.get_mut(self.len)? = pulse;
             self.len += 1;
         }
         Some(())
+    }
+
+    /// A jerk-limited leg.
+    fn push_pulse(&mut self, ticks: u32, aim: i128, pulse: Pulse) -> Option<()> {
+        if ticks > 0 {
+            *self.pulses.get_mut(self.len)? = pulse;
+        }
+        self.push(ticks, aim)
     }
 
     fn get(&self, index: usize) -> Option<(u32, i128)> {
@@ -534,12 +539,12 @@ impl PeakSearch {
 /// its cube root, to 2⁻²⁰ of it; usually 10 to 20).
 const PEAK_STEPS: u32 = 40;
 
-/// Steps of that search per tick in a plan made over several ticks: four where `f32` is in
+/// Steps of that search per tick in a plan made over several ticks: three where `f32` is in
 /// hardware, one on a core without it (a step is some 5 000 instructions of software floating
 /// point on a Cortex-M0). Cores without 32-bit atomics stand for ARMv6-M, as in
 /// `fixed::wide_product`.
 #[cfg(target_has_atomic = "32")]
-const SEARCH_STEPS_PER_TICK: u32 = 4;
+const SEARCH_STEPS_PER_TICK: u32 = 3;
 #[cfg(not(target_has_atomic = "32"))]
 const SEARCH_STEPS_PER_TICK: u32 = 1;
 
@@ -580,6 +585,16 @@ struct Counts {
 impl Counts {
     const NONE: Counts =
         Counts { stop: 0, start: 0, to: 0, from: 0, cruise: 0, cruising: false, overlap: false, delay: 0 };
+
+    /// The ticks of the legs (stop, to the peak, cruise, from the peak, start).
+    fn ticks(&self) -> [u32; MAX_LEGS] {
+        [self.stop, self.to, self.cruise, self.from, self.start]
+    }
+
+    /// Leg `index`'s place among the legs that run (those of a non-zero count).
+    fn position(&self, index: usize) -> usize {
+        self.ticks().iter().take(index).filter(|&&ticks| ticks > 0).count()
+    }
 
     /// The ticks of leg `index` (stop, to the peak, cruise, from the peak, start).
     fn slot(&mut self, index: usize) -> Option<&mut u32> {
@@ -988,7 +1003,9 @@ impl Move<'_> {
         let fitted = Pulse::fit(sigma, length, jerk_limit, accel, min_rise)
             .filter(|pulse| min_rise == 0 || (pulse.rise_end() >= min_rise && sigma.signum() == sign));
         if let Some(pulse) = fitted {
-            *pulses.get_mut(index)? = pulse;
+            // Where the leg will be among the legs that run (the empty ones are left out), so
+            // that the legs are complete without moving a pulse.
+            *pulses.get_mut(counts.position(index))? = pulse;
             fitting.v = start.checked_add(sigma.checked_mul(6)?)?;
             return Some(());
         }
@@ -1026,18 +1043,17 @@ impl Move<'_> {
             return Some(false);
         };
         let to = if counts.start > 0 { 0 } else { self.ue };
-        let ticks = [counts.stop, counts.to, counts.cruise, counts.from, counts.start];
+        let ticks = counts.ticks();
         let aims = [0, fitting.peak, fitting.peak, to, self.ue];
         legs.len = 0;
         legs.decay = fitting.decay;
         legs.offset = fitting.offset;
-        for (index, (&count, &aim)) in ticks.iter().zip(&aims).enumerate() {
-            // In place, the legs only move down (`len ≤ index`).
-            let pulse = match pulses {
-                Some(pulses) => *pulses.get(index)?,
-                None => *legs.pulses.get(index)?,
-            };
-            legs.push_pulse(count, aim, pulse)?;
+        for (&count, &aim) in ticks.iter().zip(&aims) {
+            // The pulses are at their legs' places already ([`Counts::position`]).
+            if let (Some(pulses), true) = (pulses, count > 0) {
+                *legs.pulses.get_mut(legs.len)? = *pulses.get(legs.len)?;
+            }
+            legs.push(count, aim)?;
         }
         #[cfg(test)]
         {
@@ -1764,6 +1780,11 @@ impl Ramps {
                 }
                 JerkStage::Fit { .. } => {
                     let problem = problem(*delay)?;
+                    if fitting.next >= MAX_LEGS || !fitting.beside {
+                        // In a tick of its own (after the last leg's fit, the dearest tick of
+                        // a plan): the pulses are in the legs already, at their places.
+                        return Some(Some(problem.finish_jerk(counts, fitting, None, Some(legs))?));
+                    }
                     // One leg (and the empty stop or start around it, which cost nothing).
                     loop {
                         let index = fitting.next;
@@ -1776,10 +1797,6 @@ impl Ramps {
                     }
                     if fitting.next == MAX_LEGS - 1 && counts.start == 0 {
                         fitting.next += 1;
-                    }
-                    if fitting.next >= MAX_LEGS || !fitting.beside {
-                        // The pulses are in the legs already, by leg.
-                        return Some(Some(problem.finish_jerk(counts, fitting, None, Some(legs))?));
                     }
                 }
             }
