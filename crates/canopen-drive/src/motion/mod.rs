@@ -45,12 +45,19 @@
 //! 3. **Fallback**: stop first, move from standstill, and start again for an end velocity.
 //!
 //! A drive makes its plans over several ticks with [`PositionPlanner::request`]. A trapezoid's:
-//! the layout in one tick, a round in each following one, the axis meanwhile under a
-//! provisional rule. A jerk-limited one: a few steps of the search per tick, then the counts,
-//! then per round the peak and one leg's fit per tick, for the state of the request — the axis
-//! meanwhile ramps its acceleration out and coasts, which is how every plan from that state
-//! begins (its first pulse is delayed until the plan is complete, usually 10 to 15 ticks).
-//! Halts and quick stops ([`PositionPlanner::stop`]) are still made at once.
+//! the layout in one tick, a round in each following one (and after a failed round a tick that
+//! lengthens its legs for the state where the next one solves), the axis meanwhile under a
+//! provisional rule. A jerk-limited one: the limits converted in the tick after the request, a
+//! few steps of the search per tick, then the counts, then per round the peak, one leg's fit
+//! per tick and the legs completed in a tick of their own, for the state of the request — the
+//! axis meanwhile ramps its acceleration out and coasts, which is how every plan from that
+//! state begins (its first pulse is delayed until the plan is complete, usually 12 to 17
+//! ticks). Halts and quick stops ([`PositionPlanner::request_stop`]): a trapezoid's is one leg,
+//! made at once; a jerk-limited one ramps its acceleration out from the tick that asks, its
+//! limits are converted in the next and a length of its pulse is tried in each after (usually
+//! one), so its deceleration starts two ticks after the request; over the random scenarios it
+//! takes a median 2 and at most 5 ticks more than one made at once. pv ramps
+//! ([`VelocityRamp`]) are still made at once.
 //!
 //! # Numeric representation, and why
 //!

@@ -73,7 +73,7 @@ impl PositionPlanner {
     /// this tick over the following steps (a few steps of its search, its counts, then per
     /// round its peak and one leg per step), while the axis ramps its acceleration out and
     /// coasts as that plan begins; its first pulse starts in the step that completes it
-    /// (usually the 10th to the 15th). [`Self::is_finished`] is false until the plan is
+    /// (usually the 12th to the 17th). [`Self::is_finished`] is false until the plan is
     /// complete.
     pub fn request(&mut self, target: i64, end_velocity: u32, limits: &Limits) -> Result<(), MotionError> {
         let result = self.plan_from_here(target, end_velocity, limits, true);
