@@ -219,6 +219,23 @@ fn l_118_method_35_without_operation_enabled() {
 }
 
 #[test]
+fn a_mode_change_and_bit_4_between_two_ticks_start_homing() {
+    // A master that selects hm and raises bit 4 before the drive's next tick (python-canopen
+    // on a fast link does): the tick that changes the mode takes the edge as well. Before, it
+    // was lost and homing never started.
+    let mut bench = bench_with(axis(), 777);
+    write(&mut bench, 0x6060, &[1]);
+    cw(&mut bench, 0x0006, 2);
+    cw(&mut bench, 0x0007, 2);
+    assert!(is(&mut bench, SO));
+    write(&mut bench, 0x6060, &[HM]);
+    write(&mut bench, 0x6098, &[35]);
+    cw(&mut bench, 0x0017, 2);
+    assert_eq!(homing_status(statusword(&mut bench)), (0, 1, 1));
+    assert_eq!(read_i32(&mut bench, 0x6064), 0);
+}
+
+#[test]
 fn l_119_l_120_method_1_reverses_on_the_limit_and_homes_on_the_index() {
     // The digest's scene: NLS at 0, index every 1000 counts from 150, start at 5000.
     let params = MotorParams { negative_limit_switch: Some(0), positive_limit_switch: None, ..axis() };

@@ -1581,8 +1581,9 @@ impl Profile {
         let inputs = hm::Inputs {
             od,
             controlword,
-            // Method 35 may start outside Operation enabled (digest §10.2).
-            start: input.bit4_rose && !input.entered_operation && !self.mode_changed,
+            // Method 35 may start outside Operation enabled (digest §10.2). Also in the tick of
+            // a mode change: 6060h = 6 and bit 4 written between two ticks start homing.
+            start: input.bit4_rose && !input.entered_operation,
             actual,
             torque: sample.torque,
             velocity: sample.velocity,
@@ -1681,10 +1682,9 @@ impl Profile {
                     factors,
                     slots: &self.slots,
                     controlword,
-                    new_setpoint: bit4_rose
-                        && input.operation
-                        && !input.entered_operation
-                        && !self.mode_changed,
+                    // Also in the tick of a mode change: a master that writes 6060h and then
+                    // raises bit 4 may land both between two ticks (the edge was lost before).
+                    new_setpoint: bit4_rose && input.operation && !input.entered_operation,
                     actual,
                     origin: self.origin,
                     target_range,
