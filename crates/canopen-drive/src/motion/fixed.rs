@@ -79,10 +79,13 @@ fn div_trunc(num: i128, den: i128) -> (i128, bool) {
     };
     let magnitude = num.unsigned_abs();
     // Written out: constant shifts of a u128 are free, variable ones are not.
-    let (q3, r) = div_digit(0, (magnitude >> 96) as u32, small);
-    let (q2, r) = div_digit(r, (magnitude >> 64) as u32, small);
-    let (q1, r) = div_digit(r, (magnitude >> 32) as u32, small);
-    let (q0, remainder) = div_digit(r, magnitude as u32, small);
+    // A digit below the divisor with nothing carried is its own remainder (the top digits of
+    // the usual values: a 32-bit division is a library call on a Cortex-M0).
+    let digit = |r: u32, d: u32| if r == 0 && d < small { (0, d) } else { div_digit(r, d, small) };
+    let (q3, r) = digit(0, (magnitude >> 96) as u32);
+    let (q2, r) = digit(r, (magnitude >> 64) as u32);
+    let (q1, r) = digit(r, (magnitude >> 32) as u32);
+    let (q0, remainder) = digit(r, magnitude as u32);
     let quotient = u128::from(q3) << 96 | u128::from(q2) << 64 | u128::from(q1) << 32 | u128::from(q0);
     // |num| ≤ 2¹²⁷, so the quotient fits unless num = i128::MIN and den = 1.
     let quotient = i128::try_from(quotient).unwrap_or(i128::MAX);
@@ -149,9 +152,24 @@ pub(crate) fn mul_small(x: i128, n: u32) -> Option<i128> {
     Some(if x < 0 { -product } else { product })
 }
 
+/// `x·n` for a 64-bit `n` (a sum of tick counts), `None` on overflow: [`mul_small`] once when
+/// `n` fits 32 bits, else twice.
+pub(crate) fn mul_wide(x: i128, n: u64) -> Option<i128> {
+    let low = mul_small(x, n as u32)?;
+    let high = (n >> 32) as u32;
+    if high == 0 {
+        return Some(low);
+    }
+    let high = mul_small(x, high)?;
+    if high.unsigned_abs() >> 95 != 0 {
+        return None;
+    }
+    (high << 32).checked_add(low)
+}
+
 /// `a·b` in 64 bits: one instruction where the core multiplies 32×32 → 64 bits (UMULL).
 #[cfg(target_has_atomic = "32")]
-fn wide_product(a: u32, b: u32) -> u64 {
+pub(crate) fn wide_product(a: u32, b: u32) -> u64 {
     u64::from(a) * u64::from(b)
 }
 
@@ -160,7 +178,7 @@ fn wide_product(a: u32, b: u32) -> u64 {
 /// for (the proxy this `cfg` uses); there the compiler calls a general 64×64-bit multiply of
 /// some 80 instructions, this is about fifteen.
 #[cfg(not(target_has_atomic = "32"))]
-fn wide_product(a: u32, b: u32) -> u64 {
+pub(crate) fn wide_product(a: u32, b: u32) -> u64 {
     let (a0, a1) = (a & 0xffff, a >> 16);
     let (b0, b1) = (b & 0xffff, b >> 16);
     let middle = u64::from(a0 * b1) + u64::from(a1 * b0);
@@ -183,13 +201,15 @@ pub(crate) fn to_whole_si(value: i128, hz: u32, k: u32) -> i64 {
     let high = value >> FRAC;
     let low = value as u64;
     if let (Ok(scale), Ok(high)) = (u32::try_from(scale), i32::try_from(high)) {
-        let scale = u64::from(scale);
-        let lower = (low & 0xffff_ffff) * scale;
+        // 32×32 → 64-bit products (`wide_product`: a 64-bit multiply is a library call on a
+        // Cortex-M0).
+        let lower = wide_product(low as u32, scale);
         // low·scale = upper·2³² + (lower mod 2³²), upper < 2⁶⁴ − 2³².
-        let upper = (low >> 32) * scale + (lower >> 32);
+        let upper = wide_product((low >> 32) as u32, scale) + (lower >> 32);
         let carry = (upper + (1 << 31)) >> 32;
         // |high·scale| < 2⁶³ − 2³², carry ≤ 2³².
-        return i64::from(high) * scale as i64 + carry as i64;
+        let whole = wide_product(high.unsigned_abs(), scale) as i64;
+        return if high < 0 { carry as i64 - whole } else { whole + carry as i64 };
     }
     if let (Ok(scale), Ok(high)) = (i64::try_from(scale), i64::try_from(high)) {
         let carry = (u128::from(low) * scale.unsigned_abs() as u128 + (1 << (FRAC - 1))) >> FRAC;
@@ -282,8 +302,16 @@ pub(crate) fn real(x: i128) -> f32 {
     // The top 32 significant bits, converted by the FPU, and their scale as an exponent: an
     // i128 → f32 conversion is a long library call.
     let magnitude = x.unsigned_abs();
-    let shift = (128 - magnitude.leading_zeros()).saturating_sub(32);
-    let top = (magnitude >> shift) as u32 as f32;
+    // In 64-bit halves: a 128-bit count of leading zeros or variable shift is a long sequence
+    // on a Cortex-M0.
+    let (high, low) = ((magnitude >> 64) as u64, magnitude as u64);
+    let zeros = if high != 0 { high.leading_zeros() } else { 64 + low.leading_zeros() };
+    let shift = (128 - zeros).saturating_sub(32);
+    let top = match shift {
+        0 => low as u32,
+        1..=63 => ((low >> shift) | (high << (64 - shift))) as u32,
+        _ => (high >> (shift - 64)) as u32,
+    } as f32;
     // 2^(shift − 64) as f32 bits (shift ≤ 96: the exponent stays in the normal range).
     let scale = f32::from_bits((127 + shift - 64) << 23);
     let value = top * scale;
@@ -357,6 +385,23 @@ mod unit_tests {
             let n = u64::from(high) << 32 | u64::from(low);
             let d = u64::from(divisor);
             assert_eq!(div_digit(high, low, divisor), ((n / d) as u32, (n % d) as u32), "{n} {d}");
+        }
+    }
+
+    #[test]
+    fn reals_are_the_fixed_point_values_to_f32_precision() {
+        extern crate std;
+        let mut x: i128 = 1;
+        let mut values = std::vec::Vec::new();
+        for shift in 0..127 {
+            values.extend([x << shift, (x << shift) - 1, (x << shift) + 12_345, -(x << shift)]);
+        }
+        x = 0x1234_5678_9abc_def0_1357_9bdf_2468_ace0;
+        values.extend([0, 1, -1, x, -x, x >> 40, x >> 70, i128::MAX, i128::MIN + 1]);
+        for value in values {
+            let exact = value as f64 / 18_446_744_073_709_551_616.0;
+            let got = f64::from(real(value));
+            assert!((got - exact).abs() <= exact.abs() * 1.2e-7, "{value}: {got} for {exact}");
         }
     }
 

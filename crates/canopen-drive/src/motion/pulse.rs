@@ -36,7 +36,7 @@
 //! velocity change and distance are closed forms of its length, so the first leg's distance
 //! stays affine in its end velocity.
 
-use super::fixed::{ceil_ticks, div_floor, exact_ticks, mul_small, real, sqrt};
+use super::fixed::{ceil_ticks, div_floor, exact_ticks, mul_small, mul_wide, real, sqrt, wide_product};
 
 /// One leg's acceleration pulse (see the module docs); all values in sixths, magnitudes (the
 /// sign is the leg's).
@@ -62,10 +62,9 @@ pub(crate) struct Pulse {
     sigma: i128,
 }
 
-/// `n(n − 1)/2` (exact for any `n`).
-fn triangle(n: u32) -> i128 {
-    let n = i128::from(n);
-    n * (n - 1) / 2
+/// `n(n − 1)/2` (exact for any `n`: below 2⁶³).
+fn triangle(n: u32) -> u64 {
+    wide_product(n, n.saturating_sub(1)) / 2
 }
 
 impl Pulse {
@@ -130,16 +129,18 @@ impl Pulse {
     /// The interior sum of a rise of `rise` ticks to `peak` held over a pulse of `ticks`, and
     /// the rise's parameters.
     fn sum(ticks: u32, rise: u32, peak: i128) -> Option<(i128, i128, u32, u32)> {
-        let n = i128::from(rise);
-        let jerk = div_floor(peak, n);
+        let jerk = div_floor(peak, i128::from(rise));
         let r = u32::try_from(peak.checked_sub(mul_small(jerk, rise)?)?).ok()?;
         let (early, late) = (r / 2, r - r / 2);
-        let (e, l) = (i128::from(early), i128::from(late));
-        // Σ_{k=1}^{n−1} (q·k + min(k, e) + max(0, k − n + l)), twice, and the hold.
-        let rise_sum =
-            jerk.checked_mul(triangle(rise))?.checked_add(e * (n - 1) - e * (e - 1) / 2 + l * (l - 1) / 2)?;
-        let hold = i128::from(ticks - 2 * rise + 1);
-        let total = rise_sum.checked_mul(2)?.checked_add(peak.checked_mul(hold)?)?;
+        // Σ_{k=1}^{n−1} (q·k + min(k, e) + max(0, k − n + l)), twice, and the hold. The corner
+        // terms in 64 bits (e, l ≤ n < 2³²), the products by tick counts as `mul_small`: a
+        // 128-bit product is a long library call on a Cortex-M0.
+        let corners = wide_product(early, rise.saturating_sub(1))
+            .checked_sub(triangle(early))?
+            .checked_add(triangle(late))?;
+        let rise_sum = mul_wide(jerk, triangle(rise))?.checked_add(i128::from(corners))?;
+        let hold = ticks.checked_sub(2 * rise)?.checked_add(1)?;
+        let total = rise_sum.checked_add(rise_sum)?.checked_add(mul_small(peak, hold)?)?;
         Some((total, jerk, early, late))
     }
 
@@ -301,13 +302,14 @@ impl Decay {
         }
         // Σ_{k=1}^{m−1} α_k, the velocity 3·(α₀ + 2·Σ), and the distance
         // Σ_{k<m} V_k + 2α₀ + 3·Σ with Σ_{k<m} V_k = 3g·m(m−1) − j·m(m−1)(2m−1)/2.
+        // Products by tick counts as `mul_small` (a 128-bit product is a long library call on a
+        // Cortex-M0).
         let t = triangle(m);
-        let sum = mul_small(g, m - 1)?.checked_sub(j.checked_mul(t)?)?;
-        let dv = g.checked_add(sum.checked_mul(2)?)?.checked_mul(3)?;
-        let velocities = mul_small(g, 6)?
-            .checked_mul(t)?
-            .checked_sub(j.checked_mul(t)?.checked_mul(i128::from(2 * m - 1))?)?;
-        let dp = velocities.checked_add(g * 2)?.checked_add(sum.checked_mul(3)?)?;
+        let jt = mul_wide(j, t)?;
+        let sum = mul_small(g, m - 1)?.checked_sub(jt)?;
+        let dv = mul_small(g.checked_add(mul_small(sum, 2)?)?, 3)?;
+        let velocities = mul_wide(mul_small(g, 6)?, t)?.checked_sub(mul_small(jt, 2 * m - 1)?)?;
+        let dp = velocities.checked_add(mul_small(g, 2)?)?.checked_add(mul_small(sum, 3)?)?;
         Some(if self.start < 0 { (-dv, -dp) } else { (dv, dp) })
     }
 }

@@ -441,16 +441,28 @@ impl Shape {
     /// The search for the peak velocity of a move over `distance` from `u0` to `ue`, set up:
     /// done at once if the peak is the velocity limit `vmax` (with a cruise).
     fn search(&self, distance: f32, u0: f32, ue: f32, vmax: f32) -> PeakSearch {
-        let mut search = PeakSearch { distance, u0, ue, vmax, ..PeakSearch::default() };
-        let (f_low, f_high) = (self.covered(&search, -vmax), self.covered(&search, vmax));
-        if f_high <= 0.0 {
+        PeakSearch { distance, u0, ue, vmax, set_up: true, ..PeakSearch::NEW }
+    }
+
+    /// The bracket's ends, one evaluation per step (on a Cortex-M0 an evaluation is a step's
+    /// work): the distance at −vmax, then at +vmax and the cube root (found already if the
+    /// peak is the velocity limit).
+    fn prime(&self, search: &mut PeakSearch) {
+        let vmax = search.vmax;
+        if search.primed == 0 {
+            search.f_low = self.covered(search, -vmax);
+            search.primed = 1;
+            return;
+        }
+        search.f_high = self.covered(search, vmax);
+        search.primed = 2;
+        if search.f_high <= 0.0 {
             search.found = Some((vmax, true));
-        } else if f_low >= 0.0 {
+        } else if search.f_low >= 0.0 {
             search.found = Some((-vmax, true));
         }
         let top = cbrt(vmax);
-        (search.low, search.high, search.f_low, search.f_high) = (-top, top, f_low, f_high);
-        search
+        (search.low, search.high) = (-top, top);
     }
 
     /// The distance covered at the peak `vp`, less the distance to cover.
@@ -470,6 +482,10 @@ impl Shape {
         for _ in 0..steps {
             if search.found.is_some() {
                 return;
+            }
+            if search.primed < 2 {
+                self.prime(search);
+                continue;
             }
             let (low, high) = (search.low, search.high);
             let width = high - low;
@@ -522,6 +538,9 @@ struct PeakSearch {
     /// The end the last step kept (Illinois), and the steps so far.
     kept: i8,
     steps: u32,
+    /// Set up ([`Shape::search`]), and how many of the bracket's ends are evaluated.
+    set_up: bool,
+    primed: u8,
     /// The peak and whether it cruises at the limit, once found.
     found: Option<(f32, bool)>,
     /// The fallback's stop and start (it stops first and starts again).
@@ -541,6 +560,8 @@ impl PeakSearch {
         f_high: 0.0,
         kept: 0,
         steps: 0,
+        set_up: false,
+        primed: 0,
         found: None,
         stop_first: None,
     };
@@ -664,41 +685,73 @@ impl Move<'_> {
     /// The layout's tick counts (or, with `stop_first`, the fallback's), from the `f32` shape.
     #[inline(never)]
     fn layout(&self, stop_first: bool) -> Option<Counts> {
-        let limits = self.limits;
-        if let Some(jerk) = &limits.jerk {
+        if let Some(jerk) = &self.limits.jerk {
             return self.layout_jerk(jerk, stop_first);
         }
+        let (mut counts, peak) = self.layout_head(stop_first)?;
+        self.layout_legs(&mut counts, peak, stop_first)?;
+        Some(counts)
+    }
+
+    /// A trapezoid's layout, its first part: the peak (`f32`), whether it cruises, and the
+    /// ticks of the stop and of the start (the legs at the peak are left at 0).
+    #[inline(never)]
+    fn layout_head(&self, stop_first: bool) -> Option<(Counts, f32)> {
+        let limits = self.limits;
         let (u0, ue) = (self.u0, self.ue);
         let (vmax, acc, dec) = (real(limits.velocity), real(limits.acceleration), real(limits.deceleration));
-        let stop_ticks =
-            |stop: bool| if stop && u0 != 0 { exact_ticks(u0, limits.deceleration) } else { Some(0) };
-        let start_ticks =
-            |start: bool| if start && ue != 0 { exact_ticks(ue, limits.acceleration) } else { Some(0) };
         let (peak, cruising, stop, start) = if stop_first {
-            let (stop, start) = (stop_ticks(true)?, start_ticks(true)?);
+            let (stop, start) = (self.stop_ticks(true)?, self.start_ticks(true)?);
             let fixed = mul_small(u0, stop)?.checked_add(mul_small(ue, start)?)?;
             let rest = real(self.distance2.checked_sub(fixed)?) * 0.5;
             let (peak, cruising) = layout_peak(rest, 0.0, 0.0, vmax, acc, dec);
             (peak, cruising, stop, start)
         } else {
+            // The stop and the start follow from the peak, in the next part.
             let distance = real(self.distance2) * 0.5;
             let (peak, cruising) = layout_peak(distance, real(u0), real(ue), vmax, acc, dec);
-            let opposite = |x: i128| (x > 0 && peak < 0.0) || (x < 0 && peak > 0.0);
-            (peak, cruising, stop_ticks(opposite(u0))?, start_ticks(opposite(ue))?)
+            (peak, cruising, 0, 0)
         };
-        let from = if stop > 0 { 0.0 } else { real(u0) };
-        let to = if start > 0 { 0.0 } else { real(ue) };
+        let counts = Counts { stop, start, to: 0, from: 0, cruise: 0, cruising, overlap: false, delay: 0 };
+        Some((counts, peak))
+    }
+
+    /// A stop before the peak, if `stop`: its ticks at the deceleration.
+    fn stop_ticks(&self, stop: bool) -> Option<u32> {
+        if stop && self.u0 != 0 {
+            exact_ticks(self.u0, self.limits.deceleration)
+        } else {
+            Some(0)
+        }
+    }
+
+    /// A start after the peak, if `start`: its ticks at the acceleration.
+    fn start_ticks(&self, start: bool) -> Option<u32> {
+        if start && self.ue != 0 {
+            exact_ticks(self.ue, self.limits.acceleration)
+        } else {
+            Some(0)
+        }
+    }
+
+    /// A trapezoid's layout, its second part: the stop and the start where the peak lies on
+    /// the other side of zero (the layout's, not the fallback's: it has them), and the ticks of
+    /// the legs into and out of `peak`.
+    #[inline(never)]
+    fn layout_legs(&self, counts: &mut Counts, peak: f32, stop_first: bool) -> Option<()> {
+        let limits = self.limits;
+        if !stop_first {
+            let opposite = |x: i128| (x > 0 && peak < 0.0) || (x < 0 && peak > 0.0);
+            (counts.stop, counts.start) =
+                (self.stop_ticks(opposite(self.u0))?, self.start_ticks(opposite(self.ue))?);
+        }
+        let (acc, dec) = (real(limits.acceleration), real(limits.deceleration));
+        let from = if counts.stop > 0 { 0.0 } else { real(self.u0) };
+        let to = if counts.start > 0 { 0.0 } else { real(self.ue) };
         let rate = |u: f32, w: f32| Change::of_real(u, w).pick(acc, dec);
-        Some(Counts {
-            stop,
-            start,
-            to: ticks_for(peak - from, rate(from, peak))?,
-            from: ticks_for(to - peak, rate(peak, to))?,
-            cruise: 0,
-            cruising,
-            overlap: false,
-            delay: 0,
-        })
+        counts.to = ticks_for(peak - from, rate(from, peak))?;
+        counts.from = ticks_for(to - peak, rate(peak, to))?;
+        Some(())
     }
 
     /// One round: the peak for `counts` from the present state. `Some(true)` when every leg
@@ -800,8 +853,8 @@ impl Move<'_> {
     #[inline(never)]
     fn layout_jerk(&self, jerk: &JerkLimits, stop_first: bool) -> Option<Counts> {
         let mut search = self.search_jerk(jerk, stop_first)?;
-        // One step more than the most: the last one takes the result.
-        Shape::new(self.limits, jerk).advance(&mut search, PEAK_STEPS + 1);
+        // Two more than the most: the bracket's ends; one more: the last one takes the result.
+        Shape::new(self.limits, jerk).advance(&mut search, PEAK_STEPS + 3);
         self.counts_jerk(jerk, &search)
     }
 
@@ -1279,13 +1332,20 @@ enum Stage {
     /// Asked for in this tick: the work starts in the next (the tick that takes a set-point
     /// has work enough of its own).
     Asked,
-    /// Next: the layout (the fallback's with `true`) and its first round.
+    /// Next: the layout's peak (the fallback's with `true`), then its legs.
     Layout(bool),
+    Legs(bool),
     /// Next: round `round` of the layout (or of the fallback).
-    Round { fallback: bool, round: u32 },
+    Round {
+        fallback: bool,
+        round: u32,
+    },
     /// Next: after a failed round, the legs lengthened for the state of the tick after (where
     /// round `round` solves).
-    Lengthen { fallback: bool, round: u32 },
+    Lengthen {
+        fallback: bool,
+        round: u32,
+    },
 }
 
 /// A plan made over several ticks while the present motion continues ([`Ramps::request`]).
@@ -1303,6 +1363,8 @@ struct Job {
     per_deceleration: f32,
     stage: Stage,
     counts: Counts,
+    /// The layout's peak (`f32`), between its two ticks.
+    peak: f32,
 }
 
 /// Where a jerk-limited plan made over several ticks has got to.
@@ -1612,6 +1674,7 @@ impl Ramps {
             per_deceleration: 1.0 / real(limits.deceleration),
             stage: Stage::Asked,
             counts: Counts::default(),
+            peak: 0.0,
         });
         // This tick holds the velocity; the provisional rule takes over from the next one.
         self.a = 0;
@@ -1680,8 +1743,7 @@ impl Ramps {
         (job.p2, job.v, job.alpha0, job.target2, job.last) = (self.p2, self.v, alpha0, target2, last);
         (job.asked, job.rate) = (*limits, rate);
         job.stage = JerkStage::Asked(ramp);
-        job.search.steps = 0;
-        job.search.found = None;
+        job.search.set_up = false;
         Ok(())
     }
 
@@ -1758,8 +1820,8 @@ impl Ramps {
                 JerkStage::Idle | JerkStage::Asked(_) | JerkStage::Convert(_) | JerkStage::Ramp => {}
                 JerkStage::Search(fallback) => {
                     let mut steps = SEARCH_STEPS_PER_TICK;
-                    if search.steps == 0 && search.found.is_none() {
-                        // The set-up (two evaluations and a cube root) takes a step's place.
+                    if !search.set_up {
+                        // The set-up (the decay and the continuous problem) takes a step's place.
                         *delay = done.checked_add(JERK_LAYOUT_DELAY)?;
                         *search = problem(*delay)?.search_jerk(jerk, fallback)?;
                         steps -= 1;
@@ -1831,7 +1893,7 @@ impl Ramps {
                         JerkStage::Peak { fallback, round: round + 1 }
                     }
                     JerkStage::Peak { fallback: false, .. } | JerkStage::Fit { fallback: false, .. } => {
-                        (job.search.steps, job.search.found) = (0, None);
+                        job.search.set_up = false;
                         JerkStage::Search(true)
                     }
                     _ => JerkStage::Idle,
@@ -1899,9 +1961,15 @@ impl Ramps {
                     job.stage = Stage::Layout(false);
                     Some(None)
                 }
-                // For the next tick, where the first round solves.
+                // For the next tick (the peak, then the legs: two ticks on a core without
+                // floating point in hardware), where the first round solves.
                 Stage::Layout(fallback) => {
-                    job.counts = next.layout(fallback)?;
+                    (job.counts, job.peak) = next.layout_head(fallback)?;
+                    job.stage = Stage::Legs(fallback);
+                    Some(None)
+                }
+                Stage::Legs(fallback) => {
+                    next.layout_legs(&mut job.counts, job.peak, fallback)?;
                     job.stage = Stage::Round { fallback, round: 0 };
                     Some(None)
                 }
@@ -2058,7 +2126,8 @@ impl Ramps {
     pub(crate) fn step(&mut self) {
         if self.left == 0 {
             // After a plan: on at its end velocity. While one is made: the provisional rule.
-            self.p2 = self.p2.saturating_add(self.v.saturating_mul(2)).saturating_add(self.a);
+            // (Additions: a 128-bit product, even by 2, is a long library call on a Cortex-M0.)
+            self.p2 = self.p2.saturating_add(self.v).saturating_add(self.v).saturating_add(self.a);
             self.v = self.v.saturating_add(self.a);
             self.a = self.provisional();
             return;
