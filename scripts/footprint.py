@@ -417,9 +417,13 @@ the *build* column is then about one drive's worth of stack (the drive is assemb
 written into its place). Built by value with `Drive::new` and moved into a static, the same
 image needed about 43 KiB (several copies in the constructor's frame) — more than a 32 KiB
 part has. The tick's
-depth comes from `Profile::tick` and, in the ticks that plan, the trajectory generator (a
-jerk-limited plan's rounds keep five fitted pulses of some 80 bytes each); the deepest
-communication call is an NMT
+depth comes from `Profile::tick` (a frame of some 1.7 KiB on thumbv7em: every mode's step is
+inlined into it) and what it calls. The deepest tick is a change of the mode of operation:
+`Profile::start_mode` builds the new mode's state (pp's with its trajectory generator, some
+1 KiB) in its own frame of some 2 KiB before it moves it into place. The ticks that plan come
+next: the planner's step, a stage of the jerk-limited plan (`Ramps::work_jerk`, some 0.9 KiB)
+and a pulse's fit, some 3.7 KiB with `Profile::tick`'s frame. (Frames read from the
+disassembly's stack adjustments, session 16.) The deepest communication call is an NMT
 reset (`Drive::nmt_command` reserves about 4 KiB).
 """
 

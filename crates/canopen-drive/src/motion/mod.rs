@@ -219,9 +219,6 @@ impl TickRate {
         }
     }
 
-    /// [`Self::MIN_HZ`] (a placeholder where no rate is in use yet).
-    pub(crate) const SLOWEST: TickRate = TickRate::at(Self::MIN_HZ);
-
     /// `hz` (at least 1).
     const fn at(hz: u32) -> Self {
         let hz64 = if hz == 0 { 1 } else { hz as u64 };

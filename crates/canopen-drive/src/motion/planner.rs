@@ -159,7 +159,7 @@ impl PositionPlanner {
 
     /// Advances one tick and returns the new demand.
     pub fn step(&mut self) -> MotionState {
-        self.ramps.work();
+        self.ramps.work(self.rate);
         self.ramps.step();
         self.state = state_of(&self.ramps.now(), self.hz);
         self.state

@@ -1406,9 +1406,9 @@ struct JerkJob {
     /// The target (twice) and the velocity it is passed at, or a velocity ramp's aim.
     target2: i128,
     last: i128,
-    /// The limits as asked for, converted in the tick after the request.
+    /// The limits as asked for, converted in the tick after the request (at the rate
+    /// [`Ramps::work`] is given: the planner's).
     asked: Limits,
-    rate: TickRate,
     limits: RampLimits,
     /// The delay of the first pulse the layout is made for.
     delay: u32,
@@ -1427,7 +1427,6 @@ impl JerkJob {
         target2: 0,
         last: 0,
         asked: Limits::new(0, 0, 0),
-        rate: TickRate::SLOWEST,
         limits: RampLimits { velocity: 0, acceleration: 0, deceleration: 0, jerk: None },
         delay: 0,
         stage: JerkStage::Idle,
@@ -1741,7 +1740,7 @@ impl Ramps {
         // Written in place, field by field.
         let job = &mut self.jerk_job;
         (job.p2, job.v, job.alpha0, job.target2, job.last) = (self.p2, self.v, alpha0, target2, last);
-        (job.asked, job.rate) = (*limits, rate);
+        job.asked = *limits;
         job.stage = JerkStage::Asked(ramp);
         job.search.set_up = false;
         Ok(())
@@ -1749,7 +1748,7 @@ impl Ramps {
 
     /// One tick's share of a jerk-limited plan [`Self::request_jerk`] asked for.
     #[inline(never)]
-    fn work_jerk(&mut self) {
+    fn work_jerk(&mut self, rate: TickRate) {
         // Ticks since the request: the axis is that far into the first leg.
         let done = self.ticks.wrapping_sub(self.left);
         let job = &mut self.jerk_job;
@@ -1759,7 +1758,7 @@ impl Ramps {
                 return;
             }
             JerkStage::Convert(ramp) => {
-                job.limits = RampLimits::new(&job.asked, job.rate);
+                job.limits = RampLimits::new(&job.asked, rate);
                 job.stage = JerkStage::Search(false);
                 if ramp {
                     let made = job
@@ -1938,11 +1937,18 @@ impl Ramps {
 
     /// One tick's share of the plan [`Self::request`] asked for: a layout or a round. When a
     /// round completes the plan, its legs start from the present state.
-    pub(crate) fn work(&mut self) {
+    pub(crate) fn work(&mut self, rate: TickRate) {
         if self.jerk_job.stage != JerkStage::Idle {
-            self.work_jerk();
-            return;
+            self.work_jerk(rate);
+        } else if self.job.is_some() {
+            self.work_trapezoid();
         }
+    }
+
+    /// [`Self::work`] for a trapezoid (out of line: its frame, some 500 bytes of stack, only
+    /// while it plans).
+    #[inline(never)]
+    fn work_trapezoid(&mut self) {
         let made = |fallback: bool| if fallback { Made::Fallback } else { Made::Layout };
         // Worked on in place (a job and the legs are some 200 bytes to copy).
         let (p2, v, a) = (self.p2, self.v, self.a);
