@@ -603,6 +603,8 @@ pub struct Inputs<'a, const B: usize> {
     pub controlword: Controlword,
     /// Bit 4 rose (not with the enabling command).
     pub start: bool,
+    /// 6098h, the homing method (read by the caller when a run starts, else 0).
+    pub method: i8,
     /// Actual position (encoder count, increments).
     pub actual: i64,
     /// Torque actual (‰).
@@ -893,7 +895,7 @@ impl Homing {
         input: &Inputs<'_, B>,
         outcome: &mut Outcome,
     ) {
-        let method: i8 = input.od.get(input.axis.index(HOMING_METHOD), 0).unwrap_or(0);
+        let method = input.method;
         self.homed = false;
         self.home = None;
         self.first_mark = None;

@@ -1578,12 +1578,14 @@ impl Profile {
                 .min(max_acceleration)
                 .min(max_deceleration),
         );
+        // Method 35 may start outside Operation enabled (digest §10.2). Also in the tick of a
+        // mode change: 6060h = 6 and bit 4 written between two ticks start homing.
+        let start = input.bit4_rose && !input.entered_operation;
         let inputs = hm::Inputs {
             od,
             controlword,
-            // Method 35 may start outside Operation enabled (digest §10.2). Also in the tick of
-            // a mode change: 6060h = 6 and bit 4 written between two ticks start homing.
-            start: input.bit4_rose && !input.entered_operation,
+            start,
+            method: if start { od.load(self.slots.homing_method) } else { 0 },
             actual,
             torque: sample.torque,
             velocity: sample.velocity,

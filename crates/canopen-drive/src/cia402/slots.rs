@@ -113,6 +113,7 @@ slots! {
     homing_speed_switch: u32 = HOMING_SPEEDS, 1;
     homing_speed_zero: u32 = HOMING_SPEEDS, 2;
     homing_acceleration: u32 = HOMING_ACCELERATION, 0;
+    homing_method: i8 = HOMING_METHOD, 0;
     home_offset: i32 = HOME_OFFSET, 0;
     following_error_window: u32 = FOLLOWING_ERROR_WINDOW, 0;
     following_error_time_out: u16 = FOLLOWING_ERROR_TIME_OUT, 0;

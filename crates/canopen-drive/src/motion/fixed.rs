@@ -96,6 +96,7 @@ fn div_trunc(num: i128, den: i128) -> (i128, bool) {
 /// 32 bits): the schoolbook division in 16-bit half-digits, each estimated by one 32-bit
 /// division and corrected at most twice. A Cortex-M4 divides 32 bits in hardware but has no
 /// 64-bit division; the library's general one costs several times more.
+#[inline(never)]
 fn div_digit(high: u32, low: u32, divisor: u32) -> (u32, u32) {
     if divisor == 0 {
         return (u32::MAX, 0);

@@ -213,9 +213,18 @@ impl JerkLimits {
     #[inline(never)]
     fn new(limits: &Limits, rate: TickRate) -> Self {
         let j = limits.jerk;
-        let sixths = |k: usize, a: u32, b: u32| rate.sixths(a.min(b), k).max(1);
+        // Out of line, each one copy (inlined six times they were a kilobyte of flash).
+        #[inline(never)]
+        fn down(rate: TickRate, k: usize, a: u32, b: u32) -> i128 {
+            rate.sixths(a.min(b), k).max(1)
+        }
         // Rounded up: ⌈scale/6⌉.
-        let up = |jerk: u32| rate.sixths_up3(jerk).max(1);
+        #[inline(never)]
+        fn up(rate: TickRate, jerk: u32) -> i128 {
+            rate.sixths_up3(jerk).max(1)
+        }
+        let sixths = |k: usize, a: u32, b: u32| down(rate, k, a, b);
+        let up = |jerk: u32| up(rate, jerk);
         JerkLimits {
             speed_up: sixths(3, j.accel_start, j.accel_end),
             slow_down: sixths(3, j.decel_start, j.decel_end),
