@@ -1726,13 +1726,35 @@ impl Profile {
     /// the variant (pp's is 1.5 KiB) is built here and not in the tick's stack frame.
     #[inline(never)]
     fn start_mode(&mut self, actual: i64, user: i64, velocity: i64) {
-        self.mode = match self.active_mode {
+        // pp's and hm's states (their trajectory generators, some 1 KiB) are built by functions
+        // of their own: built here, both would take their room on the stack of the tick that
+        // changes the mode (about 2 KiB, the deepest tick).
+        #[cfg(feature = "pp")]
+        #[inline(never)]
+        fn start_pp(mode: &mut Active, config: &ProfileConfig, actual: i64) {
+            *mode = Active::Pp(ProfilePosition::new(config, actual));
+        }
+        #[cfg(feature = "hm")]
+        #[inline(never)]
+        fn start_hm(mode: &mut Active, config: &ProfileConfig, actual: i64) {
+            *mode = Active::Hm(PositionPlanner::new(config.tick_rate, actual));
+        }
+        match self.active_mode {
             #[cfg(feature = "pp")]
-            mode::PROFILE_POSITION => Active::Pp(ProfilePosition::new(&self.config, actual)),
+            mode::PROFILE_POSITION => start_pp(&mut self.mode, &self.config, actual),
+            #[cfg(feature = "hm")]
+            mode::HOMING => start_hm(&mut self.mode, &self.config, actual),
+            _ => self.start_other_mode(actual, velocity),
+        }
+        // pp's relative moves count from here.
+        self.mode.hold(actual, user);
+    }
+
+    /// [`Self::start_mode`] for the modes other than pp and hm.
+    fn start_other_mode(&mut self, actual: i64, velocity: i64) {
+        self.mode = match self.active_mode {
             mode::PROFILE_VELOCITY => Active::Pv(pv::Run::start()),
             mode::PROFILE_TORQUE => Active::Tq,
-            #[cfg(feature = "hm")]
-            mode::HOMING => Active::Hm(PositionPlanner::new(self.config.tick_rate, actual)),
             vl::MODE if super::VL => Active::Vl(vl::Vl::start(self.config.vl, velocity)),
             mode::INTERPOLATED_POSITION if super::IP => Active::Ip(super::ip::Run::start(actual)),
             mode::CYCLIC_POSITION | mode::CYCLIC_VELOCITY | mode::CYCLIC_TORQUE => {
@@ -1740,8 +1762,6 @@ impl Profile {
             }
             _ => Active::Idle,
         };
-        // pp's relative moves count from here.
-        self.mode.hold(actual, user);
     }
 
     /// Ticks per interpolation period (60C2h) and the SYNC jitter tolerated.
