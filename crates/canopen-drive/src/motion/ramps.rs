@@ -68,9 +68,10 @@
 //!
 //! Cortex-M4 instructions (`benches/mcu-motion`, `scripts/bench.sh`): a plan made at once
 //! some 3 200 (8 700 when it takes the fallback; the exact planner: 57 500 to 127 500); the
-//! tick that takes a pp set-point 4 820 (S-curve 4 672), the one that starts homing 4 977, a
-//! halt 3 580 and a quick stop 3 935 (S-curve), the worst tick of a whole S-curve move 4 954,
-//! of a halt 4 810 and of a homing run 4 976, where a steady pp tick costs 2 600 – 2 800. The
+//! tick that takes a pp set-point 4 846 (S-curve 4 712), the one that starts homing 4 733, a
+//! halt 3 610 and a quick stop 3 967 (S-curve), the worst tick of a whole S-curve move 4 795,
+//! of a halt 4 749 and of a homing run 4 791, where a steady pp tick costs 2 600 – 2 800; on
+//! v6-M every one of these ticks is within 15 000 (the worst, 14 763, a fit of a pulse). The
 //! layout is a few dozen `f32` operations; a round four 128-by-32-bit products and one
 //! 128-by-32-bit division in 16-bit half-digits.
 //!
