@@ -22,9 +22,10 @@ def wait_until(predicate, timeout=3.0):
     return False
 
 
-def test_state_machine_profile_position_velocity_fault_and_reset(network, node, eds_file):
-    # Keep RPDO1 (6040h) and TPDO1 (6041h) only, so the controlword never travels with another
-    # object's stale value; the mode and targets go by SDO.
+def operational_402_node(network, node, eds_file):
+    """The drive as python-canopen's CiA 402 node, NMT Operational, its state machine set up.
+    Only RPDO1 (6040h) and TPDO1 (6041h) stay valid, so the controlword never travels with
+    another object's stale value; the mode and targets go by SDO."""
     for index in (0x1401, 0x1402, 0x1403):
         node.sdo[index][1].raw = node.sdo[index][1].raw | 0x8000_0000
     for index in (0x1801, 0x1802, 0x1803):
@@ -35,6 +36,11 @@ def test_state_machine_profile_position_velocity_fault_and_reset(network, node, 
     drive.setup_402_state_machine()
     drive.nmt.state = "OPERATIONAL"
     time.sleep(0.05)
+    return drive
+
+
+def test_state_machine_profile_position_velocity_fault_and_reset(network, node, eds_file):
+    drive = operational_402_node(network, node, eds_file)
 
     drive.state = "OPERATION ENABLED"
     assert drive.state == "OPERATION ENABLED"
@@ -82,16 +88,7 @@ def test_profile_position_jerk_limited_move_and_quick_stop(network, node, eds_fi
     # commanded by a master: the set-point is acknowledged, the demand velocity (606Bh) never
     # exceeds the profile velocity, the target is reached, and a quick stop from a second move
     # brings the axis to standstill (CiA 402-2 §9.5, §6: the quick stop).
-    for index in (0x1401, 0x1402, 0x1403):
-        node.sdo[index][1].raw = node.sdo[index][1].raw | 0x8000_0000
-    for index in (0x1801, 0x1802, 0x1803):
-        node.sdo[index][1].raw = node.sdo[index][1].raw | 0x8000_0000
-    drive = canopen.BaseNode402(NODE_ID, str(eds_file))
-    network.add_node(drive)
-    drive.nmt.state = "PRE-OPERATIONAL"
-    drive.setup_402_state_machine()
-    drive.nmt.state = "OPERATIONAL"
-    time.sleep(0.05)
+    drive = operational_402_node(network, node, eds_file)
     drive.state = "OPERATION ENABLED"
     assert drive.state == "OPERATION ENABLED"
 

@@ -1769,18 +1769,15 @@ impl Ramps {
             }
             JerkStage::Convert(ramp) => {
                 job.limits = RampLimits::new(&job.asked, rate);
-                job.stage = JerkStage::Search(false);
-                if ramp {
-                    let made = job
-                        .limits
-                        .jerk
-                        .as_ref()
-                        .and_then(|jerk| Ramp::new(jerk, job.v, job.alpha0, job.last));
-                    job.stage = JerkStage::Ramp;
-                    match made {
-                        Some(ramp) => job.ramp = ramp,
-                        None => self.give_up(),
-                    }
+                if !ramp {
+                    job.stage = JerkStage::Search(false);
+                    return;
+                }
+                let made =
+                    job.limits.jerk.as_ref().and_then(|jerk| Ramp::new(jerk, job.v, job.alpha0, job.last));
+                match made {
+                    Some(ramp) => (job.ramp, job.stage) = (ramp, JerkStage::Ramp),
+                    None => self.give_up(),
                 }
                 return;
             }
