@@ -111,10 +111,11 @@ pub struct Status {
     pub setpoint_acknowledge: bool,
 }
 
-/// Profile position run-time state.
+/// Profile position run-time state. The trajectory is the profile's position planner, lent to
+/// each call (homing borrows the same one: the two never run at once, and a mode change resets
+/// it in place, so a mode change builds no planner on the stack).
 #[derive(Clone, Debug)]
 pub struct ProfilePosition {
-    planner: PositionPlanner,
     depth: usize,
     active: Option<SetPoint>,
     queue: [Option<SetPoint>; SLOTS],
@@ -199,10 +200,9 @@ impl LimitObjects {
 }
 
 impl ProfilePosition {
-    /// At rest at `position` (increments).
-    pub fn new(config: &ProfileConfig, position: i64) -> Self {
+    /// No set-point; the planner is reset by the caller.
+    pub fn new(config: &ProfileConfig) -> Self {
         ProfilePosition {
-            planner: PositionPlanner::new(config.tick_rate, position),
             depth: usize::from(config.setpoint_buffer).clamp(1, SLOTS),
             active: None,
             queue: [None; SLOTS],
@@ -216,10 +216,10 @@ impl ProfilePosition {
         }
     }
 
-    /// Drops every set-point and holds at `position` (transition 4, a mode switch to pp, or
-    /// the end of a stop). The preceding target for relative moves becomes `user`.
-    pub fn reset(&mut self, position: i64, user: i64) {
-        self.planner.reset(position);
+    /// Drops every set-point and holds `planner` at `position` (transition 4, a mode switch to
+    /// pp, or the end of a stop). The preceding target for relative moves becomes `user`.
+    pub fn reset(&mut self, planner: &mut PositionPlanner, position: i64, user: i64) {
+        planner.reset(position);
         self.active = None;
         self.queue = [None; SLOTS];
         self.preceding = user;
@@ -234,36 +234,15 @@ impl ProfilePosition {
         self.heading_taken
     }
 
-    /// The present demand (increments).
-    pub fn state(&self) -> MotionState {
-        self.planner.state()
-    }
-
-    /// The trajectory planner of the position modes: pp's, lent to homing (the two never run
-    /// at once, and every mode switch resets it), so a drive holds one.
-    pub fn planner(&self) -> &PositionPlanner {
-        &self.planner
-    }
-
-    /// The planner, to move (see [`planner`](Self::planner)).
-    pub fn planner_mut(&mut self) -> &mut PositionPlanner {
-        &mut self.planner
-    }
-
     /// Stops with `deceleration` (increments/s²) under `limits`, dropping the set-points
     /// (quick stop, fault reaction, disable operation / shutdown ramps). Steps are then made by
     /// [`Self::step_stop`].
-    pub fn stop(&mut self, deceleration: u32, limits: &Limits) {
+    pub fn stop(&mut self, planner: &mut PositionPlanner, deceleration: u32, limits: &Limits) {
         self.active = None;
         self.queue = [None; SLOTS];
         // A refused stop (deceleration 0) keeps the motion; the caller's limits never give 0
         // because the FSA stops use non-zero ramps or coast.
-        let _ = self.planner.request_stop(deceleration.max(1), limits);
-    }
-
-    /// One tick of a stop started by [`Self::stop`].
-    pub fn step_stop(&mut self) -> MotionState {
-        self.planner.step()
+        let _ = planner.request_stop(deceleration.max(1), limits);
     }
 
     fn queued(&self) -> usize {
@@ -290,15 +269,13 @@ impl ProfilePosition {
     }
 
     /// The target of a new set-point, from 607Ah and the controlword (digest §9.5, §11.3).
-    fn setpoint<const B: usize>(&self, input: &Inputs<'_, B>) -> SetPoint {
+    fn setpoint<const B: usize>(&self, here: i64, input: &Inputs<'_, B>) -> SetPoint {
         let od = input.od;
         let sign = input.factors.position_sign();
         let raw = i64::from(od.load(input.slots.target_position));
         let mut user = if input.controlword.contains(Controlword::RELATIVE) {
             let base = match od.load(input.slots.positioning_option_code) & 0x3 {
-                0b01 => {
-                    input.factors.to_user(self.planner.state().position.saturating_sub(input.origin)) * sign
-                }
+                0b01 => input.factors.to_user(here.saturating_sub(input.origin)) * sign,
                 0b10 => input.factors.to_user(input.actual.saturating_sub(input.origin)) * sign,
                 _ => self.preceding,
             };
@@ -335,9 +312,9 @@ impl ProfilePosition {
 
     /// Plans the executed set-point from the present state; with a waiting set-point of change
     /// on set-point beyond it in the same direction, passes the target at speed.
-    fn plan_active(&mut self, limits: &Limits, end_velocity: u32) -> bool {
+    fn plan_active(&mut self, planner: &mut PositionPlanner, limits: &Limits, end_velocity: u32) -> bool {
         let Some(active) = self.active else { return true };
-        let here = self.planner.state().position;
+        let here = planner.state().position;
         let end = match self.queue.first().copied().flatten() {
             Some(next) if active.blend => {
                 let same_direction =
@@ -354,32 +331,37 @@ impl ProfilePosition {
             }
             _ => 0,
         };
-        let planned = self.planner.request(active.internal, end, limits).is_ok();
+        let planned = planner.request(active.internal, end, limits).is_ok();
         if planned {
             self.planned_velocity = limits.velocity;
         }
         planned
     }
 
-    /// One tick of pp in Operation enabled (no FSA stop running).
-    pub fn tick<const B: usize>(&mut self, input: &Inputs<'_, B>, halt_deceleration: u32) -> MotionState {
+    /// One tick of pp in Operation enabled (no FSA stop running), moving `planner`.
+    pub fn tick<const B: usize>(
+        &mut self,
+        planner: &mut PositionPlanner,
+        input: &Inputs<'_, B>,
+        halt_deceleration: u32,
+    ) -> MotionState {
         let (limits, end_velocity) = (input.limits, input.end_velocity);
         self.heading_taken = 0;
         if input.new_setpoint {
-            let setpoint = self.setpoint(input);
+            let setpoint = self.setpoint(planner.state().position, input);
             let immediate = input.controlword.contains(Controlword::CHANGE_SET_IMMEDIATELY);
             let accepted = if immediate || self.active.is_none() {
                 let previous = (self.active, self.queue);
                 self.queue = [None; SLOTS];
                 self.active = Some(setpoint);
-                let planned = self.halted || self.plan_active(&limits, end_velocity);
+                let planned = self.halted || self.plan_active(planner, &limits, end_velocity);
                 if !planned {
                     (self.active, self.queue) = previous;
                 }
                 planned
             } else if self.push(setpoint) {
                 // Change on set-point: the executed positioning now passes its target.
-                let _ = self.plan_active(&limits, end_velocity);
+                let _ = self.plan_active(planner, &limits, end_velocity);
                 true
             } else {
                 false
@@ -402,38 +384,39 @@ impl ProfilePosition {
         let cap = input.velocity_cap;
         if !self.halted && self.active.is_some() && cap < self.planned_velocity {
             // Once per lowering, even when no plan fits (the old one then runs on).
-            let _ = self.plan_active(&limits, end_velocity);
+            let _ = self.plan_active(planner, &limits, end_velocity);
             self.planned_velocity = self.planned_velocity.min(limits.velocity);
         }
 
         let halt = input.controlword.contains(Controlword::HALT);
         if halt && !self.halted {
             self.halted = true;
-            let _ = self.planner.request_stop(halt_deceleration.max(1), &limits);
+            let _ = planner.request_stop(halt_deceleration.max(1), &limits);
         } else if !halt && self.halted {
             self.halted = false;
-            let _ = self.plan_active(&limits, end_velocity);
+            let _ = self.plan_active(planner, &limits, end_velocity);
         }
 
-        let state = self.planner.step();
-        if !self.halted && self.planner.is_finished() {
+        let state = planner.step();
+        if !self.halted && planner.is_finished() {
             if let Some(done) = self.active.take() {
                 self.last = Some(done);
                 self.active = self.pop();
-                let _ = self.plan_active(&limits, end_velocity);
+                let _ = self.plan_active(planner, &limits, end_velocity);
             }
         }
         state
     }
 
-    /// The statusword bits of pp (bit 10 evaluated with the position window).
-    pub fn status<const B: usize>(&mut self, input: &Inputs<'_, B>) -> Status {
+    /// The statusword bits of pp (bit 10 evaluated with the position window), `planner` its
+    /// trajectory.
+    pub fn status<const B: usize>(&mut self, planner: &PositionPlanner, input: &Inputs<'_, B>) -> Status {
         let od = input.od;
         let halt = input.controlword.contains(Controlword::HALT);
         let idle = self.active.is_none() && self.queued() == 0;
         let target_reached = if halt {
             // Decelerated to zero velocity: the demand and the shaft.
-            self.planner.state().velocity == 0 && input.standstill
+            planner.state().velocity == 0 && input.standstill
         } else if !idle {
             self.in_window_since = None;
             false

@@ -42,7 +42,9 @@ use super::hm::{self, HomeOffset, Homing};
 use super::ip::{IpBuffer, Written};
 use super::memo::{Memo, Revised};
 use super::objects::*;
-use super::pp::{self, ProfilePosition};
+use super::pp;
+#[cfg(feature = "pp")]
+use super::pp::ProfilePosition;
 use super::probe::{Changed, TouchProbe};
 use super::pv;
 use super::slots::Slots;
@@ -159,6 +161,13 @@ pub struct Profile {
     ip_overflow: bool,
     /// The state of the active mode, for the modes that keep it in their own variant.
     mode: Active,
+    /// The trajectory of pp and hm (the two never run at once): built once when the profile
+    /// is configured ([`Self::configure`], out of the tick), reset in place when either mode
+    /// becomes active, so that no tick builds a planner of some 1.2 KiB on its stack. `None`
+    /// only until then: a profile is built cheaply, in place (an NMT reset, a drive of
+    /// several axes).
+    #[cfg(any(feature = "pp", feature = "hm"))]
+    planner: Option<PositionPlanner>,
     /// The encoder count at the user zero: moved by homing (digest §10.5).
     origin: i64,
     /// A homing error EMCY (8613h) is active.
@@ -264,9 +273,10 @@ enum Active {
     Pv(pv::Run),
     /// Profile torque mode ([`tq`]).
     Tq,
-    /// Homing mode ([`hm`]): the trajectory of the run.
+    /// Homing mode ([`hm`]): the run is [`Profile::homing`], its trajectory
+    /// [`Profile::planner`].
     #[cfg(feature = "hm")]
-    Hm(PositionPlanner),
+    Hm,
     /// Velocity mode ([`vl`]).
     Vl(vl::Vl),
     /// Interpolated position mode ([`super::ip`]).
@@ -276,38 +286,10 @@ enum Active {
 }
 
 impl Active {
-    /// Transition 4 or 16: the mode starts over from the axis at `actual` (increments, `user`
-    /// in user units) and `velocity` (increments/s).
-    fn restart(&mut self, actual: i64, user: i64, velocity: i64) {
-        match self {
-            Active::Vl(vl) if super::VL => vl.restart(velocity),
-            _ => self.coast(actual, user, velocity),
-        }
-    }
-
-    /// The trajectories and streams start over from the axis as it is (a coasting stop with
-    /// `velocity` 0).
-    fn coast(&mut self, actual: i64, user: i64, velocity: i64) {
-        match self {
-            #[cfg(feature = "hm")]
-            Active::Hm(planner) => planner.reset(actual),
-            Active::Ip(run) if super::IP => run.reset(actual),
-            Active::Cyclic(run) => run.reset(actual, velocity),
-            _ => self.hold(actual, user),
-        }
-    }
-
-    /// pp holds at `actual` and drops its set-points (the drive function disabled, the brake
-    /// opening).
-    fn hold(&mut self, actual: i64, user: i64) {
-        if let Some(pp) = self.pp_mut() {
-            pp.reset(actual, user);
-        }
-    }
-
     // The accessors of the optional modes test their feature first: a build without the mode
     // then has none of its code, though the variant exists.
 
+    #[cfg(feature = "pp")]
     fn pp_mut(&mut self) -> Option<&mut ProfilePosition> {
         match self {
             #[cfg(feature = "pp")]
@@ -319,29 +301,20 @@ impl Active {
     fn is_hm(&self) -> bool {
         match self {
             #[cfg(feature = "hm")]
-            Active::Hm(_) => true,
+            Active::Hm => true,
             _ => false,
         }
     }
 
-    /// The trajectory planner of pp or hm.
-    fn planner(&self) -> Option<&PositionPlanner> {
+    /// pp or hm: the modes that move [`Profile::planner`].
+    #[cfg(any(feature = "pp", feature = "hm"))]
+    fn plans(&self) -> bool {
         match self {
             #[cfg(feature = "pp")]
-            Active::Pp(pp) => Some(pp.planner()),
+            Active::Pp(_) => true,
             #[cfg(feature = "hm")]
-            Active::Hm(planner) => Some(planner),
-            _ => None,
-        }
-    }
-
-    fn planner_mut(&mut self) -> Option<&mut PositionPlanner> {
-        match self {
-            #[cfg(feature = "pp")]
-            Active::Pp(pp) => Some(pp.planner_mut()),
-            #[cfg(feature = "hm")]
-            Active::Hm(planner) => Some(planner),
-            _ => None,
+            Active::Hm => true,
+            _ => false,
         }
     }
 
@@ -501,6 +474,8 @@ impl Profile {
             ip: IpBuffer::for_axis(axis),
             ip_overflow: false,
             mode: Active::Idle,
+            #[cfg(any(feature = "pp", feature = "hm"))]
+            planner: None,
             origin: 0,
             homing_error: false,
             last_tick: None,
@@ -546,10 +521,106 @@ impl Profile {
         self.fsa.state()
     }
 
-    /// Back to power-on (reset application).
+    /// Back to power-on (reset application): written in place, field by field, so that an NMT
+    /// reset builds no profile of some 3.5 KiB on its stack. The planner is left as it is: it
+    /// is reset when pp or homing starts ([`Self::start_mode`]), and nothing reads it before.
     pub fn reset(&mut self) {
-        *self =
-            Profile { supported_modes: self.supported_modes, ..Profile::for_axis(self.config, self.axis) };
+        // Every field named: a field added to the profile must be reset here too.
+        let Profile {
+            slots,
+            slots_resolved,
+            config,
+            axis,
+            supported_modes: _,
+            fsa,
+            factors,
+            cascade,
+            active_mode,
+            display_mode,
+            velocity,
+            torque,
+            homing,
+            probe,
+            stream_lost,
+            cyclic_limited,
+            feed_forward,
+            ip,
+            ip_overflow,
+            mode,
+            #[cfg(any(feature = "pp", feature = "hm"))]
+                planner: _,
+            origin,
+            homing_error,
+            last_tick,
+            fault,
+            stopping,
+            mode_changed,
+            previous_controlword,
+            following_error_since,
+            forced,
+            unavailable_function,
+            released_at,
+            engaging_since,
+            pending_edge,
+            travel_limit,
+            commanded,
+            touching,
+            dynamic_braking,
+            fault_unreported,
+            internal_origin,
+            resting_since,
+            blocked,
+            limits,
+            motion,
+            tick_limits,
+            timing,
+            pp_limits,
+            quiet,
+        } = self;
+        *slots = Slots::UNRESOLVED;
+        *slots_resolved = false;
+        *fsa = Fsa::default();
+        *factors = None;
+        *cascade = None;
+        *active_mode = 0;
+        *display_mode = 0;
+        *velocity = Ramp::default();
+        *torque = Ramp::default();
+        *homing = Homing::new(config.homing);
+        *probe = TouchProbe::new();
+        *stream_lost = false;
+        *cyclic_limited = false;
+        *feed_forward = FeedForward::NONE;
+        *ip = IpBuffer::for_axis(*axis);
+        *ip_overflow = false;
+        *mode = Active::Idle;
+        *origin = 0;
+        *homing_error = false;
+        *last_tick = None;
+        *fault = None;
+        *stopping = false;
+        *mode_changed = false;
+        *previous_controlword = Controlword::empty();
+        *following_error_since = None;
+        *forced = None;
+        *unavailable_function = false;
+        *released_at = None;
+        *engaging_since = None;
+        *pending_edge = false;
+        *travel_limit = None;
+        *commanded = 0;
+        *touching = None;
+        *dynamic_braking = false;
+        *fault_unreported = false;
+        *internal_origin = 0;
+        *resting_since = None;
+        *blocked = (false, false);
+        *limits = Revised::EMPTY;
+        *motion = MotionLimits::ZERO;
+        *tick_limits = Memo::EMPTY;
+        *timing = Revised::EMPTY;
+        *pp_limits = Revised::EMPTY;
+        *quiet = Quiet::NONE;
     }
 
     /// Reads the facts of the device the profile keeps (6502h, fixed once the dictionary is
@@ -557,6 +628,16 @@ impl Profile {
     pub fn configure<const B: usize>(&mut self, od: &Dictionary<B>) {
         self.quiet.idle = false;
         self.supported_modes = od.get::<u32>(self.axis.index(SUPPORTED_DRIVE_MODES), 0).unwrap_or(0);
+        self.build_planner();
+    }
+
+    /// [`Self::planner`] built where it is missing, in a frame of its own.
+    #[inline(never)]
+    fn build_planner(&mut self) {
+        #[cfg(any(feature = "pp", feature = "hm"))]
+        if self.planner.is_none() {
+            self.planner = Some(PositionPlanner::new(self.config.tick_rate, 0));
+        }
     }
 
     /// Presets the position: from the next tick on 6064h reads `user` at the present position
@@ -572,7 +653,7 @@ impl Profile {
         let actual =
             i64::from(od.load(self.slots.position_actual_internal)).wrapping_add(self.internal_origin);
         self.origin = actual.saturating_sub(factors.to_internal(i64::from(user) * factors.position_sign()));
-        self.mode.hold(actual, i64::from(user));
+        self.hold_mode(actual, i64::from(user));
     }
 
     /// Parameters may have changed (an SDO write, a restore, the firmware's access): the factor
@@ -687,7 +768,7 @@ impl Profile {
         actual: i64,
         now: Instant,
     ) -> bool {
-        let home = self.mode.planner().map_or(actual, |planner| planner.state().position);
+        let home = self.planner().map_or(actual, |planner| planner.state().position);
         let window = od.load(self.slots.position_window);
         let in_window = window == u32::MAX
             || factors.to_user(actual.saturating_sub(home)).unsigned_abs() <= u64::from(window);
@@ -700,6 +781,80 @@ impl Profile {
         in_window && self.resting_since.is_some_and(|since| now - since >= time)
     }
 
+    /// Transition 4 or 16: the mode starts over from the axis at `actual` (increments, `user`
+    /// in user units) and `velocity` (increments/s).
+    fn restart_mode(&mut self, actual: i64, user: i64, velocity: i64) {
+        match &mut self.mode {
+            Active::Vl(vl) if super::VL => vl.restart(velocity),
+            _ => self.coast_mode(actual, user, velocity),
+        }
+    }
+
+    /// The trajectories and streams start over from the axis as it is (a coasting stop with
+    /// `velocity` 0).
+    fn coast_mode(&mut self, actual: i64, user: i64, velocity: i64) {
+        match &mut self.mode {
+            #[cfg(feature = "hm")]
+            Active::Hm => {
+                if let Some(planner) = self.planner.as_mut() {
+                    planner.reset(actual);
+                }
+            }
+            Active::Ip(run) if super::IP => run.reset(actual),
+            Active::Cyclic(run) => run.reset(actual, velocity),
+            _ => self.hold_mode(actual, user),
+        }
+    }
+
+    /// pp holds at `actual` and drops its set-points (the drive function disabled, the brake
+    /// opening).
+    fn hold_mode(&mut self, actual: i64, user: i64) {
+        #[cfg(feature = "pp")]
+        if let Active::Pp(pp) = &mut self.mode {
+            if let Some(planner) = self.planner.as_mut() {
+                pp.reset(planner, actual, user);
+            }
+        }
+        let _ = (actual, user);
+    }
+
+    /// The trajectory planner while pp or hm runs.
+    fn planner(&self) -> Option<&PositionPlanner> {
+        #[cfg(any(feature = "pp", feature = "hm"))]
+        if self.mode.plans() {
+            return self.planner.as_ref();
+        }
+        None
+    }
+
+    /// pp's and hm's trajectory: its velocity fed forward, or, where it runs faster than `vmax`
+    /// and faster than the tick before (`previous_velocity`), held where it is: a velocity
+    /// limit lowered below the running motion with ramps no plan can follow (a factor group
+    /// that turns them into 0 increments/s²) rather than run on faster than the limit (DESIGN
+    /// invariant 2). Returns the held demand.
+    fn trajectory_feed_forward(
+        &mut self,
+        drive_enabled: bool,
+        vmax: u32,
+        previous_velocity: i64,
+    ) -> Option<Setpoint> {
+        #[cfg(any(feature = "pp", feature = "hm"))]
+        if let Some(planner) = self.planner.as_mut().filter(|_| drive_enabled && self.mode.plans()) {
+            let mut state = planner.state();
+            let velocity = state.velocity.unsigned_abs();
+            let mut held = None;
+            if velocity > u64::from(vmax) && velocity > previous_velocity.unsigned_abs() {
+                planner.reset(state.position);
+                held = Some(Setpoint::Position(saturate(state.position)));
+                state.velocity = 0;
+            }
+            self.feed_forward.velocity = saturate(state.velocity);
+            return held;
+        }
+        let _ = (drive_enabled, vmax, previous_velocity);
+        None
+    }
+
     /// The modes whose demand is a trajectory of positions (pp, hm).
     fn position_mode(&self) -> bool {
         matches!(
@@ -710,7 +865,7 @@ impl Profile {
 
     /// The trajectory state of the position modes (pp, hm, csp, ip).
     fn trajectory(&self) -> Option<MotionState> {
-        if let Some(planner) = self.mode.planner() {
+        if let Some(planner) = self.planner() {
             return Some(planner.state());
         }
         self.mode.position_limiter().map(|limiter| MotionState {
@@ -1055,7 +1210,7 @@ impl Profile {
             self.velocity = Ramp { value: i64::from(sample.velocity), remainder: 0 };
             self.torque = Ramp::default();
             self.homing.interrupt();
-            self.mode.restart(actual, actual_user, i64::from(sample.velocity));
+            self.restart_mode(actual, actual_user, i64::from(sample.velocity));
         }
         let operation = matches!(step.state, State::OperationEnabled { leaving: None });
         // 605Dh: how a halt stops (`None`: a fault reaction); read once for both uses below.
@@ -1132,7 +1287,7 @@ impl Profile {
         self.commanded = 0;
         let mut setpoint = match stop {
             None if opening => {
-                self.mode.hold(actual, actual_user);
+                self.hold_mode(actual, actual_user);
                 self.velocity = Ramp::default();
                 self.torque = Ramp::default();
                 Setpoint::Position(sample.position)
@@ -1142,7 +1297,7 @@ impl Profile {
                 self.dynamic_braking |= kind == StopKind::DynamicBrake;
                 self.velocity = Ramp::default();
                 self.homing.interrupt();
-                self.mode.coast(actual, actual_user, 0);
+                self.coast_mode(actual, actual_user, 0);
                 Setpoint::None
             }
             Some(kind) => self.step_stop(od, &input, kind),
@@ -1159,7 +1314,7 @@ impl Profile {
             None => {
                 self.velocity = Ramp::default();
                 self.torque = Ramp::default();
-                self.mode.hold(actual, actual_user);
+                self.hold_mode(actual, actual_user);
                 Setpoint::None
             }
         };
@@ -1180,18 +1335,8 @@ impl Profile {
                 run.held_set_point = true;
             }
         }
-        if let Some(planner) = self.mode.planner_mut().filter(|_| drive_enabled) {
-            let mut state = planner.state();
-            let velocity = state.velocity.unsigned_abs();
-            if velocity > u64::from(vmax) && velocity > previous_velocity.unsigned_abs() {
-                // A velocity limit lowered below the running motion with ramps no plan can
-                // follow (a factor group that turns them into 0 increments/s²): rather than run
-                // on faster than the limit (DESIGN invariant 2), the demand stops where it is.
-                planner.reset(state.position);
-                setpoint = Setpoint::Position(saturate(state.position));
-                state.velocity = 0;
-            }
-            self.feed_forward.velocity = saturate(state.velocity);
+        if let Some(held) = self.trajectory_feed_forward(drive_enabled, vmax, previous_velocity) {
+            setpoint = held;
         }
 
         // Demands and the position control function (digest §11).
@@ -1321,6 +1466,7 @@ impl Profile {
 
     /// Reads the parameters cached between writes: the factor group and the cascade's gains
     /// (the integrator is kept across a re-tuning).
+    #[inline(never)]
     fn refresh<const B: usize>(&mut self, od: &Dictionary<B>) -> Factors {
         let factors = Factors::from_axis(od, self.config.units, self.axis);
         self.factors = Some(factors);
@@ -1393,17 +1539,15 @@ impl Profile {
             return setpoint;
         }
         let velocity_limit = self.motion.velocity;
+        // pp's trajectory feeds its velocity forward.
+        let pp = self.active_mode == mode::PROFILE_POSITION && matches!(setpoint, Setpoint::Position(_));
+        let velocity = self.planner().filter(|_| pp).map_or(0, |planner| planner.state().velocity);
         let Some(cascade) = self.cascade.as_mut() else { return setpoint };
         let torque_limit = od.load(self.slots.max_torque).min(od.load(self.slots.max_current));
         cascade.set_limits(velocity_limit, torque_limit);
         let actual = Actual::from(sample);
         let output = match setpoint {
             Setpoint::Position(position) => {
-                let velocity = match &self.mode {
-                    #[cfg(feature = "pp")]
-                    Active::Pp(pp) => pp.state().velocity,
-                    _ => 0,
-                };
                 let reference = Reference { position, velocity: saturate(velocity), torque: 0 };
                 cascade.step(reference, actual)
             }
@@ -1475,6 +1619,7 @@ impl Profile {
     /// A stop of `kind` starts in the active mode, the shaft at `velocity` (increments/s): pp and
     /// hm plan it on their trajectory, csp and ip stop their limiter, vl its ramp; the others
     /// ramp the velocity demand down from the actual velocity.
+    #[inline(never)]
     fn start_stop<const B: usize>(
         &mut self,
         od: &Dictionary<B>,
@@ -1484,16 +1629,14 @@ impl Profile {
     ) {
         let limits = self.motion;
         let deceleration = limits.stop_deceleration(kind);
-        let planner_limits = self.mode.planner().is_some().then(|| self.pp_limits(od, factors).0);
-        match (&mut self.mode, planner_limits) {
-            (Active::Vl(vl), _) if super::VL => vl.stop(kind),
-            #[cfg(feature = "hm")]
-            (Active::Hm(planner), Some(planner_limits)) => {
-                self.homing.stop(planner, deceleration, &planner_limits)
-            }
-            #[cfg(feature = "pp")]
-            (Active::Pp(pp), Some(planner_limits)) => pp.stop(deceleration, &planner_limits),
-            (mode, _) => match mode.position_limiter_mut() {
+        if self.planner().is_some() {
+            let planner_limits = self.pp_limits(od, factors).0;
+            self.stop_planner(deceleration, &planner_limits);
+            return;
+        }
+        match &mut self.mode {
+            Active::Vl(vl) if super::VL => vl.stop(kind),
+            mode => match mode.position_limiter_mut() {
                 Some(limiter) => {
                     let hz = self.config.tick_rate.hz();
                     limiter.stop(&TickLimits::new(limits.velocity, limits.acceleration, deceleration, hz))
@@ -1503,9 +1646,25 @@ impl Profile {
         }
     }
 
+    /// pp's or hm's stop with `deceleration` under `limits` (their motion limits).
+    fn stop_planner(&mut self, deceleration: u32, limits: &Limits) {
+        #[cfg(any(feature = "pp", feature = "hm"))]
+        if let Some(planner) = self.planner.as_mut() {
+            match &mut self.mode {
+                #[cfg(feature = "hm")]
+                Active::Hm => self.homing.stop(planner, deceleration, limits),
+                #[cfg(feature = "pp")]
+                Active::Pp(pp) => pp.stop(planner, deceleration, limits),
+                _ => {}
+            }
+        }
+        let _ = (deceleration, limits);
+    }
+
     /// One tick of a ramped stop (not a coasting one) in the active mode: pp and hm stop on
     /// their trajectory, csp and ip with the limiter, vl with its ramp, the others ramp the
     /// velocity demand down.
+    #[inline(never)]
     fn step_stop<const B: usize>(
         &mut self,
         od: &mut Dictionary<B>,
@@ -1524,12 +1683,13 @@ impl Profile {
             limiter.tick(0, &TickLimits::new(limits.velocity, limits.acceleration, limits.deceleration, hz));
             return Setpoint::Position(limiter.position() as i32);
         }
+        #[cfg(any(feature = "pp", feature = "hm"))]
+        if let Some(planner) = self.planner.as_mut().filter(|_| self.mode.plans()) {
+            let state = if self.mode.is_hm() { self.homing.step_stop(planner) } else { planner.step() };
+            return Setpoint::Position(state.position_demand());
+        }
         match &mut self.mode {
             Active::Vl(_) if super::VL => self.run_vl(od, input),
-            #[cfg(feature = "hm")]
-            Active::Hm(planner) => Setpoint::Position(self.homing.step_stop(planner).position_demand()),
-            #[cfg(feature = "pp")]
-            Active::Pp(pp) => Setpoint::Position(pp.step_stop().position_demand()),
             _ => {
                 self.velocity.toward(0, limits.stop_deceleration(kind), input.dt);
                 Setpoint::Velocity(self.velocity.value as i32)
@@ -1539,6 +1699,7 @@ impl Profile {
 
     /// One tick of the active mode other than hm, the drive function enabled and no stop
     /// running; with the bits pp or ip report.
+    #[inline(never)]
     fn run_active<const B: usize>(
         &mut self,
         od: &mut Dictionary<B>,
@@ -1557,6 +1718,7 @@ impl Profile {
 
     /// One tick of homing mode (digest §10), also with the drive function disabled (method 35
     /// completes there). Returns the demand and, when home was found, 6064h from the new zero.
+    #[inline(never)]
     fn run_homing<const B: usize>(
         &mut self,
         od: &mut Dictionary<B>,
@@ -1600,12 +1762,13 @@ impl Profile {
             now,
             axis: self.axis,
         };
-        let (position, outcome) = match &mut self.mode {
-            #[cfg(feature = "hm")]
-            Active::Hm(planner) => {
-                self.homing.tick(planner, &inputs, limits.stop_deceleration(input.halt_kind))
-            }
-            _ => (actual, hm::Outcome::default()),
+        #[cfg(feature = "hm")]
+        let planner = self.planner.as_mut().filter(|_| self.mode.is_hm());
+        #[cfg(not(feature = "hm"))]
+        let planner: Option<&mut crate::motion::PositionPlanner> = None;
+        let (position, outcome) = match planner {
+            Some(planner) => self.homing.tick(planner, &inputs, limits.stop_deceleration(input.halt_kind)),
+            None => (actual, hm::Outcome::default()),
         };
         if let Some(home) = outcome.home {
             let home_offset = i64::from(od.load(self.slots.home_offset));
@@ -1672,12 +1835,12 @@ impl Profile {
         // (Needed only by a new set-point.)
         let target_range =
             if bit4_rose { self.target_range(od, actual_user, sample.inputs, position_sign) } else { None };
-        match self.mode.pp_mut() {
-            Some(pp) => {
-                let moving = if positive_blocked || negative_blocked { pp.state().velocity } else { 0 };
+        match (self.mode.pp_mut(), self.planner.as_mut()) {
+            (Some(pp), Some(planner)) => {
+                let moving = if positive_blocked || negative_blocked { planner.state().velocity } else { 0 };
                 if (positive_blocked && moving > 0) || (negative_blocked && moving < 0) {
                     // Running into an active limit switch: stopped on the quick-stop ramp.
-                    pp.stop(limits.stop_deceleration(StopKind::QuickStopRamp), &pp_limits);
+                    pp.stop(planner, limits.stop_deceleration(StopKind::QuickStopRamp), &pp_limits);
                 }
                 let inputs = pp::Inputs {
                     od,
@@ -1696,12 +1859,12 @@ impl Profile {
                     end_velocity,
                     velocity_cap: limits.velocity,
                 };
-                let state = pp.tick(&inputs, limits.stop_deceleration(input.halt_kind));
+                let state = pp.tick(planner, &inputs, limits.stop_deceleration(input.halt_kind));
                 self.commanded = pp.heading_taken();
-                let status = pp.status(&inputs);
+                let status = pp.status(planner, &inputs);
                 (Setpoint::Position(state.position_demand()), status)
             }
-            None => (Setpoint::None, pp::Status::default()),
+            _ => (Setpoint::None, pp::Status::default()),
         }
     }
 
@@ -1722,32 +1885,31 @@ impl Profile {
     }
 
     /// The mode [`Self::active_mode`] names becomes active: its variant starts from the axis at
-    /// `actual` (increments; `user` in user units) and `velocity` (increments/s). Out of line, so
-    /// the variant (pp's is 1.5 KiB) is built here and not in the tick's stack frame.
+    /// `actual` (increments; `user` in user units) and `velocity` (increments/s). Out of line:
+    /// the variants are built here, not in the tick's stack frame.
     #[inline(never)]
     fn start_mode(&mut self, actual: i64, user: i64, velocity: i64) {
-        // pp's and hm's states (their trajectory generators, some 1 KiB) are built by functions
-        // of their own: built here, both would take their room on the stack of the tick that
-        // changes the mode (about 2 KiB, the deepest tick).
-        #[cfg(feature = "pp")]
-        #[inline(never)]
-        fn start_pp(mode: &mut Active, config: &ProfileConfig, actual: i64) {
-            *mode = Active::Pp(ProfilePosition::new(config, actual));
-        }
-        #[cfg(feature = "hm")]
-        #[inline(never)]
-        fn start_hm(mode: &mut Active, config: &ProfileConfig, actual: i64) {
-            *mode = Active::Hm(PositionPlanner::new(config.tick_rate, actual));
-        }
+        // pp's and hm's trajectory is the profile's planner, reset in place (built on the stack
+        // of this tick, it would make it the deepest by 1.2 KiB).
         match self.active_mode {
             #[cfg(feature = "pp")]
-            mode::PROFILE_POSITION => start_pp(&mut self.mode, &self.config, actual),
+            mode::PROFILE_POSITION => self.mode = Active::Pp(ProfilePosition::new(&self.config)),
             #[cfg(feature = "hm")]
-            mode::HOMING => start_hm(&mut self.mode, &self.config, actual),
+            mode::HOMING => self.mode = Active::Hm,
             _ => self.start_other_mode(actual, velocity),
         }
+        #[cfg(any(feature = "pp", feature = "hm"))]
+        if self.mode.plans() {
+            if self.planner.is_none() {
+                // A profile that was never configured (outside a drive).
+                self.build_planner();
+            }
+            if let Some(planner) = self.planner.as_mut() {
+                planner.reset(actual);
+            }
+        }
         // pp's relative moves count from here.
-        self.mode.hold(actual, user);
+        self.hold_mode(actual, user);
     }
 
     /// [`Self::start_mode`] for the modes other than pp and hm.
@@ -1995,6 +2157,7 @@ impl Profile {
 
     /// The statusword 6041h of this tick, built here only: the state bits, the common bits,
     /// the active mode's bits 10–13 and the manufacturer-specific bits 14 and 15.
+    #[inline(never)]
     fn statusword<const B: usize>(
         &mut self,
         input: &StatusInput<'_>,
@@ -2050,7 +2213,7 @@ impl Profile {
             }
             // Homing sets bits 10, 12 and 13 itself.
             #[cfg(feature = "hm")]
-            Active::Hm(_) => (false, false, false, false),
+            Active::Hm => (false, false, false, false),
             _ => (halted, false, false, false),
         };
         let target_reached = match state {
@@ -2068,7 +2231,7 @@ impl Profile {
             // Bits 10, 12, 13 are the homing status in every state (digest §10.4).
             let on_home = self.homing.run_ended() && self.rests_on_home(od, input.factors, input.actual, now);
             let homing = Statusword::TARGET_REACHED | Statusword::HOMING_ATTAINED | Statusword::HOMING_ERROR;
-            let moving = self.mode.planner().is_some_and(|planner| planner.state().velocity != 0);
+            let moving = self.planner().is_some_and(|planner| planner.state().velocity != 0);
             sw = sw.difference(homing) | self.homing.status(moving, on_home).statusword();
         }
 
