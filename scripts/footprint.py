@@ -417,14 +417,18 @@ the *build* column is then about one drive's worth of stack (the drive is assemb
 written into its place). Built by value with `Drive::new` and moved into a static, the same
 image needed about 43 KiB (several copies in the constructor's frame) — more than a 32 KiB
 part has. The tick's
-depth comes from `Profile::tick` (a frame of some 1.7 KiB on thumbv7em: every mode's step is
-inlined into it) and what it calls. The deepest tick is a change of the mode of operation:
-`Profile::start_mode` builds the new mode's state (pp's with its trajectory generator, some
-1 KiB) in its own frame of some 2 KiB before it moves it into place. The ticks that plan come
-next: the planner's step, a stage of the jerk-limited plan (`Ramps::work_jerk`, some 0.9 KiB)
-and a pulse's fit, some 3.7 KiB with `Profile::tick`'s frame. (Frames read from the
-disassembly's stack adjustments, session 16.) The deepest communication call is an NMT
-reset (`Drive::nmt_command` reserves about 4 KiB).
+depth comes from the tick's own frame (`Drive::full_tick` with `Profile::tick` inlined, some
+0.8 KiB on thumbv7em), the active mode's step (`Profile::run_active`, some 0.6 KiB: pp, ip, the
+cyclic modes and pv/tq inlined into it) and the trajectory code under it. Since session 17 pp
+and homing share one position planner per axis, built once when the drive is configured and
+reset in place when either mode starts: a change of the mode of operation builds no planner
+on the tick's stack (it was the deepest tick of the session, 4.1 KiB). The session has no
+jerk-limited move: the deepest chain of the image (read from the disassembly's stack
+adjustments and calls, thumbv7em) is a jerk-limited plan's stage that gives up and stops at
+once, about 4.1 KiB: the tick 0.8 KiB, the mode's step 0.6, `PositionPlanner::step` 0.25,
+`Ramps::work_jerk` 0.9, `Ramps::velocity` 0.6, a pulse's fit and a 128-bit division under
+it some 1 KiB (the same chain was some 4.9 KiB before). An NMT reset resets each profile in
+place (`Profile::reset`, field by field): no profile is built on its stack.
 """
 
 if __name__ == "__main__":
