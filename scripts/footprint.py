@@ -343,10 +343,10 @@ with the node in a static. Bytes.
 
 Stack (bytes, measured in QEMU by painting): *build* is the deepest use from reset through
 constructing the node (before any interrupt runs); *comm* the deepest `on_frame`/`poll` call of
-the scripted session (every SDO transfer type, NMT, the CiA 402 state machine, a profile
-position move); *tick* the deepest `tick` of the session (those that plan are the one that
-takes the profile position set-point, a trapezoid, and the one that starts the quick stop; the
-session has no jerk-limited move and no homing run); *worst* = comm + tick + a 32-byte
+the scripted session (every SDO transfer type, NMT, the CiA 402 state machine, two profile
+position moves); *tick* the deepest `tick` of the session (those that plan take a trapezoid's
+set-point and its quick stop, then a jerk-limited set-point, a change-immediately set-point
+while it moves, a halt and its release; the session has no homing run); *worst* = comm + tick + a 32-byte
 exception frame, for a board whose tick interrupt preempts the deepest communication call. The
 probe reads with a granularity of a few dozen bytes.
 
@@ -416,19 +416,23 @@ Boards build the drive in place (`Drive::build_in` into a `static`, e.g. `Static
 the *build* column is then about one drive's worth of stack (the drive is assembled once and
 written into its place). Built by value with `Drive::new` and moved into a static, the same
 image needed about 43 KiB (several copies in the constructor's frame) — more than a 32 KiB
-part has. The tick's
-depth comes from the tick's own frame (`Drive::full_tick` with `Profile::tick` inlined, some
-0.8 KiB on thumbv7em), the active mode's step (`Profile::run_active`, some 0.6 KiB: pp, ip, the
-cyclic modes and pv/tq inlined into it) and the trajectory code under it. Since session 17 pp
-and homing share one position planner per axis, built once when the drive is configured and
-reset in place when either mode starts: a change of the mode of operation builds no planner
-on the tick's stack (it was the deepest tick of the session, 4.1 KiB). The session has no
-jerk-limited move: the deepest chain of the image (read from the disassembly's stack
-adjustments and calls, thumbv7em) is a jerk-limited plan's stage that gives up and stops at
-once, about 4.1 KiB: the tick 0.8 KiB, the mode's step 0.6, `PositionPlanner::step` 0.25,
-`Ramps::work_jerk` 0.9, `Ramps::velocity` 0.6, a pulse's fit and a 128-bit division under
-it some 1 KiB (the same chain was some 4.9 KiB before). An NMT reset resets each profile in
-place (`Profile::reset`, field by field): no profile is built on its stack.
+part has.
+
+The tick's depth (thumbv7em, frames read from the disassembly's stack adjustments and calls,
+session 17): the tick's own frame, `Drive::full_tick` with `Profile::tick` inlined, about
+0.8 KiB; the active mode's step under it (`Profile::run_pp` about 0.45 KiB, `run_homing`
+0.37, each mode's step a function of its own); and under that what the step calls. pp and
+homing share one position planner per axis, built when the drive is configured and reset in
+place when either mode starts, so a change of the mode of operation builds no planner on the
+tick's stack (it was the deepest tick, 4.1 KiB). The share of a plan in progress is worked on
+at the top of the tick (`PositionPlanner::plan_ahead`, some 1.3 KiB below the tick's frame),
+not below the mode's step. The deepest tick is now the one that takes a jerk-limited
+set-point: the tick 0.8 KiB, `run_pp` 0.45, the request (`PositionPlanner::request`,
+`plan_from_here` 0.19, `Ramps::ask_jerk` 0.13: the decay of the present acceleration) and the
+128-bit division under it (`exact_ticks`, `div_ceil`, `div_trunc`, `udivrem`: some 0.5 KiB).
+The goal of 2 KiB needs the tick's own frame smaller (the tick in phases) or the request's
+division out of the mode's depth. An NMT reset resets each profile in place
+(`Profile::reset`, field by field): no profile is built on its stack.
 """
 
 if __name__ == "__main__":

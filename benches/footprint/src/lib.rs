@@ -91,12 +91,13 @@ pub const NODE_ID: u8 = 5;
 const RX: u16 = 0x600 + NODE_ID as u16;
 
 /// Length of the run.
-pub const SCRIPT_MS: u16 = 1500;
+pub const SCRIPT_MS: u16 = 2600;
 
 /// The master's script: every SDO transfer type, NMT, heartbeat, and (for a drive) the CiA 402
-/// state machine to Operation enabled and a profile position move. A 301-only node answers the
-/// 6xxxh requests with aborts, which is a path too.
-pub static SCRIPT: [Step; 30] = [
+/// state machine to Operation enabled, a profile position move (a trapezoid) ended by a quick
+/// stop, then a jerk-limited one with a change-immediately set-point and a halt. A 301-only
+/// node answers the 6xxxh requests with aborts, which is a path too.
+pub static SCRIPT: [Step; 42] = [
     // Expedited upload 1000h, expedited download 1017h = 100 ms.
     step(2, RX, [0x40, 0x00, 0x10, 0, 0, 0, 0, 0]),
     step(4, RX, [0x2B, 0x17, 0x10, 0, 100, 0, 0, 0]),
@@ -135,6 +136,20 @@ pub static SCRIPT: [Step; 30] = [
     step(800, RX, [0x40, 0x64, 0x60, 0, 0, 0, 0, 0]),
     step(1300, RX, [0x2B, 0x40, 0x60, 0, 0x02, 0, 0, 0]),
     step(1400, RX, [0x40, 0x41, 0x60, 0, 0, 0, 0, 0]),
+    // Jerk-limited (6086h = 3): enabled again, a set-point, a change-immediately set-point
+    // while it moves, a halt and its release.
+    step(1500, RX, [0x2B, 0x86, 0x60, 0, 3, 0, 0, 0]),
+    step(1502, RX, [0x23, 0x7A, 0x60, 0, 0x10, 0x27, 0, 0]),
+    step(1510, RX, [0x2B, 0x40, 0x60, 0, 0x06, 0, 0, 0]),
+    step(1520, RX, [0x2B, 0x40, 0x60, 0, 0x07, 0, 0, 0]),
+    step(1530, RX, [0x2B, 0x40, 0x60, 0, 0x0F, 0, 0, 0]),
+    step(1540, RX, [0x2B, 0x40, 0x60, 0, 0x1F, 0, 0, 0]),
+    step(1550, RX, [0x2B, 0x40, 0x60, 0, 0x0F, 0, 0, 0]),
+    step(1700, RX, [0x23, 0x7A, 0x60, 0, 0xD0, 0x07, 0, 0]),
+    step(1702, RX, [0x2B, 0x40, 0x60, 0, 0x3F, 0, 0, 0]),
+    step(1712, RX, [0x2B, 0x40, 0x60, 0, 0x0F, 0, 0, 0]),
+    step(1900, RX, [0x2B, 0x40, 0x60, 0, 0x0F, 0x01, 0, 0]),
+    step(2200, RX, [0x2B, 0x40, 0x60, 0, 0x0F, 0, 0, 0]),
 ];
 
 /// A motor that follows the demand exactly (enough to exercise the drive's loops).

@@ -15,6 +15,13 @@ pub(crate) fn udivrem(n: u128, d: u128) -> (u128, u128) {
     if let (Ok(n), Ok(d)) = (u64::try_from(n), u64::try_from(d)) {
         return (u128::from(n / d), u128::from(n % d));
     }
+    udivrem_wide(n, d)
+}
+
+/// [`udivrem`] of operands beyond 64 bits, in a frame of its own (the 64-bit case, the usual
+/// one, then needs little stack: it is at the bottom of the deepest tick).
+#[inline(never)]
+fn udivrem_wide(n: u128, d: u128) -> (u128, u128) {
     (n / d, n % d)
 }
 

@@ -314,8 +314,22 @@ impl ProfilePosition {
     /// on set-point beyond it in the same direction, passes the target at speed.
     fn plan_active(&mut self, planner: &mut PositionPlanner, limits: &Limits, end_velocity: u32) -> bool {
         let Some(active) = self.active else { return true };
+        let next = self.queue.first().copied().flatten();
+        self.plan(planner, active, next, limits, end_velocity)
+    }
+
+    /// Plans `active` from the present state, passing its target at speed where `next`, a
+    /// set-point of change on set-point, lies beyond it in the same direction.
+    fn plan(
+        &mut self,
+        planner: &mut PositionPlanner,
+        active: SetPoint,
+        next: Option<SetPoint>,
+        limits: &Limits,
+        end_velocity: u32,
+    ) -> bool {
         let here = planner.state().position;
-        let end = match self.queue.first().copied().flatten() {
+        let end = match next {
             Some(next) if active.blend => {
                 let same_direction =
                     (active.internal - here).signum() == (next.internal - active.internal).signum();
@@ -351,12 +365,11 @@ impl ProfilePosition {
             let setpoint = self.setpoint(planner.state().position, input);
             let immediate = input.controlword.contains(Controlword::CHANGE_SET_IMMEDIATELY);
             let accepted = if immediate || self.active.is_none() {
-                let previous = (self.active, self.queue);
-                self.queue = [None; SLOTS];
-                self.active = Some(setpoint);
-                let planned = self.halted || self.plan_active(planner, &limits, end_velocity);
-                if !planned {
-                    (self.active, self.queue) = previous;
+                // Planned before it replaces the set-points (a plan refused keeps them).
+                let planned = self.halted || self.plan(planner, setpoint, None, &limits, end_velocity);
+                if planned {
+                    self.queue = [None; SLOTS];
+                    self.active = Some(setpoint);
                 }
                 planned
             } else if self.push(setpoint) {
@@ -397,7 +410,7 @@ impl ProfilePosition {
             let _ = self.plan_active(planner, &limits, end_velocity);
         }
 
-        let state = planner.step();
+        let state = planner.follow();
         if !self.halted && planner.is_finished() {
             if let Some(done) = self.active.take() {
                 self.last = Some(done);

@@ -1285,6 +1285,12 @@ impl Profile {
             limits,
         };
         self.commanded = 0;
+        // The share of a plan in progress, here where the stack is shallow (the mode's step
+        // below would add its frames to the planner's).
+        #[cfg(any(feature = "pp", feature = "hm"))]
+        if let Some(planner) = self.planner.as_mut().filter(|_| self.mode.plans()) {
+            planner.plan_ahead();
+        }
         let mut setpoint = match stop {
             None if opening => {
                 self.hold_mode(actual, actual_user);
@@ -1474,22 +1480,35 @@ impl Profile {
         self.pp_limits = Revised::EMPTY;
         if !self.slots_resolved {
             // The dictionary's layout is fixed when it is built: once is enough.
-            self.slots = Slots::resolve(od, self.axis);
-            self.slots_resolved = true;
+            self.resolve_slots(od);
         }
         if let Some(index) = self.config.cascade {
-            let parameters = Parameters::from_dictionary(od, index).unwrap_or(Parameters::DEFAULT);
-            let hz = self.config.tick_rate.hz();
-            match self.cascade.as_mut() {
-                Some(cascade) => {
-                    let _ = cascade.set_parameters(parameters);
-                }
-                None => {
-                    self.cascade = Cascade::new(hz, parameters).or(Cascade::new(hz, Parameters::DEFAULT)).ok()
-                }
-            }
+            self.tune_cascade(od, index);
         }
         factors
+    }
+
+    /// [`Self::slots`] resolved in `od` (out of line, like [`Self::tune_cascade`]: a tick that
+    /// refreshes its parameters holds one of the two frames at a time, not both).
+    #[inline(never)]
+    fn resolve_slots<const B: usize>(&mut self, od: &Dictionary<B>) {
+        self.slots.resolve(od, self.axis);
+        self.slots_resolved = true;
+    }
+
+    /// The cascade's gains from the parameter record at `index` (the integrator is kept).
+    #[inline(never)]
+    fn tune_cascade<const B: usize>(&mut self, od: &Dictionary<B>, index: u16) {
+        let parameters = Parameters::from_dictionary(od, index).unwrap_or(Parameters::DEFAULT);
+        let hz = self.config.tick_rate.hz();
+        match self.cascade.as_mut() {
+            Some(cascade) => {
+                let _ = cascade.set_parameters(parameters);
+            }
+            None => {
+                self.cascade = Cascade::new(hz, parameters).or(Cascade::new(hz, Parameters::DEFAULT)).ok()
+            }
+        }
     }
 
     /// The travel limit the axis is at: a limit switch outside homing first, then 6064h
@@ -1685,7 +1704,7 @@ impl Profile {
         }
         #[cfg(any(feature = "pp", feature = "hm"))]
         if let Some(planner) = self.planner.as_mut().filter(|_| self.mode.plans()) {
-            let state = if self.mode.is_hm() { self.homing.step_stop(planner) } else { planner.step() };
+            let state = if self.mode.is_hm() { self.homing.step_stop(planner) } else { planner.follow() };
             return Setpoint::Position(state.position_demand());
         }
         match &mut self.mode {
@@ -1812,6 +1831,7 @@ impl Profile {
 
     /// One tick of profile position mode ([`pp`]); with its status bits.
     #[cfg(feature = "pp")]
+    #[inline(never)]
     fn run_pp<const B: usize>(
         &mut self,
         od: &mut Dictionary<B>,
@@ -1898,15 +1918,10 @@ impl Profile {
             mode::HOMING => self.mode = Active::Hm,
             _ => self.start_other_mode(actual, velocity),
         }
+        // (Built by `configure`: a profile never configured runs pp and hm without motion.)
         #[cfg(any(feature = "pp", feature = "hm"))]
-        if self.mode.plans() {
-            if self.planner.is_none() {
-                // A profile that was never configured (outside a drive).
-                self.build_planner();
-            }
-            if let Some(planner) = self.planner.as_mut() {
-                planner.reset(actual);
-            }
+        if let Some(planner) = self.planner.as_mut().filter(|_| self.mode.plans()) {
+            planner.reset(actual);
         }
         // pp's relative moves count from here.
         self.hold_mode(actual, user);
@@ -1946,6 +1961,7 @@ impl Profile {
     /// One tick of interpolated position mode (digest §12): while controlword bit 4 is 1 each
     /// SYNC takes the next data record (60C1h sub 1, a position) and the demand moves linearly
     /// to it over 60C2h; with bit 4 = 0 or an empty buffer it holds.
+    #[inline(never)]
     fn run_ip<const B: usize>(
         &mut self,
         od: &Dictionary<B>,
@@ -2001,6 +2017,7 @@ impl Profile {
     }
 
     /// One tick of csp, csv or cst (digest §16–§18; [`super::cyclic`]).
+    #[inline(never)]
     fn run_cyclic<const B: usize>(
         &mut self,
         od: &Dictionary<B>,
@@ -2126,6 +2143,7 @@ impl Profile {
     }
 
     /// One tick of pv, tq or no mode with the drive function enabled.
+    #[inline(never)]
     fn run_mode<const B: usize>(&mut self, od: &Dictionary<B>, input: &ModeInput<'_>) -> Setpoint {
         let ModeInput { factors, dt, halt, .. } = *input;
         match self.mode {

@@ -147,7 +147,7 @@ impl PositionPlanner {
         let stop_limits = Limits { acceleration: deceleration, deceleration, ..*limits };
         match limits.profile {
             ProfileType::Trapezoidal => {
-                self.ramps.velocity(0, &RampLimits::new(&stop_limits, self.rate))?;
+                self.ramps.velocity_trapezoid(0, &RampLimits::new(&stop_limits, self.rate))?;
             }
             ProfileType::JerkLimited => self.ramps.request_velocity(0, &stop_limits, self.rate)?,
         }
@@ -160,9 +160,29 @@ impl PositionPlanner {
     /// Advances one tick and returns the new demand.
     pub fn step(&mut self) -> MotionState {
         self.ramps.work(self.rate);
+        self.follow()
+    }
+
+    /// [`Self::step`] after [`Self::plan_ahead`] did the tick's share of the plan in progress:
+    /// a request of this tick only moves to its first stage (as in [`Self::step`]).
+    pub fn follow(&mut self) -> MotionState {
+        if self.ramps.planning() {
+            self.ramps.begin();
+        }
         self.ramps.step();
         self.state = state_of(&self.ramps.now(), self.hz);
         self.state
+    }
+
+    /// This tick's share of a plan in progress, where the caller's stack is shallow: a drive
+    /// calls it at the top of its tick, then [`Self::follow`] from the mode's step, in place
+    /// of [`Self::step`] (the stages of a plan take some 2 KiB of stack below this call,
+    /// which would come on top of the mode's frames). A plan asked for later in the tick
+    /// begins in [`Self::follow`].
+    pub fn plan_ahead(&mut self) {
+        if self.ramps.planning() {
+            self.ramps.work(self.rate);
+        }
     }
 
     /// The present demand.

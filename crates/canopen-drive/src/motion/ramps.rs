@@ -775,11 +775,17 @@ impl Move<'_> {
 
     /// [`Self::round`], writing the legs to `legs` if given.
     fn attempt(&self, counts: &mut Counts, legs: Option<&mut Legs>) -> Option<bool> {
+        match &self.limits.jerk {
+            Some(jerk) => self.attempt_jerk(jerk, counts, legs),
+            None => self.attempt_trapezoid(counts, legs),
+        }
+    }
+
+    /// [`Self::attempt`] for a trapezoid (the jerk of the limits is not used; a plan made over
+    /// several ticks is one, and calls this directly).
+    fn attempt_trapezoid(&self, counts: &mut Counts, legs: Option<&mut Legs>) -> Option<bool> {
         let distance2 = self.distance2;
         let limits = self.limits;
-        if let Some(jerk) = &limits.jerk {
-            return self.attempt_jerk(jerk, counts, legs);
-        }
         let (u0, ue) = (self.u0, self.ue);
         if counts.stop > 0 && !within(u0, counts.stop, limits.deceleration) {
             // The velocity grew since the layout (a plan made over several ticks).
@@ -948,7 +954,9 @@ impl Move<'_> {
 
     /// [`Self::attempt`] for the jerk-limited profile: the peak from the affine distance of
     /// the legs' pulses (and of the first leg's decay), then each leg's pulse fitted from the
-    /// velocity the one before it really ends at.
+    /// velocity the one before it really ends at. (Out of line: its five pulses, some 0.5 KiB
+    /// of stack, would take their room in a trapezoid's round too.)
+    #[inline(never)]
     fn attempt_jerk(&self, jerk: &JerkLimits, counts: &mut Counts, legs: Option<&mut Legs>) -> Option<bool> {
         let Some(mut fitting) = self.peak_jerk(jerk, counts)? else {
             return Some(false);
@@ -1621,20 +1629,43 @@ impl Ramps {
     /// a jerk-limited one's a pulse after (or beside) the decay of the present acceleration.
     /// Returns the ticks until the velocity is reached.
     pub(crate) fn velocity(&mut self, aim: i128, limits: &RampLimits) -> Result<u64, MotionError> {
-        let (ticks, pulse, offset, decay, covered) = match &limits.jerk {
-            None => {
-                let ticks = exact_ticks(aim.wrapping_sub(self.v), limits.rate(self.v, aim));
-                let covered = ticks.and_then(|n| mul_small(self.v.checked_add(aim)?, n));
-                let (ticks, covered) = ticks.zip(covered).ok_or(MotionError::TooLong)?;
-                (ticks, Pulse::NONE, 0, Decay::NONE, covered)
-            }
-            Some(jerk) => {
-                let alpha0 = self.alpha_now().ok_or(MotionError::TooLong)?;
-                let mut ramp = Ramp::new(jerk, self.v, alpha0, aim).ok_or(MotionError::TooLong)?;
-                let (ticks, pulse, offset, covered) = ramp.fit_at_once().ok_or(MotionError::TooLong)?;
-                (ticks, pulse, offset, ramp.decay, covered)
-            }
-        };
+        match &limits.jerk {
+            None => self.velocity_trapezoid(aim, limits),
+            Some(jerk) => self.velocity_jerk(jerk, aim),
+        }
+    }
+
+    /// [`Self::velocity`] for a trapezoid (the jerk of `limits` is not used): a leg at the
+    /// ramp's rate, made at once.
+    pub(crate) fn velocity_trapezoid(&mut self, aim: i128, limits: &RampLimits) -> Result<u64, MotionError> {
+        let ticks = exact_ticks(aim.wrapping_sub(self.v), limits.rate(self.v, aim));
+        let covered = ticks.and_then(|n| mul_small(self.v.checked_add(aim)?, n));
+        let (ticks, covered) = ticks.zip(covered).ok_or(MotionError::TooLong)?;
+        self.lay_ramp(aim, ticks, &Pulse::NONE, (0, Decay::NONE), covered, false)
+    }
+
+    /// [`Self::velocity`]'s jerk-limited ramp, made at once. Out of line: a trapezoid's ramp
+    /// (a quick stop in a tick) does not need its stack.
+    #[inline(never)]
+    fn velocity_jerk(&mut self, jerk: &JerkLimits, aim: i128) -> Result<u64, MotionError> {
+        let alpha0 = self.alpha_now().ok_or(MotionError::TooLong)?;
+        let mut ramp = Ramp::new(jerk, self.v, alpha0, aim).ok_or(MotionError::TooLong)?;
+        let (ticks, pulse, offset, covered) = ramp.fit_at_once().ok_or(MotionError::TooLong)?;
+        self.lay_ramp(aim, ticks, &pulse, (offset, ramp.decay), covered, true)
+    }
+
+    /// The legs of a velocity ramp to `aim`: one, of `ticks` and `pulse` (the `decay` of the
+    /// present acceleration beside or before it, `offset` ticks in), covering `covered`
+    /// (doubled); a trapezoid's with [`Pulse::NONE`] and not `jerk_limited`.
+    fn lay_ramp(
+        &mut self,
+        aim: i128,
+        ticks: u32,
+        pulse: &Pulse,
+        (offset, decay): (u32, Decay),
+        covered: i128,
+        jerk_limited: bool,
+    ) -> Result<u64, MotionError> {
         let end_p2 = self.p2.checked_add(covered).ok_or(MotionError::TooLong)?;
         self.job = None;
         self.jerk_job.stage = JerkStage::Idle;
@@ -1642,12 +1673,12 @@ impl Ramps {
         self.legs.len = 0;
         self.legs.decay = decay;
         self.legs.offset = offset;
-        self.legs.push_pulse(ticks, aim, pulse).ok_or(MotionError::TooLong)?;
+        self.legs.push_pulse(ticks, aim, *pulse).ok_or(MotionError::TooLong)?;
         #[cfg(test)]
         {
             self.legs.covered2 = covered;
         }
-        self.jerk_limited = limits.jerk.is_some();
+        self.jerk_limited = jerk_limited;
         self.start(end_p2, aim, Made::Layout);
         Ok(self.remaining)
     }
@@ -1756,59 +1787,65 @@ impl Ramps {
         Ok(())
     }
 
-    /// One tick's share of a jerk-limited plan [`Self::request_jerk`] asked for.
+    /// One tick's share of a velocity ramp (a stop) [`Self::request_velocity`] asked for:
+    /// the stages `Asked`, `Convert` and `Ramp`. False when it gives up (the caller stops at
+    /// once, out of this frame).
     #[inline(never)]
-    fn work_jerk(&mut self, rate: TickRate) {
+    fn work_ramp(&mut self, rate: TickRate) -> bool {
         // Ticks since the request: the axis is that far into the first leg.
         let done = self.ticks.wrapping_sub(self.left);
         let job = &mut self.jerk_job;
         match job.stage {
-            JerkStage::Asked(ramp) => {
-                job.stage = JerkStage::Convert(ramp);
-                return;
-            }
+            // (Begun by [`Self::begin`].)
+            JerkStage::Asked(_) => {}
             JerkStage::Convert(ramp) => {
                 job.limits = RampLimits::new(&job.asked, rate);
                 if !ramp {
                     job.stage = JerkStage::Search(false);
-                    return;
+                    return true;
                 }
                 let made =
                     job.limits.jerk.as_ref().and_then(|jerk| Ramp::new(jerk, job.v, job.alpha0, job.last));
                 match made {
                     Some(ramp) => (job.ramp, job.stage) = (ramp, JerkStage::Ramp),
-                    None => self.give_up(),
+                    None => return false,
                 }
-                return;
             }
-            JerkStage::Ramp => {
-                match job.ramp.try_fit(done) {
-                    Some(None) => {}
-                    Some(Some((ticks, pulse, offset, covered))) => {
-                        let (aim, end_p2) = (job.last, job.p2.checked_add(covered));
-                        job.stage = JerkStage::Idle;
-                        let legs = &mut self.legs;
-                        legs.len = 0;
-                        legs.offset = offset;
-                        #[cfg(test)]
-                        {
-                            legs.covered2 = covered;
-                        }
-                        match (end_p2, legs.push_pulse(ticks, aim, pulse)) {
-                            (Some(end_p2), Some(())) => self.resume(done, end_p2, aim, Made::Layout),
-                            _ => self.give_up(),
-                        }
+            JerkStage::Ramp => match job.ramp.try_fit(done) {
+                Some(None) => {}
+                Some(Some((ticks, pulse, offset, covered))) => {
+                    let (aim, end_p2) = (job.last, job.p2.checked_add(covered));
+                    job.stage = JerkStage::Idle;
+                    let legs = &mut self.legs;
+                    legs.len = 0;
+                    legs.offset = offset;
+                    #[cfg(test)]
+                    {
+                        legs.covered2 = covered;
                     }
-                    None => self.give_up(),
+                    match (end_p2, legs.push_pulse(ticks, aim, pulse)) {
+                        (Some(end_p2), Some(())) => self.resume(done, end_p2, aim, Made::Layout),
+                        _ => return false,
+                    }
                 }
-                return;
-            }
+                None => return false,
+            },
             _ => {}
         }
+        true
+    }
+
+    /// One tick's share of a jerk-limited plan [`Self::request_jerk`] asked for: the stages
+    /// from `Search` to `Fit`. False when it gives up (the caller stops at once, out of this
+    /// frame).
+    #[inline(never)]
+    fn work_jerk(&mut self) -> bool {
+        // Ticks since the request: the axis is that far into the first leg.
+        let done = self.ticks.wrapping_sub(self.left);
         // The job's parts borrowed apart (the limits stay put while the counts change).
         let JerkJob { p2, v, alpha0, target2, last, limits, delay, stage, search, counts, fitting, .. } =
             &mut self.jerk_job;
-        let Some(jerk) = limits.jerk.as_ref() else { return };
+        let Some(jerk) = limits.jerk.as_ref() else { return true };
         let limits = &*limits;
         let problem = |delay: u32| {
             Some(Move {
@@ -1905,16 +1942,18 @@ impl Ramps {
                     _ => JerkStage::Idle,
                 };
                 if job.stage == JerkStage::Idle {
-                    self.give_up();
+                    return false;
                 }
             }
             // Out of range (not seen in the tests): stop instead.
-            None => self.give_up(),
+            None => return false,
         }
+        true
     }
 
     /// A jerk-limited plan made over several ticks that found nothing (not seen in the
-    /// tests: every request has found one): a stop at once instead.
+    /// tests: every request has found one): a stop at once instead, in a frame of its own.
+    #[inline(never)]
     fn give_up(&mut self) {
         self.jerk_job.stage = JerkStage::Idle;
         let limits = self.jerk_job.limits;
@@ -1942,13 +1981,41 @@ impl Ramps {
         let _ = made;
     }
 
+    /// A plan asked for in this tick moves to its first stage, and its work starts in the
+    /// next tick (the tick that takes a set-point has work enough of its own). True if there
+    /// was one.
+    pub(crate) fn begin(&mut self) -> bool {
+        if let JerkStage::Asked(ramp) = self.jerk_job.stage {
+            self.jerk_job.stage = JerkStage::Convert(ramp);
+            return true;
+        }
+        match self.job.as_mut() {
+            Some(job) if job.stage == Stage::Asked => {
+                job.stage = Stage::Layout(false);
+                true
+            }
+            _ => false,
+        }
+    }
+
     /// One tick's share of the plan [`Self::request`] asked for: a layout or a round. When a
     /// round completes the plan, its legs start from the present state.
     pub(crate) fn work(&mut self, rate: TickRate) {
-        if self.jerk_job.stage != JerkStage::Idle {
-            self.work_jerk(rate);
-        } else if self.job.is_some() {
-            self.work_trapezoid();
+        if self.begin() {
+            return;
+        }
+        let going = match self.jerk_job.stage {
+            JerkStage::Idle => {
+                if self.job.is_some() {
+                    self.work_trapezoid();
+                }
+                true
+            }
+            JerkStage::Asked(_) | JerkStage::Convert(_) | JerkStage::Ramp => self.work_ramp(rate),
+            _ => self.work_jerk(),
+        };
+        if !going {
+            self.give_up();
         }
     }
 
@@ -1970,10 +2037,8 @@ impl Ramps {
                 ..problem
             };
             match job.stage {
-                Stage::Asked => {
-                    job.stage = Stage::Layout(false);
-                    Some(None)
-                }
+                // (Begun by [`Ramps::begin`].)
+                Stage::Asked => Some(None),
                 // For the next tick (the peak, then the legs: two ticks on a core without
                 // floating point in hardware), where the first round solves.
                 Stage::Layout(fallback) => {
@@ -1986,22 +2051,24 @@ impl Ramps {
                     job.stage = Stage::Round { fallback, round: 0 };
                     Some(None)
                 }
-                Stage::Round { fallback, round } => match problem.round(&mut job.counts, &mut self.legs)? {
-                    true => Some(Some((job.target2, job.last, made(fallback)))),
-                    false if round + 1 < limits.rounds() => {
-                        job.stage = Stage::Lengthen { fallback, round: round + 1 };
-                        Some(None)
+                Stage::Round { fallback, round } => {
+                    match problem.attempt_trapezoid(&mut job.counts, Some(&mut self.legs))? {
+                        true => Some(Some((job.target2, job.last, made(fallback)))),
+                        false if round + 1 < limits.rounds() => {
+                            job.stage = Stage::Lengthen { fallback, round: round + 1 };
+                            Some(None)
+                        }
+                        false if !fallback => {
+                            job.stage = Stage::Layout(true);
+                            Some(None)
+                        }
+                        false => None,
                     }
-                    false if !fallback => {
-                        job.stage = Stage::Layout(true);
-                        Some(None)
-                    }
-                    false => None,
-                },
+                }
                 // A tick of its own: a round and this together were the dearest tick of a
                 // plan.
                 Stage::Lengthen { fallback, round } => {
-                    next.attempt(&mut job.counts, None)?;
+                    next.attempt_trapezoid(&mut job.counts, None)?;
                     job.stage = Stage::Round { fallback, round };
                     Some(None)
                 }
@@ -2179,7 +2246,13 @@ impl Ramps {
 
     /// True when every leg has been stepped and no plan is being made.
     pub(crate) fn is_finished(&self) -> bool {
-        self.left == 0 && self.job.is_none() && self.jerk_job.stage == JerkStage::Idle
+        self.left == 0 && !self.planning()
+    }
+
+    /// A plan asked for is being made ([`Self::work`] has work).
+    #[inline]
+    pub(crate) fn planning(&self) -> bool {
+        self.job.is_some() || self.jerk_job.stage != JerkStage::Idle
     }
 
     /// Ticks until the plan is finished.
