@@ -424,15 +424,18 @@ session 17): the tick's own frame, `Drive::full_tick` with `Profile::tick` inlin
 0.37, each mode's step a function of its own); and under that what the step calls. pp and
 homing share one position planner per axis, built when the drive is configured and reset in
 place when either mode starts, so a change of the mode of operation builds no planner on the
-tick's stack (it was the deepest tick, 4.1 KiB). The share of a plan in progress is worked on
-at the top of the tick (`PositionPlanner::plan_ahead`, some 1.3 KiB below the tick's frame),
-not below the mode's step. The deepest tick is now the one that takes a jerk-limited
+tick's stack (it was the deepest tick, 4.1 KiB). The share of a plan in progress (its stages
+take up to some 1.3 KiB) is worked on before the tick's frame exists: `Drive::tick_axes` has
+each axis plan ahead (`PositionPlanner::plan_ahead`), then ticks it, and the mode's step only
+follows the plan. The deepest tick of the session is now the one that takes a jerk-limited
 set-point: the tick 0.8 KiB, `run_pp` 0.45, the request (`PositionPlanner::request`,
-`plan_from_here` 0.19, `Ramps::ask_jerk` 0.13: the decay of the present acceleration) and the
-128-bit division under it (`exact_ticks`, `div_ceil`, `div_trunc`, `udivrem`: some 0.5 KiB).
-The goal of 2 KiB needs the tick's own frame smaller (the tick in phases) or the request's
-division out of the mode's depth. An NMT reset resets each profile in place
-(`Profile::reset`, field by field): no profile is built on its stack.
+`plan_from_here` 0.14, `Ramps::ask_jerk` 0.13: the decay of the present acceleration) and a
+division under it. The deepest chain of the image is the same request whose decay outlasts
+2²⁰ ticks (at 1 kHz, a jerk below a thousandth of the acceleration per second): a 128-bit
+division by a divisor beyond 32 bits
+(`exact_ticks`, `div_ceil`, `div_trunc`, `udivrem`, some 0.5 KiB), about 2.2 KiB in all. An
+NMT reset resets each profile in place (`Profile::reset`, field by field): no profile is
+built on its stack.
 """
 
 if __name__ == "__main__":

@@ -168,6 +168,8 @@ pub struct Profile {
     /// several axes).
     #[cfg(any(feature = "pp", feature = "hm"))]
     planner: Option<PositionPlanner>,
+    /// [`Self::plan_ahead`] ran for the coming tick.
+    planned_ahead: bool,
     /// The encoder count at the user zero: moved by homing (digest §10.5).
     origin: i64,
     /// A homing error EMCY (8613h) is active.
@@ -476,6 +478,7 @@ impl Profile {
             mode: Active::Idle,
             #[cfg(any(feature = "pp", feature = "hm"))]
             planner: None,
+            planned_ahead: false,
             origin: 0,
             homing_error: false,
             last_tick: None,
@@ -549,6 +552,7 @@ impl Profile {
             mode,
             #[cfg(any(feature = "pp", feature = "hm"))]
                 planner: _,
+            planned_ahead,
             origin,
             homing_error,
             last_tick,
@@ -594,6 +598,7 @@ impl Profile {
         *ip = IpBuffer::for_axis(*axis);
         *ip_overflow = false;
         *mode = Active::Idle;
+        *planned_ahead = false;
         *origin = 0;
         *homing_error = false;
         *last_tick = None;
@@ -816,6 +821,19 @@ impl Profile {
             }
         }
         let _ = (actual, user);
+    }
+
+    /// This tick's share of the plan pp or hm has in progress
+    /// ([`PositionPlanner::plan_ahead`]): a drive calls it before [`Self::tick`], where its
+    /// stack is shallow (the plan's stages take some 1.3 KiB of stack, the tick's frame some
+    /// 0.8 KiB); a tick without it does it itself.
+    #[inline]
+    pub(crate) fn plan_ahead(&mut self) {
+        #[cfg(any(feature = "pp", feature = "hm"))]
+        if let Some(planner) = self.planner.as_mut().filter(|p| p.planning() && self.mode.plans()) {
+            planner.plan_ahead();
+        }
+        self.planned_ahead = true;
     }
 
     /// The trajectory planner while pp or hm runs.
@@ -1285,11 +1303,10 @@ impl Profile {
             limits,
         };
         self.commanded = 0;
-        // The share of a plan in progress, here where the stack is shallow (the mode's step
-        // below would add its frames to the planner's).
-        #[cfg(any(feature = "pp", feature = "hm"))]
-        if let Some(planner) = self.planner.as_mut().filter(|_| self.mode.plans()) {
-            planner.plan_ahead();
+        // The share of a plan in progress, before the mode's step (whose frames would come on
+        // top of the planner's), unless the drive has had it done where its stack is shallow.
+        if !core::mem::take(&mut self.planned_ahead) {
+            self.plan_ahead();
         }
         let mut setpoint = match stop {
             None if opening => {

@@ -95,6 +95,22 @@ impl PositionPlanner {
         limits: &Limits,
         sliced: bool,
     ) -> Result<u32, MotionError> {
+        let (target_fixed, last) = self.problem(target, end_velocity, limits)?;
+        let ticks = match limits.profile {
+            // Its limits are converted in the next tick.
+            ProfileType::JerkLimited if sliced => {
+                self.ramps.request_jerk(target_fixed, last, limits, self.rate)?;
+                0
+            }
+            _ => self.ramps_at(target_fixed, last, limits, sliced)?,
+        };
+        self.target = target;
+        u32::try_from(ticks).map_err(|_| MotionError::TooLong)
+    }
+
+    /// The target of a plan in fixed point and the velocity to pass it at (per tick, in the
+    /// direction of the move), once the request is checked.
+    fn problem(&self, target: i64, end_velocity: u32, limits: &Limits) -> Result<(i128, i128), MotionError> {
         if !(-POSITION_RANGE..=POSITION_RANGE).contains(&target) {
             return Err(MotionError::OutOfRange);
         }
@@ -102,24 +118,31 @@ impl PositionPlanner {
             return Err(MotionError::ZeroVelocity);
         }
         limits.check_ramps()?;
-        let start = self.ramps.now();
         let target_fixed = i128::from(target) << FRAC;
-        let to_go = target_fixed - start.p;
+        let to_go = target_fixed - self.ramps.now().p;
         let end_speed = end_velocity.min(limits.velocity);
         let last = if end_speed == 0 { 0 } else { to_go.signum() * per_tick(end_speed, self.hz, 1) };
-        let trapezoid = matches!(limits.profile, ProfileType::Trapezoidal);
-        let ticks = if sliced && !trapezoid {
-            // Its limits are converted in the next tick.
-            self.ramps.request_jerk(target_fixed, last, limits, self.rate)?;
-            0
-        } else if sliced {
-            self.ramps.request(target_fixed, last, &RampLimits::new(limits, self.rate))?;
-            0
+        Ok((target_fixed, last))
+    }
+
+    /// [`Self::plan_from_here`] with the limits converted now: a trapezoid's request, or a plan
+    /// made at once. Out of line: a jerk-limited request (the tick that takes an S-curve
+    /// set-point) does not need its stack.
+    #[inline(never)]
+    fn ramps_at(
+        &mut self,
+        target: i128,
+        last: i128,
+        limits: &Limits,
+        sliced: bool,
+    ) -> Result<u64, MotionError> {
+        let ramp_limits = RampLimits::new(limits, self.rate);
+        if sliced {
+            self.ramps.request(target, last, &ramp_limits)?;
+            Ok(0)
         } else {
-            self.ramps.plan(target_fixed, last, &RampLimits::new(limits, self.rate))?
-        };
-        self.target = target;
-        u32::try_from(ticks).map_err(|_| MotionError::TooLong)
+            self.ramps.plan(target, last, &ramp_limits)
+        }
     }
 
     /// Stops with `deceleration` (increments/s², e.g. 6084h for halt, 6085h for quick stop),
@@ -183,6 +206,12 @@ impl PositionPlanner {
         if self.ramps.planning() {
             self.ramps.work(self.rate);
         }
+    }
+
+    /// A plan asked for is being made: [`Self::plan_ahead`] has work.
+    #[inline]
+    pub fn planning(&self) -> bool {
+        self.ramps.planning()
     }
 
     /// The present demand.

@@ -1453,6 +1453,24 @@ impl JerkJob {
         fitting: Fitting::NONE,
         ramp: Ramp::NONE,
     };
+
+    /// The stage `Convert`: the limits asked for converted, and for a velocity ramp (`ramp`)
+    /// the ramp set up; false if it cannot be. Out of line: the other stages need less stack.
+    #[inline(never)]
+    fn convert(&mut self, rate: TickRate, ramp: bool) -> bool {
+        self.limits = RampLimits::new(&self.asked, rate);
+        if !ramp {
+            self.stage = JerkStage::Search(false);
+            return true;
+        }
+        match self.limits.jerk.as_ref().and_then(|jerk| Ramp::new(jerk, self.v, self.alpha0, self.last)) {
+            Some(ramp) => {
+                (self.ramp, self.stage) = (ramp, JerkStage::Ramp);
+                true
+            }
+            None => false,
+        }
+    }
 }
 
 /// Ticks a jerk-limited plan made over several ticks lays out for: about the ticks it takes.
@@ -1798,19 +1816,7 @@ impl Ramps {
         match job.stage {
             // (Begun by [`Self::begin`].)
             JerkStage::Asked(_) => {}
-            JerkStage::Convert(ramp) => {
-                job.limits = RampLimits::new(&job.asked, rate);
-                if !ramp {
-                    job.stage = JerkStage::Search(false);
-                    return true;
-                }
-                let made =
-                    job.limits.jerk.as_ref().and_then(|jerk| Ramp::new(jerk, job.v, job.alpha0, job.last));
-                match made {
-                    Some(ramp) => (job.ramp, job.stage) = (ramp, JerkStage::Ramp),
-                    None => return false,
-                }
-            }
+            JerkStage::Convert(ramp) => return job.convert(rate, ramp),
             JerkStage::Ramp => match job.ramp.try_fit(done) {
                 Some(None) => {}
                 Some(Some((ticks, pulse, offset, covered))) => {
