@@ -234,9 +234,9 @@ impl ProfilePosition {
         self.heading_taken
     }
 
-    /// Stops with `deceleration` (increments/s²) under `limits`, dropping the set-points
-    /// (quick stop, fault reaction, disable operation / shutdown ramps). Steps are then made by
-    /// [`Self::step_stop`].
+    /// Stops `planner` with `deceleration` (increments/s²) under `limits`, dropping the
+    /// set-points (quick stop, fault reaction, disable operation / shutdown ramps). The
+    /// planner's steps then follow the stop ([`PositionPlanner::follow`]).
     pub fn stop(&mut self, planner: &mut PositionPlanner, deceleration: u32, limits: &Limits) {
         self.active = None;
         self.queue = [None; SLOTS];

@@ -526,7 +526,7 @@ impl Profile {
 
     /// Back to power-on (reset application): written in place, field by field, so that an NMT
     /// reset builds no profile of some 3.5 KiB on its stack. The planner is left as it is: it
-    /// is reset when pp or homing starts ([`Self::start_mode`]), and nothing reads it before.
+    /// is reset when pp or homing starts, and nothing reads it before.
     pub fn reset(&mut self) {
         // Every field named: a field added to the profile must be reset here too.
         let Profile {
