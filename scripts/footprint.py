@@ -372,9 +372,9 @@ rows, and the 128-bit helpers of `wide.rs` it shares have a row of their own).
 
 The flash goals are not reached. The full drive's static RAM is within its goal since the
 dictionary store is sized to the tables (`drive::STANDARD_OD_BYTES` instead of the 3 KiB
-default, −2 KiB) and every mode keeps its state in one variant of the active mode: pp's (its
-1.3 KiB trajectory planner), homing's (its own planner), vl's, ip's and the cyclic modes' share
-the same bytes; the 301-only
+default, −2 KiB) and every mode keeps its state in one variant of the active mode (pp's,
+vl's, ip's and the cyclic modes' share the same bytes) but for pp's and homing's trajectory,
+one planner of some 1.3 KiB per axis that the two share (session 17); the 301-only
 node's since issue 17 (an optional instant in 8 bytes, not 16, through a niche of `Instant`;
 PDO and SDO timers in 4 bytes; one TPDO data buffer: 2 296 → 2 048 B). Since issue 21 the
 profile keeps the motion limits it converted, with the values they came from (about 260 B), so
@@ -383,8 +383,8 @@ last idle tick (some 80 B with the dictionary's revision and the TPDOs' wake tim
 idle tick repeats them while nothing changed (the revision and the sample). Without the
 optional modes (`drive-cyclic`: cargo features `pp`, `hm`, `ip`, `vl`, `touch-probe` off) the
 drive takes a little over half the full image's flash — the trajectory generator of pp and
-hm and the code of those modes are the difference — and some 1.4 KiB less static RAM: the
-variants of pp and hm, with their planners, exist only in the builds that run them. The budgets in `benches/footprint/budgets.txt` are therefore
+hm and the code of those modes are the difference — and some 1.6 KiB less static RAM: the
+planner of pp and hm exists only in the builds that run them. The budgets in `benches/footprint/budgets.txt` are therefore
 set at the measured values plus 3 % (`scripts/footprint.py --update`) so that CI catches
 growth; they are not the goals.
 
@@ -394,14 +394,15 @@ arithmetic, comparisons and `Option`/`Result` handling expand to is counted as `
 
 {areas}
 
-Read with the symbols below: `Profile::tick` is one function of about 27 KiB after inlining
-(the common part, and each mode's step, which it inlines as its only caller: one mode runs at a
-time, but every mode of the build is in the image), the bounded trajectory generator
-(`motion::ramps`, `pulse`, `planner`, `fixed`) about 19 KiB, much of it 128-bit arithmetic
-inlined (checked sums and products; the divisions go through `fixed` and `crate::wide`), and
-the dictionary's descriptions (40 bytes per entry without names, 56 per object) most of
-`.rodata`. The goal of 48 KiB is beyond what the open items can give: the motion code alone
-is some 19 KiB and `Profile::tick` 27 KiB, and descriptors of 16 bytes
+Read with the symbols below: `Profile::tick` is inlined into `Drive::full_tick` (some 12 KiB
+with the drive's part), each mode's step is a function of its own since session 17 (`run_pp`,
+`run_homing`, `run_vl`, `run_cyclic`, …: some 15 KiB together; one mode runs at a time, but
+every mode of the build is in the image), the bounded trajectory generator (`motion::ramps`,
+`pulse`, `planner`, `fixed`) about 19 KiB, much of it 128-bit arithmetic inlined (checked sums
+and products; the divisions go through `fixed` and `crate::wide`), and the dictionary's
+descriptions (40 bytes per entry without names, 56 per object) most of `.rodata`. The goal of
+48 KiB is beyond what the open items can give: the motion code alone is some 19 KiB and the
+profile's tick and modes some 27 KiB, and descriptors of 16 bytes
 (issue 17 item 2) would save some 6 KiB of `.rodata`. The rest is spread over parts of a size
 each: the CiA 301 services, the dictionary, the modes, the profile's run-time and the `core`
 code they inline (Option/Result handling, comparisons, copies).
