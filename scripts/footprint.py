@@ -422,21 +422,19 @@ part has.
 The tick's depth (thumbv7em, frames read from the disassembly's stack adjustments and calls,
 session 17): the tick's own frame, `Drive::full_tick` with `Profile::tick` inlined, about
 0.8 KiB; the active mode's step under it (`Profile::run_pp` about 0.45 KiB, `run_homing`
-0.37, each mode's step a function of its own); and under that what the step calls. pp and
-homing share one position planner per axis, built when the drive is configured and reset in
-place when either mode starts, so a change of the mode of operation builds no planner on the
-tick's stack (it was the deepest tick, 4.1 KiB). The share of a plan in progress (its stages
-take up to some 1.3 KiB) is worked on before the tick's frame exists: `Drive::tick_axes` has
-each axis plan ahead (`PositionPlanner::plan_ahead`), then ticks it, and the mode's step only
-follows the plan. The deepest tick of the session is now the one that takes a jerk-limited
-set-point: the tick 0.8 KiB, `run_pp` 0.45, the request (`PositionPlanner::request`,
-`plan_from_here` 0.14, `Ramps::ask_jerk` 0.13: the decay of the present acceleration) and a
-division under it. The deepest chain of the image is the same request whose decay outlasts
-2²⁰ ticks (at 1 kHz, a jerk below a thousandth of the acceleration per second): a 128-bit
-division by a divisor beyond 32 bits
-(`exact_ticks`, `div_ceil`, `div_trunc`, `udivrem`, some 0.5 KiB), about 2.2 KiB in all. An
-NMT reset resets each profile in place (`Profile::reset`, field by field): no profile is
-built on its stack.
+0.37, each mode's step a function of its own); and under that the planner's step, which does
+the tick's share of a plan in progress (`PositionPlanner::step` 0.25, then a stage: a
+trapezoid's `Ramps::work_trapezoid` 0.5, a jerk-limited one's up to some 1.2 KiB), some
+2.8 KiB in all. pp and homing share one position planner per axis, built when the drive is
+configured and reset in place when either mode starts, so a change of the mode of operation
+builds no planner on the tick's stack (it was the deepest tick, 4.1 KiB). The goal of 2 KiB
+needs the share of a plan out of the mode's depth. Done before the mode's step (tried in
+session 17: 1.9 KiB), the share is wasted in a tick whose set-point replaces the plan (up to
+6 677 Cortex-M4 instructions); done after the tick for the next one, a plan begun in a tick
+waits a tick, and the provisional step the axis takes meanwhile costs the tick that completes
+the plan some 370 instructions (homing's worst tick 5 236): that order needs the provisional
+acceleration computed in the share, not in the step. An NMT reset resets each profile in place
+(`Profile::reset`, field by field): no profile is built on its stack.
 """
 
 if __name__ == "__main__":

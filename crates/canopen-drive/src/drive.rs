@@ -1178,11 +1178,6 @@ impl<
                 self.axes.get(axis).map_or(Demand::OFF, Profile::quiet_demand)
             });
         }
-        // The share of a plan in progress, here where the stack is shallow: below the tick's
-        // frame (some 0.7 KiB), the plan's stages would make the deepest tick.
-        for profile in &mut self.axes {
-            profile.plan_ahead();
-        }
         self.full_tick(now, samples)
     }
 

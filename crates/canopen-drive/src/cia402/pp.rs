@@ -236,7 +236,7 @@ impl ProfilePosition {
 
     /// Stops `planner` with `deceleration` (increments/s²) under `limits`, dropping the
     /// set-points (quick stop, fault reaction, disable operation / shutdown ramps). The
-    /// planner's steps then follow the stop ([`PositionPlanner::follow`]).
+    /// planner's steps then follow the stop ([`PositionPlanner::step`]).
     pub fn stop(&mut self, planner: &mut PositionPlanner, deceleration: u32, limits: &Limits) {
         self.active = None;
         self.queue = [None; SLOTS];
@@ -410,7 +410,7 @@ impl ProfilePosition {
             let _ = self.plan_active(planner, &limits, end_velocity);
         }
 
-        let state = planner.follow();
+        let state = planner.step();
         if !self.halted && planner.is_finished() {
             if let Some(done) = self.active.take() {
                 self.last = Some(done);

@@ -168,8 +168,6 @@ pub struct Profile {
     /// several axes).
     #[cfg(any(feature = "pp", feature = "hm"))]
     planner: Option<PositionPlanner>,
-    /// [`Self::plan_ahead`] ran for the coming tick.
-    planned_ahead: bool,
     /// The encoder count at the user zero: moved by homing (digest §10.5).
     origin: i64,
     /// A homing error EMCY (8613h) is active.
@@ -478,7 +476,6 @@ impl Profile {
             mode: Active::Idle,
             #[cfg(any(feature = "pp", feature = "hm"))]
             planner: None,
-            planned_ahead: false,
             origin: 0,
             homing_error: false,
             last_tick: None,
@@ -552,7 +549,6 @@ impl Profile {
             mode,
             #[cfg(any(feature = "pp", feature = "hm"))]
                 planner: _,
-            planned_ahead,
             origin,
             homing_error,
             last_tick,
@@ -598,7 +594,6 @@ impl Profile {
         *ip = IpBuffer::for_axis(*axis);
         *ip_overflow = false;
         *mode = Active::Idle;
-        *planned_ahead = false;
         *origin = 0;
         *homing_error = false;
         *last_tick = None;
@@ -821,19 +816,6 @@ impl Profile {
             }
         }
         let _ = (actual, user);
-    }
-
-    /// This tick's share of the plan pp or hm has in progress
-    /// ([`PositionPlanner::plan_ahead`]): a drive calls it before [`Self::tick`], where its
-    /// stack is shallow (the plan's stages take some 1.3 KiB of stack, the tick's frame some
-    /// 0.8 KiB); a tick without it does it itself.
-    #[inline]
-    pub(crate) fn plan_ahead(&mut self) {
-        #[cfg(any(feature = "pp", feature = "hm"))]
-        if let Some(planner) = self.planner.as_mut().filter(|p| p.planning() && self.mode.plans()) {
-            planner.plan_ahead();
-        }
-        self.planned_ahead = true;
     }
 
     /// The trajectory planner while pp or hm runs.
@@ -1303,11 +1285,6 @@ impl Profile {
             limits,
         };
         self.commanded = 0;
-        // The share of a plan in progress, before the mode's step (whose frames would come on
-        // top of the planner's), unless the drive has had it done where its stack is shallow.
-        if !core::mem::take(&mut self.planned_ahead) {
-            self.plan_ahead();
-        }
         let mut setpoint = match stop {
             None if opening => {
                 self.hold_mode(actual, actual_user);
@@ -1721,7 +1698,7 @@ impl Profile {
         }
         #[cfg(any(feature = "pp", feature = "hm"))]
         if let Some(planner) = self.planner.as_mut().filter(|_| self.mode.plans()) {
-            let state = if self.mode.is_hm() { self.homing.step_stop(planner) } else { planner.follow() };
+            let state = if self.mode.is_hm() { self.homing.step_stop(planner) } else { planner.step() };
             return Setpoint::Position(state.position_demand());
         }
         match &mut self.mode {

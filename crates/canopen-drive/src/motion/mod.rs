@@ -59,12 +59,6 @@
 //! takes a median 2 and at most 5 ticks more than one made at once. pv ramps
 //! ([`VelocityRamp`]) are still made at once.
 //!
-//! Where a tick's stack is tight, the share of a plan is done apart from the demand's step:
-//! [`PositionPlanner::plan_ahead`] at the top of the tick (the drive calls it before the
-//! profile's tick, where its stack is shallow: a plan's stages take up to some 1.3 KiB on a
-//! Cortex-M4), then [`PositionPlanner::follow`] from the mode's step; [`PositionPlanner::step`]
-//! does both.
-//!
 //! # Numeric representation, and why
 //!
 //! The targets are Cortex-M4F (single-precision FPU) and Cortex-M0 (no FPU). `f64` would be

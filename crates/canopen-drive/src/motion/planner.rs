@@ -183,35 +183,9 @@ impl PositionPlanner {
     /// Advances one tick and returns the new demand.
     pub fn step(&mut self) -> MotionState {
         self.ramps.work(self.rate);
-        self.follow()
-    }
-
-    /// [`Self::step`] after [`Self::plan_ahead`] did the tick's share of the plan in progress:
-    /// a request of this tick only moves to its first stage (as in [`Self::step`]).
-    pub fn follow(&mut self) -> MotionState {
-        if self.ramps.planning() {
-            self.ramps.begin();
-        }
         self.ramps.step();
         self.state = state_of(&self.ramps.now(), self.hz);
         self.state
-    }
-
-    /// This tick's share of a plan in progress, where the caller's stack is shallow: a drive
-    /// calls it at the top of its tick, then [`Self::follow`] from the mode's step, in place
-    /// of [`Self::step`] (the stages of a plan take some 2 KiB of stack below this call,
-    /// which would come on top of the mode's frames). A plan asked for later in the tick
-    /// begins in [`Self::follow`].
-    pub fn plan_ahead(&mut self) {
-        if self.ramps.planning() {
-            self.ramps.work(self.rate);
-        }
-    }
-
-    /// A plan asked for is being made: [`Self::plan_ahead`] has work.
-    #[inline]
-    pub fn planning(&self) -> bool {
-        self.ramps.planning()
     }
 
     /// The present demand.
