@@ -199,7 +199,11 @@ fn after_tick(rig: &Rig, expect: impl FnOnce(&crate::BenchDrive) -> bool) -> Res
 
 /// The drive of `rig` after `ticks` ticks from the measured one on (tried on a copy; `rig` is
 /// unchanged).
-fn after_ticks(rig: &Rig, ticks: u32, expect: impl FnOnce(&crate::BenchDrive) -> bool) -> Result<(), SetupError> {
+fn after_ticks(
+    rig: &Rig,
+    ticks: u32,
+    expect: impl FnOnce(&crate::BenchDrive) -> bool,
+) -> Result<(), SetupError> {
     let mut scratch = Scratch::new();
     let copy = scratch.copy_of(&rig.drive);
     let mut now = rig.now;
@@ -210,15 +214,22 @@ fn after_ticks(rig: &Rig, ticks: u32, expect: impl FnOnce(&crate::BenchDrive) ->
     check(expect(copy), "the measured tick has the expected effect")
 }
 
-/// pp from 0 towards 1 000 000 increments at 100 000 increments/s, 500 000 increments/s²;
-/// 25 ms after the start (the S-curve, with a jerk of 10⁷ increments/s³, in its first jerk
-/// phase of 50 ms).
-fn pp_moving(s_curve: bool) -> Result<Rig, SetupError> {
+/// pp enabled (S-curve or trapezoid), given a set-point to 1 000 000 increments (bit 4 set,
+/// cleared after its first tick), `ms` ticks after it.
+fn pp_started(s_curve: bool, ms: u32) -> Result<Rig, SetupError> {
     let mut rig = pp_enabled(s_curve)?;
     new_setpoint(&mut rig, 1_000_000, 0x001F)?;
     rig.run(1);
     rig.write(0x6040, 0, &0x000Fu16.to_le_bytes())?;
-    rig.run(24);
+    rig.run(ms - 1);
+    Ok(rig)
+}
+
+/// pp from 0 towards 1 000 000 increments at 100 000 increments/s, 500 000 increments/s²;
+/// 25 ms after the start (the S-curve, with a jerk of 10⁷ increments/s³, in its first jerk
+/// phase of 50 ms).
+fn pp_moving(s_curve: bool) -> Result<Rig, SetupError> {
+    let mut rig = pp_started(s_curve, 25)?;
     let velocity = rig.read(0x606B, 0)? as i32;
     check(velocity > 0 && velocity < 100_000, "pp accelerating")?;
     check(rig.statusword()? & 0x0400 == 0, "pp target not reached")?;
@@ -279,11 +290,7 @@ fn tick_pp_change_immediately() -> Result<Prepared, SetupError> {
 /// must not also carry a share of the plan it replaces (a share done before the set-point is
 /// taken would be; session 17 measured 6 677 Cortex-M4 instructions for that order).
 fn tick_pp_change_planning() -> Result<Prepared, SetupError> {
-    let mut rig = pp_enabled(true)?;
-    new_setpoint(&mut rig, 1_000_000, 0x001F)?;
-    rig.run(1);
-    rig.write(0x6040, 0, &0x000Fu16.to_le_bytes())?;
-    rig.run(4);
+    let mut rig = pp_started(true, 5)?;
     check(rig.statusword()? & 0x0400 == 0, "pp target not reached")?;
     new_setpoint(&mut rig, 300_000, 0x003F)?;
     after_tick(&rig, acknowledged)?;
@@ -294,11 +301,7 @@ fn tick_pp_change_planning() -> Result<Prepared, SetupError> {
 /// velocity limit is 100 000 increments/s, reached after 250 ms; the plan cruises at 99 990, a
 /// peak that lands on the target in whole ticks).
 fn pp_full_speed() -> Result<Rig, SetupError> {
-    let mut rig = pp_enabled(true)?;
-    new_setpoint(&mut rig, 1_000_000, 0x001F)?;
-    rig.run(1);
-    rig.write(0x6040, 0, &0x000Fu16.to_le_bytes())?;
-    rig.run(399);
+    let mut rig = pp_started(true, 400)?;
     let velocity = rig.read(0x606B, 0)? as i32;
     check((99_900..=100_000).contains(&velocity), "pp cruising at full speed")?;
     check(rig.statusword()? & 0x0400 == 0, "pp target not reached")?;
