@@ -420,20 +420,27 @@ image needed about 43 KiB (several copies in the constructor's frame) — more t
 part has.
 
 The tick's depth (thumbv7em, frames read from the disassembly's stack adjustments and calls,
-session 17): the tick's own frame, `Drive::full_tick` with `Profile::tick` inlined, about
-0.8 KiB; the active mode's step under it (`Profile::run_pp` about 0.45 KiB, `run_homing`
-0.37, each mode's step a function of its own); and under that the planner's step, which does
-the tick's share of a plan in progress (`PositionPlanner::step` 0.25, then a stage: a
-trapezoid's `Ramps::work_trapezoid` 0.5, a jerk-limited one's up to some 1.2 KiB), some
-2.8 KiB in all. pp and homing share one position planner per axis, built when the drive is
-configured and reset in place when either mode starts, so a change of the mode of operation
-builds no planner on the tick's stack (it was the deepest tick, 4.1 KiB). The goal of 2 KiB
-needs the share of a plan out of the mode's depth. Done before the mode's step (tried in
-session 17: 1.9 KiB), the share is wasted in a tick whose set-point replaces the plan (up to
-6 677 Cortex-M4 instructions); done after the tick for the next one, a plan begun in a tick
-waits a tick, and the provisional step the axis takes meanwhile costs the tick that completes
-the plan some 370 instructions (homing's worst tick 5 236): that order needs the provisional
-acceleration computed in the share, not in the step. An NMT reset resets each profile in place
+session 18). Two chains, one after the other, never one on the other:
+- the tick's work: `Drive::full_tick` with `Profile::tick` inlined, about 0.8 KiB; the active
+  mode's step under it (`Profile::run_pp` about 0.45 KiB, `run_homing` 0.37, each mode's step
+  a function of its own); under that a set-point's request (checked and converted, some
+  0.3 KiB to `Ramps::ask_jerk`) or the planner's step (`PositionPlanner::follow`: a tick of
+  the plan, no planning);
+- then, once the demands are out, the share of a plan in progress for the next tick
+  (`Drive::tick_axes` calls `Profile::plan_ahead` for each axis): a stage of a trapezoid
+  (`Ramps::work_trapezoid`, some 0.5 KiB with its callees) or of a jerk-limited plan
+  (`Ramps::work_jerk`, up to some 1.2 KiB).
+
+Measured, the deepest tick is 1 928 B (2 956 B with the share under the mode's step, session
+17). The disassembly's longest chain, which follows every call whether a tick takes it or
+not, is about 2.2 KiB: the first chain down to a 128-bit division that a request reaches only
+for a decay of more than 2²⁰ ticks (`fixed::exact_ticks` → `div_ceil` → `wide::udivrem_wide`,
+some 0.4 KiB). The share of the tick that asks for a plan only begins it, so a plan starts one
+tick later than with the share before the step; the provisional acceleration of a trapezoid
+being planned is chosen in the share, so the share that completes a plan computes none. pp
+and homing share one position planner per axis, built when the drive is configured and reset
+in place when either mode starts, so a change of the mode of operation builds no planner on
+the tick's stack (it was the deepest tick, 4.1 KiB). An NMT reset resets each profile in place
 (`Profile::reset`, field by field): no profile is built on its stack.
 """
 

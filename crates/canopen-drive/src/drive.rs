@@ -1178,7 +1178,13 @@ impl<
                 self.axes.get(axis).map_or(Demand::OFF, Profile::quiet_demand)
             });
         }
-        self.full_tick(now, samples)
+        let demands = self.full_tick(now, samples);
+        // The share of a plan in progress for the next tick, once this one's work is done (out
+        // of the tick's frames: the deepest stack is one or the other, not both).
+        for profile in &mut self.axes {
+            profile.plan_ahead();
+        }
+        demands
     }
 
     /// [`Self::tick_axes`] with every input looked at.

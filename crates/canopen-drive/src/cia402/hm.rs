@@ -738,7 +738,7 @@ impl Homing {
 
     /// One tick of a stop started by [`Self::stop`].
     pub fn step_stop(&mut self, planner: &mut PositionPlanner) -> crate::motion::MotionState {
-        planner.step()
+        planner.follow()
     }
 
     /// The statusword bits 10/12/13 now; `moving`: the demand moves; `on_home`: the shaft
@@ -865,7 +865,7 @@ impl Homing {
             self.run_step(planner, n, input, previous, &mut outcome);
         }
 
-        let state = planner.step();
+        let state = planner.follow();
         if planner.is_finished() {
             match self.phase {
                 Phase::Finishing => {

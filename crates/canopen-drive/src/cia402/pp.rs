@@ -410,7 +410,7 @@ impl ProfilePosition {
             let _ = self.plan_active(planner, &limits, end_velocity);
         }
 
-        let state = planner.step();
+        let state = planner.follow();
         if !self.halted && planner.is_finished() {
             if let Some(done) = self.active.take() {
                 self.last = Some(done);

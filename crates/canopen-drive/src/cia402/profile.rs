@@ -818,6 +818,18 @@ impl Profile {
         let _ = (actual, user);
     }
 
+    /// The share of a pp or homing plan in progress for the next tick, after this one's
+    /// [`Self::tick`] (the plan is made over several ticks, a bounded share in each). Its stack
+    /// is then not under the tick's: a board's tick (e.g. [`crate::drive::Drive::tick_axes`])
+    /// calls it once its demands are out.
+    #[inline]
+    pub fn plan_ahead(&mut self) {
+        #[cfg(any(feature = "pp", feature = "hm"))]
+        if let Some(planner) = self.planner.as_mut().filter(|_| self.mode.plans()) {
+            planner.plan_ahead();
+        }
+    }
+
     /// The trajectory planner while pp or hm runs.
     fn planner(&self) -> Option<&PositionPlanner> {
         #[cfg(any(feature = "pp", feature = "hm"))]
@@ -1036,7 +1048,7 @@ impl Profile {
         self.quiet.demand
     }
 
-    /// One control tick.
+    /// One control tick. A caller calls [`Self::plan_ahead`] after it.
     pub fn tick<const B: usize>(
         &mut self,
         now: Instant,
@@ -1698,7 +1710,7 @@ impl Profile {
         }
         #[cfg(any(feature = "pp", feature = "hm"))]
         if let Some(planner) = self.planner.as_mut().filter(|_| self.mode.plans()) {
-            let state = if self.mode.is_hm() { self.homing.step_stop(planner) } else { planner.step() };
+            let state = if self.mode.is_hm() { self.homing.step_stop(planner) } else { planner.follow() };
             return Setpoint::Position(state.position_demand());
         }
         match &mut self.mode {
@@ -2390,6 +2402,7 @@ mod standstill_tests {
     fn tick(profile: &mut Profile, od: &mut Dictionary<4096>, ms: u64, velocity: i32) -> u16 {
         let sample = Sample { dc_link_millivolts: 48_000, velocity, ..Sample::default() };
         profile.tick(Instant::from_millis(ms), &sample, od, SyncInput::default());
+        profile.plan_ahead();
         od.get::<u16>(STATUSWORD, 0).unwrap_or(0)
     }
 
@@ -2458,7 +2471,9 @@ mod axis_tests {
 
     fn tick(profile: &mut Profile, od: &mut Dictionary<4096>, ms: u64) -> Demand {
         let sample = Sample { dc_link_millivolts: 48_000, ..Sample::default() };
-        profile.tick(Instant::from_millis(ms), &sample, od, SyncInput::default()).0
+        let demand = profile.tick(Instant::from_millis(ms), &sample, od, SyncInput::default()).0;
+        profile.plan_ahead();
+        demand
     }
 
     #[test]

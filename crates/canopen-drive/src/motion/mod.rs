@@ -51,13 +51,20 @@
 //! few steps of the search per tick, then the counts, then per round the peak, one leg's fit
 //! per tick and the legs completed in a tick of their own, for the state of the request — the
 //! axis meanwhile ramps its acceleration out and coasts, which is how every plan from that
-//! state begins (its first pulse is delayed until the plan is complete, usually 12 to 17
-//! ticks). Halts and quick stops ([`PositionPlanner::request_stop`]): a trapezoid's is one leg,
-//! made at once; a jerk-limited one ramps its acceleration out from the tick that asks, its
-//! limits are converted in the next and a length of its pulse is tried in each after (usually
-//! one), so its deceleration starts two ticks after the request; over the random scenarios it
-//! takes a median 2 and at most 5 ticks more than one made at once. pv ramps
-//! ([`VelocityRamp`]) are still made at once.
+//! state begins (its first pulse is delayed until the plan is complete, usually 9 to 16
+//! ticks after the request). Halts and quick stops ([`PositionPlanner::request_stop`]): a
+//! trapezoid's is one leg, made at once; a jerk-limited one ramps its acceleration out from
+//! the tick that asks, its limits are converted in the next and a length of its pulse is tried
+//! in each after (usually one), so its deceleration starts three ticks after the request; over
+//! the random scenarios it takes a median 3 and at most 4 ticks more than one made at once.
+//! pv ramps ([`VelocityRamp`]) are still made at once.
+//!
+//! Each tick's share of that work is done after the tick's step, for the next one
+//! ([`PositionPlanner::follow`], then [`PositionPlanner::plan_ahead`]; [`PositionPlanner::step`]
+//! is the two): a drive's tick does the share once its demands are out, so that the stack of
+//! the share and the stack of the mode's step are not one on the other. The tick that asks for
+//! a plan only begins it, so a plan starts one tick after it would with the share done before
+//! the step.
 //!
 //! # Numeric representation, and why
 //!

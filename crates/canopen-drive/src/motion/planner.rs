@@ -64,17 +64,17 @@ impl PositionPlanner {
     }
 
     /// [`Self::plan`] in bounded time per tick, as a drive's tick needs it. The request is
-    /// checked at once (the same errors; on error the present motion continues). A trapezoid
-    /// is then planned by the following [`Self::step`]s, a layout or a round of its solver per
-    /// step, none in the step of the tick that asks; meanwhile the axis already moves under a
-    /// provisional rule (towards the target at the acceleration while the velocity limit and
-    /// the room to slow down allow, else slowing down), and the plan starts, usually in the
-    /// third step, from wherever that brought it. A jerk-limited plan is made for the state of
-    /// this tick over the following steps (a few steps of its search, its counts, then per
-    /// round its peak and one leg per step), while the axis ramps its acceleration out and
-    /// coasts as that plan begins; its first pulse starts in the step that completes it
-    /// (usually the 12th to the 17th). [`Self::is_finished`] is false until the plan is
-    /// complete.
+    /// checked at once (the same errors; on error the present motion continues). The plan is
+    /// then made by the shares ([`Self::plan_ahead`]) of the following ticks, none in the tick
+    /// that asks (its share only begins it). A trapezoid: a layout or a round of its solver
+    /// per share; meanwhile the axis already moves under a provisional rule (towards the
+    /// target at the acceleration while the velocity limit and the room to slow down allow,
+    /// else slowing down), and the plan starts, usually in the fourth step after the one of
+    /// the request, from wherever that brought it. A jerk-limited plan is made for the state
+    /// of this tick (a few steps of its search per share, its counts, then per round its peak
+    /// and one leg), while the axis ramps its acceleration out and coasts as that plan begins;
+    /// it is complete usually 9 to 16 ticks after the request. [`Self::is_finished`] is false
+    /// until the plan is complete.
     pub fn request(&mut self, target: i64, end_velocity: u32, limits: &Limits) -> Result<(), MotionError> {
         let result = self.plan_from_here(target, end_velocity, limits, true);
         if !matches!(limits.profile, ProfileType::Trapezoidal) {
@@ -180,12 +180,32 @@ impl PositionPlanner {
         Ok(())
     }
 
-    /// Advances one tick and returns the new demand.
+    /// Advances one tick and returns the new demand: [`Self::follow`], then the share of a
+    /// plan in progress for the next tick ([`Self::plan_ahead`]).
     pub fn step(&mut self) -> MotionState {
-        self.ramps.work(self.rate);
+        self.follow();
+        self.plan_ahead();
+        self.state
+    }
+
+    /// Advances one tick without a share of a plan in progress: for a caller that does the
+    /// share for the next tick with [`Self::plan_ahead`] after its own work (a drive's tick,
+    /// so that the share's stack is not under the mode's).
+    pub fn follow(&mut self) -> MotionState {
         self.ramps.step();
         self.state = state_of(&self.ramps.now(), self.hz);
         self.state
+    }
+
+    /// The share of a plan in progress for the next [`Self::follow`] (none while no plan is
+    /// being made). The share of the tick that asked for a plan only begins it; the work
+    /// starts with the next tick's. [`Self::state`] stays as the step left it (while a
+    /// trapezoid is made, its acceleration is the provisional one of the tick just stepped,
+    /// not yet the next tick's, which the share chooses).
+    pub fn plan_ahead(&mut self) {
+        if self.ramps.planning() {
+            self.ramps.work(self.rate);
+        }
     }
 
     /// The present demand.

@@ -44,8 +44,11 @@
 //! A drive asks for its plans this way, so that no tick makes a whole plan: the tick that asks
 //! checks the request and does nothing more (it has the set-point's own work), the next one
 //! makes the layout, each following one a round; the fallback's layout and rounds follow the
-//! same way. The plan starts in the tick whose round completes it, from that tick's state:
-//! usually the third tick after the request. Meanwhile the axis follows a *provisional rule*,
+//! same way. Each tick's share of the work ([`Ramps::work`]) runs after its step, for the next
+//! tick: a drive does it once the tick's demands are out, outside the frames of the mode's
+//! step (the two stacks do not add up). The plan starts in the tick after the round that
+//! completes it, from the state that round saw: usually the fourth tick after the request.
+//! Meanwhile the axis follows a *provisional rule*,
 //! a trapezoid made online one tick at a time: towards the target at the acceleration while
 //! the velocity limit and the room to slow down to the end velocity allow, otherwise slowing
 //! down at the deceleration (to standstill exactly when it moves away from the target). So the
@@ -68,10 +71,10 @@
 //!
 //! Cortex-M4 instructions (`benches/mcu-motion`, `scripts/bench.sh`): a plan made at once
 //! some 3 200 (8 700 when it takes the fallback; the exact planner: 57 500 to 127 500); the
-//! tick that takes a pp set-point 4 846 (S-curve 4 712), the one that starts homing 4 733, a
-//! halt 3 610 and a quick stop 3 967 (S-curve), the worst tick of a whole S-curve move 4 795,
-//! of a halt 4 749 and of a homing run 4 791, where a steady pp tick costs 2 600 – 2 800; on
-//! v6-M every one of these ticks is within 15 000 (the worst, 14 763, a fit of a pulse). The
+//! tick that takes a pp set-point 4 623 (S-curve 4 563), the one that starts homing 4 687, a
+//! halt 3 654 and a quick stop 3 960 (S-curve), the worst tick of a whole S-curve move 4 874,
+//! of a halt 4 824 and of a homing run 4 867, where a steady pp tick costs 2 660 – 2 880; on
+//! v6-M every one of these ticks is within 15 000 (the worst, 14 869, in an S-curve move). The
 //! layout is a few dozen `f32` operations; a round four 128-by-32-bit products and one
 //! 128-by-32-bit division in 16-bit half-digits.
 //!
@@ -1705,8 +1708,8 @@ impl Ramps {
     /// the next ticks by [`Self::work`]: nothing in the tick that asks, then the layout, then
     /// a round per tick (see the module docs). The axis holds its velocity in the tick that
     /// asks and follows the provisional rule ([`Self::provisional`]) from the next; the plan
-    /// starts in the tick that completes it, from the state of that tick (usually the third
-    /// after the request).
+    /// starts in the tick after the share that completes it, from the state that share saw
+    /// (usually the fourth tick after the request).
     pub(crate) fn request(
         &mut self,
         target: i128,
@@ -1743,8 +1746,7 @@ impl Ramps {
     /// ([`Self::work`]: the limits converted, a few steps of the layout's search per tick,
     /// then its counts, then per round the peak and one leg's fit per tick) for the state of
     /// this tick, while the axis ramps its acceleration out and coasts — the start of every
-    /// plan from this state. The first pulse starts in the tick that completes the plan
-    /// (usually the 12th to the 17th).
+    /// plan from this state. The plan is complete usually 9 to 16 ticks after the request.
     pub(crate) fn request_jerk(
         &mut self,
         target: i128,
@@ -2030,13 +2032,19 @@ impl Ramps {
     #[inline(never)]
     fn work_trapezoid(&mut self) {
         let made = |fallback: bool| if fallback { Made::Fallback } else { Made::Layout };
+        // The acceleration of the tick this share is for: the provisional rule's. A round
+        // solves from the present state, and a round that completes the plan needs none.
+        let round = matches!(self.job.as_ref().map(|job| job.stage), Some(Stage::Round { .. }));
+        if !round {
+            self.a = self.provisional();
+        }
         // Worked on in place (a job and the legs are some 200 bytes to copy).
         let (p2, v, a) = (self.p2, self.v, self.a);
         let Some(job) = self.job.as_mut() else { return };
         let limits = job.limits();
         let outcome = job.target2.checked_sub(p2).and_then(|distance2| {
             let problem = Move { distance2, u0: v, alpha0: 0, delay: 0, ue: job.last, limits: &limits };
-            // The state of the next tick, after this one's provisional acceleration `a`.
+            // The state after the tick this share is for, at its provisional acceleration `a`.
             let next = Move {
                 distance2: distance2.checked_sub(v.checked_mul(2)?.checked_add(a)?)?,
                 u0: v.checked_add(a)?,
@@ -2081,6 +2089,8 @@ impl Ramps {
             }
         });
         match outcome {
+            // A round that did not complete the plan: the provisional rule meanwhile.
+            Some(None) if round => self.a = self.provisional(),
             Some(None) => {}
             Some(Some((end_p2, end_v, made))) => {
                 self.job = None;
@@ -2211,11 +2221,15 @@ impl Ramps {
     /// Advances one tick. After the plan the state moves on at its end velocity.
     pub(crate) fn step(&mut self) {
         if self.left == 0 {
-            // After a plan: on at its end velocity. While one is made: the provisional rule.
+            // After a plan: on at its end velocity. While one is made: the provisional rule,
+            // whose acceleration each share of the plan sets ([`Self::work`]) but for the
+            // tick that asked (its share only begins the plan).
             // (Additions: a 128-bit product, even by 2, is a long library call on a Cortex-M0.)
             self.p2 = self.p2.saturating_add(self.v).saturating_add(self.v).saturating_add(self.a);
             self.v = self.v.saturating_add(self.a);
-            self.a = self.provisional();
+            if matches!(self.job.as_ref().map(|job| job.stage), Some(Stage::Asked)) {
+                self.a = self.provisional();
+            }
             return;
         }
         if self.jerk_limited {
