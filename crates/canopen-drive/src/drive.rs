@@ -45,7 +45,8 @@ use crate::comm::error_control::{
     HeartbeatConsumer, NodeGuarding,
 };
 use crate::comm::heartbeat::{HeartbeatProducer, PeriodSlot};
-use crate::comm::lss::{LssHooks, LssSlave, StoreError, DEFAULT_BIT_RATES};
+use crate::comm::indicators::NodeStatus;
+use crate::comm::lss::{LssHooks, LssSlave, LssState, StoreError, DEFAULT_BIT_RATES};
 use crate::comm::nmt::{transition, NmtAction, Services};
 use crate::comm::pdo::{self, FrameSink, PdoEvent, PdoRecord, PdoSet, RpdoFrame, ValueRules};
 use crate::comm::sdo_server::{upload_in_two_steps, ObjectAccess, SdoServer};
@@ -105,7 +106,10 @@ pub use crate::comm::ConnectionEvent;
 pub enum CanState {
     /// Error active: everything normal (also: recovered).
     ErrorActive,
-    /// Error passive (EMCY 0x8120 while it lasts).
+    /// Error active, but a receive or transmit error counter reached the warning limit (96):
+    /// no EMCY; the ERR indicator's single flash while it lasts (CiA 303-3).
+    WarningLimit,
+    /// Error passive (EMCY 0x8120 while it lasts; the ERR indicator's single flash too).
     ErrorPassive,
     /// Bus-off: the node cannot send (EMCY 0x8140 after recovery, 1029h reaction).
     BusOff,
@@ -265,6 +269,8 @@ pub struct Drive<
     heartbeat_consumer: HeartbeatConsumer<{ HEARTBEAT_CONSUMERS as usize }>,
     guarding: NodeGuarding,
     bus_off: bool,
+    /// [`CanState::WarningLimit`] or [`CanState::ErrorPassive`] reported last.
+    warning_limit: bool,
     connection_event: Option<ConnectionEvent>,
     sync: Sync,
     /// What the tick learns about the SYNC cycle (cyclic modes).
@@ -601,6 +607,7 @@ impl<
             heartbeat_consumer: HeartbeatConsumer::default(),
             guarding: NodeGuarding::default(),
             bus_off: false,
+            warning_limit: false,
             connection_event: None,
             sync: Sync::default(),
             cycle: CycleFlags::default(),
@@ -681,6 +688,23 @@ impl<
     /// The NMT state.
     pub fn nmt_state(&self) -> NmtState {
         self.nmt
+    }
+
+    /// The node's state as the CiA 303-3 indicators show it: a board samples
+    /// [`NodeStatus::leds`] with the drive's clock and drives its RUN (green) and ERR (red)
+    /// LEDs. What only the board knows (an invalid configuration, a program download) it sets
+    /// in the returned value first.
+    pub fn node_status(&self) -> NodeStatus {
+        NodeStatus {
+            lss_configuration: matches!(self.lss.state(), LssState::Configuration),
+            node_id_unconfigured: !self.is_configured(),
+            warning_limit: self.warning_limit,
+            error_control_event: self.heartbeat_consumer.any_timed_out() || self.guarding.failed(),
+            sync_lost: self.sync.is_lost(),
+            rpdo_timeout: self.emcy.is_active(code::RPDO_TIMEOUT),
+            bus_off: self.bus_off,
+            ..NodeStatus::new(self.nmt)
+        }
     }
 
     /// The object dictionary (device-side access).
@@ -961,6 +985,7 @@ impl<
                 self.communication_reaction(ConnectionEvent::BusOff, now);
             }
             CanState::ErrorActive => {
+                self.warning_limit = false;
                 self.clear_error(code::CAN_ERROR_PASSIVE);
                 if core::mem::take(&mut self.bus_off) {
                     // Reported once the node can speak again (digest §15).
@@ -968,7 +993,13 @@ impl<
                     self.clear_error(code::RECOVERED_FROM_BUS_OFF);
                 }
             }
+            CanState::WarningLimit => {
+                self.warning_limit = true;
+                // Back from error passive, or on the way there.
+                self.clear_error(code::CAN_ERROR_PASSIVE);
+            }
             CanState::ErrorPassive => {
+                self.warning_limit = true;
                 self.raise_error(code::CAN_ERROR_PASSIVE, ErrorRegister::COMMUNICATION, [0; 5]);
             }
             CanState::Overrun => {

@@ -3,6 +3,7 @@
 pub mod emcy;
 pub mod error_control;
 pub mod heartbeat;
+pub mod indicators;
 pub mod lss;
 pub mod nmt;
 pub mod pdo;

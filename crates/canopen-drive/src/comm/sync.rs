@@ -183,6 +183,11 @@ impl Sync {
         SyncReception::Sync(SyncEvent { counter, at: now })
     }
 
+    /// True while the SYNC is lost (from the missed window until it comes back).
+    pub fn is_lost(&self) -> bool {
+        self.lost
+    }
+
     /// Takes the "lost" flag when SYNC came back (the caller clears EMCY 0x8100).
     pub fn take_recovered(&mut self) -> bool {
         self.last.is_some() && core::mem::take(&mut self.lost)
