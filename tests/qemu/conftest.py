@@ -63,7 +63,9 @@ class QemuFirmware:
                 os.environ,
                 SLCAN_PORT=str(self.port),
                 DEFMT_RAW=str(self.log_path),
-                QEMU_EXTRA=f"-monitor unix:{self.monitor_path},server=on,wait=off ",
+                # The user LEDs' writes, time-stamped, on stderr (the CiA 303-3 indicators).
+                QEMU_EXTRA=f"-monitor unix:{self.monitor_path},server=on,wait=off "
+                "-trace mps2_fpgaio_write -msg timestamp=on",
             )
             with open(self.stderr_path, "wb") as err:
                 self.proc = subprocess.Popen(
@@ -95,6 +97,14 @@ class QemuFirmware:
             return self.stderr_path.read_text(errors="replace")
         except OSError:
             return ""
+
+    def leds(self, since: float = 0.0) -> list:
+        """The writes of the user LEDs (FPGA I/O LED0) since the host time `since`, as
+        `(host time, bits)`, from QEMU's `mps2_fpgaio_write` trace event: bit 0 is the green
+        RUN LED, bit 1 the red ERR LED."""
+        pattern = re.compile(r"^\d+@(\d+\.\d+):mps2_fpgaio_write .*offset 0x0 data 0x([0-9a-f]+)", re.M)
+        writes = [(float(t), int(bits, 16)) for t, bits in pattern.findall(self.stderr())]
+        return [(t, bits) for t, bits in writes if t >= since]
 
     def log(self) -> str:
         """The firmware's defmt log, decoded when defmt-print is installed."""

@@ -133,6 +133,73 @@ def test_nmt_states(network, node):
     write(node, 0x1017, 0, 2)
 
 
+def led_runs(writes, bit: int, start: float, end: float) -> list:
+    """The stretches of one LED between its first and its last change within `start` and `end`
+    (host times) as `(lit, ms)`, from the LED writes (the stretches the window cuts are left
+    out)."""
+    edges, previous = [], None
+    for t, bits in writes:
+        lit = bool(bits >> bit & 1)
+        if previous is not None and lit != previous and start <= t <= end:
+            edges.append((t, lit))
+        previous = lit
+    return [(lit, round((t_next - t) * 1000)) for (t, lit), (t_next, _) in zip(edges, edges[1:])]
+
+
+def near(runs, expected, tolerance_ms=60) -> bool:
+    """Each stretch within `tolerance_ms` of the expected `(lit, ms)` of its place in a
+    repeating pattern that `runs` may start anywhere in."""
+    if len(runs) < len(expected):
+        return False
+    for offset in range(len(expected)):
+        cycle = expected[offset:] + expected[:offset]
+        if all(lit == e_lit and abs(ms - e_ms) <= tolerance_ms for (lit, ms), (e_lit, e_ms) in zip(runs, cycle * 8)):
+            return True
+    return False
+
+
+def test_indicators_on_the_user_leds(firmware, network, node):
+    # CiA 303-3 on the board's user LEDs (LED 0 green RUN, LED 1 red ERR), seen from outside
+    # through QEMU's trace of the LED register. The exact timings are the library's host tests;
+    # here the host's scheduling blurs each edge by a few ms, so each stretch is checked within
+    # 60 ms (100 ms for the long pauses).
+    def watch(seconds):
+        start = time.time()
+        time.sleep(seconds)
+        writes = firmware.leds(since=start - 0.5)
+        return writes, start + 0.1, time.time()
+
+    # Pre-operational (after the NMT test): RUN blinks, ERR is off.
+    writes, start, end = watch(1.5)
+    run = led_runs(writes, 0, start, end)
+    assert near(run, [(True, 200), (False, 200)]), run
+    assert not any(bits & 2 for t, bits in writes if t >= start), "ERR off"
+    # Operational: RUN on.
+    node.nmt.send_command(0x01)
+    writes, start, end = watch(1.0)
+    assert led_runs(writes, 0, start, end) == [] and firmware.leds()[-1][1] & 1 == 1, writes
+    # Stopped: RUN single flash.
+    node.nmt.send_command(0x02)
+    writes, start, end = watch(3.0)
+    run = led_runs(writes, 0, start, end)
+    assert near(run, [(True, 200), (False, 1000)], tolerance_ms=100), run
+    # Pre-operational, a heartbeat of node 3 consumed within 100 ms, heard once: when it stops,
+    # ERR double flash (an error control event); heard again, ERR off.
+    node.nmt.send_command(0x80)
+    time.sleep(0.1)
+    write(node, 0x1016, 0x0003_0064, 4, sub=1)
+    network.send_message(0x703, bytes([0x05]))
+    writes, start, end = watch(3.5)
+    err = led_runs(writes, 1, start, end)
+    assert near(err, [(True, 200), (False, 200), (True, 200), (False, 1000)], tolerance_ms=100), err
+    network.send_message(0x703, bytes([0x05]))
+    time.sleep(0.1)
+    write(node, 0x1016, 0, 4, sub=1)
+    writes, start, end = watch(1.0)
+    assert not any(bits & 2 for t, bits in writes if t >= start), "ERR off again"
+    assert near(led_runs(writes, 0, start, end), [(True, 200), (False, 200)]), "RUN blinks: pre-operational"
+
+
 def statusword(node) -> int:
     return int.from_bytes(node.sdo.upload(0x6041, 0), "little")
 

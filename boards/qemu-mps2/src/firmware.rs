@@ -56,6 +56,10 @@ fn main() -> ! {
             Ok(token) => spawner.spawn(token),
             Err(_) => mps2::exit(104),
         }
+        match indicator_task() {
+            Ok(token) => spawner.spawn(token),
+            Err(_) => mps2::exit(104),
+        }
     })
 }
 
@@ -104,6 +108,25 @@ async fn exit_task() {
             );
             mps2::exit(code);
         }
+    }
+}
+
+/// The CiA 303-3 indicators on the user LEDs: LED 0 is the green RUN LED, LED 1 the red ERR
+/// LED. Sampled every 10 ms (each flash of 200 ms within 5 %, a flicker of 50 ms within 20 %),
+/// written when they change.
+#[embassy_executor::task]
+async fn indicator_task() {
+    let mut shown = None;
+    loop {
+        let now = canopen_drive_embassy::now();
+        if let Some(leds) = DRIVE.with(|drive| drive.node_status()).map(|status| status.leds(now)) {
+            let bits = u32::from(leds.run) | u32::from(leds.err) << 1;
+            if shown != Some(bits) {
+                mps2::fpgaio::set_leds(bits);
+                shown = Some(bits);
+            }
+        }
+        Timer::after_millis(10).await;
     }
 }
 

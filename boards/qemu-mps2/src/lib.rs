@@ -27,7 +27,7 @@
 //! | [`node`] | the drive's configuration (node-ID 5, identity, tick rate) |
 //! | [`objects`] | manufacturer objects 2F00h–2F11h: test exit, tick lateness, lock and masked stretches, the current loop, stack use, test data |
 //! | [`motor`] | a no_std motor model: inertia + friction, velocity/position loops |
-//! | `mps2` | UART0, TIMER0, TIMER1, dual timer, SysTick registers; semihosting exit (bare-metal targets only) |
+//! | `mps2` | UART0, TIMER0, TIMER1, dual timer, the user LEDs, SysTick registers; semihosting exit (bare-metal targets only) |
 //! | `board` | priorities and the drive's lock, the µs clock, the tick body and the current loop shared by the firmwares, the measurements |
 #![no_std]
 #![deny(missing_docs)]

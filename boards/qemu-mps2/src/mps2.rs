@@ -1,6 +1,7 @@
 //! The peripherals of QEMU's mps2-an385/an386 this firmware uses: CMSDK APB UART0 (the SLCAN
 //! link), CMSDK APB TIMER0 (the control tick), TIMER1 (the stopwatch), the first timer of the
-//! CMSDK APB dual timer (the stand-in current loop) and the Cortex-M SysTick (embassy-time).
+//! CMSDK APB dual timer (the stand-in current loop), the FPGA I/O block's user LEDs (the
+//! CiA 303-3 indicators) and the Cortex-M SysTick (embassy-time).
 //!
 //! | peripheral | base | interrupt | clock |
 //! |---|---|---|---|
@@ -8,6 +9,7 @@
 //! | TIMER0 | 0x4000_0000 | 8 | 25 MHz, counts down, reloads at 0 |
 //! | TIMER1 | 0x4000_1000 | 9 (not used) | 25 MHz, free-running |
 //! | dual timer, timer 1 | 0x4000_2000 | 10 | 25 MHz, periodic |
+//! | FPGA I/O, LED0 | 0x4002_8000 | – | – |
 //! | SysTick | core | exception 15 | 25 MHz (CLKSOURCE = processor clock) |
 //!
 //! Register access is volatile through raw addresses: this is the only module with `unsafe`.
@@ -233,6 +235,19 @@ pub mod systick {
     /// has not counted yet).
     pub fn pending() -> bool {
         read(ICSR) & ICSR_PENDSTSET != 0
+    }
+}
+
+/// The FPGA I/O block's user LEDs: bit 0 and bit 1 of LED0 (QEMU's `mps2_fpgaio_write` trace
+/// event shows each write to the outside).
+pub mod fpgaio {
+    use super::write;
+
+    const LED0: usize = 0x4002_8000;
+
+    /// Lights the user LEDs whose bits are set (bit 0: LED 0, bit 1: LED 1).
+    pub fn set_leds(bits: u32) {
+        write(LED0, bits & 0b11);
     }
 }
 
