@@ -573,9 +573,11 @@ impl<
         if !(1..=127).contains(&config.node_id) && config.node_id != NODE_ID_UNCONFIGURED {
             return Err(ConfigError::InvalidNodeId);
         }
-        if pdo::count(config.pdo_objects) != (RPDOS, TPDOS) {
-            return Err(ConfigError::PdoCount);
+        let table = pdo::count(config.pdo_objects);
+        if table != (RPDOS, TPDOS) {
+            return Err(ConfigError::PdoCount { drive: (RPDOS, TPDOS), table });
         }
+        crate::od::check_manufacturer_table(config.manufacturer_objects)?;
         let missing = config.device.drive_modes & STANDARD_MODES & !IMPLEMENTED_MODES;
         if missing != 0 {
             return Err(ConfigError::ModesNotBuilt { modes: missing });

@@ -109,5 +109,5 @@ pub mod wire;
 
 pub use drive::{Config, Drive};
 pub use frame::CanFrame;
-pub use od::AbortCode;
+pub use od::{AbortCode, ConfigError};
 pub use time::{Duration, Instant};
