@@ -118,6 +118,7 @@
 #![cfg_attr(test, allow(clippy::unwrap_used, clippy::expect_used, clippy::indexing_slicing, clippy::panic))]
 
 pub mod bus;
+pub mod cia402;
 pub mod fault;
 pub mod flash;
 pub mod invariants;
@@ -126,7 +127,8 @@ pub mod motor;
 pub mod node;
 pub mod trace;
 
-pub use bus::{BusError, Node, NodeHandle, Port, VirtualBus};
+pub use bus::{BusError, Handle, Node, NodeHandle, Port, VirtualBus};
+pub use cia402::{AxisMaster, MotionError};
 pub use fault::{FaultAction, FaultRule};
 pub use master::{Master, SdoError};
 pub use motor::SimMotor;

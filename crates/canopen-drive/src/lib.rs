@@ -107,7 +107,7 @@ pub mod time;
 mod wide;
 pub mod wire;
 
-pub use drive::{Config, Drive};
+pub use drive::{Config, Drive, MultiAxisDrive, PdoDrive, StoredDrive};
 pub use frame::CanFrame;
 pub use od::{AbortCode, ConfigError};
 pub use time::{Duration, Instant};
