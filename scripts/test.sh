@@ -83,19 +83,37 @@ step_venv() {
     .venv/bin/python -c "import canopen, can, serial; print('canopen', canopen.__version__, 'python-can', can.__version__)"
 }
 
-step_fmt() { cargo fmt --all --check; }
+# Where cargo puts what it builds: target/ by default, CARGO_TARGET_DIR (or a cargo config's
+# build.target-dir) when set.
+cargo_target_dir() {
+    cargo metadata --format-version 1 --no-deps |
+        python3 -c 'import json, sys; print(json.load(sys.stdin)["target_directory"])'
+}
+
+# A firmware vendor's crate outside the workspace (tests/vendor: its own workspace and lock
+# file, the library crates by path), as a user of the published crates would build it.
+vendor=(--manifest-path tests/vendor/Cargo.toml)
+
+step_fmt() {
+    cargo fmt --all --check
+    cargo fmt "${vendor[@]}" --check
+}
 
 step_clippy() {
     cargo clippy --workspace --all-targets -- -D warnings
     # The core with its log feature (the Linux program turns it on) and without default features.
     cargo clippy -p canopen-drive --features log --all-targets -- -D warnings
+    cargo clippy "${vendor[@]}" --all-targets -- -D warnings
 }
 
-step_test() { cargo test --workspace; }
+step_test() {
+    cargo test --workspace
+    cargo test "${vendor[@]}"
+}
 
 step_python_smoke() {
     cargo build -p canopen-drive-linux
-    CANOPEN_DRIVE_LINUX="$root/target/debug/canopen-drive-linux" .venv/bin/python -m pytest -q -p no:cacheprovider \
+    CANOPEN_DRIVE_LINUX="$(cargo_target_dir)/debug/canopen-drive-linux" .venv/bin/python -m pytest -q -p no:cacheprovider \
         "tests/python/test_drive.py::test_expedited_uploads_of_device_type_and_identity"
 }
 
@@ -170,7 +188,7 @@ step_python() {
     # up on a loaded machine), with debug assertions and overflow checks kept on.
     CARGO_PROFILE_RELEASE_DEBUG_ASSERTIONS=true CARGO_PROFILE_RELEASE_OVERFLOW_CHECKS=true \
         cargo build --release -p canopen-drive-linux
-    CANPLAYER_REQUIRED=1 CANOPEN_DRIVE_LINUX="$root/target/release/canopen-drive-linux" \
+    CANPLAYER_REQUIRED=1 CANOPEN_DRIVE_LINUX="$(cargo_target_dir)/release/canopen-drive-linux" \
         .venv/bin/python -m pytest tests/python -q -p no:cacheprovider -rs
 }
 

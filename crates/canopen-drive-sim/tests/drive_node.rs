@@ -19,7 +19,7 @@ fn each_axis_of_a_two_axis_node_moves_its_own_motor() {
 
     master.axis(7, 1).enable().unwrap();
     master.axis(7, 1).pp_move(3_000, Duration::from_millis(3_000)).unwrap();
-    assert_eq!(master.axis(7, 1).read_i32(0x6064).unwrap(), 3_000);
+    assert!((master.axis(7, 1).read_i32(0x6064).unwrap() - 3_000).abs() <= 100, "within 6067h");
     assert_eq!(master.axis(7, 0).read_i32(0x6064).unwrap(), 0, "the first axis stays");
     let sim = master.bus().drive(node).unwrap();
     assert!((sim.axis_motor(1).unwrap().position() - 3_000.0).abs() <= 100.0);
