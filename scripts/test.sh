@@ -94,9 +94,18 @@ cargo_target_dir() {
 # file, the library crates by path), as a user of the published crates would build it.
 vendor=(--manifest-path tests/vendor/Cargo.toml)
 
+# The no_std firmware example (examples/firmware: its own workspace, built for thumbv7em by its
+# .cargo/config.toml, run from its directory so that its memory.x is the one linked).
+firmware_example() {
+    local dir
+    dir="$(cargo_target_dir)/firmware-example"
+    (cd examples/firmware && CARGO_TARGET_DIR="$dir" cargo "$@")
+}
+
 step_fmt() {
     cargo fmt --all --check
     cargo fmt "${vendor[@]}" --check
+    cargo fmt --manifest-path examples/firmware/Cargo.toml --check
 }
 
 step_clippy() {
@@ -151,6 +160,9 @@ step_no_std() {
     done
     # A firmware's table generated from its EDS at build time (canopen-drive-build).
     cargo clippy -p canopen-drive-example-eds-import --target thumbv7em-none-eabihf -- -D warnings
+    echo "--- examples/firmware (thumbv7em-none-eabihf)"
+    firmware_example clippy --release -- -D warnings
+    firmware_example build --release
 }
 
 # The library crates with the oldest Rust they declare (`rust-version` of the workspace):
@@ -259,7 +271,7 @@ else
         "modes|the core without its optional modes, and with each alone|step_modes"
         "robustness|fault injection, 24 h simulated soak, hostile configuration|step_robustness"
         "doc|cargo doc without warnings|step_doc"
-        "no-std|the core (with and without defmt) and the SLCAN codec for thumbv6m, thumbv7em, riscv32imac|step_no_std"
+        "no-std|the core (with and without defmt) and the SLCAN codec for thumbv6m, thumbv7em, riscv32imac; the firmware example|step_no_std"
         "msrv|the library crates with the declared minimum Rust (rust-version)|step_msrv"
         "publish|cargo publish --dry-run of the library crates|step_publish"
         "python|python-canopen against canopen-drive-linux (all profiles, trace replay)|step_python"
