@@ -13,7 +13,7 @@
 //! - [`fault`]: rules that drop, delay or duplicate frames on the bus, chosen by a predicate
 //!   on the frame and its sender and/or by a seeded pseudo-random rate.
 //! - [`trace`]: a record of every frame on the bus, rendered like `candump -ta` output.
-//! - [`invariants`]: checks of the DESIGN invariants (dictionary consistency, energy, demand
+//! - [`invariants`]: checks of the invariants the core promises (dictionary consistency, energy, demand
 //!   limits, one SDO answer per request) for fuzz targets and robustness tests.
 //! - [`master`]: [`Master`], a scripted CANopen master on the master port: NMT commands and an
 //!   SDO client (expedited, segmented and block transfer, both directions), plus raw

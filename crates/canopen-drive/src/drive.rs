@@ -1728,7 +1728,7 @@ impl<
     }
 }
 
-/// The dictionary with the access rules of the bus (CiA 301 §7.2.4, digest §5.9).
+/// The dictionary with the access rules of the bus (CiA 301 §7.2.4).
 struct Access<'a, H, S, const B: usize, const AXES: usize> {
     od: &'a mut Dictionary<B>,
     hooks: &'a mut H,

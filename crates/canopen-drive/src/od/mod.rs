@@ -1,4 +1,4 @@
-//! The object dictionary (CiA 301 §7.4, digest §2, §10).
+//! The object dictionary (CiA 301 §7.4).
 //!
 //! The dictionary is a list of `static` tables of [`Object`]s (the description) plus one byte
 //! store owned by the dictionary (the values). Every value lives little-endian in the store,
@@ -90,7 +90,7 @@ pub struct DeviceInfo {
     /// Contents of 1021h (the device's EDS), when the `eds-object` feature serves it.
     pub eds: &'static [u8],
     /// 6502h: the CiA 402 modes of operation the drive supports (bit 0 pp, 2 pv, 3 tq, …;
-    /// digest §7.3). 6060h accepts only these. Default: the modes this crate runs.
+    /// CiA 402-2 §8.4.12). 6060h accepts only these. Default: the modes this crate runs.
     pub drive_modes: u32,
 }
 
@@ -871,7 +871,7 @@ impl<const BYTES: usize> Dictionary<BYTES> {
     }
 
     /// Checks that `data` is an acceptable new value for `entry` from the bus: size and limits
-    /// (digest §5.9 items 5 and 10). Access rights and NMT rules are the caller's (they depend
+    /// (CiA 301 §7.2.4). Access rights and NMT rules are the caller's (they depend
     /// on the service).
     pub fn check_write(&self, entry: &Entry, data: &[u8]) -> Result<(), AbortCode> {
         let var = entry.var;
