@@ -173,7 +173,11 @@ pub struct Config {
     /// optional, and a drive documented without them answers their initiation with abort
     /// 0x0504_0001).
     pub sdo_block_transfer: bool,
-    /// The firmware's own objects (2000h–5FFFh), laid out with [`crate::od::layout`].
+    /// The firmware's own objects (2000h–5FFFh), laid out with [`crate::od::layout`]; a
+    /// hand-written table and one generated from an EDS are joined into this one table with
+    /// [`crate::od::join`]. The constructors refuse an object outside 2000h–5FFFh and every
+    /// other fault [`crate::od::check_manufacturer_table`] finds (which a firmware can also run
+    /// when the table is compiled).
     pub manufacturer_objects: &'static [Object],
     /// What an RPDO longer than its mapping does (default: applied, EMCY 0x8220).
     pub long_rpdo: pdo::LongRpdo,
