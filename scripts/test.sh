@@ -83,19 +83,46 @@ step_venv() {
     .venv/bin/python -c "import canopen, can, serial; print('canopen', canopen.__version__, 'python-can', can.__version__)"
 }
 
-step_fmt() { cargo fmt --all --check; }
+# Where cargo puts what it builds: target/ by default, CARGO_TARGET_DIR (or a cargo config's
+# build.target-dir) when set.
+cargo_target_dir() {
+    cargo metadata --format-version 1 --no-deps |
+        python3 -c 'import json, sys; print(json.load(sys.stdin)["target_directory"])'
+}
+
+# A firmware vendor's crate outside the workspace (tests/vendor: its own workspace and lock
+# file, the library crates by path), as a user of the published crates would build it.
+vendor=(--manifest-path tests/vendor/Cargo.toml)
+
+# The no_std firmware example (examples/firmware: its own workspace, built for thumbv7em by its
+# .cargo/config.toml, run from its directory so that its memory.x is the one linked).
+firmware_example() {
+    local dir
+    dir="$(cargo_target_dir)/firmware-example"
+    (cd examples/firmware && CARGO_TARGET_DIR="$dir" cargo "$@")
+}
+
+step_fmt() {
+    cargo fmt --all --check
+    cargo fmt "${vendor[@]}" --check
+    cargo fmt --manifest-path examples/firmware/Cargo.toml --check
+}
 
 step_clippy() {
     cargo clippy --workspace --all-targets -- -D warnings
     # The core with its log feature (the Linux program turns it on) and without default features.
     cargo clippy -p canopen-drive --features log --all-targets -- -D warnings
+    cargo clippy "${vendor[@]}" --all-targets -- -D warnings
 }
 
-step_test() { cargo test --workspace; }
+step_test() {
+    cargo test --workspace
+    cargo test "${vendor[@]}"
+}
 
 step_python_smoke() {
     cargo build -p canopen-drive-linux
-    CANOPEN_DRIVE_LINUX="$root/target/debug/canopen-drive-linux" .venv/bin/python -m pytest -q -p no:cacheprovider \
+    CANOPEN_DRIVE_LINUX="$(cargo_target_dir)/debug/canopen-drive-linux" .venv/bin/python -m pytest -q -p no:cacheprovider \
         "tests/python/test_drive.py::test_expedited_uploads_of_device_type_and_identity"
 }
 
@@ -133,6 +160,9 @@ step_no_std() {
     done
     # A firmware's table generated from its EDS at build time (canopen-drive-build).
     cargo clippy -p canopen-drive-example-eds-import --target thumbv7em-none-eabihf -- -D warnings
+    echo "--- examples/firmware (thumbv7em-none-eabihf)"
+    firmware_example clippy --release -- -D warnings
+    firmware_example build --release
 }
 
 # The library crates with the oldest Rust they declare (`rust-version` of the workspace):
@@ -170,7 +200,7 @@ step_python() {
     # up on a loaded machine), with debug assertions and overflow checks kept on.
     CARGO_PROFILE_RELEASE_DEBUG_ASSERTIONS=true CARGO_PROFILE_RELEASE_OVERFLOW_CHECKS=true \
         cargo build --release -p canopen-drive-linux
-    CANPLAYER_REQUIRED=1 CANOPEN_DRIVE_LINUX="$root/target/release/canopen-drive-linux" \
+    CANPLAYER_REQUIRED=1 CANOPEN_DRIVE_LINUX="$(cargo_target_dir)/release/canopen-drive-linux" \
         .venv/bin/python -m pytest tests/python -q -p no:cacheprovider -rs
 }
 
@@ -241,7 +271,7 @@ else
         "modes|the core without its optional modes, and with each alone|step_modes"
         "robustness|fault injection, 24 h simulated soak, hostile configuration|step_robustness"
         "doc|cargo doc without warnings|step_doc"
-        "no-std|the core (with and without defmt) and the SLCAN codec for thumbv6m, thumbv7em, riscv32imac|step_no_std"
+        "no-std|the core (with and without defmt) and the SLCAN codec for thumbv6m, thumbv7em, riscv32imac; the firmware example|step_no_std"
         "msrv|the library crates with the declared minimum Rust (rust-version)|step_msrv"
         "publish|cargo publish --dry-run of the library crates|step_publish"
         "python|python-canopen against canopen-drive-linux (all profiles, trace replay)|step_python"

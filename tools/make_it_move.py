@@ -23,6 +23,7 @@ Exits with status 1, saying which step failed, when the drive does not do what i
 """
 
 import argparse
+import math
 import pathlib
 import struct
 import sys
@@ -185,10 +186,30 @@ def homing(drive: Drive, sampler: Sampler):
         raise MoveFailed(f"homing: 6064h reads {actual} at home, not 0")
 
 
+def nice_ticks(lo, hi, count=5):
+    """Round values inside lo..hi for the axis ticks: a step of 1, 2 or 5 times a power of ten,
+    the smallest that gives at most about `count` of them (a reader takes in 20 000, 40 000, …
+    faster than 24 390, 43 975, …)."""
+    span = (hi - lo) or abs(hi) or 1.0
+    raw = span / count
+    power = 10 ** math.floor(math.log10(raw))
+    step = next(m * power for m in (1, 2, 5, 10) if m * power >= raw)
+    digits = max(0, -math.floor(math.log10(step)))
+    first, last = math.ceil(lo / step - 1e-9), math.floor(hi / step + 1e-9)
+    return [round(k * step, digits) + 0.0 for k in range(first, last + 1)]
+
+
 def plot(samples, marks, path: pathlib.Path):
-    """Two panels (position, velocity), demand and actual, as SVG."""
-    width, height, left, right, top, gap, panel = 960, 620, 90, 20, 40, 60, 230
+    """Two panels (position, velocity), demand and actual, as SVG: round ticks on both axes;
+    each panel's title, and the events, above its frame, clear of the data."""
+    width, left, right, top, title_space, panel, axis_space = 960, 90, 20, 34, 24, 230, 34
     t_end = max(s[0] for s in samples) or 1.0
+    t_ticks = nice_ticks(0.0, t_end, 8)
+    panels = [
+        ("position (increments)", 1, 2),
+        ("velocity (increments/s)", 3, 4),
+    ]
+    height = top + len(panels) * (title_space + panel + axis_space) + 30
 
     def x(t):
         return left + (width - left - right) * t / t_end
@@ -200,45 +221,44 @@ def plot(samples, marks, path: pathlib.Path):
         f'<text x="{left}" y="22" font-size="15">canopen-drive-linux, live: pp move, pv ramp, homing '
         "(from TPDOs every 10 ms)</text>",
     ]
-    panels = [
-        ("position (increments)", 1, 2, top),
-        ("velocity (increments/s)", 3, 4, top + panel + gap),
-    ]
-    for title, demand_col, actual_col, y0 in panels:
+    y0 = top
+    for title, demand_col, actual_col in panels:
+        y0 += title_space
         values = [s[demand_col] for s in samples] + [s[actual_col] for s in samples]
         lo, hi = min(values + [0]), max(values + [0])
-        if hi == lo:
-            hi = lo + 1
-        span = hi - lo
+        span = (hi - lo) or 1.0
         lo, hi = lo - 0.05 * span, hi + 0.05 * span
+        ticks = nice_ticks(lo, hi)
 
         def y(v, lo=lo, hi=hi, y0=y0):
             return y0 + panel * (hi - v) / (hi - lo)
 
-        parts.append(f'<rect x="{left}" y="{y0}" width="{width - left - right}" height="{panel}" '
-                     'fill="none" stroke="#888"/>')
-        parts.append(f'<text x="{left + 6}" y="{y0 + 16}" font-weight="bold">{title}</text>')
-        for i in range(5):
-            v = lo + (hi - lo) * i / 4
+        parts.append(f'<text x="{width - right}" y="{y0 - 8}" font-weight="bold" text-anchor="end">{title}</text>')
+        for v in ticks:
             parts.append(f'<line x1="{left}" x2="{width - right}" y1="{y(v):.1f}" y2="{y(v):.1f}" stroke="#eee"/>')
             parts.append(f'<text x="{left - 6}" y="{y(v) + 4:.1f}" text-anchor="end">{v:,.0f}</text>')
+        for t in t_ticks:
+            parts.append(f'<line x1="{x(t):.1f}" x2="{x(t):.1f}" y1="{y0 + panel}" y2="{y0 + panel + 4}" stroke="#888"/>')
+            parts.append(f'<text x="{x(t):.1f}" y="{y0 + panel + 17}" text-anchor="middle">{t:g} s</text>')
+        parts.append(f'<rect x="{left}" y="{y0}" width="{width - left - right}" height="{panel}" '
+                     'fill="none" stroke="#888"/>')
         for t, label in marks:
             parts.append(f'<line x1="{x(t):.1f}" x2="{x(t):.1f}" y1="{y0}" y2="{y0 + panel}" '
                          'stroke="#bbb" stroke-dasharray="4 3"/>')
-            if y0 == top:
-                parts.append(f'<text x="{x(t) + 3:.1f}" y="{y0 + panel - 6}" fill="#666">{label}</text>')
+            if y0 == top + title_space:  # the events above the first panel, beside its title
+                parts.append(f'<text x="{x(t) + 3:.1f}" y="{y0 - 8}" fill="#666">{label}</text>')
         for col, colour, dash in ((demand_col, "#1f77b4", "6 3"), (actual_col, "#d62728", "")):
             points = " ".join(f"{x(s[0]):.1f},{y(s[col]):.1f}" for s in samples)
             dashes = f' stroke-dasharray="{dash}"' if dash else ""
             parts.append(f'<polyline points="{points}" fill="none" stroke="{colour}" stroke-width="1.6"{dashes}/>')
-    legend_y = height - 18
+        y0 += panel + axis_space
+    legend_y = height - 14
     parts.append(f'<line x1="{left}" x2="{left + 30}" y1="{legend_y}" y2="{legend_y}" stroke="#1f77b4" '
                  'stroke-width="2" stroke-dasharray="6 3"/>')
     parts.append(f'<text x="{left + 36}" y="{legend_y + 4}">demand (6062h, 606Bh)</text>')
     parts.append(f'<line x1="{left + 220}" x2="{left + 250}" y1="{legend_y}" y2="{legend_y}" stroke="#d62728" '
                  'stroke-width="2"/>')
     parts.append(f'<text x="{left + 256}" y="{legend_y + 4}">actual (6064h, 606Ch)</text>')
-    parts.append(f'<text x="{width - right}" y="{legend_y + 4}" text-anchor="end">time: 0 – {t_end:.1f} s</text>')
     parts.append("</svg>")
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text("\n".join(parts) + "\n")

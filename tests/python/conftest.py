@@ -1,10 +1,12 @@
 """Fixtures for the python-canopen interop tests of `canopen-drive-linux`.
 
 Nothing is built here: the binary is taken from the environment variable CANOPEN_DRIVE_LINUX
-(default `target/debug/canopen-drive-linux`; a relative path is taken from the repository root).
-Build it first, e.g. `cargo build -p canopen-drive-linux`.
+(a relative path is taken from the repository root), by default `debug/canopen-drive-linux` in
+the directory cargo builds into (`cargo metadata`'s target directory: `target/`, or
+CARGO_TARGET_DIR when set). Build it first, e.g. `cargo build -p canopen-drive-linux`.
 """
 
+import json
 import os
 import pathlib
 import queue
@@ -24,8 +26,21 @@ NODE_ID = 5
 READY_TIMEOUT = 10.0
 
 
+def cargo_target_dir() -> pathlib.Path:
+    """Where cargo puts what it builds for this repository."""
+    try:
+        out = subprocess.run(
+            ["cargo", "metadata", "--format-version", "1", "--no-deps"],
+            cwd=REPO_ROOT, capture_output=True, text=True, check=True,
+        ).stdout
+        return pathlib.Path(json.loads(out)["target_directory"])
+    except (OSError, subprocess.CalledProcessError, ValueError, KeyError):
+        return REPO_ROOT / "target"
+
+
 def binary_path() -> pathlib.Path:
-    path = pathlib.Path(os.environ.get("CANOPEN_DRIVE_LINUX", "target/debug/canopen-drive-linux"))
+    configured = os.environ.get("CANOPEN_DRIVE_LINUX")
+    path = pathlib.Path(configured) if configured else cargo_target_dir() / "debug" / "canopen-drive-linux"
     if not path.is_absolute():
         path = REPO_ROOT / path
     if not path.is_file():

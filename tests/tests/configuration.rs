@@ -139,7 +139,7 @@ fn a_description_override_must_keep_the_entrys_size() {
     }
     static MISSING: [EntryOverride; 1] = [EntryOverride::of(&PROFILE, 0x6071, 1)];
     let config = Config { entry_overrides: &MISSING, ..Config::new(NODE) };
-    assert_eq!(Drive::new(config).err(), Some(ConfigError::BadEntry { index: 0x6071 }));
+    assert_eq!(Drive::new(config).err(), Some(ConfigError::NoSuchEntry { index: 0x6071, sub: 1 }));
     assert!(Config::new(NODE).entry_overrides.is_empty());
     assert!(Config::new(NODE).extra_profile_objects.is_empty());
 }
@@ -802,7 +802,7 @@ fn a_drive_built_in_place_answers_as_one_built_by_value() {
     let mut slot = core::mem::MaybeUninit::<Drive>::uninit();
     let bad_override =
         Drive::build_in(&mut slot, Config { default_overrides: &BAD, ..Config::new(NODE) }, (), ());
-    assert!(matches!(bad_override, Err(ConfigError::BadEntry { index: 0x6085 })));
+    assert!(matches!(bad_override, Err(ConfigError::NoSuchEntry { index: 0x6085, sub: 7 })));
 }
 
 fn emcys(frames: &[CanFrame]) -> Vec<Vec<u8>> {

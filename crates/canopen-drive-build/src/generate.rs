@@ -1,6 +1,6 @@
 //! From the objects of an EDS to the Rust source of a table.
 
-use std::fmt::Write as _;
+use std::fmt::{self, Write as _};
 use std::ops::RangeInclusive;
 use std::path::Path;
 
@@ -182,6 +182,7 @@ impl Table {
                 Some(text) => ty.bound(text).map_err(|e| fail(format!("{key} {text:?}: {e}"))),
             };
             let (low, high) = (bound(&var.low, "LowLimit")?, bound(&var.high, "HighLimit")?);
+            ty.check_default(var).map_err(fail)?;
             let _ =
                 write!(out, ".limits(::canopen_drive::od::Bound::{low}, ::canopen_drive::od::Bound::{high})");
         }
@@ -295,6 +296,46 @@ impl TypeInfo {
         }
     }
 
+    /// A numeric value of the type as the core compares it (`None` for text and bytes).
+    fn number(&self, text: &str) -> Result<Option<Number>, String> {
+        match self.kind {
+            Kind::Unsigned => Ok(Some(Number::Int(i128::from(self.unsigned(text)?)))),
+            Kind::Signed => Ok(Some(Number::Int(i128::from(self.signed(text)?)))),
+            Kind::Real => Ok(Some(Number::Real(real(text)?))),
+            Kind::Text | Kind::Bytes => Ok(None),
+        }
+    }
+
+    /// The core refuses an entry whose default lies outside its limits, or whose low limit
+    /// lies above its high one (`ConfigError::DefaultOutsideLimits`, `BadLimits`): so does the
+    /// import, naming the values. A `$NODEID` default depends on the node and is not compared.
+    fn check_default(&self, var: &EdsVar) -> Result<(), String> {
+        let parse = |text: &Option<String>| match text {
+            Some(text) => self.number(text),
+            None => Ok(None),
+        };
+        let (low, high) = (parse(&var.low)?, parse(&var.high)?);
+        if let (Some(l), Some(h)) = (low, high) {
+            if h.below(l) {
+                return Err(format!("LowLimit {} is above HighLimit {}", l, h));
+            }
+        }
+        let default = match &var.default {
+            Some(text) if text.to_ascii_uppercase().contains("$NODEID") => return Ok(()),
+            Some(text) => self.number(text)?,
+            None => self.number("0")?,
+        };
+        let Some(value) = default else { return Ok(()) };
+        let given = if var.default.is_some() { "DefaultValue" } else { "the default (no DefaultValue):" };
+        if let Some(l) = low.filter(|l| value.below(*l)) {
+            return Err(format!("{given} {value} is below LowLimit {l}"));
+        }
+        if let Some(h) = high.filter(|h| h.below(value)) {
+            return Err(format!("{given} {value} is above HighLimit {h}"));
+        }
+        Ok(())
+    }
+
     fn unsigned(&self, text: &str) -> Result<u64, String> {
         eds::number(text)
             .filter(|n| self.bits >= 64 || *n >> self.bits == 0)
@@ -303,6 +344,32 @@ impl TypeInfo {
 
     fn signed(&self, text: &str) -> Result<i64, String> {
         eds::signed(text, self.bits).ok_or_else(|| format!("not a number of {} bits", self.bits))
+    }
+}
+
+/// A numeric default or limit.
+#[derive(Clone, Copy, PartialEq)]
+enum Number {
+    Int(i128),
+    Real(f64),
+}
+
+impl Number {
+    fn below(self, other: Number) -> bool {
+        match (self, other) {
+            (Number::Int(a), Number::Int(b)) => a < b,
+            (Number::Real(a), Number::Real(b)) => a < b,
+            _ => false,
+        }
+    }
+}
+
+impl fmt::Display for Number {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Number::Int(v) => write!(f, "{v}"),
+            Number::Real(v) => write!(f, "{v}"),
+        }
     }
 }
 
@@ -478,6 +545,28 @@ mod tests {
                 "limits are for numeric",
             ),
             ("[2000]\nParameterName=x\nDataType=8\nAccessType=rw\nDefaultValue=inf\n".into(), "finite"),
+            // The core would refuse these tables when the drive is built: so does the import.
+            (
+                "[2000]\nParameterName=x\nDataType=5\nAccessType=rw\nDefaultValue=100\nHighLimit=64\n".into(),
+                "object 2000h: DefaultValue 100 is above HighLimit 64",
+            ),
+            (
+                "[2000]\nParameterName=x\nDataType=3\nAccessType=rw\nDefaultValue=-5\nLowLimit=-4\n".into(),
+                "object 2000h: DefaultValue -5 is below LowLimit -4",
+            ),
+            (
+                "[2000]\nParameterName=x\nDataType=7\nAccessType=rw\nLowLimit=1\nHighLimit=10\n".into(),
+                "object 2000h: the default (no DefaultValue): 0 is below LowLimit 1",
+            ),
+            (
+                "[2000]\nParameterName=x\nDataType=8\nAccessType=rw\nDefaultValue=0.5\nLowLimit=1.5\n".into(),
+                "object 2000h: DefaultValue 0.5 is below LowLimit 1.5",
+            ),
+            (
+                "[2000]\nParameterName=x\nDataType=5\nAccessType=rw\nDefaultValue=5\nLowLimit=9\nHighLimit=3\n"
+                    .into(),
+                "object 2000h: LowLimit 9 is above HighLimit 3",
+            ),
         ];
         for (objects, expected) in cases {
             let error = table(&objects).unwrap_err().to_string();

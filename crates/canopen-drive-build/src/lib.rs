@@ -49,7 +49,9 @@
 //! default's). What the core cannot represent is refused with the object and the reason
 //! ([`Error`]), never guessed: an ARRAY whose elements differ in anything but their names,
 //! element names other than the core's `<name> <sub>`, `CompactSubObj`, DOMAIN objects
-//! (`ObjectType` 0x2), a default or limit outside the entry's type.
+//! (`ObjectType` 0x2), a default or limit outside the entry's type, a default outside the
+//! entry's limits and a low limit above the high one (the core refuses such a table when a
+//! drive is built, `ConfigError::DefaultOutsideLimits` and `BadLimits`).
 //!
 //! [canopen-drive]: https://docs.rs/canopen-drive
 

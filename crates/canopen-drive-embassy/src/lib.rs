@@ -176,7 +176,7 @@ mod tick;
 
 pub use lock::{CriticalSection, Lock, PriorityCeiling};
 pub use runner::{run, run_until_bit_rate_change, BusState, CanRx, CanTx, RunnerHooks, BUS_STATE_PERIOD};
-pub use shared::{Endpoints, SharedDrive};
+pub use shared::{Endpoints, SharedDrive, Tick};
 pub use tick::{run_tick, TickMonitor};
 
 /// Now, as the core counts time: µs since embassy-time's epoch.

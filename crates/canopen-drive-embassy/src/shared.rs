@@ -13,9 +13,9 @@ use canopen_drive::{CanFrame, Instant};
 
 use crate::lock::{CriticalSection, Lock};
 
-/// The entry points of a node, as the runner and the tick call them. Implemented for every
-/// [`Drive`]; a firmware may implement it for a node of its own (a CiA 301-only node has a
-/// `tick` that does nothing).
+/// The communication entry points of a node, as the runner calls them. Implemented for every
+/// [`Drive`] (any value store, PDO counts, storage and number of axes); a firmware may
+/// implement it for a node of its own. The control tick is [`Tick`].
 pub trait Endpoints {
     /// [`Drive::on_frame`].
     fn on_frame(&mut self, frame: &CanFrame, now: Instant);
@@ -25,8 +25,6 @@ pub trait Endpoints {
     fn pop_tx(&mut self) -> Option<CanFrame>;
     /// True when frames wait for transmission.
     fn has_tx(&self) -> bool;
-    /// [`Drive::tick`].
-    fn tick(&mut self, now: Instant, sample: &Sample) -> Demand;
     /// [`Drive::on_can_state`]; nodes without CAN error handling ignore it.
     fn on_can_state(&mut self, state: CanState, now: Instant) {
         let _ = (state, now);
@@ -41,8 +39,17 @@ pub trait Endpoints {
     }
 }
 
-impl<H: ObjectHooks, const OD: usize, const R: usize, const T: usize, S: Persistence> Endpoints
-    for Drive<H, OD, R, T, S>
+/// The control tick of a node of `AXES` CiA 402 axes (one by default), as the tick task or
+/// interrupt calls it: [`Drive::tick_axes`] (for one axis, [`Drive::tick`]). Implemented for
+/// every [`Drive`] with its number of axes; a CiA 301-only node of a firmware's own has a tick
+/// that does nothing.
+pub trait Tick<const AXES: usize = 1>: Endpoints {
+    /// One sample per axis in, one demand per axis out.
+    fn tick_axes(&mut self, now: Instant, samples: &[Sample; AXES]) -> [Demand; AXES];
+}
+
+impl<H: ObjectHooks, const OD: usize, const R: usize, const T: usize, S: Persistence, const AXES: usize>
+    Endpoints for Drive<H, OD, R, T, S, AXES>
 {
     fn on_frame(&mut self, frame: &CanFrame, now: Instant) {
         Drive::on_frame(self, frame, now);
@@ -60,10 +67,6 @@ impl<H: ObjectHooks, const OD: usize, const R: usize, const T: usize, S: Persist
         self.peek_tx().is_some()
     }
 
-    fn tick(&mut self, now: Instant, sample: &Sample) -> Demand {
-        Drive::tick(self, now, sample)
-    }
-
     fn on_can_state(&mut self, state: CanState, now: Instant) {
         Drive::on_can_state(self, state, now);
     }
@@ -74,6 +77,14 @@ impl<H: ObjectHooks, const OD: usize, const R: usize, const T: usize, S: Persist
 
     fn take_lss_store(&mut self) -> Option<(u8, Option<BitTiming>)> {
         Drive::take_lss_store(self)
+    }
+}
+
+impl<H: ObjectHooks, const OD: usize, const R: usize, const T: usize, S: Persistence, const AXES: usize>
+    Tick<AXES> for Drive<H, OD, R, T, S, AXES>
+{
+    fn tick_axes(&mut self, now: Instant, samples: &[Sample; AXES]) -> [Demand; AXES] {
+        Drive::tick_axes(self, now, samples)
     }
 }
 
@@ -96,10 +107,6 @@ impl<D: Endpoints + ?Sized> Endpoints for &mut D {
         (**self).has_tx()
     }
 
-    fn tick(&mut self, now: Instant, sample: &Sample) -> Demand {
-        (**self).tick(now, sample)
-    }
-
     fn on_can_state(&mut self, state: CanState, now: Instant) {
         (**self).on_can_state(state, now);
     }
@@ -110,6 +117,12 @@ impl<D: Endpoints + ?Sized> Endpoints for &mut D {
 
     fn take_lss_store(&mut self) -> Option<(u8, Option<BitTiming>)> {
         (**self).take_lss_store()
+    }
+}
+
+impl<D: Tick<AXES> + ?Sized, const AXES: usize> Tick<AXES> for &mut D {
+    fn tick_axes(&mut self, now: Instant, samples: &[Sample; AXES]) -> [Demand; AXES] {
+        (**self).tick_axes(now, samples)
     }
 }
 
@@ -247,23 +260,35 @@ impl<D: Endpoints, L: Lock> SharedDrive<D, L> {
         self.with(|d| d.pop_tx()).flatten()
     }
 
+    /// The control-loop tick of a one-axis node ([`tick_axes`](Self::tick_axes)).
+    pub fn tick(&self, now: Instant, sample: &Sample) -> Demand
+    where
+        D: Tick<1>,
+    {
+        let [demand] = self.tick_axes(now, core::array::from_ref(sample));
+        demand
+    }
+
     /// The control-loop tick, then a wake-up of the runner: the tick may have queued frames
     /// (TPDOs) or made work that only `poll` does (an EMCY to send, an inhibit time to wait
     /// out), so the runner polls after every tick (one short `poll` per tick in the
     /// communication context; wake-ups that come while the runner is busy merge into one).
     /// One hold of the lock for both. Without a drive, re-entered, or from a context the lock
-    /// refuses, the demand is [`Demand::OFF`]: no energy to the motor.
-    pub fn tick(&self, now: Instant, sample: &Sample) -> Demand {
+    /// refuses, every demand is [`Demand::OFF`]: no energy to the motors.
+    pub fn tick_axes<const AXES: usize>(&self, now: Instant, samples: &[Sample; AXES]) -> [Demand; AXES]
+    where
+        D: Tick<AXES>,
+    {
         let result = self.lock.lock(|| {
-            let demand = match self.drive.try_borrow_mut() {
-                Ok(mut slot) => slot.as_mut().map(|d| d.tick(now, sample)),
+            let demands = match self.drive.try_borrow_mut() {
+                Ok(mut slot) => slot.as_mut().map(|d| d.tick_axes(now, samples)),
                 Err(_) => None,
             };
-            (demand, self.kick())
+            (demands, self.kick())
         });
-        let (demand, waker) = result.unwrap_or((None, None));
+        let (demands, waker) = result.unwrap_or((None, None));
         wake(Some(waker));
-        demand.unwrap_or(Demand::OFF)
+        demands.unwrap_or([Demand::OFF; AXES])
     }
 }
 
@@ -303,9 +328,12 @@ mod tests {
         fn has_tx(&self) -> bool {
             false
         }
-        fn tick(&mut self, _now: Instant, _sample: &Sample) -> Demand {
+    }
+
+    impl Tick for Node {
+        fn tick_axes(&mut self, _now: Instant, _samples: &[Sample; 1]) -> [Demand; 1] {
             self.ticks += 1;
-            ON
+            [ON]
         }
     }
 
@@ -379,5 +407,28 @@ mod tests {
         let inner = shared
             .with(|_| (shared.with(|n| n.ticks), shared.tick(Instant::from_micros(0), &Sample::default())));
         assert_eq!(inner, Some((None, Demand::OFF)));
+    }
+
+    #[test]
+    fn a_node_of_two_axes_with_8_plus_8_pdos_ticks_both() {
+        use canopen_drive::comm::pdo;
+        use canopen_drive::od::{layout, Object};
+        use canopen_drive::{Config, MultiAxisDrive};
+        static PDOS: [Object; 32] = layout(pdo::objects::<32>(8));
+        type TwoAxes = MultiAxisDrive<2, 8, 8, (), (), 8192>;
+        let shared: SharedDrive<TwoAxes, Counting> = SharedDrive::new();
+        let now = Instant::from_micros(0);
+        let samples = [Sample::default(); 2];
+        assert_eq!(shared.tick_axes(now, &samples), [Demand::OFF; 2], "no drive yet");
+        let config = Config { pdo_objects: &PDOS, ..Config::new(3) };
+        shared.put(TwoAxes::build(config, (), ()).unwrap());
+        shared.tick_axes(now, &samples);
+        shared.poll(now);
+        // Boot-up through the shared drive's communication side.
+        assert_eq!(shared.pop_tx().and_then(|f| f.standard_id()), Some(0x703));
+        assert_eq!(
+            shared.with(|d| d.axis_state(1)),
+            Some(canopen_drive::cia402::fsa::State::SwitchOnDisabled)
+        );
     }
 }

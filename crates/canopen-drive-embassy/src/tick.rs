@@ -7,7 +7,7 @@ use canopen_drive::hal::{Demand, Sample};
 use embassy_time::{Duration, Instant, Timer};
 
 use crate::lock::Lock;
-use crate::shared::{Endpoints, SharedDrive};
+use crate::shared::{SharedDrive, Tick};
 
 /// How late the ticks ran: the time from when a tick was due to when it started, as the
 /// board measures it (µs, or timer counts: the monitor does not care).
@@ -69,7 +69,7 @@ impl TickMonitor {
 /// `apply` the demand. Spawn it on an `InterruptExecutor` whose interrupt has a higher
 /// priority than the runner's. Lateness (µs) goes to `monitor`. After a stall the grid
 /// restarts instead of catching up in a burst.
-pub async fn run_tick<D: Endpoints, L: Lock>(
+pub async fn run_tick<D: Tick, L: Lock>(
     drive: &SharedDrive<D, L>,
     period: Duration,
     monitor: &TickMonitor,

@@ -18,7 +18,7 @@ use canopen_drive::hal::{Demand, Sample};
 use canopen_drive::od::{layout, AbortCode, DataType, Object, ObjectHooks, Var};
 use canopen_drive::wire::crc;
 use canopen_drive::{CanFrame, Config, Drive, Instant};
-use canopen_drive_embassy::{run, Endpoints, SharedDrive};
+use canopen_drive_embassy::{run, Endpoints, SharedDrive, Tick};
 use embassy_time::{Duration, MockDriver};
 
 /// The mock clock is global: one test at a time.
@@ -112,9 +112,12 @@ impl Endpoints for Metered {
     fn has_tx(&self) -> bool {
         !self.out.is_empty()
     }
-    fn tick(&mut self, now: Instant, sample: &Sample) -> Demand {
+}
+
+impl Tick for Metered {
+    fn tick_axes(&mut self, now: Instant, samples: &[Sample; 1]) -> [Demand; 1] {
         self.ticks += 1;
-        self.metered(|d| d.tick(now, sample))
+        self.metered(|d| d.tick_axes(now, samples))
     }
 }
 

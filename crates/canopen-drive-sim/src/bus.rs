@@ -29,6 +29,7 @@
 use std::any::Any;
 use std::collections::VecDeque;
 use std::fmt;
+use std::marker::PhantomData;
 
 use canopen_drive::od::ObjectHooks;
 use canopen_drive::storage::Persistence;
@@ -53,8 +54,8 @@ pub trait Node {
 }
 
 /// A drive on the bus; its name is `node<id>`.
-impl<H: ObjectHooks, const B: usize, const R: usize, const T: usize, S: Persistence> Node
-    for Drive<H, B, R, T, S>
+impl<H: ObjectHooks, const B: usize, const R: usize, const T: usize, S: Persistence, const AXES: usize> Node
+    for Drive<H, B, R, T, S, AXES>
 {
     fn on_frame(&mut self, frame: &CanFrame, now: Instant) {
         Drive::on_frame(self, frame, now);
@@ -101,6 +102,35 @@ impl NodeHandle {
     /// The position of the node on its bus.
     pub const fn index(self) -> usize {
         self.0
+    }
+}
+
+/// A node of type `T` on one [`VirtualBus`], from [`VirtualBus::add_drive`]: the bus gives
+/// it back as a `T` ([`VirtualBus::drive`], [`VirtualBus::drive_mut`]) without the test naming
+/// the type again (where a wrong type given to [`VirtualBus::node_mut`] would find nothing).
+pub struct Handle<T> {
+    handle: NodeHandle,
+    node: PhantomData<fn() -> T>,
+}
+
+impl<T> Clone for Handle<T> {
+    fn clone(&self) -> Self {
+        *self
+    }
+}
+
+impl<T> Copy for Handle<T> {}
+
+impl<T> fmt::Debug for Handle<T> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "Handle({})", self.handle.0)
+    }
+}
+
+impl<T> Handle<T> {
+    /// The untyped handle (for [`Port::Node`], fault rules and traces).
+    pub const fn untyped(self) -> NodeHandle {
+        self.handle
     }
 }
 
@@ -253,6 +283,23 @@ impl VirtualBus {
     pub fn add_named_node(&mut self, name: impl Into<String>, node: impl Node + 'static) -> NodeHandle {
         self.nodes.push(Slot { name: name.into(), node: Box::new(node), deadline: None, dirty: true });
         NodeHandle(self.nodes.len() - 1)
+    }
+
+    /// Adds a node (e.g. a [`DriveNode`](crate::DriveNode) around the firmware's own drive)
+    /// under its own [`Node::name`], and returns a handle that knows its type.
+    pub fn add_drive<T: Node + 'static>(&mut self, node: T) -> Handle<T> {
+        Handle { handle: self.add_node(node), node: PhantomData }
+    }
+
+    /// The node behind a typed handle (`None` only for a handle of another bus).
+    pub fn drive<T: Node + 'static>(&self, handle: Handle<T>) -> Option<&T> {
+        self.node(handle.handle)
+    }
+
+    /// The node behind a typed handle, mutable (`None` only for a handle of another bus). The
+    /// node is polled again at the next instant the bus works.
+    pub fn drive_mut<T: Node + 'static>(&mut self, handle: Handle<T>) -> Option<&mut T> {
+        self.node_mut(handle.handle)
     }
 
     /// The node behind `handle`, if it has type `T`.

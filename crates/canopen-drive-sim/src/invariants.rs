@@ -1,4 +1,5 @@
-//! Checks of the DESIGN invariants for fuzz targets and robustness tests, written against the
+//! Checks of the invariants the core promises (energy only in the enabled states, demands within
+//! the configured limits, a consistent dictionary, one SDO answer per request) for fuzz targets and robustness tests, written against the
 //! public API of `canopen-drive` only (an independent second reading of the rules, not a call
 //! into the code under test where that can be avoided).
 //!

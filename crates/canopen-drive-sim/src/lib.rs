@@ -13,7 +13,7 @@
 //! - [`fault`]: rules that drop, delay or duplicate frames on the bus, chosen by a predicate
 //!   on the frame and its sender and/or by a seeded pseudo-random rate.
 //! - [`trace`]: a record of every frame on the bus, rendered like `candump -ta` output.
-//! - [`invariants`]: checks of the DESIGN invariants (dictionary consistency, energy, demand
+//! - [`invariants`]: checks of the invariants the core promises (dictionary consistency, energy, demand
 //!   limits, one SDO answer per request) for fuzz targets and robustness tests.
 //! - [`master`]: [`Master`], a scripted CANopen master on the master port: NMT commands and an
 //!   SDO client (expedited, segmented and block transfer, both directions), plus raw
@@ -118,6 +118,7 @@
 #![cfg_attr(test, allow(clippy::unwrap_used, clippy::expect_used, clippy::indexing_slicing, clippy::panic))]
 
 pub mod bus;
+pub mod cia402;
 pub mod fault;
 pub mod flash;
 pub mod invariants;
@@ -126,7 +127,8 @@ pub mod motor;
 pub mod node;
 pub mod trace;
 
-pub use bus::{BusError, Node, NodeHandle, Port, VirtualBus};
+pub use bus::{BusError, Handle, Node, NodeHandle, Port, VirtualBus};
+pub use cia402::{AxisMaster, MotionError};
 pub use fault::{FaultAction, FaultRule};
 pub use master::{Master, SdoError};
 pub use motor::SimMotor;

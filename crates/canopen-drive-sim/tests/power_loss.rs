@@ -22,6 +22,7 @@ const LOOP_SUBS: [(u8, Var); 4] = [
         1,
         Var::new("Proportional gain", DataType::Unsigned16)
             .access(Access::ReadWrite)
+            .default(DefaultValue::Unsigned(100))
             .limits_unsigned(1, 60_000),
     ),
     (

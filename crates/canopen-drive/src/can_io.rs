@@ -9,6 +9,7 @@ use embedded_can::nb::Can;
 use crate::drive::Drive;
 use crate::frame::CanFrame;
 use crate::od::ObjectHooks;
+use crate::storage::Persistence;
 use crate::time::Instant;
 
 /// Most frames [`service`] takes from the driver per call, to keep its work bounded.
@@ -16,10 +17,20 @@ pub const MAX_RX_PER_CALL: usize = 32;
 
 /// Receives up to [`MAX_RX_PER_CALL`] frames into the drive, runs [`Drive::poll`], and
 /// transmits queued frames until the driver's mailboxes are full. Returns the drive's next
-/// deadline.
-pub fn service<C: Can, H: ObjectHooks, const B: usize>(
+/// deadline: call again by then (or at the next frame), e.g. from a timer set to it.
+///
+/// Any drive: every value store size, PDO count, parameter storage and number of axes.
+pub fn service<
+    C: Can,
+    H: ObjectHooks,
+    const B: usize,
+    const RPDOS: usize,
+    const TPDOS: usize,
+    S: Persistence,
+    const AXES: usize,
+>(
     can: &mut C,
-    drive: &mut Drive<H, B>,
+    drive: &mut Drive<H, B, RPDOS, TPDOS, S, AXES>,
     now: Instant,
 ) -> Result<Option<Instant>, C::Error> {
     for _ in 0..MAX_RX_PER_CALL {

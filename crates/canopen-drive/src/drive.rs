@@ -19,13 +19,48 @@
 //! `check_write`; an RPDO entry's rule is decided once, when its mapping is validated, so
 //! process data pays only for the values that have a rule.
 //!
+//! ## Choosing the drive type
+//!
+//! [`Drive`] has six generic parameters, all with defaults; the aliases name the usual shapes,
+//! and [`Drive::build`] (or [`Drive::build_in`]) constructs any of them:
+//!
+//! | shape | type |
+//! |---|---|
+//! | one axis, 4 + 4 PDOs, no parameter storage | [`Drive`] (`Drive<MyHooks>` with hooks) |
+//! | the same with 1010h/1011h storage `S` | [`StoredDrive<S, H, OD_BYTES>`](StoredDrive) |
+//! | `RPDOS` + `TPDOS` PDOs (e.g. 8 + 8), storage optional | [`PdoDrive<RPDOS, TPDOS, S, H, OD_BYTES>`](PdoDrive) |
+//! | several CiA 402 axes on one node | [`MultiAxisDrive<AXES, RPDOS, TPDOS, S, H, OD_BYTES>`](MultiAxisDrive) |
+//!
+//! `OD_BYTES` is best sized to the tables at compile time:
+//! `STANDARD_OD_BYTES + od::storage_bytes(&[&VENDOR])` for one axis and 4 + 4 PDOs
+//! ([`STANDARD_OD_BYTES`], [`od::storage_bytes`](crate::od::storage_bytes)); with other PDO
+//! counts or axes, `od::storage_bytes` of every table the drive links (the communication
+//! objects, the PDO table, the profile per axis). A store that is too small is refused by the
+//! constructor with the size it needs ([`ConfigError::StorageTooSmall`]).
+//!
 //! ## Concurrency
 //!
 //! `Drive` is a plain value with `&mut self` entry points. Firmware that calls `tick` from a
-//! high-priority interrupt and `on_frame`/`poll` from a lower one shares it behind a lock: a
-//! `critical_section::Mutex<RefCell<Drive>>`, or `canopen-drive-embassy`'s `SharedDrive`, whose
-//! priority-ceiling lock leaves the interrupts above the tick (a current loop) unmasked; every
-//! entry point does bounded work, so the time the tick can be held off is bounded by the
+//! high-priority interrupt and `on_frame`/`poll` from a lower one shares it behind a lock.
+//! On an MCU the drive is built in place in a `static` ([`Drive::build_in`], e.g. into a
+//! `static_cell::StaticCell`), because a drive built by value and moved costs several copies of
+//! itself on the stack; what the lock holds is then the `&'static mut Drive` that `build_in`
+//! returns:
+//!
+//! ```ignore
+//! static DRIVE_CELL: StaticCell<FirmwareDrive> = StaticCell::new();
+//! static DRIVE: Mutex<RefCell<Option<&'static mut FirmwareDrive>>> = Mutex::new(RefCell::new(None));
+//! // main, once: build in place, then hand the reference to the lock.
+//! let drive = FirmwareDrive::build_in(DRIVE_CELL.uninit(), config, hooks, storage)?;
+//! critical_section::with(|cs| DRIVE.borrow_ref_mut(cs).replace(drive));
+//! // tick interrupt and communication context alike:
+//! critical_section::with(|cs| DRIVE.borrow_ref_mut(cs).as_mut().map(|d| d.tick(now, &sample)));
+//! ```
+//!
+//! (`critical_section::Mutex`; `examples/firmware` is a whole `no_std` firmware built this
+//! way.) With embassy, `canopen-drive-embassy`'s `SharedDrive` holds the same reference, and
+//! its priority-ceiling lock leaves the interrupts above the tick (a current loop) unmasked.
+//! Every entry point does bounded work, so the time the tick can be held off is bounded by the
 //! longest single call (one frame, or one poll of at most [`TX_QUEUE`] frames).
 
 use core::fmt;
@@ -142,7 +177,11 @@ pub struct Config {
     /// optional, and a drive documented without them answers their initiation with abort
     /// 0x0504_0001).
     pub sdo_block_transfer: bool,
-    /// The firmware's own objects (2000h–5FFFh), laid out with [`crate::od::layout`].
+    /// The firmware's own objects (2000h–5FFFh), laid out with [`crate::od::layout`]; a
+    /// hand-written table and one generated from an EDS are joined into this one table with
+    /// [`crate::od::join`]. The constructors refuse an object outside 2000h–5FFFh and every
+    /// other fault [`crate::od::check_manufacturer_table`] finds (which a firmware can also run
+    /// when the table is compiled).
     pub manufacturer_objects: &'static [Object],
     /// What an RPDO longer than its mapping does (default: applied, EMCY 0x8220).
     pub long_rpdo: pdo::LongRpdo,
@@ -235,6 +274,32 @@ impl CommSlots {
         CommSlots { sync: SyncSlots::resolve(od), heartbeat: PeriodSlot::resolve(od) }
     }
 }
+
+/// A drive of one axis and 4 + 4 PDOs whose parameters (1010h/1011h) are kept in `S` (e.g. a
+/// [`Storage`](crate::storage::Storage) over the board's flash): the type
+/// [`Drive::with_storage`] returns, with any value store size.
+pub type StoredDrive<S, H = (), const OD_BYTES: usize = DEFAULT_OD_BYTES> = Drive<H, OD_BYTES, 4, 4, S>;
+
+/// A drive of one axis with `RPDOS` + `TPDOS` PDOs ([`Config::pdo_objects`] a table of
+/// [`pdo::objects`] with as many), parameter storage `S` (none by default).
+pub type PdoDrive<
+    const RPDOS: usize,
+    const TPDOS: usize,
+    S = (),
+    H = (),
+    const OD_BYTES: usize = DEFAULT_OD_BYTES,
+> = Drive<H, OD_BYTES, RPDOS, TPDOS, S>;
+
+/// A node of `AXES` CiA 402 axes (2–8; axis n's objects at 6000h + n × 800h) with `RPDOS` +
+/// `TPDOS` PDOs, ticked by [`Drive::tick_axes`].
+pub type MultiAxisDrive<
+    const AXES: usize,
+    const RPDOS: usize,
+    const TPDOS: usize,
+    S = (),
+    H = (),
+    const OD_BYTES: usize = DEFAULT_OD_BYTES,
+> = Drive<H, OD_BYTES, RPDOS, TPDOS, S, AXES>;
 
 /// A CANopen CiA 402 drive: dictionary, NMT slave, SDO server, PDOs, SYNC, EMCY, error control.
 ///
@@ -579,9 +644,11 @@ impl<
         if !(1..=127).contains(&config.node_id) && config.node_id != NODE_ID_UNCONFIGURED {
             return Err(ConfigError::InvalidNodeId);
         }
-        if pdo::count(config.pdo_objects) != (RPDOS, TPDOS) {
-            return Err(ConfigError::PdoCount);
+        let table = pdo::count(config.pdo_objects);
+        if table != (RPDOS, TPDOS) {
+            return Err(ConfigError::PdoCount { drive: (RPDOS, TPDOS), table });
         }
+        crate::od::check_manufacturer_table(config.manufacturer_objects)?;
         let missing = config.device.drive_modes & STANDARD_MODES & !IMPLEMENTED_MODES;
         if missing != 0 {
             return Err(ConfigError::ModesNotBuilt { modes: missing });
@@ -1702,7 +1769,7 @@ impl<
     }
 }
 
-/// The dictionary with the access rules of the bus (CiA 301 §7.2.4, digest §5.9).
+/// The dictionary with the access rules of the bus (CiA 301 §7.2.4).
 struct Access<'a, H, S, const B: usize, const AXES: usize> {
     od: &'a mut Dictionary<B>,
     hooks: &'a mut H,

@@ -4,7 +4,7 @@
 //! returned [`Demand`] to its power stage. The traits [`Feedback`] and [`PowerStage`] name these
 //! two sides for boards that want them as types; the core itself only sees the values.
 //!
-//! Invariant (DESIGN 1): [`Demand::drive_enabled`] — energy to the motor — is true only in the
+//! Invariant: [`Demand::drive_enabled`] — energy to the motor — is true only in the
 //! CiA 402 states Operation enabled, Quick stop active and Fault reaction active.
 
 use bitflags::bitflags;

@@ -162,14 +162,14 @@ pub struct ProfileConfig {
     /// Transition 16 (Quick stop active → Operation enabled with 605Ah = 5–8).
     pub transition_16: bool,
     /// Profile position: how many set-points may wait behind the one being executed (set of
-    /// set-points, digest §9.4), 1..=[`ProfileConfig::MAX_SETPOINT_BUFFER`].
+    /// set-points, CiA 402-2 §10.2.3), 1..=[`ProfileConfig::MAX_SETPOINT_BUFFER`].
     pub setpoint_buffer: u8,
     /// A following error (6065h/6066h) is also a fault (8611h, reaction 605Eh); the standard
     /// only requires statusword bit 13.
     pub following_error_fault: bool,
     /// Profile position supports change on set-point (controlword bit 9). Without it, a
     /// master that sets bit 9 in pp gets an EMCY 6320h (parameter error) until it clears the
-    /// bit, and the bit is treated as 0 (digest §4: a function that is not available).
+    /// bit, and the bit is treated as 0 (CiA 402-2 §8.4.1: a function that is not available).
     pub change_on_setpoint: bool,
     /// Close the position and velocity loops in the core ([`crate::control::Cascade`]) with
     /// the parameters of the manufacturer RECORD at this index (put

@@ -1,5 +1,5 @@
 //! Cyclic synchronous modes: position (csp, 8), velocity (csv, 9), torque (cst, 10)
-//! (digest §16–§18), and the interpolation they share with interpolated position mode.
+//! (CiA 402-2 §17–§19), and the interpolation they share with interpolated position mode.
 //!
 //! # The stream
 //!
@@ -18,7 +18,7 @@
 //! [`CyclicConfig::max_missed_cycles`] missed cycles in a row the profile reacts as for a lost
 //! connection (6007h) and sends EMCY 8700h (sync controller); a new target ends the loss.
 //!
-//! # Limits (DESIGN invariant 2)
+//! # Limits (every demand within the configured limits)
 //!
 //! - csp: the demand follows the interpolated target through a limiter with the velocity limit
 //!   min(607Fh, 6080h) and the acceleration limits 60C5h/60C6h. A stream within the limits goes

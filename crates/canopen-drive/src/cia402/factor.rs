@@ -1,4 +1,4 @@
-//! Factor group (608Fh–6092h) and polarity (607Eh): user units ↔ internal units (digest §8).
+//! Factor group (608Fh–6092h) and polarity (607Eh): user units ↔ internal units (CiA 402-2 §9).
 //!
 //! ```text
 //! user = increments × 6092.1 × 608F.2 × 6091.2 / (6092.2 × 608F.1 × 6091.1)
@@ -11,7 +11,7 @@
 //! twice. Rounding: to the nearest integer, halves away from zero. Results beyond the i32
 //! range saturate (a 32-bit object cannot show them).
 //!
-//! Velocities are user position units per second and accelerations per second² (digest §8.1),
+//! Velocities are user position units per second and accelerations per second² (CiA 402-2 §9.1),
 //! so they use the same ratio — unless the configuration puts them in motor rpm
 //! ([`VelocityUnit::MotorRpm`]): then their ratio is `60 × 608F.2 / 608F.1` (rpm per increment/s;
 //! rpm/s, rpm/s² for accelerations and jerks), kept and applied the same way. 6090h (velocity encoder resolution) describes a separate velocity
@@ -23,12 +23,12 @@
 //! unit, or mA ([`TorqueUnit::MilliAmps`]): `mA = ‰ × 6075h / 1000`, rounded the same way,
 //! saturated to INTEGER16.
 //!
-//! Polarity (607Eh, digest §8.2, its recommended reading): position polarity (bit 7) negates
+//! Polarity (607Eh, CiA 402-2 §9.2.5, its recommended reading): position polarity (bit 7) negates
 //! the commanded target 607Ah in profile position mode, and the reported positions 6062h,
 //! 6064h and 60F4h in every mode, so that the master's frame stays one mirror image whatever
 //! the mode; velocity polarity (bit 6) negates the target velocity 60FFh in profile velocity
 //! mode and the reported velocities 606Bh/606Ch. Homing will ignore 607Eh for its search
-//! directions (digest §8.2); torque modes ignore it.
+//! directions (CiA 402-2 §9.2.5); torque modes ignore it.
 
 use super::config::{MotorSpeedUnit, TorqueUnit, Units, VelocityUnit};
 use super::objects::parameter;
@@ -267,7 +267,7 @@ impl Factors {
 /// 6075h motor rated current (mA).
 const MOTOR_RATED_CURRENT: u16 = 0x6075;
 
-/// Value rules of the factor group: no 0 in a ratio (digest §8.1), no reserved polarity bit.
+/// Value rules of the factor group: no 0 in a ratio (CiA 402-2 §9.1), no reserved polarity bit.
 pub fn check_write(index: u16, sub: u8, raw: u32) -> Result<(), AbortCode> {
     match index {
         POSITION_ENCODER_RESOLUTION | VELOCITY_ENCODER_RESOLUTION | GEAR_RATIO | FEED_CONSTANT
@@ -280,7 +280,7 @@ pub fn check_write(index: u16, sub: u8, raw: u32) -> Result<(), AbortCode> {
     }
 }
 
-/// A two-entry ratio of the factor group (608Fh–6092h), both entries 1 by default (digest §8.1:
+/// A two-entry ratio of the factor group (608Fh–6092h), both entries 1 by default (CiA 402-2 §9.1:
 /// never 0).
 const fn ratio(index: u16, name: &'static str, element: &'static Var) -> Object {
     Object::array(index, name, 2, element)

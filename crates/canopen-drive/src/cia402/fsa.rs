@@ -1,4 +1,4 @@
-//! The power drive system state machine (CiA 402-2 §8.1–8.2, digest §3, §6).
+//! The power drive system state machine (CiA 402-2 §8.1–8.2).
 //!
 //! ```text
 //!  Start ─0─▶ Not ready to switch on ─1─▶ Switch on disabled ◀─────────────7,9,10,12,15─┐
@@ -17,11 +17,11 @@
 //!
 //! [`Fsa::step`] runs once per control tick with the controlword, the fault signal and whether
 //! the axis is at rest; it returns what the power stage and the motion layer must do. The
-//! transition function [`next`] is pure and follows the digest's tables line by line.
+//! transition function [`next`] is pure and follows the transition table of CiA 402-2 §8.2 line by line.
 //!
-//! Decisions (digest §3.2–3.4 and its "AMBIG" notes):
+//! Decisions (CiA 402-2 §8.2, where its text leaves room):
 //! - Commands other than Fault reset are decoded only while controlword bit 7 = 0; Fault reset
-//!   is the 0→1 edge of bit 7 (digest §3.3).
+//!   is the 0→1 edge of bit 7 (CiA 402-2 §8.2).
 //! - "An action is completed before the transition is reported": Disable operation with 605Ch = 1
 //!   and Shutdown with 605Bh = 1 keep Operation enabled while the axis ramps down; Quick stop
 //!   keeps Quick stop active until at rest; Fault reaction active lasts until at rest.
@@ -32,7 +32,7 @@
 
 use super::words::{Controlword, Statusword};
 
-/// The states of the FSA (digest §3.1).
+/// The states of the FSA (CiA 402-2 §8.2).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum State {
@@ -67,7 +67,7 @@ pub enum Leaving {
     ToReadyToSwitchOn,
 }
 
-/// Controlword commands (digest §3.3, Table 27).
+/// Controlword commands (CiA 402-2 §8.2, Table 27).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Command {
@@ -104,7 +104,7 @@ pub fn decode(controlword: Controlword, previous: Controlword) -> Option<Command
     })
 }
 
-/// How the axis is brought to rest (605Ah/605Bh/605Ch/605Dh/605Eh values, digest §6).
+/// How the axis is brought to rest (605Ah/605Bh/605Ch/605Dh/605Eh values, CiA 402-2 §8.4.4–§8.4.9).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum StopKind {
@@ -296,12 +296,12 @@ pub fn settle(state: State, options: &Options, stopped: bool) -> State {
 }
 
 impl State {
-    /// The state bits of the statusword (0, 1, 2, 3, 5, 6; digest §3.5), typed.
+    /// The state bits of the statusword (0, 1, 2, 3, 5, 6; CiA 402-2 §8.4.2), typed.
     pub const fn statusword(self) -> Statusword {
         Statusword::from_raw(self.statusword_bits())
     }
 
-    /// The state bits of the statusword (0, 1, 2, 3, 5, 6; digest §3.5), raw.
+    /// The state bits of the statusword (0, 1, 2, 3, 5, 6; CiA 402-2 §8.4.2), raw.
     pub const fn statusword_bits(self) -> u16 {
         match self {
             State::NotReadyToSwitchOn => 0x0000,
@@ -315,7 +315,7 @@ impl State {
         }
     }
 
-    /// The state a statusword reports, through the masks of digest §3.5.
+    /// The state a statusword reports, through the masks of CiA 402-2 §8.4.2.
     pub fn from_statusword(statusword: u16) -> Option<State> {
         Some(match (statusword & 0x004F, statusword & 0x006F) {
             (0x0000, _) => State::NotReadyToSwitchOn,
@@ -330,7 +330,8 @@ impl State {
         })
     }
 
-    /// Energy may reach the motor (DESIGN invariant 1).
+    /// Energy may reach the motor: only in Operation enabled, Quick stop active and Fault reaction
+    /// active (CiA 402-2 §8.2).
     pub const fn drive_function_enabled(self) -> bool {
         matches!(self, State::OperationEnabled { .. } | State::QuickStopActive | State::FaultReactionActive)
     }
@@ -542,7 +543,7 @@ mod tests {
         assert_eq!(fsa.step(cw(0x0080), false, true, &o).state, State::SwitchOnDisabled);
     }
 
-    /// A reference model written from the digest's state × command table (§3.4), with its own
+    /// A reference model written from a state × command table derived from CiA 402-2 §8.2, with its own
     /// encoding: state codes are statusword patterns, a ramped exit is a separate flag, and a
     /// stop completes on the first tick at rest after the tick that started it.
     #[derive(Clone, Copy, Debug)]

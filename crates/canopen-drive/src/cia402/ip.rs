@@ -1,4 +1,4 @@
-//! The input buffer of interpolated position mode (ip, digest §12.2, 402-2 §13.5): the data
+//! The input buffer of interpolated position mode (ip, CiA 402-2 §13.2, §13.5): the data
 //! records the master sends through 60C1h, their configuration 60C4h, the interpolation
 //! period 60C2h and the algorithm select 60C0h.
 //!
@@ -29,7 +29,7 @@
 //!
 //! Every call does work bounded by [`MAX_RECORDS`] and never allocates.
 //!
-//! # Choices where the standard leaves room (digest §12.2, ambiguity item 18)
+//! # Choices where the standard leaves room (CiA 402-2 §13.2)
 //!
 //! - **60C4h sub 0 is 6**: only subs 1–6 are defined, so the object reports 6 and sub 7 answers
 //!   "sub-index does not exist" (0609 0011h), instead of the 07h printed in the standard.
@@ -52,7 +52,7 @@
 //!   has no effect.
 //! - **Ring**: a complete record is stored in the slot 60C4h.4 names; the position does not
 //!   advance by itself, so a second record written without changing 60C4h.4 replaces the
-//!   first (the digest's reading of the conflicting text). [`IpBuffer::next`] replays the
+//!   first (this crate's reading of a text that allows both). [`IpBuffer::next`] replays the
 //!   occupied slots cyclically in slot order from the read pointer, skipping slots never
 //!   written since the last clear or reorganisation (an empty slot holds no set-point).
 //! - **Overflow**: a complete record that cannot be placed (FIFO full, or a ring position

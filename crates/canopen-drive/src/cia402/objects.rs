@@ -1,5 +1,5 @@
-//! Objects of the CiA 402 profile area (6000h–67FFh) this build implements (digest
-//! `cia402-objects.csv`), with their CiA 402 defaults, and the value rules SDO writes must obey.
+//! Objects of the CiA 402 profile area (6000h–67FFh) this build implements (CiA 402-2
+//! §6–§20), with their CiA 402 defaults, and the value rules SDO writes must obey.
 
 use super::config::{OptionCodes, ProfileConfig};
 pub use super::probe::{
@@ -248,7 +248,7 @@ pub const MOTOR_TYPE: u16 = 0x6402;
 /// 6502h supported drive modes.
 pub const SUPPORTED_DRIVE_MODES: u16 = 0x6502;
 
-/// Modes of operation (6060h values, digest §7.1).
+/// Modes of operation (6060h values, CiA 402-2 §8.4.10).
 pub mod mode {
     /// Profile position.
     pub const PROFILE_POSITION: i8 = 1;
@@ -268,7 +268,7 @@ pub mod mode {
     pub const CYCLIC_TORQUE: i8 = 10;
 }
 
-/// 6502h bits (digest §7.3) of each mode.
+/// 6502h bits (CiA 402-2 §8.4.12) of each mode.
 pub mod mode_bit {
     /// Profile position.
     pub const PROFILE_POSITION: u32 = 1 << 0;
@@ -604,7 +604,7 @@ const fn merged<const N: usize>(parts: &[&[Object]]) -> [Object; N] {
     out
 }
 
-/// The value rule of a profile object beyond type and limits (digest §6–§9), decided from the
+/// The value rule of a profile object beyond type and limits (CiA 402-2 §8.4–§10), decided from the
 /// index once: per SDO write, or once when a PDO mapping is validated (an RPDO's entries without
 /// a rule are then plain copies).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

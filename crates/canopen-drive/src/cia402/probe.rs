@@ -1,4 +1,4 @@
-//! Touch probe (60B8h–60BDh; digest §10.6): the drive latches the actual position when a probe
+//! Touch probe (60B8h–60BDh; CiA 402-2 §11.5.5–§11.5.11): the drive latches the actual position when a probe
 //! input or the encoder index pulse changes, and reports it with a status word.
 //!
 //! ```text
@@ -19,7 +19,7 @@
 //! [`TouchProbe::tick`] runs once per control tick with the 60B8h value, the digital inputs of
 //! the sample, the actual position in increments and what the board knows about the instant of
 //! the edge ([`Capture`]). It returns [`ProbeOutputs`]: 60B9h and the four latched positions in
-//! increments (the caller converts them to user units, polarity included, digest §8.2) and which
+//! increments (the caller converts them to user units, polarity included, CiA 402-2 §9.2.5) and which
 //! of them changed. The work per tick is constant. Choices where the standard leaves room:
 //!
 //! - **Edges** are found by comparing the input level of this tick with that of the previous
@@ -35,7 +35,7 @@
 //!   invalid. An index pulse flagged in the enabling tick counts, like an input edge.
 //! - **First event** (bit 1/9 = 0): the first edge of each enabled kind latches its position
 //!   and sets its status bit; later edges of that kind are ignored until the probe is re-armed.
-//! - **Re-arm** (digest §10.6 recommendation): an edge kind is re-armed when the master switches
+//! - **Re-arm** (the reading this crate takes of CiA 402-2 §11.5.5): an edge kind is re-armed when the master switches
 //!   the probe on (bit 0/8 0→1) or that edge's sampling bit on (bit 4/5, 12/13 0→1). Re-arming
 //!   clears the status bit; the old position stays readable until a new edge replaces it.
 //!   Switching an edge's sampling bit off keeps its status bit and value; so does changing

@@ -1,4 +1,4 @@
-//! Profile velocity mode (pv, 6060h = 3; digest §13).
+//! Profile velocity mode (pv, 6060h = 3; CiA 402-2 §14).
 //!
 //! The velocity demand ramps towards the target velocity 60FFh, limited to min(607Fh, 6080h):
 //! speeding up with min(6083h, 60C5h), slowing down with min(6084h, 60C6h). No velocity towards

@@ -1,8 +1,8 @@
-//! Profile torque mode (tq, 6060h = 4; digest §14).
+//! Profile torque mode (tq, 6060h = 4; CiA 402-2 §15).
 //!
 //! The torque demand ramps towards the target torque 6071h with the torque slope 6087h, and
 //! towards 0 while halt is set. It never exceeds min(6072h, 6073h): a limit lowered below the
-//! running torque holds at once (DESIGN invariant 2). The mode keeps no state of its own; the
+//! running torque holds at once. The mode keeps no state of its own; the
 //! ramp is the axis's torque demand.
 
 use super::factor::Factors;

@@ -1,4 +1,4 @@
-//! Velocity mode (vl, 6060h = 2; digest §15, §4.1): the frequency-inverter mode.
+//! Velocity mode (vl, 6060h = 2; CiA 402-2 §16, controlword §8.4.1): the frequency-inverter mode.
 //!
 //! ```text
 //!  6042h ──× 604Bh──▶ reference ──▶ |v| into [6046h.1, 6046h.2] ──▶ ramp (6048h / 6049h / 604Ah)
@@ -45,18 +45,18 @@
 //! - **Min/max amount** (6046h): a non-zero reference keeps its sign and has its magnitude
 //!   clamped into `[min, max]`; 0 stays 0 (the motor may stand still even with a minimum
 //!   speed). With min above max, max wins. The caller's velocity limit (6080h/607Fh in
-//!   increments/s, DESIGN invariant 2) is a second maximum, and the demand is clamped to it once
+//!   increments/s, which every demand of the drive respects) is a second maximum, and the demand is clamped to it once
 //!   more after conversion. [`Output::limit_active`] (statusword bit 11) reports a clamped
 //!   reference.
 //! - **Ramps**: moving away from 0 uses the acceleration 6048h, towards 0 the deceleration
 //!   6049h. A reference on the other side of 0 is approached by decelerating to 0 first, then
 //!   accelerating (the tick that reaches 0 ends there). **6049h with delta speed 0, or absent,
-//!   means "as 6048h"** (digest §15, testable 171): the default of 6049h is 0, so a master that
+//!   means "as 6048h"** (CiA 402-2 §16): the default of 6049h is 0, so a master that
 //!   sets only 6048h gets symmetric ramps. Likewise 604Ah with delta speed 0 or absent means
 //!   "as the deceleration". An acceleration of 0 holds the ramp (it cannot speed up); a
 //!   deceleration of 0 (only reachable when the firmware stores 0 in 6048h past
 //!   [`check_write`]) stops at once rather than never.
-//! - **Controlword** (digest §4.1), in this order of priority:
+//! - **Controlword** (CiA 402-2 §8.4.1), in this order of priority:
 //!   - a stop requested by the profile ([`Velocity::stop`]) ramps to 0 whatever the bits say;
 //!   - bit 4 = 0 (ramp function generator disabled): the velocity demand is **0 at once**, and
 //!     the ramp generator is set to 0, so it restarts from standstill when bit 4 returns. This
@@ -68,11 +68,11 @@
 //!   - bit 5 = 0 (ramp locked): the ramp output stays where it is;
 //!   - bit 6 = 0: the ramp input is 0, and the ramp output decelerates to 0 with 6049h;
 //!   - otherwise the ramp follows the limited reference.
-//! - **0x000F vs 0x007F**: this build implements bits 4–6 and honours them (testable 166–168),
+//! - **0x000F vs 0x007F**: this build implements bits 4–6 and honours them (CiA 402-2 §16),
 //!   so a running vl drive needs controlword **0x007F**. A master that sends 0x000F gets a
 //!   demand of 0 (bit 4 = 0): the motor is held at standstill under power, never started. For
 //!   masters written for drives without these bits, [`Config::ramp_bits`] = false reads bits
-//!   4–6 as 1 (the digest's recommendation for such drives).
+//!   4–6 as 1, as such drives behave.
 //! - **Statusword** (Fig. 57 is lost): [`Output::target_reached`] (bit 10) is 1 when the ramp
 //!   output equals the ramp input — the limited reference, or 0 under halt, a stop, or bit 6 = 0.
 //! - **Stops** ([`Velocity::stop`]): slow down → 6049h (or 6048h), quick stop ramp, current
@@ -183,7 +183,7 @@ const fn amount(name: &'static str, default: u32) -> Var {
         .default(DefaultValue::Unsigned(default as u64))
 }
 
-/// The subs of a record of type 0082h (delta speed U32, delta time U16; digest §15: U16).
+/// The subs of a record of type 0082h (delta speed U32, delta time U16; CiA 402-2 §16: U16).
 const fn slope_subs(default: Slope) -> [(u8, Var); 3] {
     [
         (0, highest_sub_two()),

@@ -1,5 +1,5 @@
-//! The controlword 6040h and the statusword 6041h as typed bit sets (CiA 402-2 §8.4, digest
-//! §3.3–§3.5). Bits 4–6, 9, 12 and 13 mean something different in each operation mode: they
+//! The controlword 6040h and the statusword 6041h as typed bit sets (CiA 402-2 §8.4.1,
+//! §8.4.2). Bits 4–6, 9, 12 and 13 mean something different in each operation mode: they
 //! have one generic name (`MODE_SPECIFIC_n`) and the names of their meanings in the modes.
 
 use bitflags::bitflags;

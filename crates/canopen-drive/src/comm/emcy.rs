@@ -1,4 +1,4 @@
-//! EMCY producer (CiA 301 §7.2.7, digest §9): the one path every error of the drive takes.
+//! EMCY producer (CiA 301 §7.2.7): the one path every error of the drive takes.
 //!
 //! ```text
 //! COB-ID 1014h (default 0x80+id), DLC 8:
@@ -29,7 +29,7 @@ pub const fn owns(index: u16) -> bool {
 /// The error history 1003h ([`check_history_write`], [`check_history_read`]).
 pub const HISTORY: u16 = crate::od::standard::PRE_DEFINED_ERROR_FIELD;
 
-/// The value rules of the EMCY objects (digest §9, §10): 1014h holds an unrestricted CAN-ID
+/// The value rules of the EMCY objects (CiA 301 §7.2.7, §7.5.2): 1014h holds an unrestricted CAN-ID
 /// without bit 30 that changes only while the EMCY is invalid (before or after the write).
 pub fn check_write<const B: usize>(od: &Dictionary<B>, index: u16, data: &[u8]) -> Result<(), AbortCode> {
     if index != COB_ID_EMCY {
@@ -73,7 +73,7 @@ pub fn show_register<const B: usize>(od: &mut Dictionary<B>, register: ErrorRegi
 }
 
 /// Records an error in the history 1003h: newest first, the oldest falls off when full
-/// (digest §9.3); the entry holds the code and the first two additional bytes.
+/// (CiA 301 §7.5.2, 1001h/1003h); the entry holds the code and the first two additional bytes.
 pub fn record_history<const B: usize>(od: &mut Dictionary<B>, code: u16, info: [u8; 5]) {
     use crate::od::standard::ERROR_HISTORY_LEN;
     let count = od.get::<u8>(HISTORY, 0).unwrap_or(0).min(ERROR_HISTORY_LEN);
@@ -108,7 +108,7 @@ pub fn check_history_read<const B: usize>(od: &Dictionary<B>, index: u16, sub: u
 }
 
 bitflags! {
-    /// Error register 1001h (digest §9.3).
+    /// Error register 1001h (CiA 301 §7.5.2, 1001h/1003h).
     #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
     pub struct ErrorRegister: u8 {
         /// Bit 0: generic error (set whenever any error is active).
@@ -136,7 +136,7 @@ impl defmt::Format for ErrorRegister {
     }
 }
 
-/// EMCY error codes the communication layer raises (digest §9.4).
+/// EMCY error codes the communication layer raises (CiA 301 §7.2.7).
 pub mod code {
     /// Error reset or no error.
     pub const NO_ERROR: u16 = 0x0000;

@@ -1,4 +1,4 @@
-//! Error control consumers (CiA 301 §7.2.8.3, digest §4.2–4.4): heartbeat consumer (1016h),
+//! Error control consumers (CiA 301 §7.2.8.3): heartbeat consumer (1016h),
 //! node guarding / life guarding (100Ch, 100Dh) and the error behaviour 1029h.
 //!
 //! ```text
@@ -8,7 +8,7 @@
 //! ```
 //!
 //! Supervision of a heartbeat entry starts with the first heartbeat received from its node,
-//! never at configuration (digest §18 item 1). A boot-up from a node that was being supervised is
+//! never at configuration (a consumer configured before its producer boots does not time out). A boot-up from a node that was being supervised is
 //! a "remote reset" event; the entry then waits for the node's next heartbeat. Life guarding
 //! starts with the first guarding request and is active only while 1017h = 0.
 
@@ -17,7 +17,7 @@ use crate::od::{le_u32, AbortCode, Dictionary};
 use crate::time::{Duration, Instant};
 use crate::wire::nmt::NmtState;
 
-/// State of one heartbeat-consumer entry (digest §4.2).
+/// State of one heartbeat-consumer entry (CiA 301 §7.2.8.3.2.2).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Supervision {
     /// Node-ID or time is 0: not used.
@@ -77,7 +77,7 @@ pub const fn guarding_owns(index: u16) -> bool {
 /// The error behaviour 1029h ([`ErrorBehaviour::check_write`]).
 pub const ERROR_BEHAVIOUR_OBJECT: u16 = crate::od::standard::ERROR_BEHAVIOUR;
 
-/// The rule of the heartbeat consumer 1016h (digest §4.2): two entries must not supervise the
+/// The rule of the heartbeat consumer 1016h (CiA 301 §7.2.8.3.2.2): two entries must not supervise the
 /// same node.
 pub fn check_consumer_write<const B: usize>(
     od: &Dictionary<B>,
@@ -279,7 +279,7 @@ impl NodeGuarding {
     }
 }
 
-/// Communication-error reaction of 1029h sub 1 (digest §4.4).
+/// Communication-error reaction of 1029h sub 1 (CiA 301 §7.5.2, 1029h).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ErrorBehaviour {
     /// 0: enter Pre-operational, only if currently Operational.

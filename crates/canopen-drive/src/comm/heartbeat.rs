@@ -1,4 +1,4 @@
-//! Heartbeat producer (CiA 301 §7.2.8.3.2.2, digest §4.1): every 1017h ms the frame
+//! Heartbeat producer (CiA 301 §7.2.8.3.2.2): every 1017h ms the frame
 //! `0x700+id [state]`. A period of 0 disables it. A change of period or of NMT state sends a
 //! heartbeat at once and restarts the period from there.
 

@@ -1,9 +1,9 @@
-//! LSS slave (CiA 305, digest §12): the node-ID and the bit rate set over the bus.
+//! LSS slave (CiA 305): the node-ID and the bit rate set over the bus.
 //!
 //! Requests arrive on COB-ID 0x7E5, answers leave on 0x7E4, always eight bytes; the frame
 //! layouts are in [`crate::wire::lss`]. The LSS state is independent of the NMT state: the drive
 //! hands every 0x7E5 frame to [`LssSlave::on_request`] in every NMT state, also while its
-//! node-ID is 0xFF ("non-configured": CAN + LSS only, no boot-up, digest §18 item 21).
+//! node-ID is 0xFF ("non-configured": CAN + LSS only, no boot-up; CiA 305).
 //!
 //! ```text
 //!                power-on
@@ -32,9 +32,9 @@
 //! non-configured slave (active 0xFF) holding a valid pending node-ID is switched back to
 //! waiting, [`LssHooks::continue_start_up`] tells the drive to continue its NMT start-up
 //! (reset communication → `activate_pending` → boot-up); a configured slave keeps its node-ID
-//! until the next reset communication (digest §12.2).
+//! until the next reset communication (CiA 305).
 //!
-//! ## Decisions where the digest leaves room
+//! ## Decisions where CiA 305 leaves room
 //!
 //! - *Frames*: a frame that is not eight bytes long or carries an out-of-range parameter is
 //!   not answered ([`crate::wire::lss::ParseError`]).
@@ -43,29 +43,28 @@
 //!   including an unknown or malformed one, ends the sequence in progress; a vendor-ID frame
 //!   always starts a new one. A mismatching field ends it too, so the slave stays silent.
 //! - *Non-configured* means active **and** pending node-ID are 0xFF (identify non-configured,
-//!   digest §12.2). Only such a slave, and only in waiting, takes part in fastscan (digest
-//!   §18 item 22): once a fastscan-found slave has been given a node-ID it no longer answers,
+//!   CiA 305). Only such a slave, and only in waiting, takes part in fastscan: once a fastscan-found slave has been given a node-ID it no longer answers,
 //!   even before its next reset communication.
-//! - *Fastscan* follows digest §12.4 exactly. A probe matches when LSSSub is the slave's
+//! - *Fastscan* follows CiA 305 exactly. A probe matches when LSSSub is the slave's
 //!   position LSSPos and bits 31..BitChecked agree; the slave answers 0x4F and moves to
 //!   LSSNext. It enters configuration only on a match with BitChecked 0, LSSSub 3 (serial)
 //!   and LSSNext 0, never at the end of an earlier field (CANopenNode's "LSSNext < LSSSub" test
 //!   does, see CANopenNode PR #647). BitChecked 0x80 resets LSSPos to the vendor-ID and is
 //!   answered. Entering waiting resets LSSPos as well.
-//! - *Identify remote slave* is answered in both LSS states (lely; digest marks it "verify");
+//! - *Identify remote slave* is answered in both LSS states (as lely does; CiA 305 is not explicit);
 //!   vendor-ID and product code must be equal, revision and serial number within the
 //!   inclusive bounds. Identify non-configured is answered in both states.
-//! - *Bit timing*: table selector 0 with the table of digest §12.3 is the standard. Whether an
+//! - *Bit timing*: table selector 0 with the table of CiA 305 is the standard. Whether an
 //!   entry is supported is up to [`LssHooks::bit_timing_supported`]; the default accepts the
 //!   eight fixed rates of table 0 and refuses index 5 (100 kbit/s: reserved in CiA 305 v3,
-//!   optional per digest §12.3), index 9 (automatic detection needs hardware support),
+//!   optional per CiA 305), index 9 (automatic detection needs hardware support),
 //!   reserved indices and every other table (a [`Drive`](crate::Drive) accepts the rates of
 //!   [`Config::bit_rates`](crate::Config::bit_rates), which its EDS lists). Refused → error 1,
 //!   the pending bit timing stays.
 //! - *Activate bit timing* is obeyed in configuration only and only once a bit timing has
 //!   been configured (before that the pending bit timing is the active one, nothing to
 //!   switch). The hook gets the bit timing and the switch delay; the board waits the delay,
-//!   switches, and stays silent for another delay (digest §12.3).
+//!   switches, and stays silent for another delay (CiA 305).
 //! - *Store configuration* hands the pending node-ID and the configured bit timing (if any)
 //!   to [`LssHooks::store_configuration`]; its [`StoreError`] becomes the response's error
 //!   code. The default hook answers "not supported".
@@ -178,7 +177,7 @@ impl Selection {
     }
 }
 
-/// The LSS state of the slave (digest §12.1), with the progress of the waiting-state services.
+/// The LSS state of the slave (CiA 305), with the progress of the waiting-state services.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum LssState {
@@ -481,7 +480,7 @@ impl LssSlave {
     }
 
     /// One fastscan frame for a non-configured slave in waiting at position `position`
-    /// (digest §12.4).
+    /// (CiA 305).
     fn fastscan(&self, position: LssField, scan: Fastscan) -> (LssState, Option<Response>) {
         let answer = Some(Response::IdentifySlave);
         match scan.bit_checked {
@@ -1264,7 +1263,7 @@ mod tests {
         }
     }
 
-    /// The master side of fastscan as python-canopen runs it (digest §12.4): a reset, then per
+    /// The master side of fastscan as python-canopen runs it (CiA 305): a reset, then per
     /// field 32 probes from bit 31 down to bit 0 with the bit under test guessed 0, then a
     /// confirmation with the whole value and LSSNext = the next field (0 after the serial).
     fn master_fastscan(bus: &mut Bus) -> Option<LssAddress> {

@@ -13,7 +13,7 @@ pub mod sync;
 pub use crate::wire::nmt::NmtState;
 
 /// Events that break the connection to the master; the CiA 402 layer reacts to them as the
-/// abort connection option code 6007h says (digest 402 §6.1).
+/// abort connection option code 6007h says (CiA 402-2 §8.4.4).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[non_exhaustive]

@@ -1,4 +1,4 @@
-//! NMT slave (CiA 301 §7.3.2, digest §3): the state machine driven by node-control commands.
+//! NMT slave (CiA 301 §7.3.2): the state machine driven by node-control commands.
 //!
 //! ```text
 //!  power-on ─▶ Initialising ──(boot-up 0x700+id [00])──▶ Pre-operational
@@ -23,7 +23,7 @@ pub enum NmtAction {
     ResetCommunication,
 }
 
-/// The transition function of the NMT slave (digest §3.2).
+/// The transition function of the NMT slave (CiA 301 §7.2.8.3.1).
 pub fn transition(state: NmtState, command: NmtCommand) -> NmtAction {
     match (state, command) {
         // Commands are not processed during initialisation.
@@ -37,7 +37,7 @@ pub fn transition(state: NmtState, command: NmtCommand) -> NmtAction {
     }
 }
 
-/// Which services a state serves (digest §3.4).
+/// Which services a state serves (CiA 301 §7.3.2).
 pub trait Services {
     /// SDO server answers.
     fn serves_sdo(self) -> bool;

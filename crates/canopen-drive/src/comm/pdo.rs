@@ -1,4 +1,4 @@
-//! Process data objects (CiA 301 §7.2.2, digest §6): RPDOs and TPDOs with dynamic mapping.
+//! Process data objects (CiA 301 §7.2.2): RPDOs and TPDOs with dynamic mapping.
 //!
 //! ```text
 //! communication record 1400h+n (RPDO) / 1800h+n (TPDO):
@@ -14,7 +14,7 @@
 //! predefined mapping: RPDO1 6040h; RPDO2 6040h+6060h; RPDO3 6040h+607Ah; RPDO4 6040h+60FFh;
 //! TPDO1 6041h; TPDO2 6041h+6061h; TPDO3 6041h+6064h; TPDO4 6041h+606Ch).
 //!
-//! Decisions where the standard leaves room (digest §6, §17):
+//! Decisions where the standard leaves room (CiA 301 §7.2.2):
 //! - Changing a mapping while the PDO is valid, or a mapping entry while sub0 ≠ 0, is refused
 //!   with 0x0601_0000 (as CANopenNode and Copley drives do).
 //! - An entry maps a whole object (bit length = its size), or 1 bit of a BOOLEAN; dummy entries
@@ -268,7 +268,7 @@ impl Mapping {
     }
 }
 
-/// Resolves one mapping entry value, with the abort code of digest §6.5 when it cannot be
+/// Resolves one mapping entry value, with the abort code of CiA 301 §7.2.2 when it cannot be
 /// mapped; also the entry, for its rule.
 fn resolve<const B: usize>(
     od: &Dictionary<B>,
@@ -342,7 +342,7 @@ fn cob_id_of<const B: usize>(od: &Dictionary<B>, record: PdoRecord) -> Option<Co
     CobId::parse(od.get::<u32>(record.communication_index(), 1).ok()?).ok()
 }
 
-/// Value rules of the PDO records beyond type and limits (digest §6.5), checked before a write
+/// Value rules of the PDO records beyond type and limits (CiA 301 §7.2.2), checked before a write
 /// from the bus is stored.
 pub fn check_write<const B: usize>(
     od: &Dictionary<B>,
@@ -515,7 +515,7 @@ impl Tpdo {
     }
 }
 
-/// The policy for an RPDO longer than its mapping (digest §6.6, §17).
+/// The policy for an RPDO longer than its mapping (CiA 301 §7.2.2).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum LongRpdo {
     /// CiA 301: the first bytes are applied; EMCY 0x8220 is sent (the default).

@@ -1,4 +1,4 @@
-//! SDO server (CiA 301 §7.2.4, digest §5): expedited, segmented and block transfer in both
+//! SDO server (CiA 301 §7.2.4): expedited, segmented and block transfer in both
 //! directions, on the default server channel (requests 0x600+id, responses 0x580+id).
 //!
 //! The server is an explicit state enum. [`SdoServer::on_request`] advances it by one received
@@ -7,7 +7,7 @@
 //! how many fit in its transmit queue. The server never touches the dictionary directly: it
 //! goes through [`ObjectAccess`], which the drive implements with its access rules.
 //!
-//! Decisions where the standard leaves room (digest §5, §17, §18):
+//! Decisions where the standard leaves room (CiA 301 §7.2.4):
 //! - A download is written to the dictionary only when complete (atomic; a refused write leaves
 //!   the old value). Its data is staged in a `BUF`-byte buffer; larger transfers are refused with
 //!   0x0504_0005 (out of memory).
@@ -17,7 +17,7 @@
 //! - Block upload honours the protocol switch threshold: when the client allows it (pst > 0)
 //!   and the value is no longer than pst, the server answers with a normal upload.
 //! - Block download: a segment out of sequence is ignored; the sub-block acknowledgement names
-//!   the last segment received in order, so the client repeats from there (digest §5.5).
+//!   the last segment received in order, so the client repeats from there (CiA 301 §7.2.4.3).
 //! - A new initiate while a transfer is in progress aborts it with 0x0504_0001.
 //! - Timeouts (default 1 s between frames of a transfer) abort with 0x0504_0000.
 

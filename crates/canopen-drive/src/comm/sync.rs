@@ -1,4 +1,4 @@
-//! SYNC consumer and producer (CiA 301 §7.2.5, digest §7).
+//! SYNC consumer and producer (CiA 301 §7.2.5).
 //!
 //! ```text
 //! COB-ID 1005h (default 0x080): DLC 0, or DLC 1 = [counter] when 1019h ≠ 0
@@ -24,7 +24,7 @@ pub const fn owns(index: u16) -> bool {
     matches!(index, COB_ID_SYNC | COMMUNICATION_CYCLE_PERIOD | SYNCHRONOUS_COUNTER_OVERFLOW)
 }
 
-/// The value rules of the SYNC objects (digest §7, §10): 1005h holds a valid, unrestricted
+/// The value rules of the SYNC objects (CiA 301 §7.2.5, §7.5.2): 1005h holds a valid, unrestricted
 /// CAN-ID that does not change while this device produces SYNC; 1019h is 0 or 2..=240 and
 /// changes only while 1006h is 0.
 pub fn check_write<const B: usize>(od: &Dictionary<B>, index: u16, data: &[u8]) -> Result<(), AbortCode> {

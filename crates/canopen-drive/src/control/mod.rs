@@ -1,4 +1,4 @@
-//! Optional cascaded position and velocity loops (`spec/cia402.md` §11–§12), for boards whose
+//! Optional cascaded position and velocity loops (after the position control function of CiA 402-2 §12), for boards whose
 //! power stage closes only a current (torque) loop.
 //!
 //! ```text

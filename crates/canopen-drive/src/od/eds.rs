@@ -1,4 +1,4 @@
-//! EDS generation (CiA 306, digest §13) from the dictionary's own description.
+//! EDS generation (CiA 306) from the dictionary's own description.
 //!
 //! The generated file is the only EDS of a device: masters import it, 1021h serves it, and it
 //! cannot drift from the firmware because both come from the same tables. The writer streams

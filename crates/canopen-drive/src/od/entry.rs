@@ -16,7 +16,7 @@
 //! # assert_eq!(VENDOR_OBJECTS[0].index, 0x2000);
 //! ```
 
-/// CiA 301 basic data types (§7.1.6, digest §2); the discriminant is the data-type index.
+/// CiA 301 basic data types (CiA 301 §7.1.6); the discriminant is the data-type index.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[repr(u16)]
@@ -211,7 +211,7 @@ pub enum PdoMapping {
     Both,
 }
 
-/// NMT states in which SDO writes to an entry are accepted (digest §5.9 item 10).
+/// NMT states in which SDO writes to an entry are accepted (CiA 301 §7.3.2).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum WriteRule {

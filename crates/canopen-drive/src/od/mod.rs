@@ -1,4 +1,4 @@
-//! The object dictionary (CiA 301 §7.4, digest §2, §10).
+//! The object dictionary (CiA 301 §7.4).
 //!
 //! The dictionary is a list of `static` tables of [`Object`]s (the description) plus one byte
 //! store owned by the dictionary (the values). Every value lives little-endian in the store,
@@ -13,6 +13,7 @@
 //! rights; access from the bus goes through [`Dictionary::check_write`] and friends, which answer
 //! with the exact [`AbortCode`].
 
+mod check;
 mod description;
 pub mod eds;
 mod entry;
@@ -22,6 +23,7 @@ pub mod standard;
 pub mod xdd;
 
 pub use crate::wire::AbortCode;
+pub use check::{check_manufacturer_table, check_table, join, ConfigError, MANUFACTURER_AREA, MAX_JOINED};
 pub use entry::{
     layout, owned, Access, Bound, DataType, DefaultValue, DeviceField, Kind, Object, Owner, PdoMapping, Var,
     WriteRule,
@@ -88,7 +90,7 @@ pub struct DeviceInfo {
     /// Contents of 1021h (the device's EDS), when the `eds-object` feature serves it.
     pub eds: &'static [u8],
     /// 6502h: the CiA 402 modes of operation the drive supports (bit 0 pp, 2 pv, 3 tq, …;
-    /// digest §7.3). 6060h accepts only these. Default: the modes this crate runs.
+    /// CiA 402-2 §8.4.12). 6060h accepts only these. Default: the modes this crate runs.
     pub drive_modes: u32,
 }
 
@@ -155,59 +157,6 @@ pub trait ObjectHooks {
 impl ObjectHooks for () {
     const VALIDATES: bool = false;
     const NOTIFIES: bool = false;
-}
-
-/// Why a set of tables cannot form a dictionary.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-#[non_exhaustive]
-pub enum ConfigError {
-    /// A node-ID outside 1..=127.
-    InvalidNodeId,
-    /// The PDO table does not hold the drive's PDO capacity.
-    PdoCount,
-    /// More than [`MAX_TABLES`] tables.
-    TooManyTables,
-    /// Indices not strictly ascending inside a table or across consecutive tables.
-    NotSorted {
-        /// The first index out of order.
-        index: u16,
-    },
-    /// A table was not passed through [`layout`].
-    NotLaidOut {
-        /// The first object with a wrong offset.
-        index: u16,
-    },
-    /// The store is smaller than the tables need.
-    StorageTooSmall {
-        /// Bytes needed.
-        needed: usize,
-    },
-    /// A string or DOMAIN entry whose storage exceeds 65 535 bytes, or a default that does
-    /// not fit its entry.
-    BadEntry {
-        /// Index of the entry.
-        index: u16,
-    },
-    /// 6502h ([`DeviceInfo::drive_modes`]) lists CiA 402 modes this build does not run (their
-    /// cargo features are off, [`crate::cia402::objects::IMPLEMENTED_MODES`]).
-    ModesNotBuilt {
-        /// The 6502h bits of the missing modes.
-        modes: u32,
-    },
-    /// A table attached with more copies than [`MAX_COPIES`] (or none), or with copies but
-    /// wider than one [`COPY_STRIDE`] or reaching beyond FFFFh.
-    BadCopies {
-        /// The table's first index.
-        index: u16,
-    },
-    /// An [`EntryOverride`] that changes the size or the storage of its entry.
-    EntrySize {
-        /// Index of the entry.
-        index: u16,
-        /// Sub-index of the entry.
-        sub: u8,
-    },
 }
 
 /// A resolved entry: one sub-index, its description and where its value lives.
@@ -559,14 +508,17 @@ impl<const BYTES: usize> Dictionary<BYTES> {
             }
             let mut offset = 0usize;
             for object in table.iter() {
-                if previous.is_some_and(|p| p >= object.index) {
+                if previous.is_some_and(|p| p == object.index) {
+                    return Err(ConfigError::DuplicateIndex { index: object.index });
+                }
+                if previous.is_some_and(|p| p > object.index) {
                     return Err(ConfigError::NotSorted { index: object.index });
                 }
                 previous = Some(object.index);
                 if usize::from(object.base) != offset {
                     return Err(ConfigError::NotLaidOut { index: object.index });
                 }
-                check_object(object)?;
+                check::check_object(object)?;
                 offset += object.storage_size();
             }
             let shift = u32::from(n - 1) * u32::from(COPY_STRIDE);
@@ -620,12 +572,13 @@ impl<const BYTES: usize> Dictionary<BYTES> {
         // ARRAY's constant count, 1029h).
         let previous = core::mem::replace(&mut self.overrides, overrides);
         for o in overrides {
-            let bad = ConfigError::BadEntry { index: o.index };
-            let fits =
-                self.entry(o.index, o.sub).is_ok_and(|entry| overrides::default_fits(entry.var, o.value));
-            if !fits {
+            let problem = match self.entry(o.index, o.sub) {
+                Ok(entry) => overrides::default_problem(entry.var, o.value, o.index, o.sub),
+                Err(_) => Some(ConfigError::NoSuchEntry { index: o.index, sub: o.sub }),
+            };
+            if let Some(problem) = problem {
                 self.overrides = previous;
-                return Err(bad);
+                return Err(problem);
             }
         }
         self.reset(0x0000..=0xFFFF);
@@ -918,7 +871,7 @@ impl<const BYTES: usize> Dictionary<BYTES> {
     }
 
     /// Checks that `data` is an acceptable new value for `entry` from the bus: size and limits
-    /// (digest §5.9 items 5 and 10). Access rights and NMT rules are the caller's (they depend
+    /// (CiA 301 §7.2.4). Access rights and NMT rules are the caller's (they depend
     /// on the service).
     pub fn check_write(&self, entry: &Entry, data: &[u8]) -> Result<(), AbortCode> {
         let var = entry.var;
@@ -1209,24 +1162,6 @@ impl<const BYTES: usize> Dictionary<BYTES> {
     }
 }
 
-/// Configuration checks on one object that the type system cannot make.
-fn check_object(object: &Object) -> Result<(), ConfigError> {
-    let bad = ConfigError::BadEntry { index: object.index };
-    for sub in 0..=object.highest_sub() {
-        if let Some((var, _)) = object.sub(sub) {
-            if var.data_type.is_variable() && var.storage_size() > usize::from(u16::MAX) {
-                return Err(bad);
-            }
-            if let (DefaultValue::Text(s), false) = (var.default, var.is_fixed()) {
-                if s.len() > usize::from(var.capacity) {
-                    return Err(bad);
-                }
-            }
-        }
-    }
-    Ok(())
-}
-
 /// Copies the first `n` bytes of `src` to `dst` (fewer when either is shorter): fixed-size
 /// moves for 1, 2 and 4 bytes, where a copy of variable length would call `memcpy`.
 #[inline]
@@ -1509,9 +1444,13 @@ mod tests {
             [DefaultOverride { index: 0x2000, sub: 0, value: DefaultValue::Text("123456789") }];
         static NOT_TEXT: [DefaultOverride; 1] =
             [DefaultOverride { index: 0x2001, sub: 1, value: DefaultValue::Text("1") }];
-        for bad in [&MISSING, &TOO_LONG, &NOT_TEXT] {
-            let index = bad[0].index;
-            assert_eq!(dict().set_default_overrides(bad), Err(ConfigError::BadEntry { index }));
+        let refused = [
+            (&MISSING, ConfigError::NoSuchEntry { index: 0x2001, sub: 9 }),
+            (&TOO_LONG, ConfigError::DefaultType { index: 0x2000, sub: 0 }),
+            (&NOT_TEXT, ConfigError::DefaultType { index: 0x2001, sub: 1 }),
+        ];
+        for (bad, error) in refused {
+            assert_eq!(dict().set_default_overrides(bad), Err(error));
         }
     }
 

@@ -60,7 +60,7 @@ impl EntryOverride {
     /// Starts from the description of `index`/`sub` in `table` (e.g.
     /// [`crate::cia402::objects::PROFILE`]), to be changed by the other methods. An entry that
     /// `table` does not have makes an override the dictionary refuses
-    /// ([`ConfigError::BadEntry`]).
+    /// ([`ConfigError::NoSuchEntry`]).
     pub const fn of(table: &[Object], index: u16, sub: u8) -> Self {
         EntryOverride { index, sub, var: find(table, index, sub) }
     }
@@ -224,14 +224,15 @@ const fn default_as(default: DefaultValue, data_type: DataType) -> DefaultValue 
 impl<const BYTES: usize> Dictionary<BYTES> {
     /// Replaces the descriptions of some entries with the firmware's ([`EntryOverride`]) and
     /// sets every value to its (new) default. Refused: an override of an entry that does not
-    /// exist or whose default does not fit ([`ConfigError::BadEntry`]), and one that changes
+    /// exist ([`ConfigError::NoSuchEntry`]) or whose description is wrong in itself (its
+    /// default, its limits: [`check_table`](super::check_table)'s errors), and one that changes
     /// the entry's size or storage ([`ConfigError::EntrySize`]).
     pub fn set_entry_overrides(&mut self, overrides: &'static [EntryOverride]) -> Result<(), ConfigError> {
         for o in overrides {
-            let bad = ConfigError::BadEntry { index: o.index };
-            let var = o.var.as_ref().ok_or(bad)?;
-            let (object, _) = self.object(o.index).ok_or(bad)?;
-            let (table, _) = object.sub(o.sub).ok_or(bad)?;
+            let missing = ConfigError::NoSuchEntry { index: o.index, sub: o.sub };
+            let var = o.var.as_ref().ok_or(missing)?;
+            let (object, _) = self.object(o.index).ok_or(missing)?;
+            let (table, _) = object.sub(o.sub).ok_or(missing)?;
             // Another size only where the table reserved the storage, to an integer of the same
             // signedness (the core reads such entries whatever their width).
             let resized = var.data_type.fixed_size() != table.data_type.fixed_size();
@@ -245,12 +246,12 @@ impl<const BYTES: usize> Dictionary<BYTES> {
             {
                 return Err(ConfigError::EntrySize { index: o.index, sub: o.sub });
             }
-            if !default_fits(var, var.default) {
-                return Err(bad);
+            if let Err(problem) = super::check::check_var(var) {
+                return Err(problem.at(o.index, o.sub));
             }
             let count = counted(o).filter(|_| o.sub == 0 && !matches!(object.kind, Kind::Var(_)));
             if count.is_some_and(|n| n > u64::from(object.highest_sub())) {
-                return Err(bad);
+                return Err(ConfigError::DefaultOutsideLimits { index: o.index, sub: o.sub });
             }
         }
         self.entry_overrides = overrides;
@@ -328,14 +329,10 @@ fn counted(o: &EntryOverride) -> Option<u64> {
     }
 }
 
-/// Whether `value` can be the default of an entry described by `var`.
-pub(super) fn default_fits(var: &Var, value: DefaultValue) -> bool {
-    match (value, var.data_type.fixed_size()) {
-        (DefaultValue::Text(t), None) => t.len() <= usize::from(var.capacity),
-        (DefaultValue::Bytes(b), None) => b.len() <= usize::from(var.capacity),
-        (DefaultValue::Text(_) | DefaultValue::Bytes(_), Some(_)) => false,
-        (_, fixed) => fixed.is_some(),
-    }
+/// What is wrong with `value` as the default of entry `index`/`sub` described by `var` (its
+/// type, its capacity, its limits), if anything.
+pub(super) fn default_problem(var: &Var, value: DefaultValue, index: u16, sub: u8) -> Option<ConfigError> {
+    super::check::check_var(&var.default(value)).err().map(|problem| problem.at(index, sub))
 }
 
 #[cfg(test)]
@@ -384,11 +381,26 @@ mod tests {
         assert_eq!(var.default, DefaultValue::Unsigned(0xFFFF));
         assert_eq!((var.low(), var.high()), (Bound::None, Bound::Unsigned(3)));
         assert_eq!((var.name(), var.pdo), ("Option", PdoMapping::Rpdo));
+        // The default (-1 as 16 bits) lies above the high limit 3 under the new type: refused.
+        assert_eq!(
+            dict().set_entry_overrides(&RETYPED),
+            Err(ConfigError::DefaultOutsideLimits { index: 0x2000, sub: 0 })
+        );
+        static RETYPED_WITHIN: [EntryOverride; 1] =
+            [EntryOverride::of(&TABLE, 0x2000, 0).data_type(DataType::Unsigned16).limits_unsigned(0, 0xFFFF)];
         let mut od = dict();
-        od.set_entry_overrides(&RETYPED).unwrap();
+        od.set_entry_overrides(&RETYPED_WITHIN).unwrap();
         let entry = od.entry(0x2000, 0).unwrap();
         assert_eq!(entry.var.data_type, DataType::Unsigned16);
         assert_eq!(od.get::<i16>(0x2000, 0), Ok(-1), "the device still reads its 16 bits");
+        assert_eq!(od.check_write(&entry, &4u16.to_le_bytes()), Ok(()));
+        static RETYPED_LOW: [EntryOverride; 1] = [EntryOverride::of(&TABLE, 0x2000, 0)
+            .data_type(DataType::Unsigned16)
+            .limits_unsigned(0, 3)
+            .default(DefaultValue::Unsigned(2))];
+        let mut od = dict();
+        od.set_entry_overrides(&RETYPED_LOW).unwrap();
+        let entry = od.entry(0x2000, 0).unwrap();
         assert_eq!(od.check_write(&entry, &4u16.to_le_bytes()), Err(AbortCode::ValueTooHigh));
         // And back: a signed description of an unsigned entry.
         let back = EntryOverride::of(&TABLE, 0x2000, 0)
@@ -438,7 +450,10 @@ mod tests {
         );
         static LONGER: [EntryOverride; 1] =
             [EntryOverride::of(&TABLE, 0x2001, 0).default(DefaultValue::Unsigned(3))];
-        assert_eq!(dict().set_entry_overrides(&LONGER), Err(ConfigError::BadEntry { index: 0x2001 }));
+        assert_eq!(
+            dict().set_entry_overrides(&LONGER),
+            Err(ConfigError::DefaultOutsideLimits { index: 0x2001, sub: 0 })
+        );
     }
 
     #[test]
@@ -459,9 +474,13 @@ mod tests {
             [EntryOverride::new(0x2001, 3, Var::new("x", DataType::Unsigned32))];
         static TEXT: [EntryOverride; 1] =
             [EntryOverride::of(&TABLE, 0x2000, 0).default(DefaultValue::Text("no"))];
-        for bad in [&MISSING, &NOT_HERE, &TEXT] {
-            let index = bad[0].index();
-            assert_eq!(dict().set_entry_overrides(bad), Err(ConfigError::BadEntry { index }));
+        let refused = [
+            (&MISSING, ConfigError::NoSuchEntry { index: 0x2003, sub: 0 }),
+            (&NOT_HERE, ConfigError::NoSuchEntry { index: 0x2001, sub: 3 }),
+            (&TEXT, ConfigError::DefaultType { index: 0x2000, sub: 0 }),
+        ];
+        for (bad, error) in refused {
+            assert_eq!(dict().set_entry_overrides(bad), Err(error));
         }
     }
 }

@@ -1,5 +1,5 @@
 //! Parameter records: how the dictionary's parameters leave RAM for non-volatile memory and come
-//! back (CiA 301 §11, objects 1010h/1011h; the storage itself is [`crate::storage`]).
+//! back (CiA 301 §7.5.2, objects 1010h/1011h; the storage itself is [`crate::storage`]).
 //!
 //! ## Which entries are parameters
 //!

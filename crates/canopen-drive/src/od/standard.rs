@@ -1,4 +1,4 @@
-//! The communication-profile objects the crate brings (CiA 301 §7.5, digest §10), and the
+//! The communication-profile objects the crate brings (CiA 301 §7.5), and the
 //! index constants of every object the crate itself reads or writes.
 
 use super::{layout, Access, DataType, DefaultValue, DeviceField, Object, PdoMapping, Var};

@@ -1,5 +1,6 @@
-//! Parameter storage that survives power loss at any instant (CiA 301 §11, objects 1010h
-//! "store parameters" and 1011h "restore default parameters"; DESIGN invariant 4).
+//! Parameter storage that survives power loss at any instant (CiA 301 §7.5.2, objects
+//! 1010h "store parameters" and 1011h "restore default parameters"): after a power loss at any
+//! instant of a store, the drive starts with the old set or the new one, never a mix.
 //!
 //! [`Storage`] keeps the dictionary's parameters (see [`crate::od::persist`]) in a board's
 //! [`NonVolatile`] area with NOR-flash semantics, as a journal of two banks. After a reset
@@ -195,7 +196,7 @@ impl From<NvError> for StorageError {
     }
 }
 
-/// The SDO abort code for a failed 1010h/1011h write (digest §11): a failed medium is
+/// The SDO abort code for a failed 1010h/1011h write (CiA 301 §7.5.2, 1010h/1011h): a failed medium is
 /// 0x0606_0000, an image that cannot be stored at all 0x0800_0020.
 impl From<StorageError> for AbortCode {
     fn from(error: StorageError) -> Self {

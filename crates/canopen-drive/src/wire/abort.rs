@@ -1,4 +1,4 @@
-//! SDO abort codes (CiA 301 §7.2.4.3.17, digest `spec/cia301.md` §5.8).
+//! SDO abort codes (CiA 301 §7.2.4.3.17).
 //!
 //! Every refusal in the object dictionary and the SDO server is one of these codes, so an
 //! access path can hand its error straight to the bus.

@@ -1,4 +1,4 @@
-//! COB-ID entries (UNSIGNED32) of the communication objects (CiA 301 §7.5.2, digest §1.2–1.3).
+//! COB-ID entries (UNSIGNED32) of the communication objects (CiA 301 §7.5.2).
 //!
 //! ```text
 //!  31      30        29      28 ........ 11  10 ........ 0
@@ -34,7 +34,7 @@ pub enum CobIdError {
     Extended,
     /// Bits 28..11 set without bit 29.
     ReservedBits,
-    /// A CAN-ID reserved for other services (digest §1.2).
+    /// A CAN-ID reserved for other services (CiA 301 §7.3.5).
     Restricted,
 }
 
@@ -56,7 +56,7 @@ impl CobId {
     }
 }
 
-/// CAN-IDs that must not be used for PDO, EMCY, SYNC, TIME or SDO (digest §1.2): NMT, the
+/// CAN-IDs that must not be used for PDO, EMCY, SYNC, TIME or SDO (CiA 301 §7.3.5): NMT, the
 /// node-ID ranges of the pre-defined SDO, error-control and LSS identifiers, and 0x101..=0x180.
 pub fn is_restricted(can_id: u16) -> bool {
     matches!(can_id, 0x000..=0x07F | 0x101..=0x180 | 0x581..=0x5FF | 0x601..=0x67F | 0x6E0..=0x6FF | 0x701..=0x7FF)

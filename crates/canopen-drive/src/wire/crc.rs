@@ -1,4 +1,4 @@
-//! CRC-16 of SDO block transfers (CiA 301 §7.2.4.3.16, digest §5.7): polynomial 0x1021,
+//! CRC-16 of SDO block transfers (CiA 301 §7.2.4.3.16): polynomial 0x1021,
 //! initial value 0, no reflection, no final XOR ("CRC-16/XMODEM").
 
 /// Nibble table: 16 entries keep flash use small on the MCU.

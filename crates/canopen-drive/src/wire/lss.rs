@@ -1,4 +1,4 @@
-//! LSS frames: Layer Setting Services (CiA 305, digest §12).
+//! LSS frames: Layer Setting Services (CiA 305).
 //!
 //! ```text
 //! master → slave  COB-ID 0x7E5, DLC 8: [cs, 7 bytes per service, unused bytes 0]
@@ -27,7 +27,7 @@
 //! 0x5E  inquire node-ID                       –                              0x5E [active node-ID]
 //! ```
 //!
-//! Every LSS frame carries exactly eight data bytes (digest §12.1); frames of any other length
+//! Every LSS frame carries exactly eight data bytes (CiA 305); frames of any other length
 //! are refused with [`ParseError::Length`], as CANopenNode does. A command specifier that is no
 //! master request parses as [`Request::Unknown`]; a known request whose parameter lies outside
 //! its range (a switch mode other than 0/1, a BitChecked other than 0..=31 or 0x80, an LSSSub or
@@ -35,16 +35,16 @@
 //!
 //! The codec is stateless; the slave state machine is [`crate::comm::lss`].
 
-/// COB-ID of LSS requests, master → slave (digest §1.1, §12.1).
+/// COB-ID of LSS requests, master → slave (CiA 305).
 pub const LSS_REQUEST_COB_ID: u16 = 0x7E5;
-/// COB-ID of LSS responses, slave → master (digest §1.1, §12.1).
+/// COB-ID of LSS responses, slave → master (CiA 305).
 pub const LSS_RESPONSE_COB_ID: u16 = 0x7E4;
-/// Node-ID value of a non-configured LSS slave (digest §12.1).
+/// Node-ID value of a non-configured LSS slave (CiA 305).
 pub const NODE_ID_UNCONFIGURED: u8 = 0xFF;
-/// BitChecked value of a fastscan reset request (digest §12.4).
+/// BitChecked value of a fastscan reset request (CiA 305).
 pub const FASTSCAN_RESET: u8 = 0x80;
 
-/// An LSS command specifier, byte 0 of every LSS frame (CiA 305, digest §12.2).
+/// An LSS command specifier, byte 0 of every LSS frame (CiA 305).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[repr(u8)]
@@ -191,7 +191,7 @@ impl CommandSpecifier {
 }
 
 /// One 32-bit field of the 128-bit LSS address, numbered as fastscan's LSSSub/LSSNext
-/// (digest §12.4). The address is object 1018h sub 1..4.
+/// (CiA 305). The address is object 1018h sub 1..4.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[repr(u8)]
@@ -228,7 +228,7 @@ impl LssField {
     }
 }
 
-/// The 128-bit LSS address of a device: its identity object 1018h (digest §12.1).
+/// The 128-bit LSS address of a device: its identity object 1018h (CiA 305).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct LssAddress {
@@ -264,7 +264,7 @@ impl LssAddress {
     }
 }
 
-/// The target state of switch state global (byte 1 of cs 0x04, digest §12.2).
+/// The target state of switch state global (byte 1 of cs 0x04, CiA 305).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[repr(u8)]
@@ -291,7 +291,7 @@ impl SwitchMode {
     }
 }
 
-/// An entry of the standard bit timing table, table selector 0 (digest §12.3); the
+/// An entry of the standard bit timing table, table selector 0 (CiA 305); the
 /// discriminant is the table index.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -308,7 +308,7 @@ pub enum BitRate {
     /// Index 4: 125 kbit/s.
     Kbit125 = 4,
     /// Index 5: 100 kbit/s. Reserved in CiA 305 v3 (CANopenNode), 100 kbit/s in older tables
-    /// (python-canopen, emtas); treated as optional (digest §12.3, §17).
+    /// (python-canopen, emtas); treated as optional (CiA 305).
     Kbit100 = 5,
     /// Index 6: 50 kbit/s.
     Kbit50 = 6,
@@ -376,7 +376,7 @@ impl BitRate {
     }
 }
 
-/// The parameters of configure bit timing (bytes 1 and 2 of cs 0x13, digest §12.2): a table
+/// The parameters of configure bit timing (bytes 1 and 2 of cs 0x13, CiA 305): a table
 /// and an index into it, as received. Table 0 is the standard table ([`BitRate`]); 0x80..=0xFE
 /// select manufacturer tables, the other selectors are reserved.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -407,7 +407,7 @@ impl BitTiming {
     }
 }
 
-/// BitChecked of a fastscan request (byte 5 of cs 0x51, digest §12.4).
+/// BitChecked of a fastscan request (byte 5 of cs 0x51, CiA 305).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum BitChecked {
@@ -436,7 +436,7 @@ impl BitChecked {
     }
 }
 
-/// The parameters of a fastscan request (cs 0x51, digest §12.4).
+/// The parameters of a fastscan request (cs 0x51, CiA 305).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Fastscan {
@@ -450,7 +450,7 @@ pub struct Fastscan {
     pub next: LssField,
 }
 
-/// A request of the LSS master (COB-ID 0x7E5), as parsed from the frame (digest §12.2).
+/// A request of the LSS master (COB-ID 0x7E5), as parsed from the frame (CiA 305).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Request {
@@ -504,7 +504,7 @@ pub enum Request {
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[non_exhaustive]
 pub enum ParseError {
-    /// The frame does not carry exactly eight data bytes (digest §12.1).
+    /// The frame does not carry exactly eight data bytes (CiA 305).
     Length,
     /// A known command with a parameter outside its range.
     InvalidParameter(CommandSpecifier),
@@ -624,7 +624,7 @@ impl Request {
     }
 }
 
-/// Error code of the configure node-ID response (byte 1 of cs 0x11, digest §12.2).
+/// Error code of the configure node-ID response (byte 1 of cs 0x11, CiA 305).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[repr(u8)]
@@ -654,7 +654,7 @@ impl ConfigureNodeIdStatus {
     }
 }
 
-/// Error code of the configure bit timing response (byte 1 of cs 0x13, digest §12.2).
+/// Error code of the configure bit timing response (byte 1 of cs 0x13, CiA 305).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[repr(u8)]
@@ -684,7 +684,7 @@ impl ConfigureBitTimingStatus {
     }
 }
 
-/// Error code of the store configuration response (byte 1 of cs 0x17, digest §12.2).
+/// Error code of the store configuration response (byte 1 of cs 0x17, CiA 305).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[repr(u8)]
@@ -717,7 +717,7 @@ impl StoreConfigurationStatus {
     }
 }
 
-/// A response of an LSS slave (COB-ID 0x7E4, digest §12.2).
+/// A response of an LSS slave (COB-ID 0x7E4, CiA 305).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Response {

@@ -8,7 +8,7 @@ pub mod lss;
 pub mod nmt;
 pub mod sdo;
 
-/// Function code base of the NMT node-control frame (CiA 301 §7.2.8.3.1, digest §3.2).
+/// Function code base of the NMT node-control frame (CiA 301 §7.2.8.3.1).
 pub const NMT_COB_ID: u16 = 0x000;
 /// Function code base of the NMT error-control frames (boot-up, heartbeat, guarding).
 pub const ERROR_CONTROL_BASE: u16 = 0x700;

@@ -1,4 +1,4 @@
-//! NMT node control and NMT error-control frames (CiA 301 §7.2.8, digest §3).
+//! NMT node control and NMT error-control frames (CiA 301 §7.2.8).
 //!
 //! ```text
 //! node control  COB-ID 0x000, DLC 2: [command specifier, node-ID (0 = all)]
@@ -6,7 +6,7 @@
 //! heartbeat     COB-ID 0x700+id, DLC 1: [state]   (0x04 Stopped, 0x05 Operational, 0x7F Pre-op)
 //! ```
 
-/// NMT state of a node, with the byte it reports in heartbeats (digest §3.1).
+/// NMT state of a node, with the byte it reports in heartbeats (CiA 301 §7.3.2).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum NmtState {
@@ -32,7 +32,7 @@ impl NmtState {
     }
 }
 
-/// An NMT node-control command specifier (digest §3.2).
+/// An NMT node-control command specifier (CiA 301 §7.2.8.3.1).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum NmtCommand {
@@ -88,7 +88,7 @@ pub struct NodeControl {
 
 impl NodeControl {
     /// Parses the data of a frame on COB-ID 0x000; frames whose DLC is not 2 are ignored
-    /// (digest §3.2).
+    /// (CiA 301 §7.2.8.3.1).
     pub fn parse(data: &[u8]) -> Option<Self> {
         match data {
             [cs, node] => Some(NodeControl { command: NmtCommand::from_code(*cs), node_id: *node }),

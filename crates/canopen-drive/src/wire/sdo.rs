@@ -1,4 +1,4 @@
-//! SDO frames (CiA 301 §7.2.4.3, digest §5.2–5.6).
+//! SDO frames (CiA 301 §7.2.4.3).
 //!
 //! ```text
 //! byte 0      command specifier: ccs/scs in bits 7..5, then t/n/e/s/c/cc/sc per service
@@ -9,7 +9,7 @@
 //! ```
 //!
 //! Requests are parsed from the bytes actually received: a request shorter than eight bytes is
-//! accepted when the bytes its command needs are there (digest §18 item 16). Responses are
+//! accepted when the bytes its command needs are there (as CANopenNode and python-canopen do). Responses are
 //! always eight bytes.
 
 use super::AbortCode;
