@@ -154,7 +154,7 @@ impl Stage {
     }
 
     /// Applies the demand of one tick. Energy only while the drive profile says so
-    /// (`drive_enabled`, DESIGN invariant 1): otherwise all six switches are off, unless a
+    /// (`drive_enabled`: the power stage is energised only when the drive says so): otherwise all six switches are off, unless a
     /// dynamic brake is asked for (`dynamic_brake`): then the three low-side switches are on
     /// (duty 0 of the complementary outputs), shorting the windings, and no energy flows in.
     pub fn apply(&mut self, demand: &Demand) {

@@ -1,4 +1,4 @@
-//! Homing mode (hm, 6060h = 6; digest §10).
+//! Homing mode (hm, 6060h = 6; CiA 402-2 §11).
 //!
 //! A homing run is a short program of *searches*: move in a direction at the switch-search
 //! speed (6099h sub 1) or the zero-search speed (6099h sub 2), with the homing acceleration
@@ -10,12 +10,12 @@
 //! # The home position and 607Ch
 //!
 //! The drive keeps the encoder count it is given (6063h) and moves its user zero instead:
-//! after homing, 6064h at the home position reads **−607Ch** (digest §10.5: zero position = home
+//! after homing, 6064h at the home position reads **−607Ch** (CiA 402-2 §11.5.1: zero position = home
 //! position + home offset), so a pp move to 0 then goes +607Ch from home, and the software
 //! limits 607Dh corrected by 607Ch keep their meaning. The offset is applied when a run
 //! completes. Polarity 607Eh plays no part in homing directions.
 //!
-//! # Methods (digest §10.3 table; the left/right assignment is the digest's reconstruction)
+//! # Methods (CiA 402-2 §11.3; the left/right assignment is this crate's reading of the method figures)
 //!
 //! - **1, 2, 17, 18** — limit switch: move towards it (switch speed), then away at zero speed
 //!   until it releases; 17/18 home there, 1/2 at the next index pulse.
@@ -64,7 +64,7 @@ use crate::od::{Access, DataType, DefaultValue, Dictionary, Object, Var};
 use crate::od::{DeviceField, PdoMapping};
 use crate::time::{Duration, Instant};
 
-/// EMCY code of a homing error (digest §10.4).
+/// EMCY code of a homing error (CiA 402-2 §11.4).
 pub const HOMING_ERROR: u16 = 0x8613;
 
 /// A homing method a vendor adds under a negative number.
@@ -545,7 +545,7 @@ impl Program {
     }
 }
 
-/// Homing status (statusword bits 13, 12, 10; digest §10.4).
+/// Homing status (statusword bits 13, 12, 10; CiA 402-2 §11.4).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Status {
@@ -742,7 +742,7 @@ impl Homing {
     }
 
     /// The statusword bits 10/12/13 now; `moving`: the demand moves; `on_home`: the shaft
-    /// rests on the position the run ended at (a run is complete only then, digest §10.4; once it was, it stays so).
+    /// rests on the position the run ended at (a run is complete only then, CiA 402-2 §11.4; once it was, it stays so).
     pub fn status(&mut self, moving: bool, on_home: bool) -> Status {
         if self.phase == Phase::Done && !moving && on_home {
             self.rested = true;

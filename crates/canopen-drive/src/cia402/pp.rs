@@ -1,4 +1,4 @@
-//! Profile position mode (pp, 6060h = 1; digest §9, §11).
+//! Profile position mode (pp, 6060h = 1; CiA 402-2 §10, §12).
 //!
 //! The master writes 607Ah and raises controlword bit 4; the drive takes the set-point,
 //! acknowledges it with statusword bit 12 and moves along a trajectory from
@@ -7,12 +7,12 @@
 //!
 //! - **Edges.** A set-point is taken on a 0→1 edge of bit 4 seen by a tick in Operation enabled
 //!   with pp active. The edge is tracked in every state and mode, so a bit 4 already at 1 when
-//!   the drive enters Operation enabled or switches to pp starts nothing (testable 73, 74).
+//!   the drive enters Operation enabled or switches to pp starts nothing.
 //! - **Single set-point** (bit 5 = 1): re-plans at once from the present position, velocity and
 //!   acceleration to the new target; waiting set-points are dropped (60F2h bits 3:2 = 00).
 //! - **Set of set-points** (bit 5 = 0): up to [`ProfileConfig::setpoint_buffer`] set-points wait
 //!   behind the one being executed and start when it is done. With the buffer full, a new
-//!   bit 5 = 0 set-point is not taken (no acknowledge; digest §9.4 case 4).
+//!   bit 5 = 0 set-point is not taken (no acknowledge; CiA 402-2 §10.2.3).
 //! - **Change on set-point** (bit 9 = 1 with bit 5 = 0): when a set-point waits behind the
 //!   executed one, the executed one is re-planned to pass its target at the end velocity 6082h
 //!   (or, when 6082h is 0, at the profile velocity 6081h) if the waiting target lies further in
@@ -133,7 +133,7 @@ pub struct ProfilePosition {
     heading_taken: i8,
 }
 
-/// The objects pp's motion limits come from (digest §9.5), as read from the dictionary: the
+/// The objects pp's motion limits come from (CiA 402-2 §10.5), as read from the dictionary: the
 /// profile converts them again only when one of them has changed.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) struct LimitObjects {
@@ -268,7 +268,7 @@ impl ProfilePosition {
         first
     }
 
-    /// The target of a new set-point, from 607Ah and the controlword (digest §9.5, §11.3).
+    /// The target of a new set-point, from 607Ah and the controlword (CiA 402-2 §10.5.1, §12.3).
     fn setpoint<const B: usize>(&self, here: i64, input: &Inputs<'_, B>) -> SetPoint {
         let od = input.od;
         let sign = input.factors.position_sign();
@@ -487,8 +487,7 @@ pub(crate) fn rule(index: u16) -> Option<Rule> {
 
 /// Whether `raw` is a value pp takes under `rule`: the motion profile types of
 /// [`ProfileType`] (trapezoidal, jerk-limited), jerk use 1, 2 or 4, the relative options
-/// 00/01/10 of 60F2h (change-immediately and request-response options are not implemented,
-/// testable item 100).
+/// 00/01/10 of 60F2h (change-immediately and request-response options are not implemented).
 pub(crate) fn check(rule: Rule, raw: u32) -> bool {
     match rule {
         Rule::MotionProfileType => ProfileType::from_raw(raw as u16 as i16).is_some(),

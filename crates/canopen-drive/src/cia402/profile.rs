@@ -5,19 +5,19 @@
 //! Modes: profile position (pp, 1; [`super::pp`]), profile velocity (pv, 3) and profile torque
 //! (tq, 4). 6502h lists those the firmware enables ([`crate::od::DeviceInfo::drive_modes`]).
 //!
-//! Mode switching (digest §7.1's recommended policy): a new 6060h takes effect at once while the
+//! Mode switching (CiA 402-2 §8.3, §8.4.10; this crate's policy): a new 6060h takes effect at once while the
 //! drive function is disabled; in Operation enabled the axis first stops with the slow-down
 //! ramp of the old mode, then the new mode starts from standstill, and statusword bit 10 is 1 in
 //! the tick after the switch. 6061h shows a mode only once it is active.
 //!
-//! Stops (digest §6): the slow-down ramp uses 6084h, the quick-stop ramp 6085h; "current limit"
+//! Stops (CiA 402-2 §8.4.4–§8.4.9): the slow-down ramp uses 6084h, the quick-stop ramp 6085h; "current limit"
 //! and "voltage limit" stops are run as a ramp with the maximum deceleration 60C6h (this crate
 //! has no current or voltage loop of its own). Every stop deceleration is limited to 60C6h. In
 //! pp a stop is a trajectory (position demand, [`crate::motion::PositionPlanner::stop`]); in the
 //! other modes a velocity ramp from the actual velocity. A stop is done when the velocity demand
 //! reaches 0.
 //!
-//! Limits (DESIGN invariant 2): velocity demands never exceed min(607Fh, 6080h), ramps never
+//! Limits (every demand within the configured limits): velocity demands never exceed min(607Fh, 6080h), ramps never
 //! exceed 60C5h/60C6h, torque demands never exceed min(6072h, 6073h) — the torque is taken as
 //! proportional to the torque-producing current, rated torque at rated current, so 6078h
 //! reports the torque sample as current.
@@ -168,7 +168,7 @@ pub struct Profile {
     /// several axes).
     #[cfg(any(feature = "pp", feature = "hm"))]
     planner: Option<PositionPlanner>,
-    /// The encoder count at the user zero: moved by homing (digest §10.5).
+    /// The encoder count at the user zero: moved by homing (CiA 402-2 §11.5.1, 607Ch).
     origin: i64,
     /// A homing error EMCY (8613h) is active.
     homing_error: bool,
@@ -367,7 +367,7 @@ fn fault_code(faults: HardwareFaults) -> Option<(u16, ErrorRegister)> {
         .map(|(_, code, register)| (*code, *register | ErrorRegister::DEVICE_PROFILE))
 }
 
-/// Following error (digest §2.1 table, 8611h).
+/// Following error (CiA 402-2 §7.1, 8611h).
 const FOLLOWING_ERROR: u16 = 0x8611;
 /// Communication error (8100h): the fault of a connection loss (6007h = 1, or NMT Stopped
 /// with [`ProfileConfig::nmt_stopped_fault`]).
@@ -698,7 +698,7 @@ impl Profile {
         }
     }
 
-    /// The software position limits 607Dh in user units as 6064h reads them (digest §9.5),
+    /// The software position limits 607Dh in user units as 6064h reads them (CiA 402-2 §10.5.3),
     /// `None` while they are off: min above max, or not yet valid
     /// ([`ProfileConfig::software_limits_after_homing`]).
     fn software_limits<const B: usize>(&self, od: &Dictionary<B>) -> Option<(i64, i64)> {
@@ -757,7 +757,7 @@ impl Profile {
         (inputs.contains(DigitalInputs::POSITIVE_LIMIT), inputs.contains(DigitalInputs::NEGATIVE_LIMIT))
     }
 
-    /// Homing is complete only at rest on home (digest §10.4, Table 106): 6064h within the
+    /// Homing is complete only at rest on home (CiA 402-2 §11.4, Table 106): 6064h within the
     /// position window 6067h of the home position, the shaft resting (606Ch within the
     /// velocity threshold 606Fh) for the position window time 6068h; after a run without
     /// motion (method 35) a resting shaft is on home at once.
@@ -842,8 +842,8 @@ impl Profile {
     /// pp's and hm's trajectory: its velocity fed forward, or, where it runs faster than `vmax`
     /// and faster than the tick before (`previous_velocity`), held where it is: a velocity
     /// limit lowered below the running motion with ramps no plan can follow (a factor group
-    /// that turns them into 0 increments/s²) rather than run on faster than the limit (DESIGN
-    /// invariant 2). Returns the held demand.
+    /// that turns them into 0 increments/s²) rather than run on faster than the limit (no
+    /// demand exceeds the configured limits). Returns the held demand.
     fn trajectory_feed_forward(
         &mut self,
         drive_enabled: bool,
@@ -1741,7 +1741,7 @@ impl Profile {
         }
     }
 
-    /// One tick of homing mode (digest §10), also with the drive function disabled (method 35
+    /// One tick of homing mode (CiA 402-2 §11), also with the drive function disabled (method 35
     /// completes there). Returns the demand and, when home was found, 6064h from the new zero.
     #[inline(never)]
     fn run_homing<const B: usize>(
@@ -1894,7 +1894,7 @@ impl Profile {
         }
     }
 
-    /// One tick of velocity mode (digest §15; [`vl`]), also while a stop ramps it down.
+    /// One tick of velocity mode (CiA 402-2 §16; [`vl`]), also while a stop ramps it down.
     fn run_vl<const B: usize>(&mut self, od: &mut Dictionary<B>, input: &ModeInput<'_>) -> Setpoint {
         let drive = vl::DriveInputs {
             controlword: input.controlword,
@@ -1964,7 +1964,7 @@ impl Profile {
         })
     }
 
-    /// One tick of interpolated position mode (digest §12): while controlword bit 4 is 1 each
+    /// One tick of interpolated position mode (CiA 402-2 §13): while controlword bit 4 is 1 each
     /// SYNC takes the next data record (60C1h sub 1, a position) and the demand moves linearly
     /// to it over 60C2h; with bit 4 = 0 or an empty buffer it holds.
     #[inline(never)]
@@ -2022,7 +2022,7 @@ impl Profile {
         (Setpoint::Position(position as i32), status)
     }
 
-    /// One tick of csp, csv or cst (digest §16–§18; [`super::cyclic`]).
+    /// One tick of csp, csv or cst (CiA 402-2 §17–§19; [`super::cyclic`]).
     #[inline(never)]
     fn run_cyclic<const B: usize>(
         &mut self,
@@ -2136,7 +2136,7 @@ impl Profile {
         }
     }
 
-    /// Following error (digest §11.2): |6062h − 6064h| > 6065h for longer than 6066h ms.
+    /// Following error (CiA 402-2 §12.2): |6062h − 6064h| > 6065h for longer than 6066h ms.
     fn following_error<const B: usize>(&mut self, od: &Dictionary<B>, error: i64, now: Instant) -> bool {
         let window: u32 = od.load(self.slots.following_error_window);
         let off = window == u32::MAX || (window == 0 && self.config.zero_following_error_window_off);

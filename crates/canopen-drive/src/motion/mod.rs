@@ -1,4 +1,4 @@
-//! Trajectory generation for the profile modes: point-to-point moves (pp, `spec/cia402.md` §9),
+//! Trajectory generation for the profile modes: point-to-point moves (pp, CiA 402-2 §10),
 //! velocity ramps (pv, §13) and the halt / quick-stop ramps (§6).
 //!
 //! This module knows nothing about CANopen: it takes limits in increments and ticks, and it
@@ -267,7 +267,7 @@ impl TickRate {
     }
 }
 
-/// Motion profile type, 6086h (`spec/cia402.md` §9.5). The discriminants are the object's values.
+/// Motion profile type, 6086h (CiA 402-2 §10.5.11). The discriminants are the object's values.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[repr(i16)]
@@ -293,7 +293,7 @@ impl ProfileType {
 
 /// The four jerks of a jerk-limited profile, in increments/s³.
 ///
-/// `spec/cia402.md` §9.5 reads A/B as the corners of the acceleration phase (start, end) and
+/// CiA 402-2 §10.5.13 (60A4h) reads A/B as the corners of the acceleration phase (start, end) and
 /// C/D as those of the deceleration phase; E/F are not recoverable and not used. Here
 /// "acceleration" is any velocity change that increases the speed and "deceleration" any that
 /// decreases it.
@@ -317,7 +317,7 @@ impl Jerks {
     }
 
     /// The jerks selected by 60A3h (profile jerk use: 1, 2 or 4) from the 60A4h sub-indices
-    /// 1…4 in `profile_jerk` (`spec/cia402.md` §9.5 table). `None` for other uses (6 needs the
+    /// 1…4 in `profile_jerk` (CiA 402-2 §10.5.12, 60A3h). `None` for other uses (6 needs the
     /// lost figure) or when a needed sub-index is missing.
     pub fn from_profile_jerk(jerk_use: u8, profile_jerk: &[u32]) -> Option<Self> {
         let sub = |n: usize| profile_jerk.get(n.wrapping_sub(1)).copied();

@@ -15,7 +15,7 @@ fn state_of(now: &Exact, hz: u32) -> MotionState {
     }
 }
 
-/// Point-to-point trajectory generator for profile position mode (`spec/cia402.md` §9).
+/// Point-to-point trajectory generator for profile position mode (CiA 402-2 §10).
 ///
 /// Holds the demand state (position, velocity, acceleration) and a plan. [`Self::plan`]
 /// replaces the plan from the present state at any moment; [`Self::step`] advances one tick.
@@ -258,8 +258,8 @@ impl PositionPlanner {
     }
 }
 
-/// Velocity ramp for profile velocity mode (`spec/cia402.md` §13) and for halt and quick stop
-/// (§6): moves the velocity demand to a target velocity under the acceleration, deceleration
+/// Velocity ramp for profile velocity mode (CiA 402-2 §14) and for halt and quick stop
+/// (§8.4.5, §8.4.8): moves the velocity demand to a target velocity under the acceleration, deceleration
 /// and (jerk-limited) jerk limits.
 #[derive(Clone, Debug)]
 pub struct VelocityRamp {

@@ -71,7 +71,7 @@
 //!
 //! Cortex-M4 instructions (`benches/mcu-motion`, `scripts/bench.sh`): a plan made at once
 //! some 3 200 (8 700 when it takes the fallback; the exact planner: 57 500 to 127 500); the
-//! tick that takes a pp set-point 4 623 (S-curve 4 563), the one that starts homing 4 687, a
+//! tick that takes a pp set-point 4 596 (S-curve 4 563), the one that starts homing 4 687, a
 //! halt 3 654 and a quick stop 3 960 (S-curve), the worst tick of a whole S-curve move 4 874,
 //! of a halt 4 824 and of a homing run 4 867, where a steady pp tick costs 2 660 – 2 880; on
 //! v6-M every one of these ticks is within 15 000 (the worst, 14 869, in an S-curve move). The
@@ -2108,7 +2108,8 @@ impl Ramps {
     /// of a trapezoid made online, so the axis answers the request at once. Towards the target
     /// at the acceleration while the velocity limit and the room to slow down to the end
     /// velocity allow; otherwise slowing down at the deceleration (to standstill exactly when
-    /// the axis moves away from the target). The rule keeps every limit; the plan then starts
+    /// the axis moves away from the target), or holding the velocity where it is at or below
+    /// the end velocity (a target within a tick's travel is not passed and come back to). The rule keeps every limit; the plan then starts
     /// from wherever it has brought the axis.
     fn provisional(&self) -> i128 {
         let Some(job) = self.job.as_ref() else { return 0 };
@@ -2132,8 +2133,15 @@ impl Ramps {
         let speed = real(v.saturating_add(limits.acceleration));
         let stopping = (speed * speed - job.end_squared) * job.per_deceleration;
         let room = real(along(distance2)) - 2.0 * speed;
-        if v > job.last.saturating_abs() && stopping >= room {
-            slow_down(v - job.last.saturating_abs())
+        if stopping >= room {
+            // No room for the acceleration: slow down to the end velocity, or, at it or below
+            // (e.g. a target closer than a tick's travel), hold the velocity (accelerating
+            // would pass the target and come back).
+            if v > job.last.saturating_abs() {
+                slow_down(v - job.last.saturating_abs())
+            } else {
+                0
+            }
         } else if distance2 == 0 {
             0
         } else {

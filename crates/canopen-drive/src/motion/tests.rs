@@ -600,3 +600,30 @@ fn requested_stops_land_like_immediate_ones() {
     assert!(worst_extra[0] <= 0, "a trapezoid's stop is made at once");
     assert!(worst_extra[1] <= 8, "{} ticks more", worst_extra[1]);
 }
+
+#[test]
+fn a_requested_move_shorter_than_a_ticks_travel_does_not_pass_its_target() {
+    // While the plan is made, the provisional rule holds where accelerating would carry the axis
+    // past the target (it came back from there: a move of 2 increments went 4 past it, then
+    // back towards the start at the full acceleration). From rest, every demand lies between
+    // the start and the target.
+    for (hz, acceleration) in [(1000, 4_000_000), (1000, 40_000), (4000, 4_000_000), (16_000, 1_000_000)] {
+        let limits =
+            Limits { velocity: 400_000, acceleration, deceleration: acceleration, ..Limits::default() };
+        for target in -40i64..=40 {
+            let mut planner = PositionPlanner::new(TickRate::new(hz).unwrap(), 0);
+            planner.request(target, 0, &limits).unwrap();
+            let mut ticks = 0;
+            while !planner.is_finished() {
+                let position = planner.step().position;
+                assert!(
+                    (target.min(0)..=target.max(0)).contains(&position),
+                    "{hz} Hz, {acceleration} increments/s², target {target}: demand at {position}"
+                );
+                ticks += 1;
+                assert!(ticks < 10_000, "never finished");
+            }
+            assert_eq!(planner.state().position, target);
+        }
+    }
+}
