@@ -13,6 +13,7 @@
 use core::cell::{Cell, RefCell};
 use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 
+use canopen_drive::comm::indicators::NodeStatus;
 use canopen_drive::hal::{Demand, Sample};
 use canopen_drive::Instant;
 use canopen_drive_embassy::{Lock, PriorityCeiling};
@@ -402,5 +403,18 @@ impl crate::objects::Measurements for BoardMeasurements {
     fn reset_longest_section(&self) {
         reset_longest_section();
         reset_current_loop();
+    }
+}
+
+/// The CiA 303-3 indicators on the user LEDs: LED 0 the green RUN LED, LED 1 the red ERR LED,
+/// as `status` shows them at `now`. Writes the LED register only when they change (`shown`:
+/// what it holds, `None` before the first write). A firmware calls it every 10 ms or so (each
+/// flash of 200 ms then within 5 %, a flicker of 50 ms within 20 %).
+pub fn show_indicators(status: NodeStatus, now: Instant, shown: &mut Option<u32>) {
+    let leds = status.leds(now);
+    let bits = u32::from(leds.run) | u32::from(leds.err) << 1;
+    if *shown != Some(bits) {
+        crate::mps2::fpgaio::set_leds(bits);
+        *shown = Some(bits);
     }
 }

@@ -111,20 +111,13 @@ async fn exit_task() {
     }
 }
 
-/// The CiA 303-3 indicators on the user LEDs: LED 0 is the green RUN LED, LED 1 the red ERR
-/// LED. Sampled every 10 ms (each flash of 200 ms within 5 %, a flicker of 50 ms within 20 %),
-/// written when they change.
+/// The CiA 303-3 indicators on the user LEDs ([`board::show_indicators`]), every 10 ms.
 #[embassy_executor::task]
 async fn indicator_task() {
     let mut shown = None;
     loop {
-        let now = canopen_drive_embassy::now();
-        if let Some(leds) = DRIVE.with(|drive| drive.node_status()).map(|status| status.leds(now)) {
-            let bits = u32::from(leds.run) | u32::from(leds.err) << 1;
-            if shown != Some(bits) {
-                mps2::fpgaio::set_leds(bits);
-                shown = Some(bits);
-            }
+        if let Some(status) = DRIVE.with(|drive| drive.node_status()) {
+            board::show_indicators(status, canopen_drive_embassy::now(), &mut shown);
         }
         Timer::after_millis(10).await;
     }

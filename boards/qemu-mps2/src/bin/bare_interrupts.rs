@@ -7,7 +7,7 @@
 //! | dual timer interrupt ("current loop") | 0x00, above the lock | counts its runs (1 kHz here, 20 kHz in `tick-bound`) | never takes it |
 //! | TIMER0 interrupt ("PWM/timer") | 0x40, the lock's ceiling | `Drive::tick` at 1 kHz, the motor | one `tick` |
 //! | UART0 receive interrupt ("CAN RX") | 0x80 | assembles SLCAN lines; `Drive::on_frame` per received frame | one `on_frame` |
-//! | main loop | thread | `Drive::poll` at its deadline or when an interrupt asked; `Drive::pop_tx` to the "CAN controller" (UART0 transmit) | one `poll`, one `pop_tx` |
+//! | main loop | thread | `Drive::poll` at its deadline or when an interrupt asked; `Drive::pop_tx` to the "CAN controller" (UART0 transmit); the user LEDs from `Drive::node_status` every 10 ms | one `poll`, one `pop_tx`, one `node_status` |
 //!
 //! - **Shared:** the `Drive`, in a `SharedDrive` of `canopen-drive-embassy` (which needs no
 //!   executor; the value in a `StaticCell`, so the static is a pointer in `.bss`), and two
@@ -93,6 +93,8 @@ mod firmware {
 
         let mut deadline: Option<Instant> = Some(now());
         let mut exit_at: Option<Instant> = None;
+        // The CiA 303-3 indicators on the user LEDs, every 10 ms.
+        let (mut leds_at, mut leds_shown) = (now(), None);
         loop {
             let work = WORK.load(Ordering::Acquire);
             WORK.store(false, Ordering::Release);
@@ -106,6 +108,12 @@ mod firmware {
             }
             while let Some(frame) = DRIVE.pop_tx() {
                 uart0::write_all(slcan::encode(&frame).as_bytes());
+            }
+            if now >= leds_at {
+                if let Some(status) = DRIVE.with(|drive| drive.node_status()) {
+                    board::show_indicators(status, now, &mut leds_shown);
+                }
+                leds_at = now + canopen_drive::Duration::from_millis(10);
             }
             if let Some(code) = exit_requested() {
                 // The SDO response is out; give the master 300 ms to read it and disconnect.
