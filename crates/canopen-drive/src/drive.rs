@@ -648,7 +648,10 @@ impl<
         if table != (RPDOS, TPDOS) {
             return Err(ConfigError::PdoCount { drive: (RPDOS, TPDOS), table });
         }
+        // The firmware's tables (the crate's own are checked by its tests).
         crate::od::check_manufacturer_table(config.manufacturer_objects)?;
+        crate::od::check_table(config.extra_profile_objects)?;
+        crate::od::check_table(config.pdo_objects)?;
         let missing = config.device.drive_modes & STANDARD_MODES & !IMPLEMENTED_MODES;
         if missing != 0 {
             return Err(ConfigError::ModesNotBuilt { modes: missing });
