@@ -736,11 +736,6 @@ impl Homing {
         }
     }
 
-    /// One tick of a stop started by [`Self::stop`].
-    pub fn step_stop(&mut self, planner: &mut PositionPlanner) -> crate::motion::MotionState {
-        planner.follow()
-    }
-
     /// The statusword bits 10/12/13 now; `moving`: the demand moves; `on_home`: the shaft
     /// rests on the position the run ended at (a run is complete only then, CiA 402-2 §11.4; once it was, it stays so).
     pub fn status(&mut self, moving: bool, on_home: bool) -> Status {

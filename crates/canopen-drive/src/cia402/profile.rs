@@ -1710,7 +1710,7 @@ impl Profile {
         }
         #[cfg(any(feature = "pp", feature = "hm"))]
         if let Some(planner) = self.planner.as_mut().filter(|_| self.mode.plans()) {
-            let state = if self.mode.is_hm() { self.homing.step_stop(planner) } else { planner.follow() };
+            let state = planner.follow();
             return Setpoint::Position(state.position_demand());
         }
         match &mut self.mode {

@@ -1992,7 +1992,7 @@ impl Ramps {
     /// A plan asked for in this tick moves to its first stage, and its work starts in the
     /// next tick (the tick that takes a set-point has work enough of its own). True if there
     /// was one.
-    pub(crate) fn begin(&mut self) -> bool {
+    fn begin(&mut self) -> bool {
         if let JerkStage::Asked(ramp) = self.jerk_job.stage {
             self.jerk_job.stage = JerkStage::Convert(ramp);
             return true;
