@@ -11,6 +11,11 @@
 //! - A download is written to the dictionary only when complete (atomic; a refused write leaves
 //!   the old value). Its data is staged in a `BUF`-byte buffer; larger transfers are refused with
 //!   0x0504_0005 (out of memory).
+//! - Except to an entry that takes its value as a stream ([`ObjectAccess::begin_stream`], e.g.
+//!   the program data 1F50h of CiA 302-3): a segmented or block download to it is passed on in
+//!   pieces of up to `BUF` bytes as they arrive, so its size is not bounded by the buffer. A
+//!   block download's pieces are whole sub-blocks; the last piece is passed on only after the
+//!   transfer's CRC has been checked.
 //! - An expedited download without size (e = 1, s = 0) takes the entry's size, at most 4 bytes.
 //! - Values of 1..=4 bytes are uploaded expedited; longer and empty values segmented, always
 //!   with the size indicated (an empty value: size 0, then one segment with c = 1, n = 7).
@@ -58,6 +63,27 @@ pub trait ObjectAccess {
         self.download_check(mux, Some(data.len()))?;
         self.write(mux, data)
     }
+
+    /// A segmented or block download of `size` bytes (when indicated) to `mux` is starting,
+    /// after [`download_check`](Self::download_check) passed: `Ok(true)` when the entry takes
+    /// its value as a stream, in pieces through [`write_piece`](Self::write_piece) (an
+    /// expedited download to it still goes to [`write`](Self::write)). The default: no entry
+    /// streams.
+    fn begin_stream(&mut self, _mux: Mux, _size: Option<usize>) -> Result<bool, AbortCode> {
+        Ok(false)
+    }
+
+    /// The next piece of a streamed download: `data` belongs at `offset` of the value, pieces
+    /// come in order and without gaps; `last` marks the final one, after which the transfer is
+    /// complete (its length and, for block transfer, its CRC checked). An error aborts the
+    /// transfer with that code.
+    fn write_piece(&mut self, _mux: Mux, _offset: usize, _data: &[u8], _last: bool) -> Result<(), AbortCode> {
+        Err(AbortCode::General)
+    }
+
+    /// A streamed download ended without its last piece: aborted by either side (a refused
+    /// piece included), timed out, or replaced by a new request.
+    fn stream_broken(&mut self, _mux: Mux) {}
 }
 
 /// [`ObjectAccess::upload_expedited`] by [`ObjectAccess::upload_len`] then
@@ -143,9 +169,23 @@ enum State {
     },
 }
 
+/// A download being passed on in pieces ([`ObjectAccess::begin_stream`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Stream {
+    mux: Mux,
+    /// Offset in the value of the buffer's first byte (the bytes before it are passed on).
+    base: usize,
+    /// Block download: the CRC of the bytes passed on.
+    crc: u16,
+    /// The last piece was taken: the transfer ends complete.
+    complete: bool,
+}
+
 /// The SDO server with a `BUF`-byte download buffer.
 pub struct SdoServer<const BUF: usize> {
     state: State,
+    /// The download in progress is streamed: its buffer holds the bytes after `base`.
+    stream: Option<Stream>,
     deadline: Option<Instant>,
     timeout: ShortDuration,
     /// Block transfers offered (CiA 301 makes them optional).
@@ -205,6 +245,7 @@ impl<const BUF: usize> SdoServer<BUF> {
     pub const fn new(timeout: Duration) -> Self {
         SdoServer {
             state: State::Idle,
+            stream: None,
             deadline: None,
             timeout: ShortDuration::saturating(timeout),
             block: true,
@@ -227,6 +268,7 @@ impl<const BUF: usize> SdoServer<BUF> {
     /// Drops any transfer without a frame (NMT reset, leaving the states that serve SDO).
     pub fn reset(&mut self) {
         self.state = State::Idle;
+        self.stream = None;
         self.deadline = None;
     }
 
@@ -247,7 +289,7 @@ impl<const BUF: usize> SdoServer<BUF> {
             // In a block download, every frame but an abort is a sub-block segment.
             State::BlockDownload { .. } if data.first() != Some(&0x80) => {
                 let segment = BlockSegment::parse(data)?;
-                self.block_segment(segment)
+                self.block_segment(segment, od)
             }
             // Waiting for the end frame (ccs 6, cs 1): a repeated segment of the sub-block the
             // server already acknowledged is ignored (digest §5.5), not read as a command.
@@ -261,7 +303,7 @@ impl<const BUF: usize> SdoServer<BUF> {
                 self.step(request, od)
             }
         };
-        self.enter(state, now);
+        self.enter(state, now, od);
         response.map(|r| r.emit())
     }
 
@@ -270,13 +312,13 @@ impl<const BUF: usize> SdoServer<BUF> {
     pub fn poll(&mut self, now: Instant, od: &mut impl ObjectAccess) -> Option<[u8; 8]> {
         if let State::BlockUploadSending(upload) = self.state {
             let (state, response) = self.send_segment(upload, od);
-            self.enter(state, now);
+            self.enter(state, now, od);
             return response.map(|r| r.emit());
         }
         match self.deadline {
             Some(deadline) if now >= deadline => {
                 let mux = self.mux()?;
-                self.enter(State::Idle, now);
+                self.enter(State::Idle, now, od);
                 crate::fmt::debug!("SDO: {:?} timed out", mux);
                 Some(Response::Abort { mux, code: AbortCode::Timeout }.emit())
             }
@@ -284,7 +326,13 @@ impl<const BUF: usize> SdoServer<BUF> {
         }
     }
 
-    fn enter(&mut self, state: State, now: Instant) {
+    fn enter(&mut self, state: State, now: Instant, od: &mut impl ObjectAccess) {
+        if state == State::Idle {
+            // A streamed download that ends here without its last piece is broken.
+            if let Some(stream) = self.stream.take().filter(|s| !s.complete) {
+                od.stream_broken(stream.mux);
+            }
+        }
         self.state = state;
         self.deadline = match state {
             State::Idle => None,
@@ -329,7 +377,7 @@ impl<const BUF: usize> SdoServer<BUF> {
             }
             (State::Idle, Request::BlockDownloadInitiate { mux, crc, size }) => {
                 let size = size.map(|s| s as usize);
-                match self.check_download(mux, size, od) {
+                match self.begin_download(mux, size, od) {
                     Err(code) => abort(mux, code),
                     Ok(_) => (
                         State::BlockDownload {
@@ -361,12 +409,20 @@ impl<const BUF: usize> SdoServer<BUF> {
                     return abort(mux, AbortCode::ToggleBitNotAlternated);
                 }
                 let n = usize::from(n);
+                let mut len = len;
+                if len + n > BUF {
+                    // A full buffer: a stream passes it on, anything else is too long.
+                    if let Err(code) = self.pass_on(len, false, false, od) {
+                        return abort(mux, code);
+                    }
+                    len = 0;
+                }
                 let Some(dst) = self.buf.get_mut(len..len + n) else {
                     return abort(mux, AbortCode::OutOfMemory);
                 };
                 dst.copy_from_slice(data.get(..n).unwrap_or(&[]));
                 let len = len + n;
-                if size.is_some_and(|s| len > s) {
+                if size.is_some_and(|s| self.streamed() + len > s) {
                     return abort(mux, AbortCode::LengthTooHigh);
                 }
                 if !last {
@@ -375,10 +431,10 @@ impl<const BUF: usize> SdoServer<BUF> {
                         Some(Response::DownloadSegmentAck { toggle }),
                     );
                 }
-                if size.is_some_and(|s| len < s) {
+                if size.is_some_and(|s| self.streamed() + len < s) {
                     return abort(mux, AbortCode::LengthTooLow);
                 }
-                match self.finish_download(mux, len, od) {
+                match self.finish_download(mux, len, false, od) {
                     Ok(()) => (State::Idle, Some(Response::DownloadSegmentAck { toggle })),
                     Err(code) => abort(mux, code),
                 }
@@ -413,16 +469,18 @@ impl<const BUF: usize> SdoServer<BUF> {
                 if len > BUF {
                     return abort(mux, AbortCode::OutOfMemory);
                 }
-                if size.is_some_and(|s| len > s) {
+                let total = self.streamed() + len;
+                if size.is_some_and(|s| total > s) {
                     return abort(mux, AbortCode::LengthTooHigh);
                 }
-                if size.is_some_and(|s| len < s) {
+                if size.is_some_and(|s| total < s) {
                     return abort(mux, AbortCode::LengthTooLow);
                 }
-                if crc_on && crc::update(0, self.buf.get(..len).unwrap_or(&[])) != client_crc {
+                let passed = self.stream.map_or(0, |s| s.crc);
+                if crc_on && crc::update(passed, self.buf.get(..len).unwrap_or(&[])) != client_crc {
                     return abort(mux, AbortCode::CrcError);
                 }
-                match self.finish_download(mux, len, od) {
+                match self.finish_download(mux, len, crc_on, od) {
                     Ok(()) => (State::Idle, Some(Response::BlockDownloadEnd)),
                     Err(code) => abort(mux, code),
                 }
@@ -472,7 +530,64 @@ impl<const BUF: usize> SdoServer<BUF> {
         Ok(fixed)
     }
 
-    fn finish_download(&mut self, mux: Mux, len: usize, od: &mut impl ObjectAccess) -> Result<(), AbortCode> {
+    /// A segmented or block download to `mux` of `size` bytes (when indicated) may begin: the
+    /// entry's checks, then either a stream or a value that fits the buffer.
+    fn begin_download(
+        &mut self,
+        mux: Mux,
+        size: Option<usize>,
+        od: &mut impl ObjectAccess,
+    ) -> Result<(), AbortCode> {
+        od.download_check(mux, size)?;
+        if od.begin_stream(mux, size)? {
+            self.stream = Some(Stream { mux, base: 0, crc: 0, complete: false });
+            return Ok(());
+        }
+        if size.is_some_and(|s| s > BUF) {
+            return Err(AbortCode::OutOfMemory);
+        }
+        Ok(())
+    }
+
+    /// Bytes of a streamed download already passed on (0 for a staged one).
+    fn streamed(&self) -> usize {
+        self.stream.map_or(0, |s| s.base)
+    }
+
+    /// Passes the buffer's first `len` bytes on as the stream's next piece (`crc_on`: a block
+    /// download whose CRC covers them). Without a stream, the value does not fit the buffer.
+    fn pass_on(
+        &mut self,
+        len: usize,
+        last: bool,
+        crc_on: bool,
+        od: &mut impl ObjectAccess,
+    ) -> Result<(), AbortCode> {
+        let Some(stream) = self.stream.as_mut() else {
+            return Err(AbortCode::OutOfMemory);
+        };
+        let data = self.buf.get(..len).unwrap_or(&[]);
+        od.write_piece(stream.mux, stream.base, data, last)?;
+        if crc_on {
+            stream.crc = crc::update(stream.crc, data);
+        }
+        stream.base += len;
+        stream.complete = last;
+        Ok(())
+    }
+
+    /// The download's last `len` bytes are in the buffer and checked: the value is written, or
+    /// the stream's last piece passed on.
+    fn finish_download(
+        &mut self,
+        mux: Mux,
+        len: usize,
+        crc_on: bool,
+        od: &mut impl ObjectAccess,
+    ) -> Result<(), AbortCode> {
+        if self.stream.is_some() {
+            return self.pass_on(len, true, crc_on, od);
+        }
         od.write(mux, self.buf.get(..len).unwrap_or(&[]))
     }
 
@@ -496,7 +611,7 @@ impl<const BUF: usize> SdoServer<BUF> {
             }
             Download::Segmented { size } => {
                 let size = size.map(|s| s as usize);
-                match self.check_download(mux, size, od) {
+                match self.begin_download(mux, size, od) {
                     Ok(_) => (
                         State::SegmentedDownload { mux, toggle: false, size, len: 0 },
                         Some(Response::DownloadInitiated { mux }),
@@ -620,7 +735,7 @@ impl<const BUF: usize> SdoServer<BUF> {
     }
 
     /// A block-download sub-block segment.
-    fn block_segment(&mut self, segment: BlockSegment) -> Step {
+    fn block_segment(&mut self, segment: BlockSegment, od: &mut impl ObjectAccess) -> Step {
         let State::BlockDownload { mux, crc_on, size, len, seq, block_size, done } = self.state else {
             return (self.state, None);
         };
@@ -646,16 +761,24 @@ impl<const BUF: usize> SdoServer<BUF> {
             len += 7;
             seq = segment.seq;
             done = segment.last;
-            if size.is_some_and(|s| len > s + 6) {
+            if size.is_some_and(|s| self.streamed() + len > s + 6) {
                 return abort(mux, AbortCode::LengthTooHigh);
             }
         }
         // End of the sub-block: the client sent its last segment (in order or not).
         if segment.seq >= block_size || segment.last {
-            let ack = Response::BlockDownloadAck { ack_seq: seq, block_size: self.block_size(len) };
             if done {
+                let ack = Response::BlockDownloadAck { ack_seq: seq, block_size: self.block_size(len) };
                 return (State::BlockDownloadEnd { mux, crc_on, size, len }, Some(ack));
             }
+            // Every byte of a sub-block before the last is data: a stream passes them on.
+            if self.stream.is_some() {
+                if let Err(code) = self.pass_on(len, false, crc_on, od) {
+                    return abort(mux, code);
+                }
+                len = 0;
+            }
+            let ack = Response::BlockDownloadAck { ack_seq: seq, block_size: self.block_size(len) };
             return (
                 State::BlockDownload {
                     mux,
@@ -670,5 +793,247 @@ impl<const BUF: usize> SdoServer<BUF> {
             );
         }
         (State::BlockDownload { mux, crc_on, size, len, seq, block_size, done }, None)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    extern crate std;
+    use super::*;
+    use std::vec::Vec;
+
+    const STREAM: Mux = Mux { index: 0x1F50, sub: 1 };
+    const SMALL: Mux = Mux { index: 0x2000, sub: 0 };
+
+    /// An entry that streams (1F50h:1) and a small staged one (2000h, up to 32 bytes): records
+    /// what the server passes on.
+    #[derive(Default)]
+    struct Sink {
+        pieces: Vec<(usize, Vec<u8>, bool)>,
+        broken: usize,
+        refuse_at: Option<usize>,
+        small: Vec<u8>,
+    }
+
+    impl Sink {
+        fn streamed(&self) -> Vec<u8> {
+            self.pieces.iter().flat_map(|(_, data, _)| data.iter().copied()).collect()
+        }
+    }
+
+    impl ObjectAccess for Sink {
+        fn upload_len(&mut self, _: Mux) -> Result<usize, AbortCode> {
+            Err(AbortCode::ReadOfWriteOnly)
+        }
+        fn read(&mut self, _: Mux, _: usize, _: &mut [u8]) -> Result<usize, AbortCode> {
+            Err(AbortCode::ReadOfWriteOnly)
+        }
+        fn download_check(&mut self, mux: Mux, size: Option<usize>) -> Result<Option<usize>, AbortCode> {
+            match mux {
+                SMALL if size.is_some_and(|s| s > 32) => Err(AbortCode::LengthTooHigh),
+                SMALL | STREAM => Ok(None),
+                _ => Err(AbortCode::ObjectDoesNotExist),
+            }
+        }
+        fn write(&mut self, mux: Mux, data: &[u8]) -> Result<(), AbortCode> {
+            assert_eq!(mux, SMALL, "a streamed entry is never written whole");
+            self.small = data.to_vec();
+            Ok(())
+        }
+        fn begin_stream(&mut self, mux: Mux, _: Option<usize>) -> Result<bool, AbortCode> {
+            Ok(mux == STREAM)
+        }
+        fn write_piece(&mut self, mux: Mux, offset: usize, data: &[u8], last: bool) -> Result<(), AbortCode> {
+            assert_eq!(mux, STREAM);
+            if self.refuse_at.is_some_and(|at| offset >= at) {
+                return Err(AbortCode::HardwareError);
+            }
+            self.pieces.push((offset, data.to_vec(), last));
+            Ok(())
+        }
+        fn stream_broken(&mut self, mux: Mux) {
+            assert_eq!(mux, STREAM);
+            self.broken += 1;
+        }
+    }
+
+    fn image(len: usize) -> Vec<u8> {
+        (0..len).map(|i| (i * 7 + i / 251) as u8).collect()
+    }
+
+    fn at(ms: u64) -> Instant {
+        Instant::from_micros(ms * 1000)
+    }
+
+    fn mux_bytes(mux: Mux) -> [u8; 3] {
+        let [lo, hi] = mux.index.to_le_bytes();
+        [lo, hi, mux.sub]
+    }
+
+    /// Segmented download of `data` to `mux` (size indicated as `size`); the server's answers.
+    fn segmented(
+        server: &mut SdoServer<16>,
+        sink: &mut Sink,
+        mux: Mux,
+        data: &[u8],
+        size: u32,
+    ) -> Vec<[u8; 8]> {
+        let [lo, hi, sub] = mux_bytes(mux);
+        let [a, b, c, d] = size.to_le_bytes();
+        let mut answers = Vec::new();
+        answers.extend(server.on_request(&[0x21, lo, hi, sub, a, b, c, d], at(0), sink));
+        for (n, chunk) in data.chunks(7).enumerate() {
+            let last = (n + 1) * 7 >= data.len();
+            let mut frame = [0u8; 8];
+            frame[0] = ((n as u8 & 1) << 4) | ((7 - chunk.len() as u8) << 1) | u8::from(last);
+            frame[1..1 + chunk.len()].copy_from_slice(chunk);
+            answers.extend(server.on_request(&frame, at(1), sink));
+            if answers.last().is_some_and(|r| r[0] == 0x80) {
+                break;
+            }
+        }
+        answers
+    }
+
+    #[test]
+    fn a_segmented_download_to_a_stream_is_passed_on_in_buffer_sized_pieces() {
+        let (mut server, mut sink) = (SdoServer::<16>::new(Duration::from_millis(1000)), Sink::default());
+        let data = image(200);
+        let answers = segmented(&mut server, &mut sink, STREAM, &data, 200);
+        assert_eq!(answers.len(), 1 + 29, "an answer to the initiate and to every segment");
+        assert!(answers.iter().all(|r| r[0] != 0x80), "no abort: {answers:02x?}");
+        assert_eq!(sink.streamed(), data);
+        assert!(sink.pieces.iter().all(|(_, piece, _)| piece.len() <= 16));
+        let offsets: Vec<usize> = sink.pieces.iter().map(|(o, _, _)| *o).collect();
+        let mut expected = 0;
+        for (offset, (_, piece, _)) in offsets.iter().zip(&sink.pieces) {
+            assert_eq!(*offset, expected, "pieces in order, without gaps");
+            expected += piece.len();
+        }
+        let lasts: Vec<bool> = sink.pieces.iter().map(|(_, _, last)| *last).collect();
+        assert_eq!(lasts.iter().filter(|l| **l).count(), 1);
+        assert_eq!(lasts.last(), Some(&true));
+        assert_eq!(sink.broken, 0);
+        assert!(server.is_idle());
+    }
+
+    #[test]
+    fn a_staged_value_longer_than_the_buffer_is_still_out_of_memory() {
+        let (mut server, mut sink) = (SdoServer::<16>::new(Duration::from_millis(1000)), Sink::default());
+        // Size indicated: refused at the initiate.
+        let answers = segmented(&mut server, &mut sink, SMALL, &image(20), 20);
+        assert_eq!(answers[0], [0x80, 0x00, 0x20, 0x00, 0x05, 0x00, 0x04, 0x05]);
+        // Size not indicated: refused at the segment that does not fit.
+        let mut server = SdoServer::<16>::new(Duration::from_millis(1000));
+        assert_eq!(
+            server.on_request(&[0x20, 0x00, 0x20, 0x00, 0, 0, 0, 0], at(0), &mut sink),
+            Some([0x60, 0x00, 0x20, 0x00, 0, 0, 0, 0])
+        );
+        for (n, chunk) in image(21).chunks(7).enumerate() {
+            let mut frame = [(n as u8 & 1) << 4, 0, 0, 0, 0, 0, 0, 0];
+            frame[1..8].copy_from_slice(chunk);
+            let answer = server.on_request(&frame, at(1), &mut sink);
+            if n == 2 {
+                assert_eq!(answer, Some([0x80, 0x00, 0x20, 0x00, 0x05, 0x00, 0x04, 0x05]));
+            }
+        }
+        assert!(sink.small.is_empty() && sink.pieces.is_empty());
+    }
+
+    /// Block download of `data` to the stream with sub-blocks as the server asks; `crc` is what
+    /// the client claims at the end. The server's answers.
+    fn block(server: &mut SdoServer<64>, sink: &mut Sink, data: &[u8], crc: u16) -> Vec<[u8; 8]> {
+        let [lo, hi, sub] = mux_bytes(STREAM);
+        let [a, b, c, d] = (data.len() as u32).to_le_bytes();
+        let mut answers = Vec::new();
+        let first = server.on_request(&[0xC6, lo, hi, sub, a, b, c, d], at(0), sink).unwrap();
+        answers.push(first);
+        let mut block_size = usize::from(first[4]);
+        let segments: Vec<&[u8]> = data.chunks(7).collect();
+        let mut next = 0;
+        while next < segments.len() {
+            let mut seq = 0u8;
+            while usize::from(seq) < block_size && next < segments.len() {
+                seq += 1;
+                let last = next + 1 == segments.len();
+                let mut frame = [0u8; 8];
+                frame[0] = seq | if last { 0x80 } else { 0 };
+                frame[1..1 + segments[next].len()].copy_from_slice(segments[next]);
+                next += 1;
+                if let Some(answer) = server.on_request(&frame, at(1), sink) {
+                    answers.push(answer);
+                    if answer[0] == 0x80 {
+                        return answers;
+                    }
+                    block_size = usize::from(answer[2]);
+                }
+            }
+        }
+        let unused = (7 - data.len() % 7) % 7;
+        let [c0, c1] = crc.to_le_bytes();
+        answers.extend(server.on_request(&[0xC1 | (unused as u8) << 2, c0, c1, 0, 0, 0, 0, 0], at(2), sink));
+        answers
+    }
+
+    #[test]
+    fn a_block_download_to_a_stream_passes_on_whole_sub_blocks_and_the_last_piece_after_the_crc() {
+        let (mut server, mut sink) = (SdoServer::<64>::new(Duration::from_millis(1000)), Sink::default());
+        let data = image(1000);
+        let answers = block(&mut server, &mut sink, &data, crc::update(0, &data));
+        assert_eq!(answers.last(), Some(&[0xA1, 0, 0, 0, 0, 0, 0, 0]), "end confirmed: {answers:02x?}");
+        assert_eq!(sink.streamed(), data);
+        // A sub-block of 9 segments is 63 bytes: every piece but the last is one.
+        let (last, whole) = sink.pieces.split_last().unwrap();
+        assert!(whole.iter().all(|(_, piece, last)| piece.len() == 63 && !last));
+        assert!(last.2);
+        assert_eq!(sink.broken, 0);
+    }
+
+    #[test]
+    fn a_block_download_to_a_stream_with_a_wrong_crc_is_aborted_without_its_last_piece() {
+        let (mut server, mut sink) = (SdoServer::<64>::new(Duration::from_millis(1000)), Sink::default());
+        let data = image(500);
+        let answers = block(&mut server, &mut sink, &data, crc::update(0, &data) ^ 1);
+        assert_eq!(answers.last(), Some(&[0x80, 0x50, 0x1F, 0x01, 0x04, 0x00, 0x04, 0x05]));
+        assert!(sink.pieces.iter().all(|(_, _, last)| !last));
+        assert_eq!(sink.broken, 1);
+        assert!(server.is_idle());
+    }
+
+    #[test]
+    fn a_refused_piece_aborts_the_transfer_with_its_code() {
+        let (mut server, mut sink) = (SdoServer::<64>::new(Duration::from_millis(1000)), Sink::default());
+        sink.refuse_at = Some(100);
+        let data = image(500);
+        let answers = block(&mut server, &mut sink, &data, crc::update(0, &data));
+        assert_eq!(answers.last(), Some(&[0x80, 0x50, 0x1F, 0x01, 0x00, 0x00, 0x06, 0x06]));
+        assert_eq!(sink.streamed(), data[..126]);
+        assert_eq!(sink.broken, 1);
+    }
+
+    #[test]
+    fn a_stream_broken_by_the_client_or_a_timeout_is_reported_once() {
+        let (mut server, mut sink) = (SdoServer::<16>::new(Duration::from_millis(1000)), Sink::default());
+        let [lo, hi, sub] = mux_bytes(STREAM);
+        server.on_request(&[0x21, lo, hi, sub, 100, 0, 0, 0], at(0), &mut sink);
+        server.on_request(&[0x00, 1, 2, 3, 4, 5, 6, 7], at(1), &mut sink);
+        assert_eq!(server.on_request(&[0x80, lo, hi, sub, 0, 0, 0x04, 0x05], at(2), &mut sink), None);
+        assert_eq!(sink.broken, 1);
+
+        server.on_request(&[0x21, lo, hi, sub, 100, 0, 0, 0], at(10), &mut sink);
+        assert_eq!(server.poll(at(500), &mut sink), None);
+        assert_eq!(server.poll(at(1010), &mut sink), Some([0x80, lo, hi, sub, 0x00, 0x00, 0x04, 0x05]));
+        assert_eq!(sink.broken, 2);
+        assert_eq!(server.poll(at(3000), &mut sink), None);
+        assert_eq!(sink.broken, 2);
+    }
+
+    #[test]
+    fn a_stream_longer_than_its_indicated_size_is_refused() {
+        let (mut server, mut sink) = (SdoServer::<16>::new(Duration::from_millis(1000)), Sink::default());
+        let answers = segmented(&mut server, &mut sink, STREAM, &image(60), 50);
+        assert_eq!(answers.last(), Some(&[0x80, 0x50, 0x1F, 0x01, 0x12, 0x00, 0x07, 0x06]));
+        assert_eq!(sink.broken, 1);
+        assert!(sink.pieces.iter().all(|(_, _, last)| !last));
     }
 }
