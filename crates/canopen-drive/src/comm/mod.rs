@@ -7,6 +7,7 @@ pub mod indicators;
 pub mod lss;
 pub mod nmt;
 pub mod pdo;
+pub mod program;
 pub mod sdo_server;
 pub mod sync;
 

@@ -81,7 +81,7 @@ use core::ops::RangeInclusive;
 
 use crate::od::persist::{RecordEvent, RecordLoader, RecordParser};
 use crate::od::{AbortCode, DeviceInfo, Dictionary};
-use crc32::Crc32;
+pub(crate) use crc32::Crc32;
 use image::{is_newer, Decoded, Header, FORMAT_VERSION, HEADER_LEN};
 
 /// 1011h restore default parameters (write [`LOAD_SIGNATURE`] to sub `group.sub()`).
