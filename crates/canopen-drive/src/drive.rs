@@ -84,6 +84,7 @@ use crate::comm::indicators::NodeStatus;
 use crate::comm::lss::{LssHooks, LssSlave, LssState, StoreError, DEFAULT_BIT_RATES};
 use crate::comm::nmt::{transition, NmtAction, Services};
 use crate::comm::pdo::{self, FrameSink, PdoEvent, PdoRecord, PdoSet, RpdoFrame, ValueRules};
+use crate::comm::program::{self, NoArea, ProgramDownload, ProgramRequest, PROGRAM_CONTROL, PROGRAM_DATA};
 use crate::comm::sdo_server::{upload_in_two_steps, ObjectAccess, SdoServer};
 use crate::comm::sync::{self, Sync, SyncConfig, SyncPoll, SyncReception, SyncSlots};
 use crate::frame::CanFrame;
@@ -231,6 +232,12 @@ pub struct Config {
     /// travel-limit EMCY). The codes are the reported ones
     /// ([`crate::cia402::ProfileConfig::error_codes`]).
     pub emcy_additional_bytes: &'static [(u16, [u8; 5])],
+    /// The program download objects of the running application (CiA 302-3: 1F50h, 1F51h,
+    /// 1F56h, 1F57h, [`crate::comm::program`]), for a drive whose board has a bootloader that
+    /// takes a new program (default false: no such objects). 1F51h reads 1 (started); stop and
+    /// reset are requests for the board ([`Drive::take_program_request`]); clear and a download
+    /// are refused (0800 0022h), as they are the bootloader's.
+    pub program_download: bool,
 }
 
 impl Config {
@@ -255,6 +262,7 @@ impl Config {
             error_behaviour_values: &ErrorBehaviour::CIA_301,
             absent_objects: &[],
             emcy_additional_bytes: &[],
+            program_download: false,
         }
     }
 }
@@ -354,6 +362,8 @@ pub struct Drive<
     /// PDO mappings may be changed while the PDO is valid ([`Drive::set_remap_while_valid`]).
     remap_while_valid: bool,
     tx: TxQueue,
+    /// Program download (CiA 302-3), the application's side ([`Config::program_download`]).
+    program: ProgramDownload<NoArea>,
     hooks: H,
     storage: S,
 }
@@ -386,6 +396,7 @@ fn owner<const AXES: usize>(index: u16, object: &Object, axes: &[Profile; AXES])
         PRODUCER_OBJECT => Owner::HeartbeatProducer,
         _ if guarding_owns(index) => Owner::Guarding,
         _ if crate::storage::owns(index) => Owner::Storage,
+        _ if program::owns(index) => Owner::Program,
         _ if PdoRecord::of(index).is_some() => Owner::Pdo,
         _ => object.owner,
     }
@@ -700,6 +711,7 @@ impl<
             emcy_bytes: config.emcy_additional_bytes,
             remap_while_valid: false,
             tx: TxQueue { frames: Deque::new(), dropped: 0 },
+            program: ProgramDownload::application(0),
             hooks,
             storage,
         }
@@ -723,15 +735,16 @@ impl<
         // has no 67FFh and links only `PROFILE`).
         let profile: &'static [Object] =
             if AXES > 1 { &crate::cia402::objects::AXIS_PROFILE } else { &crate::cia402::objects::PROFILE };
-        let tables: [&'static [Object]; 5] = [
+        let tables: [&'static [Object]; 6] = [
             &standard::COMMUNICATION,
             config.pdo_objects,
+            if config.program_download { &program::OBJECTS } else { &[] },
             config.manufacturer_objects,
             profile,
             config.extra_profile_objects,
         ];
         let axes = AXES as u8;
-        self.od.attach_copies(&tables, &[1, 1, 1, axes, axes])?;
+        self.od.attach_copies(&tables, &[1, 1, 1, 1, axes, axes])?;
         self.od.set_homing_methods(config.profile.homing.method_list());
         self.od.set_entry_overrides(config.entry_overrides)?;
         self.od.set_default_overrides(config.default_overrides)?;
@@ -775,6 +788,24 @@ impl<
             bus_off: self.bus_off,
             ..NodeStatus::new(self.nmt)
         }
+    }
+
+    /// The program's identification 1F56h:1 reads ([`Config::program_download`]): the CRC-32
+    /// of the running image, which the board reads from the header its bootloader left
+    /// ([`program::read_header`]).
+    pub fn set_program_identification(&mut self, identification: u32) {
+        self.program = ProgramDownload::application(identification);
+    }
+
+    /// What a write to 1F51h:1 asks the board to do ([`Config::program_download`]): stop
+    /// (reset into the bootloader) or reset the program. Given once every frame before it has
+    /// been taken from [`pop_tx`](Self::pop_tx), so that the answer is on its way first; the
+    /// board then waits for its CAN controller to have sent it.
+    pub fn take_program_request(&mut self) -> Option<ProgramRequest> {
+        if !self.tx.frames.is_empty() {
+            return None;
+        }
+        self.program.take_request()
     }
 
     /// The object dictionary (device-side access).
@@ -963,7 +994,14 @@ impl<
     #[inline(never)]
     fn sdo_request(&mut self, data: &[u8], now: Instant) {
         let node_id = self.node_id();
-        let mut access = Access::new(&mut self.od, &mut self.hooks, &mut self.storage, self.nmt, &self.axes);
+        let mut access = Access::new(
+            &mut self.od,
+            &mut self.hooks,
+            &mut self.storage,
+            self.nmt,
+            &self.axes,
+            &mut self.program,
+        );
         access.error_behaviour = self.error_behaviour;
         access.store_groups = self.store_groups;
         access.remap_while_valid = self.remap_while_valid;
@@ -1732,7 +1770,11 @@ impl<
                 }
             }
             Owner::Emcy => self.refresh(),
-            Owner::Dictionary | Owner::ErrorHistory | Owner::ErrorBehaviour | Owner::Storage => {}
+            Owner::Dictionary
+            | Owner::ErrorHistory
+            | Owner::ErrorBehaviour
+            | Owner::Storage
+            | Owner::Program => {}
         }
     }
 
@@ -1749,8 +1791,14 @@ impl<
         let node_id = self.node_id();
         // The server sends on its own only what is due (block-upload segments, a timeout).
         while self.sdo.deadline().is_some_and(|due| now >= due) && !self.tx.frames.is_full() {
-            let mut access =
-                Access::new(&mut self.od, &mut self.hooks, &mut self.storage, self.nmt, &self.axes);
+            let mut access = Access::new(
+                &mut self.od,
+                &mut self.hooks,
+                &mut self.storage,
+                self.nmt,
+                &self.axes,
+                &mut self.program,
+            );
             access.error_behaviour = self.error_behaviour;
             access.store_groups = self.store_groups;
             access.remap_while_valid = self.remap_while_valid;
@@ -1779,6 +1827,7 @@ struct Access<'a, H, S, const B: usize, const AXES: usize> {
     storage: &'a mut S,
     nmt: NmtState,
     axes: &'a [Profile; AXES],
+    program: &'a mut ProgramDownload<NoArea>,
     error_behaviour: &'static [(u8, ErrorBehaviour)],
     store_groups: &'static [Group],
     /// [`Drive::set_remap_while_valid`].
@@ -1796,6 +1845,7 @@ impl<'a, H: ObjectHooks, S: Persistence, const B: usize, const AXES: usize> Acce
         storage: &'a mut S,
         nmt: NmtState,
         axes: &'a [Profile; AXES],
+        program: &'a mut ProgramDownload<NoArea>,
     ) -> Self {
         Access {
             od,
@@ -1803,6 +1853,7 @@ impl<'a, H: ObjectHooks, S: Persistence, const B: usize, const AXES: usize> Acce
             storage,
             nmt,
             axes,
+            program,
             error_behaviour: &ErrorBehaviour::CIA_301,
             store_groups: &Group::ALL,
             remap_while_valid: false,
@@ -1811,10 +1862,35 @@ impl<'a, H: ObjectHooks, S: Persistence, const B: usize, const AXES: usize> Acce
         }
     }
 
+    /// A write to the program download's objects (1F50h:1 data, 1F51h:1 a command): the
+    /// service's, nothing in the dictionary.
+    #[inline(never)]
+    fn program_write(&mut self, entry: &Entry, data: &[u8]) -> Result<(), AbortCode> {
+        if entry.index() == PROGRAM_DATA {
+            self.program.begin(Some(data.len()))?;
+            return self.program.piece(0, data, true);
+        }
+        self.od.check_write(entry, data)?;
+        match data {
+            &[command] if entry.index() == PROGRAM_CONTROL => self.program.command(command),
+            _ => Err(AbortCode::LengthMismatch),
+        }
+    }
+
     /// 1010h/1011h subs 1..=4: the read value says whether the command is supported (§11).
     fn command_capability(&self, entry: &Entry, owner: Owner) -> Option<u32> {
         let group = Group::from_sub(entry.sub).filter(|_| owner == Owner::Storage)?;
         Some(u32::from(stores(self.storage, self.store_groups, group)))
+    }
+
+    /// Sub 1 of the program download's objects: the value the service holds (1F51h one
+    /// byte, 1F56h/1F57h four), as little-endian bytes and its length.
+    fn program_value(&self, entry: &Entry, owner: Owner) -> Option<([u8; 4], usize)> {
+        if owner != Owner::Program || entry.sub != 1 {
+            return None;
+        }
+        let value = self.program.read(entry.index())?;
+        Some((value.to_le_bytes(), if entry.index() == PROGRAM_CONTROL { 1 } else { 4 }))
     }
 
     /// Store or restore on command: the signature, then the operation; nothing is written to
@@ -1856,7 +1932,11 @@ impl<'a, H: ObjectHooks, S: Persistence, const B: usize, const AXES: usize> Acce
     ) -> Result<(), AbortCode> {
         let (od, index, sub) = (&*self.od, entry.index(), entry.sub);
         match owner {
-            Owner::Dictionary | Owner::HeartbeatProducer | Owner::Guarding | Owner::Storage => Ok(()),
+            Owner::Dictionary
+            | Owner::HeartbeatProducer
+            | Owner::Guarding
+            | Owner::Storage
+            | Owner::Program => Ok(()),
             Owner::Emcy => emcy::check_write(od, index, data),
             Owner::ErrorHistory => emcy::check_history_write(data),
             Owner::ErrorBehaviour => ErrorBehaviour::check_write(self.error_behaviour, data),
@@ -1916,6 +1996,9 @@ impl<H: ObjectHooks, S: Persistence, const B: usize, const AXES: usize> ObjectAc
         if self.command_capability(&entry, owner).is_some() {
             return Ok(4);
         }
+        if let Some((_, len)) = self.program_value(&entry, owner) {
+            return Ok(len);
+        }
         match self.hooks.read_len(mux.index, mux.sub) {
             Some(result) => result,
             None => Ok(self.od.value_len(&entry)),
@@ -1933,6 +2016,14 @@ impl<H: ObjectHooks, S: Persistence, const B: usize, const AXES: usize> ObjectAc
             }
             return Ok(n);
         }
+        if let Some((bytes, len)) = self.program_value(&entry, owner) {
+            let value = bytes.get(offset..len).unwrap_or(&[]);
+            let n = value.len().min(buf.len());
+            if let (Some(d), Some(s)) = (buf.get_mut(..n), value.get(..n)) {
+                d.copy_from_slice(s);
+            }
+            return Ok(n);
+        }
         match self.hooks.read_len(mux.index, mux.sub) {
             Some(_) => self.hooks.read(mux.index, mux.sub, offset, buf),
             None => Ok(self.od.read(&entry, offset, buf)),
@@ -1943,6 +2034,7 @@ impl<H: ObjectHooks, S: Persistence, const B: usize, const AXES: usize> ObjectAc
         let (entry, owner) = self.readable_entry(mux)?;
         // A plain value of the store: one look-up, no second pass through the hooks.
         let plain = self.command_capability(&entry, owner).is_none()
+            && owner != Owner::Program
             && self.hooks.read_len(mux.index, mux.sub).is_none();
         match plain.then(|| self.od.read_small(&entry, buf)).flatten() {
             Some(n) => Ok(Some(n)),
@@ -1956,11 +2048,13 @@ impl<H: ObjectHooks, S: Persistence, const B: usize, const AXES: usize> ObjectAc
     }
 
     fn download_check(&mut self, mux: Mux, size: Option<usize>) -> Result<Option<usize>, AbortCode> {
-        let (entry, _) = self.writable_entry(mux)?;
+        let (entry, owner) = self.writable_entry(mux)?;
         let fixed = entry.var.data_type.fixed_size();
         match (fixed, size) {
             (Some(n), Some(s)) if s > n => Err(AbortCode::LengthTooHigh),
             (Some(n), Some(s)) if s < n => Err(AbortCode::LengthTooLow),
+            // The program data has no size of its own: the service checks it.
+            _ if owner == Owner::Program => Ok(fixed),
             (None, Some(s)) if s > usize::from(entry.var.capacity) => Err(AbortCode::LengthTooHigh),
             _ => Ok(fixed),
         }
@@ -1970,6 +2064,9 @@ impl<H: ObjectHooks, S: Persistence, const B: usize, const AXES: usize> ObjectAc
     #[inline(never)]
     fn write(&mut self, mux: Mux, data: &[u8]) -> Result<(), AbortCode> {
         let (entry, owner) = self.writable_entry(mux)?;
+        if owner == Owner::Program {
+            return self.program_write(&entry, data);
+        }
         self.od.check_write(&entry, data)?;
         if self.command_capability(&entry, owner).is_some() {
             return self.storage_command(mux, data);
@@ -1984,5 +2081,22 @@ impl<H: ObjectHooks, S: Persistence, const B: usize, const AXES: usize> ObjectAc
         self.hooks.written(mux.index, mux.sub, data);
         self.written = Some((owner, mux, rule));
         Ok(())
+    }
+
+    fn begin_stream(&mut self, mux: Mux, size: Option<usize>) -> Result<bool, AbortCode> {
+        if mux.index != PROGRAM_DATA {
+            return Ok(false);
+        }
+        // The application refuses (0800 0022h): its program is the bootloader's to replace.
+        self.program.begin(size)?;
+        Ok(true)
+    }
+
+    fn write_piece(&mut self, _mux: Mux, offset: usize, data: &[u8], last: bool) -> Result<(), AbortCode> {
+        self.program.piece(offset, data, last)
+    }
+
+    fn stream_broken(&mut self, _mux: Mux) {
+        self.program.broken();
     }
 }

@@ -95,6 +95,7 @@
 
 mod fmt;
 
+pub mod bootloader;
 pub mod can_io;
 pub mod cia402;
 pub mod comm;

@@ -36,10 +36,10 @@ fn a_pdo_table_of_another_size_than_the_drive_type() {
 
 #[test]
 fn more_tables_than_a_dictionary_joins() {
-    let tables: [&'static [Object]; 6] = [&[], &[], &[], &[], &[], &[]];
+    let tables: [&'static [Object]; 7] = [&[], &[], &[], &[], &[], &[], &[]];
     let error = Dictionary::<64>::new(&tables, DeviceInfo::servo_drive(), NODE).err().unwrap();
     assert_eq!(error, ConfigError::TooManyTables);
-    assert_eq!(error.to_string(), "more than 5 tables");
+    assert_eq!(error.to_string(), "more than 6 tables");
 }
 
 #[test]

@@ -20,7 +20,7 @@ const LAYERS: &[&[&str]] = &[
     &["storage", "control"],
     &["comm"],
     &["cia402"],
-    &["drive"],
+    &["drive", "bootloader"],
     &["can_io", "prelude", "lib"],
 ];
 

@@ -535,6 +535,8 @@ pub enum Owner {
     Pdo,
     /// Store and restore on command (`storage`): 1010h, 1011h.
     Storage,
+    /// Program download (`comm::program`): 1F50h, 1F51h, 1F56h, 1F57h.
+    Program,
     /// The CiA 402 drive profile (`cia402`): its objects and the cascade's.
     Profile,
 }

@@ -32,9 +32,9 @@ pub use overrides::EntryOverride;
 
 use core::ops::RangeInclusive;
 
-/// Most tables one dictionary joins (communication, PDOs, manufacturer, device profile, the
-/// firmware's further device-profile objects).
-pub const MAX_TABLES: usize = 5;
+/// Most tables one dictionary joins (communication, PDOs, program download, manufacturer,
+/// device profile, the firmware's further device-profile objects).
+pub const MAX_TABLES: usize = 6;
 
 /// 1000h's additional information (bits 16–31) on a node of several logical devices
 /// (CiA 301; the CiA 402-2 text writes 0FFFh, which reads as a slip for CiA 301's FFFFh).
@@ -499,7 +499,9 @@ impl<const BYTES: usize> Dictionary<BYTES> {
         }
         let mut region = 0usize;
         let mut previous: Option<u16> = None;
-        for (t, table) in tables.iter().enumerate() {
+        // Empty tables (an option left out) take no place.
+        let mut count = 0;
+        for (t, table) in tables.iter().enumerate().filter(|(_, table)| !table.is_empty()) {
             let n = copies.get(t).copied().unwrap_or(1);
             let (first, last) = match (table.first(), table.last()) {
                 (Some(first), Some(last)) => (first.index, last.index),
@@ -530,7 +532,8 @@ impl<const BYTES: usize> Dictionary<BYTES> {
                 previous = Some(top);
             }
             let too_small = |needed| ConfigError::StorageTooSmall { needed };
-            let slot = self.tables.get_mut(t).ok_or(ConfigError::TooManyTables)?;
+            let slot = self.tables.get_mut(count).ok_or(ConfigError::TooManyTables)?;
+            count += 1;
             *slot = Table {
                 objects: table,
                 first,
@@ -544,7 +547,7 @@ impl<const BYTES: usize> Dictionary<BYTES> {
         if region > BYTES || region > usize::from(u16::MAX) {
             return Err(ConfigError::StorageTooSmall { needed: region });
         }
-        self.table_count = tables.len() as u8;
+        self.table_count = count as u8;
         self.reset(0x0000..=0xFFFF);
         Ok(())
     }
@@ -1414,7 +1417,7 @@ mod tests {
             Dictionary::<8>::new(&[&TABLE], info, 1).err(),
             Some(ConfigError::StorageTooSmall { needed: 27 })
         );
-        let too_many: [&'static [Object]; 6] = [&[], &[], &[], &[], &[], &[]];
+        let too_many: [&'static [Object]; 7] = [&[]; 7];
         assert_eq!(Dictionary::<8>::new(&too_many, info, 1).err(), Some(ConfigError::TooManyTables));
     }
 

@@ -262,6 +262,40 @@ const COMMUNICATION_COUNT: usize = included_count(&ALL_COMMUNICATION);
 /// The CiA 301 objects of the communication profile area (1000h–1FFFh) this crate implements.
 pub static COMMUNICATION: [Object; COMMUNICATION_COUNT] = layout(select(&ALL_COMMUNICATION));
 
+/// The objects of `all` at `indices` (ascending), in that order.
+// Loop indices are bounded by the array lengths; `get` is not usable in a const fn.
+#[allow(clippy::indexing_slicing)]
+const fn pick<const N: usize>(all: &[Object], indices: [u16; N]) -> [Object; N] {
+    let mut out = [Object::var(0, "", Var::new("", DataType::Unsigned8)); N];
+    let (mut i, mut j) = (0, 0);
+    while i < all.len() && j < N {
+        if all[i].index == indices[j] {
+            out[j] = all[i];
+            j += 1;
+        }
+        i += 1;
+    }
+    assert!(j == N, "an index to pick is not a communication object");
+    out
+}
+
+/// The communication objects of a bootloader ([`crate::bootloader`]): the identification a
+/// master compares before and after an update (1000h, 1008h–100Ah, 1018h), the error register,
+/// the heartbeat producer and the SDO server's parameters.
+pub static BOOTLOADER_COMMUNICATION: [Object; 8] = layout(pick(
+    &ALL_COMMUNICATION,
+    [
+        DEVICE_TYPE,
+        ERROR_REGISTER,
+        DEVICE_NAME,
+        HARDWARE_VERSION,
+        SOFTWARE_VERSION,
+        PRODUCER_HEARTBEAT_TIME,
+        IDENTITY,
+        SDO_SERVER_PARAMETER,
+    ],
+));
+
 /// The mapping of the pre-defined PDOs 1–4 (CiA 402): controlword / statusword, then the mode,
 /// the pp target / position, the pv target / velocity.
 const RPDO_PRESET_MAPPING: [[u32; 2]; 4] =

@@ -39,7 +39,11 @@ impl NonVolatile for RamFlash {
     }
     fn write(&mut self, offset: u32, data: &[u8]) -> Result<(), NvError> {
         let at = offset as usize;
-        assert!(at.is_multiple_of(UNIT) && data.len().is_multiple_of(UNIT), "unaligned write at {at}, {} bytes", data.len());
+        assert!(
+            at.is_multiple_of(UNIT) && data.len().is_multiple_of(UNIT),
+            "unaligned write at {at}, {} bytes",
+            data.len()
+        );
         for unit in at / UNIT..(at + data.len()) / UNIT {
             assert!(!self.programmed[unit], "unit {unit} programmed twice");
             self.programmed[unit] = true;
