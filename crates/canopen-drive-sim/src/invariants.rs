@@ -31,7 +31,7 @@ use canopen_drive::cia402::objects::{
 use canopen_drive::cia402::ProfileConfig;
 use canopen_drive::comm::error_control::ErrorBehaviour;
 use canopen_drive::hal::{Demand, Sample, Setpoint};
-use canopen_drive::od::{DataType, Dictionary, Entry, PdoMapping};
+use canopen_drive::od::{le_u32, DataType, Dictionary, Entry, PdoMapping};
 use canopen_drive::wire::cob_id::{self, CobId};
 
 /// The first index of the data-record objects of ip (60C0h–60C4h), whose value rules depend
@@ -44,10 +44,6 @@ pub fn value_bytes<const B: usize>(od: &Dictionary<B>, entry: &Entry) -> Vec<u8>
     let n = od.read(entry, 0, &mut bytes);
     bytes.truncate(n);
     bytes
-}
-
-fn le_u32(bytes: &[u8]) -> u32 {
-    bytes.iter().take(4).rev().fold(0, |acc, b| (acc << 8) | u32::from(*b))
 }
 
 /// Every entry of every object of `od`, in ascending order (index, sub).

@@ -217,7 +217,8 @@ pub struct Config {
     pub entry_overrides: &'static [EntryOverride],
     /// Objects of the device-profile area beyond the crate's (indices above those of
     /// [`crate::cia402::objects::PROFILE`], ascending, laid out with [`crate::od::layout`]),
-    /// e.g. objects of a later edition of CiA 402 or a second axis (default: none).
+    /// e.g. objects of a later edition of CiA 402 (default: none). A second axis is not
+    /// described here: it is an axis of a [`MultiAxisDrive`].
     pub extra_profile_objects: &'static [Object],
     /// What each value of 1029h sub 1 means (default [`ErrorBehaviour::CIA_301`]: 0
     /// Pre-operational, 1 no change, 2 Stopped); other values below 80h are refused.

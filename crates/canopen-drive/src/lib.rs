@@ -5,30 +5,37 @@
 //!
 //! ## Layers (lowest first)
 //!
-//! - [`time`], [`frame`]: microsecond instants handed in by the caller; the CAN frame type and
-//!   its conversion to and from any `embedded_can::Frame`.
-//! - [`wire`]: stateless codecs of the CANopen frames (NMT, SDO, COB-IDs, LSS, block CRC).
-//! - [`od`]: the object dictionary: a `static` description, a byte store, exact SDO abort codes,
-//!   hooks for manufacturer objects, parameter records and the EDS generated from the same
-//!   description.
-//! - [`storage`]: parameters kept across power loss (1010h/1011h) in a two-bank journal on any
-//!   NOR flash (`embedded-storage`).
-//! - [`comm`]: the CiA 301/305 services: NMT slave, SDO server (expedited, segmented, block),
-//!   PDOs with dynamic mapping, SYNC, EMCY, heartbeat producer and consumer, node guarding,
-//!   error behaviour 1029h, LSS slave.
-//! - [`motion`]: CANopen-agnostic motion math: the exact fixed-point trapezoid and jerk-limited
-//!   trajectory planner behind profile position and homing, re-planned from any state.
-//! - [`control`]: the optional cascaded position (P) and velocity (PI, anti-windup,
-//!   feed-forward) loops, for boards that close only a current loop.
-//! - [`cia402`]: the CiA 402 drive profile: the state machine with every transition and the
-//!   option codes (605Ah–605Eh, 6007h), faults with their EMCY and 603Fh, mode switching
-//!   (6060h/6061h/6502h), the factor group and polarity, the limits applied to every demand,
-//!   the position control function, and the modes: profile position (pp), profile velocity
-//!   (pv), profile torque (tq), homing (hm), interpolated position (ip), velocity mode (vl),
-//!   cyclic synchronous position, velocity and torque (csp, csv, cst), and the touch probe.
-//! - [`hal`]: what a board hands the tick (the feedback [`hal::Sample`]) and gets back (the
-//!   [`hal::Demand`] for the power stage).
-//! - [`drive`]: [`Drive`], which composes everything behind the entry points.
+//! A module uses only the modules of its own layer and of the layers below it (checked by
+//! `tests/layers.rs`).
+//!
+//! 1. [`time`], [`frame`]: microsecond instants handed in by the caller; the CAN frame type and
+//!    its conversion to and from any `embedded_can::Frame`. (With them, two private utilities:
+//!    128-bit division and the logging shim.)
+//! 2. [`wire`], [`motion`]: stateless codecs of the CANopen frames (NMT, SDO, COB-IDs, LSS,
+//!    block CRC); CANopen-agnostic motion math: the exact fixed-point trapezoid and
+//!    jerk-limited trajectory planner behind profile position and homing, re-planned from any
+//!    state.
+//! 3. [`hal`]: what a board hands the tick (the feedback [`hal::Sample`]) and gets back (the
+//!    [`hal::Demand`] for the power stage).
+//! 4. [`od`]: the object dictionary: a `static` description, a byte store, exact SDO abort
+//!    codes, hooks for manufacturer objects, parameter records and the EDS generated from the
+//!    same description.
+//! 5. [`storage`], [`control`]: parameters kept across power loss (1010h/1011h) in a two-bank
+//!    journal on any NOR flash (`embedded-storage`); the optional cascaded position (P) and
+//!    velocity (PI, anti-windup, feed-forward) loops, for boards that close only a current
+//!    loop.
+//! 6. [`comm`]: the CiA 301/305 services: NMT slave, SDO server (expedited, segmented, block),
+//!    PDOs with dynamic mapping, SYNC, EMCY, heartbeat producer and consumer, node guarding,
+//!    error behaviour 1029h, LSS slave, and the CiA 303-3 indicators.
+//! 7. [`cia402`]: the CiA 402 drive profile: the state machine with every transition and the
+//!    option codes (605Ah–605Eh, 6007h), faults with their EMCY and 603Fh, mode switching
+//!    (6060h/6061h/6502h), the factor group and polarity, the limits applied to every demand,
+//!    the position control function, and the modes: profile position (pp), profile velocity
+//!    (pv), profile torque (tq), homing (hm), interpolated position (ip), velocity mode (vl),
+//!    cyclic synchronous position, velocity and torque (csp, csv, cst), and the touch probe.
+//! 8. [`drive`]: [`Drive`], which composes everything behind the entry points.
+//! 9. [`can_io`], [`prelude`]: moving frames between a drive and an `embedded_can` driver; the
+//!    re-exports a firmware starts from.
 //!
 //! ## Two entry points, two rates
 //!

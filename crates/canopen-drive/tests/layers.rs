@@ -1,6 +1,6 @@
-//! The import graph of the core points down the layers of the architecture (DESIGN.md, "The
-//! core crate: layers, lowest first"): a module may name the modules of its own layer and the
-//! layers below, never one above. A path `crate::<module>` in code (not in comments or docs,
+//! The import graph of the core points down the layers of the architecture
+//! (`docs/architecture.md`, "Layers of the core", and the crate docs in `src/lib.rs`): a module
+//! may name the modules of its own layer and the layers below, never one above. A path `crate::<module>` in code (not in comments or docs,
 //! not in the unit-test modules at the bottom of a file) counts as an import; so do the items
 //! re-exported at the crate root (`crate::Drive` is `drive`).
 
@@ -138,7 +138,7 @@ fn the_check_sees_an_upward_import() {
 
 /// The composer (`drive.rs`) routes frames, runs timers and calls the services: it holds no
 /// object index (a literal from 1000h on, or an index constant of `od::standard` or of a
-/// service) and so no rule of an object. Each service registers its own objects (DESIGN.md,
+/// service) and so no rule of an object. Each service registers its own objects (`src/drive.rs`,
 /// "Who owns an object").
 #[test]
 fn the_composer_holds_no_object_index() {

@@ -372,11 +372,6 @@ impl Limiter {
         (self.position >> 32) as i64
     }
 
-    /// The demand velocity in increments per tick × 2³² (for the caller to convert).
-    pub fn velocity_per_tick(&self) -> i128 {
-        self.velocity
-    }
-
     /// The demand velocity in increments/s at `hz`.
     pub fn velocity(&self, hz: u32) -> i64 {
         let Ok(velocity) = i64::try_from(self.velocity) else {

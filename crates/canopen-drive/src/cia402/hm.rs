@@ -235,16 +235,6 @@ impl HomingConfig {
     pub fn method_list(&self) -> crate::od::MethodList {
         self.listed_methods().fold(crate::od::MethodList::EMPTY, crate::od::MethodList::with)
     }
-
-    /// 60E3h sub 0: how many methods [`HomingConfig::listed_methods`] gives.
-    pub fn listed_method_count(&self) -> u8 {
-        u8::try_from(self.listed_methods().count()).unwrap_or(MAX_LISTED_METHODS)
-    }
-
-    /// 60E3h sub `sub` (1-based): the `sub`-th listed method, `None` beyond the list.
-    pub fn listed_method(&self, sub: u8) -> Option<i8> {
-        self.listed_methods().nth(usize::from(sub).checked_sub(1)?)
-    }
 }
 
 /// The most methods 60E3h (supported homing methods) lists: the 33 standard methods this crate

@@ -80,7 +80,7 @@ use super::cyclic::{Interpolator, Limiter};
 use super::objects::Rule;
 pub use super::objects::INTERPOLATION_TIME_PERIOD;
 use super::Axis;
-use crate::od::{AbortCode, Access, DataType, DefaultValue, Dictionary, Object, PdoMapping, Var};
+use crate::od::{le_u32, AbortCode, Access, DataType, DefaultValue, Dictionary, Object, PdoMapping, Var};
 
 /// 60C0h interpolation sub mode select.
 pub const INTERPOLATION_SUB_MODE_SELECT: u16 = 0x60C0;
@@ -327,11 +327,6 @@ impl Default for IpBuffer {
 /// `index % modulus`, 0 for a zero modulus.
 fn wrap(index: usize, modulus: usize) -> usize {
     index.checked_rem(modulus).unwrap_or(0)
-}
-
-/// Unsigned little-endian value of up to 4 bytes.
-fn le_unsigned(data: &[u8]) -> u32 {
-    data.iter().take(4).rev().fold(0u32, |acc, b| (acc << 8) | u32::from(*b))
 }
 
 impl IpBuffer {
@@ -589,7 +584,7 @@ pub fn check_write<const B: usize>(
     data: &[u8],
 ) -> Result<(), AbortCode> {
     use config_sub::*;
-    let raw = le_unsigned(data);
+    let raw = le_u32(data);
     let refusal = match (buffer.axis.relative(index).unwrap_or(0), sub) {
         (INTERPOLATION_SUB_MODE_SELECT, 0) => {
             (raw as u16 as i16 != LINEAR).then_some(AbortCode::InvalidValue)

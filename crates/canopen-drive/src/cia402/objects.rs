@@ -11,6 +11,7 @@ pub use super::probe::{
 use crate::od::DeviceInfo;
 use crate::od::{
     layout, AbortCode, Access, DataType, DefaultValue, DeviceField, Dictionary, Object, PdoMapping, Var,
+    COPY_STRIDE,
 };
 
 /// The profile area of the first logical device (CiA 402: 6000h–67FFh): objects the drive
@@ -18,8 +19,9 @@ use crate::od::{
 pub const PROFILE_AREA: core::ops::RangeInclusive<u16> = 0x6000..=0x67FF;
 
 /// One logical device (axis) of a CiA 402 node. Axis n (0–7) has the objects of the profile
-/// area at `6000h + n × 800h … 67FFh + n × 800h`: the same description, shifted. The constants of
-/// this module name the first axis's objects; [`Axis::index`] gives another axis's.
+/// area at `6000h + n × 800h … 67FFh + n × 800h` (n × [`COPY_STRIDE`]): the same description,
+/// shifted. The constants of this module name the first axis's objects; [`Axis::index`] gives
+/// another axis's.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Axis(u8);
@@ -29,8 +31,6 @@ impl Axis {
     pub const FIRST: Axis = Axis(0);
     /// How many axes a node may have.
     pub const MAX: u8 = 8;
-    /// Distance between the profile areas of two neighbouring axes.
-    pub const STRIDE: u16 = 0x800;
 
     /// Axis `n` (0–7); `None` beyond the eighth.
     pub const fn new(n: u8) -> Option<Axis> {
@@ -50,7 +50,7 @@ impl Axis {
     /// that area (communication, manufacturer-specific) is the same for every axis.
     pub const fn index(self, index: u16) -> u16 {
         if index >= *PROFILE_AREA.start() && index <= *PROFILE_AREA.end() {
-            index + self.0 as u16 * Self::STRIDE
+            index + self.0 as u16 * COPY_STRIDE
         } else {
             index
         }
@@ -60,16 +60,16 @@ impl Axis {
     /// them.
     pub const fn containing(index: u16) -> Option<Axis> {
         match index.checked_sub(*PROFILE_AREA.start()) {
-            Some(offset) => Axis::new((offset / Self::STRIDE) as u8),
+            Some(offset) => Axis::new((offset / COPY_STRIDE) as u8),
             None => None,
         }
     }
 
     /// The first axis's index of `index` when it is an index of this axis's profile area.
     pub const fn relative(self, index: u16) -> Option<u16> {
-        let start = *PROFILE_AREA.start() + self.0 as u16 * Self::STRIDE;
+        let start = *PROFILE_AREA.start() + self.0 as u16 * COPY_STRIDE;
         if index >= start && index - start <= *PROFILE_AREA.end() - *PROFILE_AREA.start() {
-            Some(index - self.0 as u16 * Self::STRIDE)
+            Some(index - self.0 as u16 * COPY_STRIDE)
         } else {
             None
         }

@@ -901,11 +901,6 @@ impl Profile {
         }
     }
 
-    /// The ip data-record buffer (for the SDO server's value rules).
-    pub fn ip_buffer(&self) -> &IpBuffer {
-        &self.ip
-    }
-
     /// The value rule of the profile's object `index`/`sub` ([`Rule`]); `pdo`: as an RPDO
     /// writes it.
     #[inline]

@@ -727,12 +727,6 @@ impl<const R: usize, const T: usize> PdoSet<R, T> {
         rpdos.chain(self.tpdos.iter().filter(|t| t.rtr).filter_map(|t| t.can_id))
     }
 
-    /// Whether a frame with `can_id` is one of the valid RPDOs (a frame for another node
-    /// is turned away with this check alone).
-    pub fn is_rpdo(&self, can_id: u16) -> bool {
-        self.rpdos.iter().any(|r| r.can_id == Some(can_id))
-    }
-
     /// Handles a data frame; returns false when no RPDO uses its identifier. `rules` are the
     /// value rules beyond type and limits that every mapped value must pass ([`ValueRules`]);
     /// `events` receives the EMCY changes to make.

@@ -219,11 +219,6 @@ impl PositionPlanner {
         self.ramps.is_finished()
     }
 
-    /// Ticks until the plan is complete.
-    pub fn remaining_ticks(&self) -> u64 {
-        self.ramps.remaining()
-    }
-
     /// The target of the last plan (or the reset position).
     pub fn target(&self) -> i64 {
         self.target

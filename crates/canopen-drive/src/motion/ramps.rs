@@ -2283,11 +2283,6 @@ impl Ramps {
         self.job.is_some() || self.jerk_job.stage != JerkStage::Idle
     }
 
-    /// Ticks until the plan is finished.
-    pub(crate) fn remaining(&self) -> u64 {
-        self.remaining
-    }
-
     /// How the last plan was made (for the tests).
     #[cfg(test)]
     pub(crate) fn made(&self) -> Made {

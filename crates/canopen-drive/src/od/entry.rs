@@ -521,13 +521,13 @@ pub enum Owner {
     Emcy,
     /// The error history (`comm::emcy`): 1003h.
     ErrorHistory,
-    /// The error behaviour (`comm::emcy`): 1029h.
+    /// The error behaviour (`comm::error_control`): 1029h.
     ErrorBehaviour,
     /// SYNC (`comm::sync`): 1005h, 1006h, 1019h.
     Sync,
     /// The heartbeat producer (`comm::heartbeat`): 1017h.
     HeartbeatProducer,
-    /// The heartbeat consumer (`comm::heartbeat`): 1016h.
+    /// The heartbeat consumer (`comm::error_control`): 1016h.
     HeartbeatConsumer,
     /// Node guarding (`comm::error_control`): 100Ch, 100Dh.
     Guarding,

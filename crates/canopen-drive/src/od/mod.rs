@@ -844,13 +844,6 @@ impl<const BYTES: usize> Dictionary<BYTES> {
         }
     }
 
-    /// Copies the value at `span` to the start of `out` (as many bytes as both have).
-    #[inline]
-    pub fn copy_span(&self, span: Span, out: &mut [u8]) {
-        let start = usize::from(span.offset);
-        copy_small(out, self.store.get(start..).unwrap_or(&[]), span.len);
-    }
-
     /// Stores the first bytes of `data` (little-endian, as on the bus) as the value at `span`
     /// (after the checks a bus write needs). Not counted in [`revision`](Self::revision): the
     /// caller counts its batch of span writes once with [`touch`](Self::touch).

@@ -124,14 +124,6 @@ impl EntryOverride {
         self
     }
 
-    /// No limits beyond the data type's range.
-    pub const fn no_limits(mut self) -> Self {
-        if let Some(var) = &mut self.var {
-            *var = var.limits(Bound::None, Bound::None);
-        }
-        self
-    }
-
     /// Another power-on value.
     pub const fn default(mut self, default: DefaultValue) -> Self {
         if let Some(var) = &mut self.var {

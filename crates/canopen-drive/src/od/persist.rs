@@ -353,11 +353,6 @@ impl RecordParser {
         self.remaining
     }
 
-    /// True when the whole stream was consumed and it ended at a record boundary.
-    pub fn is_complete(&self) -> bool {
-        self.remaining == 0 && matches!(self.state, ParseState::Header { have: 0, .. })
-    }
-
     /// The next event, consuming bytes from the front of `input`, or `None` when `input` holds
     /// no more bytes of the stream (feed the next piece then).
     pub fn next<'a>(&mut self, input: &mut &'a [u8]) -> Option<RecordEvent<'a>> {
