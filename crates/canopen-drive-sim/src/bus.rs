@@ -74,6 +74,27 @@ impl<H: ObjectHooks, const B: usize, const R: usize, const T: usize, S: Persiste
     }
 }
 
+/// A bootloader on the bus ([`canopen_drive::bootloader`]); its name is `boot<id>`.
+impl<F: canopen_drive::storage::NonVolatile, const BUF: usize> Node
+    for canopen_drive::bootloader::Bootloader<F, BUF>
+{
+    fn on_frame(&mut self, frame: &CanFrame, now: Instant) {
+        canopen_drive::bootloader::Bootloader::on_frame(self, frame, now);
+    }
+
+    fn poll(&mut self, now: Instant) -> Option<Instant> {
+        canopen_drive::bootloader::Bootloader::poll(self, now)
+    }
+
+    fn pop_tx(&mut self) -> Option<CanFrame> {
+        canopen_drive::bootloader::Bootloader::pop_tx(self)
+    }
+
+    fn name(&self) -> String {
+        format!("boot{}", self.od().node_id())
+    }
+}
+
 /// A node as the bus stores it: a [`Node`] that can be looked at under its own type again.
 trait AnyNode: Node {
     fn as_any(&self) -> &dyn Any;

@@ -72,6 +72,11 @@ impl<F: NonVolatile, const BUF: usize> Bootloader<F, BUF> {
         &mut self.program
     }
 
+    /// Gives the program area back, e.g. to read the program it is to start.
+    pub fn into_area(self) -> Option<F> {
+        self.program.into_area()
+    }
+
     /// The object dictionary (device-side access).
     pub fn od(&self) -> &Dictionary<BOOT_OD_BYTES> {
         &self.od
@@ -130,7 +135,9 @@ impl<F: NonVolatile, const BUF: usize> Bootloader<F, BUF> {
             self.send(0x700 + u16::from(self.od.node_id()), &[byte]);
         }
         self.drain_sdo(now);
-        let busy = self.program.poll();
+        // Erasing or verifying goes on at once; so does a request waiting for its answer to
+        // leave.
+        let busy = self.program.poll() || self.program.has_request();
         let work = busy.then_some(now);
         [self.heartbeat.deadline(), self.sdo.deadline(), work].into_iter().flatten().min()
     }

@@ -1081,6 +1081,8 @@ impl<
             self.guarding.deadline(),
             sync_deadline,
             pdo_deadline,
+            // A program request waits for its answer to leave: come back once it has.
+            self.program.has_request().then_some(now),
         ]
         .into_iter()
         .fold(None, earliest)

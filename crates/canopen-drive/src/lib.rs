@@ -26,14 +26,16 @@
 //!    loop.
 //! 6. [`comm`]: the CiA 301/305 services: NMT slave, SDO server (expedited, segmented, block),
 //!    PDOs with dynamic mapping, SYNC, EMCY, heartbeat producer and consumer, node guarding,
-//!    error behaviour 1029h, LSS slave, and the CiA 303-3 indicators.
+//!    error behaviour 1029h, LSS slave, program download (CiA 302-3), and the CiA 303-3
+//!    indicators.
 //! 7. [`cia402`]: the CiA 402 drive profile: the state machine with every transition and the
 //!    option codes (605Ah–605Eh, 6007h), faults with their EMCY and 603Fh, mode switching
 //!    (6060h/6061h/6502h), the factor group and polarity, the limits applied to every demand,
 //!    the position control function, and the modes: profile position (pp), profile velocity
 //!    (pv), profile torque (tq), homing (hm), interpolated position (ip), velocity mode (vl),
 //!    cyclic synchronous position, velocity and torque (csp, csv, cst), and the touch probe.
-//! 8. [`drive`]: [`Drive`], which composes everything behind the entry points.
+//! 8. [`drive`]: [`Drive`], which composes everything behind the entry points;
+//!    [`bootloader`]: the CiA 301 node a bootloader runs to take a new program.
 //! 9. [`can_io`], [`prelude`]: moving frames between a drive and an `embedded_can` driver; the
 //!    re-exports a firmware starts from.
 //!

@@ -1,6 +1,6 @@
 //! The communication services of a slave: the CiA 301 ones (NMT, SDO server, PDOs, SYNC, EMCY,
 //! heartbeat producer, heartbeat consumer and node guarding with the error behaviour 1029h),
-//! the CiA 305 LSS slave and the CiA 303-3 indicators.
+//! the CiA 305 LSS slave, CiA 302-3 program download and the CiA 303-3 indicators.
 
 pub mod emcy;
 pub mod error_control;

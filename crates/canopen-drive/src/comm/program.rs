@@ -286,9 +286,13 @@ impl<F: NonVolatile> ProgramDownload<F> {
     /// program's vector table needs). The image found in the area is verified by
     /// [`poll`](Self::poll) (busy meanwhile): valid, the program is stopped; else there is none.
     pub fn bootloader(mut area: F, payload_offset: u32) -> Self {
+        // A header whose payload would not fit is no program (a cut while it was written).
+        let room = area.capacity().saturating_sub(payload_offset as usize);
         let work = match read_header(&mut area) {
-            Ok(header) => Work::Verifying { header, offset: 0, crc: Crc32::new(), write_header: false },
-            Err(_) => Work::Idle,
+            Ok(header) if header.len as usize <= room => {
+                Work::Verifying { header, offset: 0, crc: Crc32::new(), write_header: false }
+            }
+            _ => Work::Idle,
         };
         ProgramDownload {
             area: Some(area),
@@ -329,6 +333,11 @@ impl<F: NonVolatile> ProgramDownload<F> {
         self.area.as_mut()
     }
 
+    /// Gives the program area back (the board hands it to the program it starts).
+    pub fn into_area(self) -> Option<F> {
+        self.area
+    }
+
     /// True while erasing, receiving or verifying: [`poll`](Self::poll) has work.
     pub fn is_busy(&self) -> bool {
         !matches!(self.work, Work::Idle)
@@ -337,6 +346,11 @@ impl<F: NonVolatile> ProgramDownload<F> {
     /// True while [`poll`](Self::poll) has a step to do right away (erasing, verifying).
     pub fn has_work(&self) -> bool {
         matches!(self.work, Work::Erasing { .. } | Work::Verifying { .. })
+    }
+
+    /// True while a request waits to be taken.
+    pub fn has_request(&self) -> bool {
+        self.request.is_some()
     }
 
     /// The request the last command left for the board, taken once.

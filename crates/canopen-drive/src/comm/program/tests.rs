@@ -310,3 +310,13 @@ fn the_application_runs_stops_into_the_bootloader_and_refuses_clear_and_download
     assert_eq!(app.command(0), Ok(()));
     assert_eq!(app.take_request(), Some(ProgramRequest::Stop));
 }
+
+#[test]
+fn a_header_whose_payload_would_not_fit_is_no_program() {
+    let mut flash = RamFlash::new();
+    let header = ImageHeader { len: u32::MAX - 3, crc: 0x1234_5678 };
+    flash.bytes[..HEADER_LEN].copy_from_slice(&header.encode());
+    let mut service = ProgramDownload::bootloader(flash, PAYLOAD_AT);
+    assert_eq!(finish(&mut service), 0);
+    assert_eq!((service.read(PROGRAM_CONTROL), service.flash_status()), (Some(3), 1 << 1));
+}
