@@ -219,6 +219,13 @@ impl Node for Device {
             Running::App(app, _) => app.poll(now),
             Running::Off(_) => None,
         };
+        // A request waits for its answer to leave the queue: the board comes back for it.
+        let waiting = match &self.running {
+            Running::Boot(boot) => boot.has_request(),
+            Running::App(app, _) => app.has_program_request(),
+            Running::Off(_) => false,
+        };
+        let next = if waiting { Some(now) } else { next };
         // The simulated power fails when the flash lost it.
         if matches!(self.running, Running::Boot(_)) && !self.flash().is_powered() {
             self.cut_power();

@@ -69,6 +69,17 @@ struct Options {
     #[arg(long, value_name = "PATH", verbatim_doc_comment, allow_hyphen_values = true)]
     storage: Option<PathBuf>,
 
+    /// The node has a bootloader, its program area a file at PATH
+    /// (512 KiB, created erased): a valid program there runs as the
+    /// application, with program download (CiA 302-3: 1F50h, 1F51h,
+    /// 1F56h, 1F57h); without one the bootloader waits for a master
+    /// to download and start one. Stop (1F51h:1 = 0) resets into the
+    /// bootloader. A program whose first line is `canopen-drive-linux
+    /// build VERSION REVISION` (hex) runs as that build (100Ah,
+    /// 1018h:3)
+    #[arg(long, value_name = "PATH", verbatim_doc_comment, allow_hyphen_values = true)]
+    program_area: Option<PathBuf>,
+
     /// SLCAN clients served at once (default 32); one more is sent
     /// a line saying so and disconnected
     #[arg(long, value_name = "N", verbatim_doc_comment, allow_hyphen_values = true,
@@ -168,6 +179,8 @@ pub struct RunArgs {
     pub socketcan: Option<String>,
     /// Parameter storage file.
     pub storage: Option<PathBuf>,
+    /// `--program-area PATH`: the node has a bootloader.
+    pub program_area: Option<PathBuf>,
     /// Limits of the SLCAN server.
     pub limits: Limits,
     /// No log lines.
@@ -297,6 +310,7 @@ pub fn parse(args: impl IntoIterator<Item = OsString>) -> Result<Action, CliErro
         slcan_listen: options.slcan_listen,
         socketcan: options.socketcan,
         storage: options.storage,
+        program_area: options.program_area,
         limits,
         quiet: options.quiet,
         verbose: options.verbose,
@@ -418,6 +432,7 @@ mod tests {
                 slcan_listen: Some("127.0.0.1:5000".into()),
                 socketcan: None,
                 storage: None,
+                program_area: None,
                 limits: Limits::default(),
                 quiet: false,
                 verbose: 0,
@@ -451,6 +466,7 @@ mod tests {
                 slcan_listen: Some("localhost:0".into()),
                 socketcan: Some("can0".into()),
                 storage: Some("/tmp/p.bin".into()),
+                program_area: None,
                 limits: Limits { max_clients: 4, idle_timeout: Some(std::time::Duration::from_secs(30)) },
                 quiet: true,
                 verbose: 0,

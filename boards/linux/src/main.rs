@@ -14,6 +14,7 @@
 //!
 //! `--storage PATH` keeps the stored parameters (1010h/1011h) in PATH, a file that behaves
 //! as NOR flash under the core's two-bank journal, and the LSS configuration in `PATH.lss`.
+//! `--program-area PATH` makes the node a device with a bootloader ([`program_area`]).
 
 /// The one place the program reports to its operator: a line on stderr, prefixed with the
 /// program's name, written by [`output`] (never blocking, never failing; dropped with
@@ -34,6 +35,7 @@ mod monitor;
 mod node;
 mod output;
 mod profiles;
+mod program_area;
 mod slcan_server;
 mod socketcan_port;
 mod trace;
@@ -45,6 +47,8 @@ use std::time::Duration;
 
 use std::path::Path;
 
+use canopen_drive::comm::program::ProgramRequest;
+use canopen_drive::od::DeviceInfo;
 use canopen_drive::storage::{device_signature, ImageState, Persistence, Storage};
 use canopen_drive::Config;
 use canopen_drive_sim::flash::FileFlash;
@@ -117,7 +121,8 @@ fn describe(
 }
 
 fn run(args: &RunArgs) -> Result<(), String> {
-    let profile = BoardProfile::of(args.profile).with_axes(args.axes);
+    let mut profile = BoardProfile::of(args.profile).with_axes(args.axes);
+    profile.config.program_download = args.program_area.is_some();
     let lss_file = args.storage.as_deref().map(lss_store::path_for);
     let mut node_id = args.node_id;
     if let Some(stored) = lss_file.as_deref().and_then(lss_store::load) {
@@ -140,29 +145,135 @@ fn run(args: &RunArgs) -> Result<(), String> {
     if args.verbose > 0 {
         CoreLog::install(args.verbose);
     }
-    let board = node::Board {
-        profile: &profile,
-        lss_file: lss_file.as_deref(),
-        bit_rate_kbit,
-        verbose: args.verbose,
-        trace: trace.as_ref(),
+    let stop = Arc::new(AtomicBool::new(false));
+    for signal in [SIGINT, SIGTERM] {
+        signal_hook::flag::register(signal, Arc::clone(&stop))
+            .map_err(|e| format!("cannot install the handler of signal {signal}: {e}"))?;
+    }
+    let bus = open_bus(args, node_id)?;
+    match profile.axes {
+        1 => log!("profile {}", profile.name.name()),
+        axes => log!("profile {}, {axes} axes", profile.name.name()),
+    }
+    // `ready` follows the first boot-up frame, so what a master sees does not depend on how
+    // soon it connects. Whoever started the program may stop reading it after this line (see
+    // `output`).
+    let ready = std::cell::Cell::new(true);
+    let started = || {
+        if ready.replace(false) {
+            output::line(format_args!("ready"));
+        }
     };
-    let (mut config, _) = node::config_with_eds(&profile, node_id, args.storage.is_some())?;
+    let Some(path) = &args.program_area else {
+        let board = node::Board {
+            profile: &profile,
+            lss_file: lss_file.as_deref(),
+            bit_rate_kbit,
+            verbose: args.verbose,
+            trace: trace.as_ref(),
+        };
+        start_drive(args, node_id, &board, None, &bus, &stop, started)?;
+        return Ok(());
+    };
+    // A device with a bootloader: what runs after each stop or start is decided as at power-on.
+    let mut area = program_area::open(path)?;
+    let mut stay_in_bootloader = false;
+    loop {
+        let program = if stay_in_bootloader { None } else { program_area::valid_program(&mut area) };
+        match program {
+            Some((header, payload)) => {
+                let mut build = profile;
+                build.config.device = program_area::build_identity(profile.config.device, &payload);
+                let board = node::Board {
+                    profile: &build,
+                    lss_file: lss_file.as_deref(),
+                    bit_rate_kbit,
+                    verbose: args.verbose,
+                    trace: trace.as_ref(),
+                };
+                log!("application {} (1F56h {:08X}h)", build.config.device.software_version, header.crc);
+                match start_drive(args, node_id, &board, Some(header.crc), &bus, &stop, started)? {
+                    Some(ProgramRequest::Stop) => stay_in_bootloader = true,
+                    Some(ProgramRequest::Reset | ProgramRequest::Start) => {}
+                    None => return Ok(()),
+                }
+            }
+            None => {
+                let device = DeviceInfo { software_version: "bootloader", ..profile.config.device };
+                let board = node::Board {
+                    profile: &profile,
+                    lss_file: None,
+                    bit_rate_kbit,
+                    verbose: args.verbose,
+                    trace: trace.as_ref(),
+                };
+                log!("bootloader");
+                let observer = node::observer(&board);
+                match program_area::run_bootloader(area, device, node_id, &bus, &stop, &observer, started)? {
+                    Some(returned) => {
+                        area = returned;
+                        stay_in_bootloader = false;
+                    }
+                    None => return Ok(()),
+                }
+            }
+        }
+    }
+}
+
+/// The bus of the node: the SLCAN server and/or the SocketCAN interface of the arguments.
+fn open_bus(args: &RunArgs, node_id: u8) -> Result<Bus, String> {
+    let bus = Bus::new();
+    if let Some(addr) = &args.slcan_listen {
+        let server = SlcanServer::start(addr.as_str(), bus.clone(), args.limits)
+            .map_err(|e| format!("cannot listen on {addr}: {e}"))?;
+        log!("node {node_id} serving SLCAN on {}", server.local_addr());
+    }
+    if let Some(iface) = &args.socketcan {
+        socketcan_port::attach(iface, &bus)
+            .map_err(|e| format!("cannot open SocketCAN interface '{iface}': {e}"))?;
+        log!("node {node_id} on SocketCAN {iface}");
+    }
+    Ok(bus)
+}
+
+/// Builds the drive of `board` and runs it on `bus` until `stop` is set or a master stops or
+/// resets its program (returned); `identification`: the program's CRC-32 (1F56h:1) when the
+/// node has a bootloader.
+fn start_drive(
+    args: &RunArgs,
+    node_id: u8,
+    board: &node::Board<'_>,
+    identification: Option<u32>,
+    bus: &Bus,
+    stop: &AtomicBool,
+    started: impl FnOnce(),
+) -> Result<Option<ProgramRequest>, String> {
+    let (mut config, _) = node::config_with_eds(board.profile, node_id, args.storage.is_some())?;
     config.lss_store = args.storage.is_some();
-    let hooks = profile.hooks(args.storage.is_some());
-    axes::with_axes!(profile.axes, start(args, node_id, config, hooks, &board))
+    let hooks = board.profile.hooks(args.storage.is_some());
+    let run = Run { args, board, identification, bus, stop };
+    axes::with_axes!(board.profile.axes, start(&run, config, hooks, started))
+}
+
+/// What [`start`] runs the drive with.
+struct Run<'a> {
+    args: &'a RunArgs,
+    board: &'a node::Board<'a>,
+    identification: Option<u32>,
+    bus: &'a Bus,
+    stop: &'a AtomicBool,
 }
 
 /// Builds the drive of `AXES` axes with `PDOS` + `PDOS` PDOs (with the parameter storage of
 /// `--storage`, or none) and serves it.
 fn start<const PDOS: usize, const AXES: usize>(
-    args: &RunArgs,
-    node_id: u8,
+    run: &Run<'_>,
     config: Config,
     hooks: BoardHooks,
-    board: &node::Board<'_>,
-) -> Result<(), String> {
-    match &args.storage {
+    started: impl FnOnce(),
+) -> Result<Option<ProgramRequest>, String> {
+    match &run.args.storage {
         Some(path) => {
             let (flash, wrong_size) = FileFlash::open_default_tolerant(path)
                 .map_err(|e| format!("cannot open {}: {e}", path.display()))?;
@@ -172,12 +283,12 @@ fn start<const PDOS: usize, const AXES: usize>(
             report_damage(path, wrong_size, &mut storage);
             let drive = node::BoardDrive::<_, PDOS, AXES>::build(config, hooks, storage)
                 .map_err(|e| format!("invalid drive configuration: {e:?}"))?;
-            serve(args, node_id, drive, board)
+            Ok(serve(run, drive, started))
         }
         None => {
             let drive = node::BoardDrive::<(), PDOS, AXES>::build(config, hooks, ())
                 .map_err(|e| format!("invalid drive configuration: {e:?}"))?;
-            serve(args, node_id, drive, board)
+            Ok(serve(run, drive, started))
         }
     }
 }
@@ -234,35 +345,12 @@ fn report_damage(path: &Path, wrong_size: Option<String>, storage: &mut Storage<
 }
 
 fn serve<S: Persistence, const PDOS: usize, const AXES: usize>(
-    args: &RunArgs,
-    node_id: u8,
-    drive: node::BoardDrive<S, PDOS, AXES>,
-    board: &node::Board<'_>,
-) -> Result<(), String> {
-    let stop = Arc::new(AtomicBool::new(false));
-    for signal in [SIGINT, SIGTERM] {
-        signal_hook::flag::register(signal, Arc::clone(&stop))
-            .map_err(|e| format!("cannot install the handler of signal {signal}: {e}"))?;
+    run: &Run<'_>,
+    mut drive: node::BoardDrive<S, PDOS, AXES>,
+    started: impl FnOnce(),
+) -> Option<ProgramRequest> {
+    if let Some(identification) = run.identification {
+        drive.set_program_identification(identification);
     }
-
-    let bus = Bus::new();
-    if let Some(addr) = &args.slcan_listen {
-        let server = SlcanServer::start(addr.as_str(), bus.clone(), args.limits)
-            .map_err(|e| format!("cannot listen on {addr}: {e}"))?;
-        log!("node {node_id} serving SLCAN on {}", server.local_addr());
-    }
-    if let Some(iface) = &args.socketcan {
-        socketcan_port::attach(iface, &bus)
-            .map_err(|e| format!("cannot open SocketCAN interface '{iface}': {e}"))?;
-        log!("node {node_id} on SocketCAN {iface}");
-    }
-
-    match board.profile.axes {
-        1 => log!("profile {}", board.profile.name.name()),
-        axes => log!("profile {}, {axes} axes", board.profile.name.name()),
-    }
-    // `ready` follows the boot-up frame, so what a master sees does not depend on how soon it
-    // connects. Whoever started the program may stop reading it after this line (see `output`).
-    node::run(drive, board, &bus, &stop, || output::line(format_args!("ready")));
-    Ok(())
+    node::run(drive, run.board, run.bus, run.stop, started)
 }

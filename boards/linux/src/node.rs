@@ -18,6 +18,7 @@ use std::time::Duration as StdDuration;
 
 use std::path::Path;
 
+use canopen_drive::comm::program::ProgramRequest;
 use canopen_drive::drive::ConnectionEvent;
 use canopen_drive::hal::Sample;
 use canopen_drive::od::eds::EdsInfo;
@@ -196,18 +197,27 @@ impl Observer<'_> {
     }
 }
 
+/// What a loop without a drive (the bootloader's) reports of its frames: the trace file and
+/// the `-v` monitor, as the drive's loop does.
+pub fn observer<'a>(board: &Board<'a>) -> impl Fn(Direction, &canopen_drive::CanFrame) + 'a {
+    let observer = Observer { monitor: Monitor::new(board.verbose), trace: board.trace };
+    move |direction, frame| observer.frame(direction, frame)
+}
+
 /// 6061h, modes of operation display.
 const MODES_OF_OPERATION_DISPLAY: u16 = 0x6061;
 
-/// Runs `drive` on `bus` until `stop` is set. `started` runs once the node is on the bus: its
-/// boot-up frame has been sent, so a master that connects afterwards never sees it.
+/// Runs `drive` on `bus` until `stop` is set, or until a master asks the program to stop or
+/// reset (CiA 302-3, [`Config::program_download`]): that request is returned, once its answer
+/// is on the bus. `started` runs once the node is on the bus: its boot-up frame has been sent,
+/// so a master that connects afterwards never sees it.
 pub fn run<S: Persistence, const PDOS: usize, const AXES: usize>(
     mut drive: BoardDrive<S, PDOS, AXES>,
     board: &Board<'_>,
     bus: &Bus,
     stop: &AtomicBool,
     started: impl FnOnce(),
-) {
+) -> Option<ProgramRequest> {
     let clock = Clock(std::time::Instant::now());
     // One simulated motor per axis, all alike.
     let mut motors: [SimMotor; AXES] = std::array::from_fn(|_| SimMotor::with_params(board.profile.axis));
@@ -282,12 +292,16 @@ pub fn run<S: Persistence, const PDOS: usize, const AXES: usize>(
         deadline = drive.poll(now);
         transmit(&mut drive, bus, &observer);
         observer.states(&drive);
+        if let Some(request) = drive.take_program_request() {
+            return Some(request);
+        }
 
         if drive.tx_dropped() != tx_dropped {
             tx_dropped = drive.tx_dropped();
             log!("the drive's transmit queue overflowed ({tx_dropped} frames lost)");
         }
     }
+    None
 }
 
 /// Carries out the firmware's actions on the drive.
@@ -471,7 +485,7 @@ mod tests {
             thread::spawn(move || {
                 let board =
                     Board { profile: &profile, lss_file: None, bit_rate_kbit: 1000, verbose: 0, trace: None };
-                run(drive, &board, &bus, &stop, || {})
+                run(drive, &board, &bus, &stop, || {});
             })
         };
         let timeout = StdDuration::from_secs(5);

@@ -97,6 +97,11 @@ impl<F: NonVolatile, const BUF: usize> Bootloader<F, BUF> {
         self.program.take_request()
     }
 
+    /// True while a request waits to be taken ([`take_request`](Self::take_request)).
+    pub fn has_request(&self) -> bool {
+        self.program.has_request()
+    }
+
     /// The next frame to send.
     pub fn pop_tx(&mut self) -> Option<CanFrame> {
         self.tx.pop_front()
@@ -135,10 +140,8 @@ impl<F: NonVolatile, const BUF: usize> Bootloader<F, BUF> {
             self.send(0x700 + u16::from(self.od.node_id()), &[byte]);
         }
         self.drain_sdo(now);
-        // Erasing or verifying goes on at once; so does a request waiting for its answer to
-        // leave.
-        let busy = self.program.poll() || self.program.has_request();
-        let work = busy.then_some(now);
+        // Erasing or verifying goes on at once.
+        let work = self.program.poll().then_some(now);
         [self.heartbeat.deadline(), self.sdo.deadline(), work].into_iter().flatten().min()
     }
 

@@ -809,6 +809,13 @@ impl<
         self.program.take_request()
     }
 
+    /// True while a program request waits to be taken ([`take_program_request`](Self::take_program_request)):
+    /// a board whose loop sleeps until the next deadline comes back for it once the transmit
+    /// queue is empty.
+    pub fn has_program_request(&self) -> bool {
+        self.program.has_request()
+    }
+
     /// The object dictionary (device-side access).
     pub fn od(&self) -> &Dictionary<OD_BYTES> {
         &self.od
@@ -1081,8 +1088,6 @@ impl<
             self.guarding.deadline(),
             sync_deadline,
             pdo_deadline,
-            // A program request waits for its answer to leave: come back once it has.
-            self.program.has_request().then_some(now),
         ]
         .into_iter()
         .fold(None, earliest)
