@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The MCU part of the suite (issue 7): installs qemu-system-arm if it is missing, builds the
 # QEMU firmware for thumbv7em and thumbv6m (and the real-board firmware for thumbv7em, when it
-# is in the tree), runs the python-canopen tests against the firmware in QEMU, the
+# is in the tree), the QEMU bootloader's two application images (program download, issue 35),
+# runs the python-canopen tests against the firmware in QEMU, the
 # deterministic tick-bound run (how long the drive holds off the tick; that the current loop
 # above the drive's lock keeps its period), and the footprint check against its budgets.
 #
@@ -47,7 +48,7 @@ for crate in boards/qemu-mps2 benches/footprint boards/b-g431b-esc1; do
     (cd "$crate" && cargo fmt --check)
 done
 
-step "boards/qemu-mps2: host unit tests (motor model, board objects)"
+step "boards/qemu-mps2: host unit tests (motor model, board objects, identity, program area)"
 (cd boards/qemu-mps2 && CARGO_TARGET_DIR="$firmware_target/qemu-mps2-host" \
     cargo test --lib --target x86_64-unknown-linux-gnu -q)
 
@@ -57,6 +58,22 @@ for target in thumbv7em-none-eabihf thumbv6m-none-eabi; do
         cargo clippy --release --target "$target" --bins --lib -- -D warnings)
     (cd boards/qemu-mps2 && CARGO_TARGET_DIR="$firmware_target/qemu-mps2" \
         cargo build --release --target "$target" --bins)
+done
+
+step "boards/qemu-mps2: the application as the bootloader's program (feature application-image), two builds that differ in 100Ah and 1018h:3, as images (make_image.py)"
+# The bootloader itself was built above (bin bootloader, thumbv7em; it builds for thumbv6m
+# too, but only the thumbv7em pair runs in the tests). The builds' values are the ones
+# tests/qemu/test_program_download.py expects (BUILDS).
+image_dir="$firmware_target/qemu-mps2-image"
+(cd boards/qemu-mps2 && CARGO_TARGET_DIR="$image_dir" \
+    cargo clippy --release --target thumbv7em-none-eabihf --features application-image --bins --lib -- -D warnings)
+for build in "1 1.0.0 0x00010000" "2 2.0.0 0x00020000"; do
+    read -r n version revision <<<"$build"
+    (cd boards/qemu-mps2 && CARGO_TARGET_DIR="$image_dir" \
+        QEMU_MPS2_SOFTWARE_VERSION="$version" QEMU_MPS2_REVISION="$revision" \
+        cargo build --release --target thumbv7em-none-eabihf --features application-image --bin qemu-mps2)
+    cp "$image_dir/thumbv7em-none-eabihf/release/qemu-mps2" "$image_dir/app-$n.elf"
+    python3 boards/qemu-mps2/make_image.py "$image_dir/app-$n.elf" "$image_dir/app-$n.img"
 done
 
 if [ -f boards/b-g431b-esc1/Cargo.toml ]; then
@@ -73,9 +90,11 @@ if [ -f boards/b-g431b-esc1/Cargo.toml ]; then
     done
 fi
 
-step "python-canopen against the firmware in QEMU (embassy on mps2-an386, then the bare-interrupt firmware and the thumbv6m build)"
+step "python-canopen against the firmware in QEMU (embassy on mps2-an386 and program download through its bootloader, then the bare-interrupt firmware and the thumbv6m build)"
 elf_dir="$firmware_target/qemu-mps2"
 QEMU_MPS2_ELF="$elf_dir/thumbv7em-none-eabihf/release/qemu-mps2" \
+QEMU_BOOTLOADER_ELF="$elf_dir/thumbv7em-none-eabihf/release/bootloader" \
+QEMU_APP_IMAGE_1="$image_dir/app-1.img" QEMU_APP_IMAGE_2="$image_dir/app-2.img" \
 QEMU_TICK_BOUND_ELF="$elf_dir/thumbv7em-none-eabihf/release/tick-bound" \
 QEMU_TICK_BOUND_ELF_V6M="$elf_dir/thumbv6m-none-eabi/release/tick-bound" \
     .venv/bin/python -m pytest tests/qemu -q -p no:cacheprovider -rs

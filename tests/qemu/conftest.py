@@ -4,6 +4,12 @@ Nothing is built here. The firmware ELF comes from QEMU_MPS2_ELF (default: the t
 release build under target/firmware/qemu-mps2, where scripts/mcu.sh puts it; a relative path
 is taken from the repository root). Without qemu-system-arm, or without the ELF, every test
 is skipped with the reason.
+
+Program download (test_program_download.py): the bootloader's ELF from QEMU_BOOTLOADER_ELF
+(default: the bootloader of that build) and two images of the application made by
+boards/qemu-mps2/make_image.py from QEMU_APP_IMAGE_1 and QEMU_APP_IMAGE_2 (default:
+target/firmware/qemu-mps2-image/app-1.img and app-2.img, where scripts/mcu.sh puts them,
+each with its ELF beside it as app-N.elf for the log).
 """
 
 import os
@@ -13,21 +19,33 @@ import re
 import shutil
 import socket
 import subprocess
+import sys
 import threading
 import time
+import zlib
 
 import canopen
 import pytest
 
 REPO_ROOT = pathlib.Path(__file__).resolve().parents[2]
-RUN_SH = REPO_ROOT / "boards" / "qemu-mps2" / "run.sh"
+BOARD = REPO_ROOT / "boards" / "qemu-mps2"
+RUN_SH = BOARD / "run.sh"
 DEFAULT_ELF = "target/firmware/qemu-mps2/thumbv7em-none-eabihf/release/qemu-mps2"
+DEFAULT_BOOTLOADER_ELF = "target/firmware/qemu-mps2/thumbv7em-none-eabihf/release/bootloader"
+DEFAULT_APP_IMAGES = ("target/firmware/qemu-mps2-image/app-1.img", "target/firmware/qemu-mps2-image/app-2.img")
 NODE_ID = 5
+
+sys.path.insert(0, str(BOARD))
+import make_image  # noqa: E402  (boards/qemu-mps2/make_image.py: the image format)
+
+
+def repo_path(variable: str, default: str) -> pathlib.Path:
+    path = pathlib.Path(os.environ.get(variable, default))
+    return path if path.is_absolute() else REPO_ROOT / path
 
 
 def firmware_path() -> pathlib.Path:
-    path = pathlib.Path(os.environ.get("QEMU_MPS2_ELF", DEFAULT_ELF))
-    return path if path.is_absolute() else REPO_ROOT / path
+    return repo_path("QEMU_MPS2_ELF", DEFAULT_ELF)
 
 
 def free_port() -> int:
@@ -52,8 +70,11 @@ def listening_on(port: int) -> bool:
 class QemuFirmware:
     """qemu-system-arm running the firmware, its UART0 on a local TCP port (boards/qemu-mps2/run.sh)."""
 
-    def __init__(self, elf: pathlib.Path, log_dir: pathlib.Path):
+    def __init__(self, elf: pathlib.Path, log_dir: pathlib.Path, extra: str = "", log_elf: pathlib.Path = None):
+        """`extra`: more QEMU arguments; `log_elf`: the ELF whose defmt table decodes the log
+        (default `elf`)."""
         self.elf = elf
+        self.log_elf = log_elf or elf
         self.log_path = log_dir / "defmt.raw"
         self.stderr_path = log_dir / "qemu.stderr"
         for _ in range(5):  # another process may take the free port before QEMU binds it
@@ -65,7 +86,7 @@ class QemuFirmware:
                 DEFMT_RAW=str(self.log_path),
                 # The user LEDs' writes, time-stamped, on stderr (the CiA 303-3 indicators).
                 QEMU_EXTRA=f"-monitor unix:{self.monitor_path},server=on,wait=off "
-                "-trace mps2_fpgaio_write -msg timestamp=on",
+                f"-trace mps2_fpgaio_write -msg timestamp=on {extra}",
             )
             with open(self.stderr_path, "wb") as err:
                 self.proc = subprocess.Popen(
@@ -113,7 +134,7 @@ class QemuFirmware:
         if shutil.which("defmt-print"):
             # QEMU's own notes share its stdout with the frames (run.sh).
             frames = re.sub(rb"Warning: The guest is now late by [0-9.]+ to [0-9.]+ seconds\.?\n", b"", self.log_path.read_bytes())
-            result = subprocess.run(["defmt-print", "-e", str(self.elf)], input=frames, capture_output=True, timeout=30)
+            result = subprocess.run(["defmt-print", "-e", str(self.log_elf)], input=frames, capture_output=True, timeout=30)
             return result.stdout.decode(errors="replace")
         return f"({self.log_path.stat().st_size} bytes of defmt frames in {self.log_path}; install defmt-print to decode)"
 
@@ -146,8 +167,7 @@ class QemuFirmware:
 
 @pytest.fixture(scope="module")
 def firmware(tmp_path_factory):
-    if shutil.which("qemu-system-arm") is None:
-        pytest.skip("qemu-system-arm is not installed (apt-get install -y qemu-system-arm; scripts/mcu.sh does)")
+    skip_without_qemu()
     elf = firmware_path()
     if not elf.is_file():
         pytest.skip(f"no firmware at {elf}: build boards/qemu-mps2 (scripts/mcu.sh) or set QEMU_MPS2_ELF")
@@ -175,6 +195,76 @@ def node(network) -> canopen.RemoteNode:
     remote = canopen.RemoteNode(NODE_ID, canopen.ObjectDictionary())
     remote.sdo.RESPONSE_TIMEOUT = 2.0
     network.add_node(remote)
+    return remote
+
+
+def skip_without_qemu():
+    if shutil.which("qemu-system-arm") is None:
+        pytest.skip("qemu-system-arm is not installed (apt-get install -y qemu-system-arm; scripts/mcu.sh does)")
+
+
+class AppImage:
+    """A program image of the application (make_image.py) and what the test needs of it."""
+
+    def __init__(self, path: pathlib.Path):
+        self.path = path
+        self.image = path.read_bytes()
+        self.payload = make_image.payload(self.image)
+        self.crc = zlib.crc32(self.payload)
+        # The ELF it was made from, beside it (app-N.img, app-N.elf): its defmt table.
+        self.elf = path.with_suffix(".elf")
+
+
+@pytest.fixture(scope="session")
+def app_images():
+    """The two builds of the application, as images (QEMU_APP_IMAGE_1, QEMU_APP_IMAGE_2)."""
+    paths = [repo_path(f"QEMU_APP_IMAGE_{n}", default) for n, default in zip((1, 2), DEFAULT_APP_IMAGES)]
+    for path in paths:
+        if not path.is_file():
+            pytest.skip(f"no application image at {path}: scripts/mcu.sh makes them (boards/qemu-mps2/make_image.py)")
+    return [AppImage(path) for path in paths]
+
+
+@pytest.fixture
+def boot_firmware(tmp_path_factory, app_images):
+    """QEMU with the bootloader and the first image in the program area, as a finished
+    download leaves it: the bootloader starts the first build. The test ends the run through
+    2F00h of the application it started."""
+    skip_without_qemu()
+    elf = repo_path("QEMU_BOOTLOADER_ELF", DEFAULT_BOOTLOADER_ELF)
+    if not elf.is_file():
+        pytest.skip(f"no bootloader at {elf}: build boards/qemu-mps2 (scripts/mcu.sh) or set QEMU_BOOTLOADER_ELF")
+    # A short directory: QEMU's monitor socket is in it (a Unix socket path has 107 bytes).
+    tmp_path = tmp_path_factory.mktemp("boot")
+    area = tmp_path / "area.bin"
+    area.write_bytes(make_image.area(app_images[0].image))
+    log_elf = app_images[0].elf if app_images[0].elf.is_file() else elf
+    qemu = QemuFirmware(
+        elf, tmp_path, extra=f"-device loader,file={area},addr={make_image.PROGRAM_AREA:#x}", log_elf=log_elf
+    )
+    yield qemu
+    status = qemu.wait(0)
+    qemu.kill()
+    print(f"\nfirmware log:\n{qemu.log()}")
+    assert status == 0, f"the firmware ended with {status} (None: it was still running)"
+
+
+@pytest.fixture
+def boot_network(boot_firmware):
+    net = canopen.Network()
+    net.NOTIFIER_CYCLE = 0.05
+    net.connect(interface="slcan", channel=boot_firmware.channel, bitrate=500000, sleep_after_open=0)
+    yield net
+    if net.bus is not None:
+        net.disconnect()
+
+
+@pytest.fixture
+def boot_node(boot_network) -> canopen.RemoteNode:
+    """Bootloader or application, whichever runs, at node-ID 5."""
+    remote = canopen.RemoteNode(NODE_ID, canopen.ObjectDictionary())
+    remote.sdo.RESPONSE_TIMEOUT = 2.0
+    boot_network.add_node(remote)
     return remote
 
 

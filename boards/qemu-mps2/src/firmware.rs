@@ -2,7 +2,7 @@
 
 use core::sync::atomic::{AtomicBool, Ordering};
 
-use canopen_drive::CanFrame;
+use canopen_drive::{CanFrame, Config};
 use canopen_drive_embassy::{CanRx, CanTx, SharedDrive};
 use canopen_drive_qemu_mps2::board;
 use canopen_drive_qemu_mps2::mps2::{self, uart0, Irq};
@@ -60,6 +60,11 @@ fn main() -> ! {
             Ok(token) => spawner.spawn(token),
             Err(_) => mps2::exit(104),
         }
+        #[cfg(feature = "application-image")]
+        match program::task() {
+            Ok(token) => spawner.spawn(token),
+            Err(_) => mps2::exit(104),
+        }
     })
 }
 
@@ -68,8 +73,14 @@ fn main() -> ! {
 #[inline(never)]
 fn make_drive() -> &'static mut BoardDrive {
     let hooks = BoardHooks { measurements: &board::BoardMeasurements };
-    match BoardDrive::build_in(DRIVE_CELL.uninit(), node::config(), hooks, ()) {
-        Ok(drive) => drive,
+    // As the bootloader's program: 1F50h–1F57h, 1F56h the CRC-32 of this image.
+    let config = Config { program_download: cfg!(feature = "application-image"), ..node::config() };
+    match BoardDrive::build_in(DRIVE_CELL.uninit(), config, hooks, ()) {
+        Ok(drive) => {
+            #[cfg(feature = "application-image")]
+            drive.set_program_identification(program::identification());
+            drive
+        }
         Err(e) => {
             defmt::error!("dictionary: {}", e);
             mps2::exit(102);
@@ -207,7 +218,60 @@ extern "C" fn UART0RX() {
 /// TIMER0: the control tick.
 #[no_mangle]
 extern "C" fn TIMER0() {
-    board::control_tick(|now, sample| DRIVE.tick(now, sample));
+    board::control_tick(|now, sample| {
+        let demand = DRIVE.tick(now, sample);
+        // Inside the tick's measured section: not a hold of the lock outside the tick.
+        #[cfg(feature = "application-image")]
+        program::take_request();
+        demand
+    });
+}
+
+/// The application's side of program download (feature `application-image`): a stop
+/// (1F51h:1 = 0) jumps to the bootloader and asks it to stay, a reset (2) jumps to it to start
+/// this program again, as a reset through the bootloader would (`canopen_drive_qemu_mps2::boot`).
+///
+/// The tick takes the request from the drive, not a task: while a request waits,
+/// `Drive::poll` asks to be called again at once, and the runner of `canopen-drive-embassy`
+/// does so without yielding to the executor, so no other task runs until the request is
+/// taken. The drive gives it once its answer has left the transmit queue, i.e. the runner has
+/// written it to the UART by the time it yields and the task runs.
+#[cfg(feature = "application-image")]
+mod program {
+    use canopen_drive::comm::program::{read_header, ProgramRequest};
+    use canopen_drive_qemu_mps2::boot;
+    use canopen_drive_qemu_mps2::mps2::uart0;
+    use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
+    use embassy_sync::signal::Signal;
+
+    use super::DRIVE;
+
+    /// The request the tick took.
+    static REQUEST: Signal<CriticalSectionRawMutex, ProgramRequest> = Signal::new();
+
+    /// 1F56h:1: the CRC-32 in the header the bootloader wrote before this image.
+    pub fn identification() -> u32 {
+        read_header(&mut boot::program_area()).map_or(0, |header| header.crc)
+    }
+
+    /// Called by the tick: takes a stop or reset from the drive once its answer is out.
+    pub fn take_request() {
+        if let Some(Some(request)) = DRIVE.with(|drive| drive.take_program_request()) {
+            REQUEST.signal(request);
+        }
+    }
+
+    /// Carries the request out: waits for the UART to have sent the answer, then jumps.
+    #[embassy_executor::task]
+    pub async fn task() {
+        let request = REQUEST.wait().await;
+        defmt::info!("program {}: to the bootloader", request);
+        uart0::flush();
+        boot::set_stay(request == ProgramRequest::Stop);
+        // SAFETY: the bootloader's vector table is at 0x0 (this build runs only behind it);
+        // this is thread mode, outside the drive's lock.
+        unsafe { boot::start_image(boot::BOOTLOADER) }
+    }
 }
 
 #[exception]

@@ -1,7 +1,8 @@
 //! The peripherals of QEMU's mps2-an385/an386 this firmware uses: CMSDK APB UART0 (the SLCAN
 //! link), CMSDK APB TIMER0 (the control tick), TIMER1 (the stopwatch), the first timer of the
 //! CMSDK APB dual timer (the stand-in current loop), the FPGA I/O block's user LEDs (the
-//! CiA 303-3 indicators) and the Cortex-M SysTick (embassy-time).
+//! CiA 303-3 indicators), the Cortex-M SysTick (embassy-time), and the NVIC and VTOR for a
+//! hand-over from one image to another (`boot`).
 //!
 //! | peripheral | base | interrupt | clock |
 //! |---|---|---|---|
@@ -11,8 +12,9 @@
 //! | dual timer, timer 1 | 0x4000_2000 | 10 | 25 MHz, periodic |
 //! | FPGA I/O, LED0 | 0x4002_8000 | – | – |
 //! | SysTick | core | exception 15 | 25 MHz (CLKSOURCE = processor clock) |
+//! | NVIC ICER0/ICPR0, SCB ICSR/VTOR | core | – | – |
 //!
-//! Register access is volatile through raw addresses: this is the only module with `unsafe`.
+//! Register access is volatile through raw addresses, here only.
 
 use core::ptr::{read_volatile, write_volatile};
 
@@ -111,6 +113,19 @@ pub mod uart0 {
     pub fn clear_rx_interrupt() {
         write(INTSTATUS, INT_RX);
     }
+
+    /// Waits until the transmitter has taken the last byte written (QEMU hands each byte to
+    /// the TCP socket as it is written, unless the socket is full).
+    pub fn flush() {
+        while read(STATE) & STATE_TX_FULL != 0 {}
+    }
+
+    /// Turns every interrupt of the UART off and acknowledges those raised (before another
+    /// image takes over the UART).
+    pub fn disable_interrupts() {
+        write(CTRL, read(CTRL) & (CTRL_TX_EN | CTRL_RX_EN));
+        write(INTSTATUS, 0xF);
+    }
 }
 
 /// CMSDK APB TIMER0: the periodic control tick.
@@ -136,6 +151,12 @@ pub mod timer0 {
 
     /// Acknowledges the interrupt.
     pub fn clear_interrupt() {
+        write(INTSTATUS, 1);
+    }
+
+    /// Stops the timer and acknowledges its interrupt.
+    pub fn stop() {
+        write(CTRL, 0);
         write(INTSTATUS, 1);
     }
 
@@ -197,6 +218,12 @@ pub mod dualtimer {
         write(INTCLR, 1);
     }
 
+    /// Stops the timer and acknowledges its interrupt.
+    pub fn stop() {
+        write(CONTROL, 0);
+        write(INTCLR, 1);
+    }
+
     /// Counts since the timer last reached 0: the interrupt's latency when read first thing in
     /// the handler.
     pub fn counts_since_expiry() -> u32 {
@@ -214,6 +241,7 @@ pub mod systick {
     const CVR: usize = 0xE000_E018;
     const ICSR: usize = 0xE000_ED04;
     const ICSR_PENDSTSET: u32 = 1 << 26;
+    const ICSR_PENDSTCLR: u32 = 1 << 25;
 
     /// Counts per millisecond.
     pub const COUNTS_PER_MS: u32 = SYSCLK_HZ / 1000;
@@ -235,6 +263,42 @@ pub mod systick {
     /// has not counted yet).
     pub fn pending() -> bool {
         read(ICSR) & ICSR_PENDSTSET != 0
+    }
+
+    /// Takes back a pending SysTick exception (for a loop that only sleeps until it).
+    pub fn clear_pending() {
+        write(ICSR, ICSR_PENDSTCLR);
+    }
+
+    /// Stops the counter and its exception.
+    pub fn stop() {
+        write(CSR, 0);
+        clear_pending();
+    }
+}
+
+/// The NVIC and SCB registers a hand-over between two images touches.
+pub mod core_registers {
+    use super::write;
+
+    const NVIC_ICER0: usize = 0xE000_E180;
+    const NVIC_ICPR0: usize = 0xE000_E280;
+    const SCB_ICSR: usize = 0xE000_ED04;
+    const SCB_VTOR: usize = 0xE000_ED08;
+    const ICSR_PENDSVCLR: u32 = 1 << 27;
+    const ICSR_PENDSTCLR: u32 = 1 << 25;
+
+    /// Disables the 32 interrupt lines of the board and clears what they left pending, and
+    /// the pending SysTick and PendSV exceptions.
+    pub fn disable_interrupt_lines() {
+        write(NVIC_ICER0, u32::MAX);
+        write(NVIC_ICPR0, u32::MAX);
+        write(SCB_ICSR, ICSR_PENDSVCLR | ICSR_PENDSTCLR);
+    }
+
+    /// Points the core at the vector table at `address`.
+    pub fn set_vector_table(address: u32) {
+        write(SCB_VTOR, address);
     }
 }
 
