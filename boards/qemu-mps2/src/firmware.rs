@@ -231,11 +231,9 @@ extern "C" fn TIMER0() {
 /// (1F51h:1 = 0) jumps to the bootloader and asks it to stay, a reset (2) jumps to it to start
 /// this program again, as a reset through the bootloader would (`canopen_drive_qemu_mps2::boot`).
 ///
-/// The tick takes the request from the drive, not a task: while a request waits,
-/// `Drive::poll` asks to be called again at once, and the runner of `canopen-drive-embassy`
-/// does so without yielding to the executor, so no other task runs until the request is
-/// taken. The drive gives it once its answer has left the transmit queue, i.e. the runner has
-/// written it to the UART by the time it yields and the task runs.
+/// The tick takes the request from the drive (`Drive::take_program_request`, at most a tick
+/// after the answer has left the transmit queue) and signals this task, which waits for the
+/// UART to have sent the answer, then jumps.
 #[cfg(feature = "application-image")]
 mod program {
     use canopen_drive::comm::program::{read_header, ProgramRequest};
