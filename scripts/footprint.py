@@ -35,7 +35,7 @@ TARGETS = {
     "thumbv7em-none-eabihf": ["-machine", "mps2-an386", "-cpu", "cortex-m4"],
     "thumbv6m-none-eabi": ["-machine", "mps2-an385", "-cpu", "cortex-m3"],
 }
-IMAGES = ["baseline", "node301", "drive-full", "drive-cyclic", "drive-two-axes"]
+IMAGES = ["baseline", "node301", "bootloader", "drive-full", "drive-cyclic", "drive-two-axes"]
 # Images built from another image's binary with other cargo arguments, in their own target
 # directory: image -> (binary, cargo arguments).
 VARIANTS = {"drive-cyclic": ("drive-full", ["--no-default-features"])}
@@ -43,6 +43,8 @@ VARIANTS = {"drive-cyclic": ("drive-full", ["--no-default-features"])}
 GOALS = {
     ("thumbv7em-none-eabihf", "drive-full"): (48 * 1024, 8 * 1024),
     ("thumbv7em-none-eabihf", "node301"): (13 * 1024, 2 * 1024),
+    # Issue 35: a bootloader node (CiA 301 and program download) in at most 24 KiB.
+    ("thumbv7em-none-eabihf", "bootloader"): (24 * 1024, 2 * 1024),
 }
 # Issue 32 (a bounded tick): the full drive's deepest tick stack and the bytes of its trajectory
 # code (`motion/`, the area of AREAS named TRAJECTORY) on thumbv7em.
@@ -326,6 +328,10 @@ tables: a firmware that does not write its EDS leaves them out, some 4 KiB):
 - `node301`: a CiA 301-only node composed from the crate's services (NMT, SDO server with
   expedited / segmented / block transfer, heartbeat, EMCY, SYNC consumer, 4 + 4 PDOs, the
   standard 1xxxh objects; see `benches/footprint/src/node301.rs`);
+- `bootloader`: the crate's bootloader node (`canopen_drive::bootloader`: NMT, heartbeat, SDO
+  server with expedited / segmented / block transfer streaming to the program area, CiA 302-3
+  program download 1F50h–1F57h, the identity objects) over a stand-in program area that reads
+  erased and takes every write (`benches/footprint/src/boot.rs`);
 - `drive-full`: `Drive::build_in` with `Config::new(5)`, every CiA 402 mode, 4 + 4 PDOs, the
   dictionary store sized to the standard tables (`drive::STANDARD_OD_BYTES`, about 1 KiB; the
   default `DEFAULT_OD_BYTES` of 3 KiB leaves room for a firmware's own objects);

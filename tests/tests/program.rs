@@ -125,7 +125,7 @@ impl Device {
 
     fn flash(&mut self) -> &mut SimFlash {
         match &mut self.running {
-            Running::Boot(boot) => boot.program().area().unwrap(),
+            Running::Boot(boot) => boot.program().area(),
             Running::App(_, flash) | Running::Off(flash) => flash,
         }
     }
@@ -136,7 +136,7 @@ impl Device {
         self.running = match running {
             Running::Boot(mut boot) => match boot.take_request() {
                 Some(ProgramRequest::Start | ProgramRequest::Reset) => {
-                    let mut flash = boot.into_area().unwrap();
+                    let mut flash = boot.into_area();
                     let payload = valid_program(&mut flash).expect("start only with a verified program");
                     self.resets += 1;
                     Running::App(Box::new(application(&payload, &mut flash)), flash)
@@ -163,7 +163,7 @@ impl Device {
     fn cut_power(&mut self) {
         let running = std::mem::replace(&mut self.running, Running::Off(SimFlash::new(0, 1, 1)));
         self.running = Running::Off(match running {
-            Running::Boot(boot) => boot.into_area().unwrap(),
+            Running::Boot(boot) => boot.into_area(),
             Running::App(_, flash) | Running::Off(flash) => flash,
         });
     }

@@ -1,11 +1,12 @@
 //! # Footprint of canopen-drive on Cortex-M
 //!
-//! Four bare-metal images share this harness and differ only in the node they run:
+//! Five bare-metal images share this harness and differ only in the node they run:
 //!
 //! | image | node |
 //! |---|---|
 //! | `baseline` | none: the harness alone (start-up, the scripted "CAN controller", the stack probe) |
 //! | `node301` | [`node301::Node301`]: a CiA 301-only node built from the crate's services |
+//! | `bootloader` | [`boot::BootNode`]: the crate's bootloader node for program download |
 //! | `drive-full` | `canopen_drive::Drive` with every CiA 402 mode (the default configuration) |
 //! | `drive-two-axes` | the same drive with two axes (`Drive<…, AXES = 2>`, 4 + 4 PDOs per axis) |
 //!
@@ -32,6 +33,7 @@ use canopen_drive::hal::{Demand, Sample, Setpoint};
 use canopen_drive::{CanFrame, Instant};
 use embedded_can::Frame as _;
 
+pub mod boot;
 pub mod node301;
 
 /// What the harness drives: the entry points of a node.

@@ -119,7 +119,7 @@ pub fn run_bootloader(
         deadline = boot.poll(now());
         transmit(&mut boot);
         if boot.take_request() == Some(ProgramRequest::Start) {
-            return Ok(boot.into_area());
+            return Ok(Some(boot.into_area()));
         }
     }
     Ok(None)

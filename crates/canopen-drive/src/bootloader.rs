@@ -73,7 +73,7 @@ impl<F: NonVolatile, const BUF: usize> Bootloader<F, BUF> {
     }
 
     /// Gives the program area back, e.g. to read the program it is to start.
-    pub fn into_area(self) -> Option<F> {
+    pub fn into_area(self) -> F {
         self.program.into_area()
     }
 

@@ -84,7 +84,7 @@ use crate::comm::indicators::NodeStatus;
 use crate::comm::lss::{LssHooks, LssSlave, LssState, StoreError, DEFAULT_BIT_RATES};
 use crate::comm::nmt::{transition, NmtAction, Services};
 use crate::comm::pdo::{self, FrameSink, PdoEvent, PdoRecord, PdoSet, RpdoFrame, ValueRules};
-use crate::comm::program::{self, NoArea, ProgramDownload, ProgramRequest, PROGRAM_CONTROL, PROGRAM_DATA};
+use crate::comm::program::{self, ProgramRequest, RunningProgram, PROGRAM_CONTROL, PROGRAM_DATA};
 use crate::comm::sdo_server::{upload_in_two_steps, ObjectAccess, SdoServer};
 use crate::comm::sync::{self, Sync, SyncConfig, SyncPoll, SyncReception, SyncSlots};
 use crate::frame::CanFrame;
@@ -364,7 +364,7 @@ pub struct Drive<
     remap_while_valid: bool,
     tx: TxQueue,
     /// Program download (CiA 302-3), the application's side ([`Config::program_download`]).
-    program: ProgramDownload<NoArea>,
+    program: RunningProgram,
     hooks: H,
     storage: S,
 }
@@ -712,7 +712,7 @@ impl<
             emcy_bytes: config.emcy_additional_bytes,
             remap_while_valid: false,
             tx: TxQueue { frames: Deque::new(), dropped: 0 },
-            program: ProgramDownload::application(0),
+            program: RunningProgram::new(0),
             hooks,
             storage,
         }
@@ -795,7 +795,7 @@ impl<
     /// of the running image, which the board reads from the header its bootloader left
     /// ([`program::read_header`]).
     pub fn set_program_identification(&mut self, identification: u32) {
-        self.program = ProgramDownload::application(identification);
+        self.program = RunningProgram::new(identification);
     }
 
     /// What a write to 1F51h:1 asks the board to do ([`Config::program_download`]): stop
@@ -1835,7 +1835,7 @@ struct Access<'a, H, S, const B: usize, const AXES: usize> {
     storage: &'a mut S,
     nmt: NmtState,
     axes: &'a [Profile; AXES],
-    program: &'a mut ProgramDownload<NoArea>,
+    program: &'a mut RunningProgram,
     error_behaviour: &'static [(u8, ErrorBehaviour)],
     store_groups: &'static [Group],
     /// [`Drive::set_remap_while_valid`].
@@ -1853,7 +1853,7 @@ impl<'a, H: ObjectHooks, S: Persistence, const B: usize, const AXES: usize> Acce
         storage: &'a mut S,
         nmt: NmtState,
         axes: &'a [Profile; AXES],
-        program: &'a mut ProgramDownload<NoArea>,
+        program: &'a mut RunningProgram,
     ) -> Self {
         Access {
             od,
@@ -1875,8 +1875,7 @@ impl<'a, H: ObjectHooks, S: Persistence, const B: usize, const AXES: usize> Acce
     #[inline(never)]
     fn program_write(&mut self, entry: &Entry, data: &[u8]) -> Result<(), AbortCode> {
         if entry.index() == PROGRAM_DATA {
-            self.program.begin(Some(data.len()))?;
-            return self.program.piece(0, data, true);
+            return self.program.begin();
         }
         self.od.check_write(entry, data)?;
         match data {
@@ -2091,20 +2090,11 @@ impl<H: ObjectHooks, S: Persistence, const B: usize, const AXES: usize> ObjectAc
         Ok(())
     }
 
-    fn begin_stream(&mut self, mux: Mux, size: Option<usize>) -> Result<bool, AbortCode> {
+    fn begin_stream(&mut self, mux: Mux, _size: Option<usize>) -> Result<bool, AbortCode> {
         if mux.index != PROGRAM_DATA {
             return Ok(false);
         }
         // The application refuses (0800 0022h): its program is the bootloader's to replace.
-        self.program.begin(size)?;
-        Ok(true)
-    }
-
-    fn write_piece(&mut self, _mux: Mux, offset: usize, data: &[u8], last: bool) -> Result<(), AbortCode> {
-        self.program.piece(offset, data, last)
-    }
-
-    fn stream_broken(&mut self, _mux: Mux) {
-        self.program.broken();
+        self.program.begin().map(|()| true)
     }
 }

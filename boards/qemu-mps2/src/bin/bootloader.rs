@@ -118,7 +118,7 @@ mod firmware {
     /// Starts the verified program, if its vector table is one (else returns and the
     /// bootloader stays).
     fn start_program(node: &mut Node) {
-        let Some(area) = node.program().area() else { return };
+        let area = node.program().area();
         let Ok(header) = read_header(area) else { return };
         if let Some(table) = boot::vector_table(area, boot::PROGRAM_AREA, PAYLOAD_OFFSET, header.len) {
             // SAFETY: the image's CRC is right and its vector table points into it: a program

@@ -8,17 +8,18 @@
 //! | 1F56h program software identification | UNSIGNED32 | the CRC-32 of the program (0: none) | — |
 //! | 1F57h flash status identification | UNSIGNED32 | bit 0 busy, bits 1–7 a [`FlashCode`] | — |
 //!
-//! One [`ProgramDownload`] serves both sides of an update:
-//! - in a **bootloader** ([`ProgramDownload::bootloader`]) it owns the program area, a
-//!   [`NonVolatile`] area: clear erases it, a download streams the image into it, start asks the
-//!   board to run the program once the image has been verified;
-//! - in the **application** ([`ProgramDownload::application`]) the program runs: 1F51h reads
-//!   1, stop and reset ask the board to reset (into the bootloader, or the program again), and
-//!   clear or a download are refused (0800 0022h: not in this state).
+//! Two types serve the two sides of an update:
+//! - in a **bootloader**, [`ProgramDownload`] owns the program area, a [`NonVolatile`] area:
+//!   clear erases it, a download streams the image into it, start asks the board to run the
+//!   program once the image has been verified;
+//! - in the **application**, [`RunningProgram`]: 1F51h reads 1 (started), stop and reset ask
+//!   the board to reset (into the bootloader, or the program again), and clear or a download
+//!   are refused (0800 0022h: not in this state), as the area is the bootloader's.
 //!
 //! What the device does is reported, never acted on in a call: a command the board must carry
 //! out (leave for the bootloader, start the program) is a [`ProgramRequest`], taken by the
-//! node once its answer is on the bus ([`ProgramDownload::take_request`]). Work longer than a
+//! node once its answer is on the bus ([`ProgramDownload::take_request`],
+//! [`RunningProgram::take_request`]). Work longer than a
 //! frame (erasing, verifying) is done in bounded steps by [`ProgramDownload::poll`], with
 //! 1F57h's busy bit set meanwhile.
 //!
@@ -30,7 +31,7 @@
 //! 0 until the next download.
 
 use crate::od::{layout, AbortCode, Access, DataType, Object, Var};
-use crate::storage::{Crc32, NonVolatile, NvError};
+use crate::storage::{Crc32, NonVolatile};
 
 /// 1F50h program data (DOMAIN, write only).
 pub const PROGRAM_DATA: u16 = 0x1F50;
@@ -214,7 +215,7 @@ struct Receiving {
 
 /// The program-download service over the program area `F`.
 pub struct ProgramDownload<F> {
-    area: Option<F>,
+    area: F,
     state: ProgramState,
     code: FlashCode,
     work: Work,
@@ -227,45 +228,62 @@ pub struct ProgramDownload<F> {
     request: Option<ProgramRequest>,
 }
 
-/// The program area of an application, which never writes its own program.
-#[derive(Clone, Copy, Debug, Default)]
-pub struct NoArea;
-
-impl NonVolatile for NoArea {
-    fn capacity(&self) -> usize {
-        0
-    }
-    fn erase_size(&self) -> usize {
-        1
-    }
-    fn write_size(&self) -> usize {
-        1
-    }
-    fn read(&mut self, _: u32, _: &mut [u8]) -> Result<(), NvError> {
-        Err(NvError::OutOfBounds)
-    }
-    fn write(&mut self, _: u32, _: &[u8]) -> Result<(), NvError> {
-        Err(NvError::OutOfBounds)
-    }
-    fn erase(&mut self, _: u32, _: u32) -> Result<(), NvError> {
-        Err(NvError::OutOfBounds)
-    }
+/// Program download in the running application (1F51h reads 1, started): stop and reset are
+/// requests for the board, clear and a download are refused, as they are the bootloader's.
+#[derive(Clone, Copy, Debug)]
+pub struct RunningProgram {
+    /// 1F56h:1.
+    identification: u32,
+    /// 1F57h:1's code: 0, or 4 after a download that was refused.
+    code: FlashCode,
+    request: Option<ProgramRequest>,
 }
 
-impl ProgramDownload<NoArea> {
-    /// The service in the running application whose image's CRC-32 is `identification` (the
-    /// board reads it from the header its bootloader left, [`read_header`]).
-    pub const fn application(identification: u32) -> Self {
-        ProgramDownload {
-            area: None,
-            state: ProgramState::Started,
-            code: FlashCode::Ok,
-            work: Work::Idle,
-            cleared: false,
-            identification,
-            payload_offset: 0,
-            request: None,
+impl RunningProgram {
+    /// The running program whose image's CRC-32 is `identification` (the board reads it from
+    /// the header its bootloader left, [`read_header`]).
+    pub const fn new(identification: u32) -> Self {
+        RunningProgram { identification, code: FlashCode::Ok, request: None }
+    }
+
+    /// The value of sub 1 of one of the four objects as read; `None` for 1F50h, which is
+    /// write only.
+    pub fn read(&self, index: u16) -> Option<u32> {
+        match index {
+            PROGRAM_CONTROL => Some(u32::from(ProgramState::Started as u8)),
+            PROGRAM_SOFTWARE_IDENTIFICATION => Some(self.identification),
+            FLASH_STATUS_IDENTIFICATION => Some(u32::from(self.code as u8) << 1),
+            _ => None,
         }
+    }
+
+    /// A command written to 1F51h:1.
+    pub fn command(&mut self, value: u8) -> Result<(), AbortCode> {
+        match value {
+            0 => self.request = Some(ProgramRequest::Stop),
+            // Start: the program already runs.
+            1 => {}
+            2 => self.request = Some(ProgramRequest::Reset),
+            3 => return Err(AbortCode::CannotStoreDeviceState),
+            _ => return Err(AbortCode::InvalidValue),
+        }
+        Ok(())
+    }
+
+    /// A download to 1F50h:1: refused (code 4, not cleared), the area is the bootloader's.
+    pub fn begin(&mut self) -> Result<(), AbortCode> {
+        self.code = FlashCode::NotCleared;
+        Err(AbortCode::CannotStoreDeviceState)
+    }
+
+    /// True while a request waits to be taken.
+    pub fn has_request(&self) -> bool {
+        self.request.is_some()
+    }
+
+    /// The request the last command left for the board, taken once.
+    pub fn take_request(&mut self) -> Option<ProgramRequest> {
+        self.request.take()
     }
 }
 
@@ -295,7 +313,7 @@ impl<F: NonVolatile> ProgramDownload<F> {
             _ => Work::Idle,
         };
         ProgramDownload {
-            area: Some(area),
+            area,
             state: ProgramState::NoProgram,
             code: FlashCode::NoValidProgram,
             work,
@@ -329,12 +347,12 @@ impl<F: NonVolatile> ProgramDownload<F> {
     }
 
     /// The program area (the board reads the verified program from it).
-    pub fn area(&mut self) -> Option<&mut F> {
-        self.area.as_mut()
+    pub fn area(&mut self) -> &mut F {
+        &mut self.area
     }
 
     /// Gives the program area back (the board hands it to the program it starts).
-    pub fn into_area(self) -> Option<F> {
+    pub fn into_area(self) -> F {
         self.area
     }
 
@@ -376,20 +394,12 @@ impl<F: NonVolatile> ProgramDownload<F> {
             return not_now;
         }
         match (value, self.state) {
-            // Stop: the application leaves for the bootloader; a stopped program stays so.
-            (0, ProgramState::Started) => self.request = Some(ProgramRequest::Stop),
-            (0, ProgramState::Stopped | ProgramState::NoProgram) => {}
-            // Start: the running program already is; a verified one is handed over to.
-            (1, ProgramState::Started) => {}
+            // Stop: the program is stopped already.
+            (0, _) => {}
+            // Start (or reset): a verified program is handed over to.
             (1 | 2, ProgramState::Stopped) => self.request = Some(ProgramRequest::Start),
-            (1 | 2, ProgramState::NoProgram) => return not_now,
-            (2, ProgramState::Started) => self.request = Some(ProgramRequest::Reset),
-            // Clear: only the bootloader, which owns the area.
-            (3, ProgramState::Started) => return not_now,
-            (3, ProgramState::Stopped | ProgramState::NoProgram) => {
-                if self.area.is_none() {
-                    return not_now;
-                }
+            (1 | 2, ProgramState::NoProgram | ProgramState::Started) => return not_now,
+            (3, _) => {
                 self.state = ProgramState::NoProgram;
                 self.identification = 0;
                 self.code = FlashCode::NoValidProgram;
@@ -403,7 +413,7 @@ impl<F: NonVolatile> ProgramDownload<F> {
 
     /// A download of `size` bytes (when indicated) to 1F50h:1 begins.
     pub fn begin(&mut self, size: Option<usize>) -> Result<(), AbortCode> {
-        let capacity = self.area.as_ref().map_or(0, |a| a.capacity());
+        let capacity = self.area.capacity();
         if !self.cleared || self.is_busy() {
             if !self.is_busy() {
                 self.code = FlashCode::NotCleared;
@@ -436,9 +446,7 @@ impl<F: NonVolatile> ProgramDownload<F> {
         if offset != rx.received as usize {
             return self.fail(FlashCode::Unspecified, AbortCode::General);
         }
-        let Some(area) = self.area.as_mut() else {
-            return Err(AbortCode::CannotStoreDeviceState);
-        };
+        let area = &mut self.area;
         let write_size = area.write_size().clamp(1, MAX_WRITE_SIZE);
         let mut data = data;
         // The header, kept until the payload has been checked.
@@ -514,9 +522,7 @@ impl<F: NonVolatile> ProgramDownload<F> {
     /// One bounded step of the work in progress: one sector erased, or [`VERIFY_CHUNK`] bytes
     /// read back. Returns true while more steps are due.
     pub fn poll(&mut self) -> bool {
-        let Some(area) = self.area.as_mut() else {
-            return false;
-        };
+        let area = &mut self.area;
         match self.work {
             Work::Idle | Work::Receiving(_) => return false,
             Work::Erasing { next } => {

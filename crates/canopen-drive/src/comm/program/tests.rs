@@ -1,6 +1,7 @@
 extern crate std;
 
 use super::*;
+use crate::storage::NvError;
 use std::vec;
 use std::vec::Vec;
 
@@ -126,7 +127,7 @@ fn clear_is_busy_until_every_sector_is_erased_then_a_download_verifies_and_stops
     assert_eq!(service.read(PROGRAM_SOFTWARE_IDENTIFICATION), Some(0));
     assert_eq!(finish(&mut service), CAPACITY / SECTOR - 1, "one sector per step");
     assert_eq!(service.flash_status() & 1, 0);
-    assert_eq!(service.area().unwrap().bytes[5000], 0xFF);
+    assert_eq!(service.area().bytes[5000], 0xFF);
 
     let payload = payload(5000);
     assert_eq!(download(&mut service, &image(&payload), 889), Ok(()));
@@ -137,7 +138,7 @@ fn clear_is_busy_until_every_sector_is_erased_then_a_download_verifies_and_stops
     assert_eq!(service.flash_status(), 0, "not busy, code 0");
     assert_eq!(service.read(PROGRAM_CONTROL), Some(0), "stopped: a valid program");
     assert_eq!(service.read(PROGRAM_SOFTWARE_IDENTIFICATION), Some(crc32(&payload)));
-    let area = service.area().unwrap();
+    let area = service.area();
     assert_eq!(&area.bytes[PAYLOAD_AT as usize..PAYLOAD_AT as usize + 5000], &payload[..]);
     assert_eq!(read_header(area), Ok(ImageHeader { len: 5000, crc: crc32(&payload) }));
 }
@@ -150,7 +151,7 @@ fn pieces_of_any_length_land_in_whole_write_units() {
         assert_eq!(download(&mut service, &image(&payload), piece), Ok(()));
         finish(&mut service);
         assert_eq!(service.flash_status(), 0, "pieces of {piece}");
-        let area = service.area().unwrap();
+        let area = service.area();
         assert_eq!(&area.bytes[64..64 + 1001], &payload[..]);
         assert!(area.bytes[64 + 1001..64 + 1008].iter().all(|b| *b == 0xFF), "padded with 0xFF");
     }
@@ -190,8 +191,6 @@ fn a_value_of_1f51h_that_is_no_command_is_out_of_range() {
     for value in [4, 5, 0x80, 0xFF] {
         assert_eq!(service.command(value), Err(AbortCode::InvalidValue), "{value}");
     }
-    let mut application = ProgramDownload::application(0x1234_5678);
-    assert_eq!(application.command(4), Err(AbortCode::InvalidValue));
 }
 
 #[test]
@@ -206,7 +205,7 @@ fn a_corrupt_image_gives_code_3_and_cannot_be_started() {
     assert_eq!(service.read(PROGRAM_CONTROL), Some(3));
     assert_eq!(service.read(PROGRAM_SOFTWARE_IDENTIFICATION), Some(0));
     assert_eq!(service.command(1), Err(AbortCode::CannotStoreDeviceState));
-    assert_eq!(read_header(service.area().unwrap()), Err(FlashCode::NoValidProgram), "no header written");
+    assert_eq!(read_header(service.area()), Err(FlashCode::NoValidProgram), "no header written");
 
     // A header of this format in a version this code does not read.
     let mut service = cleared();
@@ -235,7 +234,7 @@ fn bytes_that_are_no_image_give_code_2() {
     assert_eq!(service.flash_status(), 2 << 1);
     assert_eq!(service.command(1), Err(AbortCode::CannotStoreDeviceState));
     // Nothing of it was programmed.
-    assert!(service.area().unwrap().bytes.iter().all(|b| *b == 0xFF));
+    assert!(service.area().bytes.iter().all(|b| *b == 0xFF));
 }
 
 #[test]
@@ -275,7 +274,7 @@ fn the_bootloader_verifies_the_program_it_finds_at_power_on() {
     let payload = payload(3000);
     download(&mut service, &image(&payload), 500).unwrap();
     finish(&mut service);
-    let flash = service.area.take().unwrap();
+    let flash = service.into_area();
 
     let mut service = ProgramDownload::bootloader(flash, PAYLOAD_AT);
     assert_eq!(service.flash_status(), (1 << 1) | 1, "busy verifying, no program yet");
@@ -285,7 +284,7 @@ fn the_bootloader_verifies_the_program_it_finds_at_power_on() {
     assert_eq!(service.read(PROGRAM_SOFTWARE_IDENTIFICATION), Some(crc32(&payload)));
 
     // One flipped bit of the program: none.
-    let mut flash = service.area.take().unwrap();
+    let mut flash = service.into_area();
     flash.bytes[PAYLOAD_AT as usize + 2999] ^= 0x80;
     let mut service = ProgramDownload::bootloader(flash, PAYLOAD_AT);
     finish(&mut service);
@@ -295,7 +294,7 @@ fn the_bootloader_verifies_the_program_it_finds_at_power_on() {
 
 #[test]
 fn the_application_runs_stops_into_the_bootloader_and_refuses_clear_and_download() {
-    let mut app = ProgramDownload::application(0xCAFE_F00D);
+    let mut app = RunningProgram::new(0xCAFE_F00D);
     assert_eq!(app.read(PROGRAM_CONTROL), Some(1));
     assert_eq!(app.read(PROGRAM_SOFTWARE_IDENTIFICATION), Some(0xCAFE_F00D));
     assert_eq!(app.read(FLASH_STATUS_IDENTIFICATION), Some(0));
@@ -303,12 +302,15 @@ fn the_application_runs_stops_into_the_bootloader_and_refuses_clear_and_download
     assert_eq!(app.command(1), Ok(()), "start: already started");
     assert_eq!(app.take_request(), None);
     assert_eq!(app.command(3), Err(AbortCode::CannotStoreDeviceState));
-    assert_eq!(app.begin(Some(100)), Err(AbortCode::CannotStoreDeviceState));
+    assert_eq!(app.begin(), Err(AbortCode::CannotStoreDeviceState));
     assert_eq!(app.read(FLASH_STATUS_IDENTIFICATION), Some(4 << 1));
+    assert_eq!(app.command(4), Err(AbortCode::InvalidValue));
     assert_eq!(app.command(2), Ok(()));
+    assert!(app.has_request());
     assert_eq!(app.take_request(), Some(ProgramRequest::Reset));
     assert_eq!(app.command(0), Ok(()));
     assert_eq!(app.take_request(), Some(ProgramRequest::Stop));
+    assert!(!app.has_request());
 }
 
 #[test]
