@@ -179,7 +179,13 @@ fn run(args: &RunArgs) -> Result<(), String> {
     let mut area = program_area::open(path)?;
     let mut stay_in_bootloader = false;
     loop {
-        let program = if stay_in_bootloader { None } else { program_area::valid_program(&mut area) };
+        let program = if stay_in_bootloader {
+            None
+        } else {
+            let (checked, program) = program_area::check_program(area);
+            area = checked;
+            program
+        };
         match program {
             Some((header, payload)) => {
                 let mut build = profile;

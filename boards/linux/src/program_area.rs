@@ -19,7 +19,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration as StdDuration;
 
 use canopen_drive::bootloader::Bootloader;
-use canopen_drive::comm::program::{read_header, ImageHeader, ProgramRequest};
+use canopen_drive::comm::program::{read_header, ImageHeader, ProgramDownload, ProgramRequest, ProgramState};
 use canopen_drive::od::DeviceInfo;
 use canopen_drive::storage::NonVolatile;
 use canopen_drive::Instant;
@@ -45,13 +45,23 @@ pub fn open(path: &Path) -> Result<FileFlash, String> {
         .map_err(|e| format!("cannot open the program area {}: {e}", path.display()))
 }
 
-/// The program in the area, when its image is valid: its header and payload.
-pub fn valid_program(area: &mut FileFlash) -> Option<(ImageHeader, Vec<u8>)> {
-    let header = read_header(area).ok()?;
-    let len = usize::try_from(header.len).ok().filter(|len| *len <= CAPACITY - PAYLOAD_AT as usize)?;
-    let mut payload = vec![0; len];
-    area.read(PAYLOAD_AT, &mut payload).ok()?;
-    (crc32(&payload) == header.crc).then_some((header, payload))
+/// Bytes of the payload's start read for its build line.
+const BUILD_LINE_LEN: usize = 128;
+
+/// Checks the program in `area` as the bootloader does at power-on (the core's service, run
+/// to the end at once): the area back, with the program's header and the start of its payload
+/// when it is valid.
+pub fn check_program(area: FileFlash) -> (FileFlash, Option<(ImageHeader, Vec<u8>)>) {
+    let mut service = ProgramDownload::bootloader(area, PAYLOAD_AT);
+    while service.poll() {}
+    let valid = service.state() == ProgramState::Stopped;
+    let mut area = service.into_area();
+    let program = valid.then(|| read_header(&mut area).ok()).flatten().map(|header| {
+        let mut start = vec![0; BUILD_LINE_LEN.min(header.len as usize)];
+        let _ = area.read(PAYLOAD_AT, &mut start);
+        (header, start)
+    });
+    (area, program)
 }
 
 /// The identity the program `payload` runs as: `device` with the version and revision its
@@ -69,18 +79,6 @@ pub fn build_identity(mut device: DeviceInfo, payload: &[u8]) -> DeviceInfo {
         }
     }
     device
-}
-
-/// The ISO-HDLC (zlib) CRC-32, as the bootloader checks a program at power-on.
-fn crc32(data: &[u8]) -> u32 {
-    let mut crc = 0xFFFF_FFFFu32;
-    for &byte in data {
-        crc ^= u32::from(byte);
-        for _ in 0..8 {
-            crc = if crc & 1 != 0 { (crc >> 1) ^ 0xEDB8_8320 } else { crc >> 1 };
-        }
-    }
-    !crc
 }
 
 /// Runs the bootloader node on `area` until a master starts a verified program (returns the
@@ -137,6 +135,5 @@ mod tests {
         assert_eq!((built.software_version, built.revision_number), ("2.0.1", 0x0002_0001));
         let other = build_identity(device, b"\x7fELF...");
         assert_eq!(other.software_version, device.software_version);
-        assert_eq!(crc32(b"123456789"), 0xCBF4_3926);
     }
 }
