@@ -185,6 +185,10 @@ step_msrv() {
 # internal dependency with a version) and built from the package against the others' packages.
 # --workspace leaves out the members with publish = false; the list says which must be in.
 step_publish() {
+    # Cargo unpacks the packages of the temporary registry once per version into its source
+    # cache and keeps that copy: a second run on the same machine would build the dependent
+    # packages against the sources of the first. Drop those copies (a fresh machine has none).
+    rm -rf "${CARGO_HOME:-$HOME/.cargo}"/registry/src/*/canopen-drive*-[0-9]*
     cargo publish --dry-run --workspace --allow-dirty 2>&1 | tee "$logs/publish-dry-run.txt"
     local crate status=0
     for crate in canopen-drive canopen-drive-sim canopen-drive-embassy canopen-drive-slcan canopen-drive-build; do

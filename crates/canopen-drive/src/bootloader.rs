@@ -18,7 +18,7 @@
 use crate::comm::heartbeat::HeartbeatProducer;
 use crate::comm::indicators::NodeStatus;
 use crate::comm::nmt::{transition, NmtAction, Services};
-use crate::comm::program::{self, ProgramDownload, ProgramRequest, PROGRAM_CONTROL, PROGRAM_DATA};
+use crate::comm::program::{self, ProgramDownload, ProgramRequest, PROGRAM_DATA};
 use crate::comm::sdo_server::{ObjectAccess, SdoServer};
 use crate::comm::NmtState;
 use crate::od::standard::{BOOTLOADER_COMMUNICATION, PRODUCER_HEARTBEAT_TIME};
@@ -225,7 +225,7 @@ impl<F: NonVolatile, const B: usize> Access<'_, F, B> {
     /// The service's value of sub 1 of its objects, as little-endian bytes and its length.
     fn service_value(&self, mux: Mux) -> ([u8; 4], usize) {
         let value = self.program.read(mux.index).unwrap_or(0);
-        (value.to_le_bytes(), if mux.index == PROGRAM_CONTROL { 1 } else { 4 })
+        (value.to_le_bytes(), program::value_len(mux.index))
     }
 }
 

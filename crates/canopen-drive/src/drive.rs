@@ -1897,7 +1897,7 @@ impl<'a, H: ObjectHooks, S: Persistence, const B: usize, const AXES: usize> Acce
             return None;
         }
         let value = self.program.read(entry.index())?;
-        Some((value.to_le_bytes(), if entry.index() == PROGRAM_CONTROL { 1 } else { 4 }))
+        Some((value.to_le_bytes(), program::value_len(entry.index())))
     }
 
     /// Store or restore on command: the signature, then the operation; nothing is written to

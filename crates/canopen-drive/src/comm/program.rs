@@ -50,6 +50,16 @@ pub const fn owns(index: u16) -> bool {
     )
 }
 
+/// Bytes of the value of sub 1 of `index` (one of the four objects): 1 for 1F51h, 4 for the
+/// UNSIGNED32 entries.
+pub const fn value_len(index: u16) -> usize {
+    if index == PROGRAM_CONTROL {
+        1
+    } else {
+        4
+    }
+}
+
 /// The four objects, for program 1 (their values are the service's, not the store's).
 pub static OBJECTS: [Object; 4] = layout([
     Object::array(
