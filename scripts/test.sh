@@ -185,11 +185,16 @@ step_msrv() {
 # internal dependency with a version) and built from the package against the others' packages.
 # --workspace leaves out the members with publish = false; the list says which must be in.
 step_publish() {
-    # Cargo unpacks the packages of the temporary registry once per version into its source
-    # cache and keeps that copy: a second run on the same machine would build the dependent
-    # packages against the sources of the first. Drop those copies (a fresh machine has none).
+    # Cargo takes the packages of its temporary registry as it takes any registry's: never
+    # changing once unpacked and built. So a second run on the same machine would build the
+    # dependent packages against the first run's sources: drop cargo's unpacked copies and
+    # verify in a target directory of its own, new each run (a fresh machine has neither).
     rm -rf "${CARGO_HOME:-$HOME/.cargo}"/registry/src/*/canopen-drive*-[0-9]*
-    cargo publish --dry-run --workspace --allow-dirty 2>&1 | tee "$logs/publish-dry-run.txt"
+    local target
+    target="$(cargo_target_dir)/publish"
+    rm -rf "$target"
+    CARGO_TARGET_DIR="$target" cargo publish --dry-run --workspace --allow-dirty 2>&1 |
+        tee "$logs/publish-dry-run.txt"
     local crate status=0
     for crate in canopen-drive canopen-drive-sim canopen-drive-embassy canopen-drive-slcan canopen-drive-build; do
         grep -q "Uploading $crate v" "$logs/publish-dry-run.txt" ||
