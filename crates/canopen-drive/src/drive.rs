@@ -84,7 +84,7 @@ use crate::comm::indicators::NodeStatus;
 use crate::comm::lss::{LssHooks, LssSlave, LssState, StoreError, DEFAULT_BIT_RATES};
 use crate::comm::nmt::{transition, NmtAction, Services};
 use crate::comm::pdo::{self, FrameSink, PdoEvent, PdoRecord, PdoSet, RpdoFrame, ValueRules};
-use crate::comm::program::{self, ProgramRequest, RunningProgram, PROGRAM_CONTROL, PROGRAM_DATA};
+use crate::comm::program::{self, ProgramRequest, RunningProgram, PROGRAM_DATA};
 use crate::comm::sdo_server::{upload_in_two_steps, ObjectAccess, SdoServer};
 use crate::comm::sync::{self, Sync, SyncConfig, SyncPoll, SyncReception, SyncSlots};
 use crate::frame::CanFrame;
@@ -1877,10 +1877,11 @@ impl<'a, H: ObjectHooks, S: Persistence, const B: usize, const AXES: usize> Acce
         if entry.index() == PROGRAM_DATA {
             return self.program.begin();
         }
-        self.od.check_write(entry, data)?;
+        // 1F51h:1, UNSIGNED8 (the other entries are read only).
         match data {
-            &[command] if entry.index() == PROGRAM_CONTROL => self.program.command(command),
-            _ => Err(AbortCode::LengthMismatch),
+            &[command] => self.program.command(command),
+            [] => Err(AbortCode::LengthTooLow),
+            _ => Err(AbortCode::LengthTooHigh),
         }
     }
 
@@ -2040,8 +2041,8 @@ impl<H: ObjectHooks, S: Persistence, const B: usize, const AXES: usize> ObjectAc
     fn upload_expedited(&mut self, mux: Mux, buf: &mut [u8; 4]) -> Result<Option<usize>, AbortCode> {
         let (entry, owner) = self.readable_entry(mux)?;
         // A plain value of the store: one look-up, no second pass through the hooks.
-        let plain = self.command_capability(&entry, owner).is_none()
-            && owner != Owner::Program
+        // (The store's command objects and the program's answer with values of their own.)
+        let plain = !matches!(owner, Owner::Storage | Owner::Program)
             && self.hooks.read_len(mux.index, mux.sub).is_none();
         match plain.then(|| self.od.read_small(&entry, buf)).flatten() {
             Some(n) => Ok(Some(n)),
