@@ -5,7 +5,7 @@
 mod common;
 
 use canopen_drive::cia402::fsa::State;
-use canopen_drive::cia402::objects::PROFILE;
+use canopen_drive::cia402::registry::PROFILE;
 use canopen_drive::cia402::StatusFlag;
 use canopen_drive::comm::error_control::ErrorBehaviour;
 use canopen_drive::comm::NmtState;

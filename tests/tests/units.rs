@@ -8,7 +8,7 @@ mod common;
 use common::profile::*;
 use common::*;
 
-use canopen_drive::cia402::objects::PROFILE;
+use canopen_drive::cia402::registry::PROFILE;
 use canopen_drive::cia402::{TorqueUnit, Units, VelocityUnit};
 use canopen_drive::hal::Setpoint;
 use canopen_drive::od::eds::EdsInfo;

@@ -7,7 +7,7 @@
 //!   at every other index from 2000h on, so the odd indices between them are misses inside the
 //!   table's range.
 
-use canopen_drive::cia402::objects::PROFILE;
+use canopen_drive::cia402::registry::PROFILE;
 use canopen_drive::comm::pdo::DEFAULT_OBJECTS;
 use canopen_drive::control;
 use canopen_drive::od::standard::COMMUNICATION;

@@ -132,7 +132,7 @@ fn check_value_rules<const B: usize>(
         0x1019 if raw == 1 || raw > 240 => Err("synchronous counter overflow 1 or above 240".into()),
         0x1029 if ErrorBehaviour::from_value(raw as u8).is_none() => Err("reserved error behaviour".into()),
         0x6000..=0x67FF if entry.var.access.writable() && !IP_OBJECTS.contains(&index) => {
-            canopen_drive::cia402::objects::check_write(od, profile, index, entry.sub, bytes)
+            canopen_drive::cia402::registry::check_write(od, profile, index, entry.sub, bytes)
                 .map_err(|code| format!("refused by the profile's value rules ({code:?})"))
         }
         _ => Ok(()),

@@ -70,9 +70,10 @@ use heapless::Deque;
 
 use crate::cia402::cyclic::CycleStart;
 use crate::cia402::fsa::State;
+use crate::cia402::objects::STANDARD_MODES;
 use crate::cia402::objects::{Axis, Rule, PROFILE_AREA};
-use crate::cia402::objects::{IMPLEMENTED_MODES, STANDARD_MODES};
 use crate::cia402::profile::Profile;
+use crate::cia402::registry::IMPLEMENTED_MODES;
 use crate::cia402::ProfileConfig;
 use crate::comm::emcy::{self, code, EmcyProducer, EmcySettings, ErrorRegister};
 use crate::comm::error_control::{
@@ -126,13 +127,13 @@ pub const DEFAULT_OD_BYTES: usize = 3072;
 pub const STANDARD_OD_BYTES: usize = crate::od::storage_bytes(&[
     &standard::COMMUNICATION,
     &pdo::DEFAULT_OBJECTS,
-    &crate::cia402::objects::PROFILE,
+    &crate::cia402::registry::PROFILE,
 ]);
 
 /// The value store one more axis takes (its profile objects, [`Dictionary::attach_copies`]): a
 /// node of `n` axes sizes its dictionary `STANDARD_OD_BYTES + (n − 1) × AXIS_OD_BYTES` (plus its
 /// own objects, and the larger PDO tables of 4 + 4 PDOs per axis).
-pub const AXIS_OD_BYTES: usize = crate::od::storage_bytes(&[&crate::cia402::objects::AXIS_PROFILE]);
+pub const AXIS_OD_BYTES: usize = crate::od::storage_bytes(&[&crate::cia402::registry::AXIS_PROFILE]);
 
 pub use crate::comm::ConnectionEvent;
 
@@ -216,7 +217,7 @@ pub struct Config {
     /// override that changes an entry's size is refused ([`ConfigError::EntrySize`]).
     pub entry_overrides: &'static [EntryOverride],
     /// Objects of the device-profile area beyond the crate's (indices above those of
-    /// [`crate::cia402::objects::PROFILE`], ascending, laid out with [`crate::od::layout`]),
+    /// [`crate::cia402::registry::PROFILE`], ascending, laid out with [`crate::od::layout`]),
     /// e.g. objects of a later edition of CiA 402 (default: none). A second axis is not
     /// described here: it is an axis of a [`MultiAxisDrive`].
     pub extra_profile_objects: &'static [Object],
@@ -735,7 +736,7 @@ impl<
         // One description of an axis's objects, attached once per axis (a single-axis drive's
         // has no 67FFh and links only `PROFILE`).
         let profile: &'static [Object] =
-            if AXES > 1 { &crate::cia402::objects::AXIS_PROFILE } else { &crate::cia402::objects::PROFILE };
+            if AXES > 1 { &crate::cia402::registry::AXIS_PROFILE } else { &crate::cia402::registry::PROFILE };
         let tables: [&'static [Object]; 6] = [
             &standard::COMMUNICATION,
             config.pdo_objects,

@@ -206,7 +206,7 @@ fn more_axes_than_cia_402_gives_a_node() {
 #[test]
 fn an_override_that_changes_the_size_of_its_entry() {
     static WIDER: [EntryOverride; 1] =
-        [EntryOverride::of(&canopen_drive::cia402::objects::PROFILE, 0x6072, 0)
+        [EntryOverride::of(&canopen_drive::cia402::registry::PROFILE, 0x6072, 0)
             .data_type(DataType::Integer32)];
     let error = Drive::new(Config { entry_overrides: &WIDER, ..Config::new(NODE) }).err().unwrap();
     assert_eq!(error, ConfigError::EntrySize { index: 0x6072, sub: 0 });
@@ -275,7 +275,7 @@ fn the_checks_run_when_the_table_is_compiled() {
     )]);
     const CHECKED: Result<(), ConfigError> = od::check_table(&ABOVE);
     assert_eq!(CHECKED, Err(ConfigError::DefaultOutsideLimits { index: 0x2000, sub: 0 }));
-    assert!(od::check_table(&canopen_drive::cia402::objects::PROFILE).is_ok());
+    assert!(od::check_table(&canopen_drive::cia402::registry::PROFILE).is_ok());
     assert!(od::check_table(&canopen_drive::od::standard::COMMUNICATION).is_ok());
 }
 

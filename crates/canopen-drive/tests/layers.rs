@@ -215,3 +215,119 @@ fn object_index(code: &str) -> Option<String> {
         })
         .map(|name| name.to_string())
 }
+
+/// The modules of `cia402/` a line of its code names: `super::<module>` and
+/// `crate::cia402::<module>`, and the items `cia402/mod.rs` re-exports (`super::Axis` is
+/// `objects`).
+fn profile_references(line: &str, modules: &[String], reexports: &[(String, String)]) -> Vec<String> {
+    let mut found = Vec::new();
+    for prefix in ["super::", "crate::cia402::"] {
+        let mut rest = line;
+        while let Some(at) = rest.find(prefix) {
+            rest = &rest[at + prefix.len()..];
+            let names: Vec<&str> = if let Some(group) = rest.strip_prefix('{') {
+                let end = group.find('}').unwrap_or(group.len());
+                group[..end].split(',').map(str::trim).collect()
+            } else {
+                vec![rest]
+            };
+            for name in names {
+                let ident: String = name.chars().take_while(|c| c.is_alphanumeric() || *c == '_').collect();
+                if modules.contains(&ident) {
+                    found.push(ident);
+                } else if let Some((_, module)) = reexports.iter().find(|(item, _)| *item == ident) {
+                    found.push(module.clone());
+                }
+            }
+        }
+    }
+    found
+}
+
+/// A mode is one file: the modules of `cia402/` import one another without a cycle. The leaf
+/// (`objects`: indices, `Rule`, constructors) imports none of them; the registry above the
+/// modes (`registry`) and the run-time of an axis (`profile`) import the modes, never the other
+/// way round.
+#[test]
+fn the_profile_modules_import_no_cycle() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("src").join("cia402");
+    let mut files = Vec::new();
+    source_files(&dir, &mut files);
+    let module = |file: &Path| module_of(&dir, file);
+    let modules: Vec<String> = files.iter().map(|f| module(f)).filter(|m| m != "mod").collect();
+    // What mod.rs re-exports: `pub use <module>::{A, B};` or `pub use <module>::A;`.
+    let parent = fs::read_to_string(dir.join("mod.rs")).unwrap();
+    let mut reexports = Vec::new();
+    for statement in parent.split(';') {
+        let Some(path) = statement.trim().strip_prefix("pub use ") else { continue };
+        let Some((from, items)) = path.split_once("::") else { continue };
+        let items = items.trim_start_matches('{').trim_end_matches('}');
+        for item in items.split(',').map(str::trim).filter(|i| !i.is_empty()) {
+            reexports.push((item.to_string(), from.trim().to_string()));
+        }
+    }
+    let mut edges: Vec<(String, String, String)> = Vec::new();
+    for file in &files {
+        let from = module(file);
+        let name = file.file_name().unwrap().to_string_lossy();
+        if from == "mod" || name == "tests.rs" || name.ends_with("_tests.rs") {
+            continue;
+        }
+        let text = fs::read_to_string(file).unwrap();
+        for (n, line) in text.lines().enumerate() {
+            let code = line.trim_start();
+            if code.starts_with("#[cfg(test)]") {
+                break;
+            }
+            if code.starts_with("//") {
+                continue;
+            }
+            let code = code.split("//").next().unwrap_or("");
+            for to in profile_references(code, &modules, &reexports) {
+                if to != from && !edges.iter().any(|(a, b, _)| *a == from && *b == to) {
+                    edges.push((from.clone(), to, format!("{name}:{}", n + 1)));
+                }
+            }
+        }
+    }
+    // Depth-first search for a cycle; report the first one with where each import is.
+    fn visit(
+        node: &str,
+        edges: &[(String, String, String)],
+        path: &mut Vec<(String, String)>,
+        done: &mut Vec<String>,
+    ) -> Option<Vec<(String, String)>> {
+        if let Some(at) = path.iter().position(|(m, _)| m == node) {
+            return Some(path[at..].to_vec());
+        }
+        if done.iter().any(|d| d == node) {
+            return None;
+        }
+        for (from, to, at) in edges.iter().filter(|(from, _, _)| from == node) {
+            path.push((from.clone(), format!("{at} names `{to}`")));
+            if let Some(cycle) = visit(to, edges, path, done) {
+                return Some(cycle);
+            }
+            path.pop();
+        }
+        done.push(node.to_string());
+        None
+    }
+    let mut done = Vec::new();
+    for start in &modules {
+        let mut path = Vec::new();
+        if let Some(cycle) = visit(start, &edges, &mut path, &mut done) {
+            let shown: Vec<String> = cycle.iter().map(|(m, how)| format!("{m} ({how})")).collect();
+            panic!("an import cycle in cia402/: {}", shown.join(" -> "));
+        }
+    }
+    // The leaf names no other module of the profile.
+    let leaf: Vec<_> = edges.iter().filter(|(from, _, _)| from == "objects").collect();
+    assert!(leaf.is_empty(), "objects.rs imports {leaf:?}");
+    // The parser sees the forms the modules use.
+    let modules = ["objects".to_string(), "hm".to_string()];
+    let reexports = [("Axis".to_string(), "objects".to_string())];
+    assert_eq!(profile_references("use super::objects::Rule;", &modules, &reexports), ["objects"]);
+    assert_eq!(profile_references("use super::{hm, Axis};", &modules, &reexports), ["hm", "objects"]);
+    assert_eq!(profile_references("x(crate::cia402::hm::rule(i))", &modules, &reexports), ["hm"]);
+}

@@ -8,7 +8,8 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::indexing_slicing, clippy::panic)]
 
-use canopen_drive::cia402::objects::{mode_bit, IMPLEMENTED_MODES};
+use canopen_drive::cia402::objects::mode_bit;
+use canopen_drive::cia402::registry::IMPLEMENTED_MODES;
 use canopen_drive::drive::STANDARD_OD_BYTES;
 use canopen_drive::hal::Setpoint;
 use canopen_drive::od::{ConfigError, DeviceInfo};

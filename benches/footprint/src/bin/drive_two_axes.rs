@@ -8,7 +8,7 @@
 
 use core::mem::MaybeUninit;
 
-use canopen_drive::cia402::objects::AXIS_PROFILE;
+use canopen_drive::cia402::registry::AXIS_PROFILE;
 use canopen_drive::comm::pdo;
 use canopen_drive::hal::{Demand, Sample};
 use canopen_drive::od::{layout, standard, storage_bytes, Object};

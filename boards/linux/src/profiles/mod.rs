@@ -295,7 +295,7 @@ pub(crate) const fn default_of(index: u16, sub: u8, value: DefaultValue) -> Defa
 
 /// The core's description of a CiA 402 entry, to be changed into the drive's own.
 pub(crate) const fn profile_entry(index: u16, sub: u8) -> EntryOverride {
-    EntryOverride::of(&canopen_drive::cia402::objects::PROFILE, index, sub)
+    EntryOverride::of(&canopen_drive::cia402::registry::PROFILE, index, sub)
 }
 
 /// The core's description of a communication entry (1000h–1FFFh), to be changed into the

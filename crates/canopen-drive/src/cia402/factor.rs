@@ -308,7 +308,7 @@ pub(crate) const OBJECTS: [Object; 5] = [
     ratio(FEED_CONSTANT, "Feed constant", &ratio_entry("Feed constant")),
 ];
 
-/// The value rule of the factor group's object `index` ([`super::objects::rule`]):
+/// The value rule of the factor group's object `index` ([`super::registry::rule`]):
 /// [`check_write`].
 pub(crate) fn rule(index: u16) -> Option<Rule> {
     matches!(

@@ -1039,7 +1039,7 @@ const HOMING_SPEED_SUBS: [(u8, Var); 3] = [
 ];
 
 /// Homing's objects (6098h, 6099h, 609Ah, 60E3h) with their CiA 402 defaults, in
-/// [`super::objects::PROFILE`] when the build runs hm.
+/// [`super::registry::PROFILE`] when the build runs hm.
 pub(crate) const OBJECTS: [Object; 4] = [
     setting(HOMING_METHOD, "Homing method", DataType::Integer8, DefaultValue::Zero),
     Object::record(HOMING_SPEEDS, "Homing speeds", &HOMING_SPEED_SUBS),
@@ -1062,7 +1062,7 @@ pub(crate) const OBJECTS: [Object; 4] = [
     ),
 ];
 
-/// The value rule of homing's object `index` ([`super::objects::rule`]): 6098h takes the methods
+/// The value rule of homing's object `index` ([`super::registry::rule`]): 6098h takes the methods
 /// the configuration supports ([`HomingConfig::supports`]).
 pub(crate) fn rule(index: u16) -> Option<Rule> {
     (super::HM && index == HOMING_METHOD).then_some(Rule::HomingMethod)

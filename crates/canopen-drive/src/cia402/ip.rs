@@ -662,12 +662,12 @@ impl Run {
     }
 }
 
-/// ip's objects (60C0h, 60C1h, 60C4h), in [`super::objects::PROFILE`] when the build runs ip
+/// ip's objects (60C0h, 60C1h, 60C4h), in [`super::registry::PROFILE`] when the build runs ip
 /// (the interpolation time period 60C2h, which every cyclic mode reads, is in every build).
 pub(crate) const OBJECTS: [Object; 3] =
     [SUB_MODE_SELECT_OBJECT, DATA_RECORD_OBJECT, DATA_CONFIGURATION_OBJECT];
 
-/// The value rule of `index`/`sub` among ip's objects and 60C2h ([`super::objects::rule`]);
+/// The value rule of `index`/`sub` among ip's objects and 60C2h ([`super::registry::rule`]);
 /// `pdo`: as an RPDO writes it (a record is then taken or dropped, never refused).
 pub(crate) fn rule(index: u16, sub: u8, pdo: bool) -> Option<Rule> {
     match index {

@@ -11,13 +11,16 @@
 //! - [`vl`]: velocity mode (6042h–604Ch): limit, ramp generator and factors of the inverter mode.
 //! - [`probe`]: the touch probe function (60B8h–60BDh), latching positions at probe edges.
 //! - [`words`]: the controlword and the statusword as typed bit sets.
-//! - [`objects`]: the profile objects with their defaults and value rules.
+//! - [`objects`]: the leaf every mode imports: the profile objects' indices, the modes,
+//!   [`objects::Rule`] and the constructors of object descriptions.
+//! - [`registry`]: above the modes: the table of the profile objects this build has (each
+//!   mode declares its own), the modes it runs and the value rules of an SDO write.
 //! - [`profile`]: the run-time of one axis: FSA, option-code stops, the active mode, statusword,
 //!   actual values and the demand for the power stage.
 //!
 //! pv, tq, csp, csv and cst are in every build; pp, hm, ip, vl and the touch probe are cargo
 //! features (all on by default, see [`PP`] …): a mode left out is missing from
-//! [`objects::IMPLEMENTED_MODES`], its objects from [`objects::PROFILE`] and its code from the
+//! [`registry::IMPLEMENTED_MODES`], its objects from [`registry::PROFILE`] and its code from the
 //! image (its run-time calls sit behind these constants and fold away).
 
 pub mod config;
@@ -32,6 +35,7 @@ pub mod pp;
 pub mod probe;
 pub mod profile;
 mod pv;
+pub mod registry;
 mod slots;
 mod tq;
 pub mod vl;

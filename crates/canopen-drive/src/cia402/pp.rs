@@ -458,7 +458,7 @@ impl ProfilePosition {
     }
 }
 /// pp's objects (6081h, 6082h, 6086h, 60A3h, 60A4h, 60F2h) with their CiA 402 defaults, in
-/// [`super::objects::PROFILE`] when the build runs pp (cargo feature `pp`).
+/// [`super::registry::PROFILE`] when the build runs pp (cargo feature `pp`).
 pub(crate) const OBJECTS: [Object; 6] = [
     setting(PROFILE_VELOCITY, "Profile velocity", DataType::Unsigned32, DefaultValue::Unsigned(10_000)),
     setting(END_VELOCITY, "End velocity", DataType::Unsigned32, DefaultValue::Zero),
@@ -475,7 +475,7 @@ pub(crate) const OBJECTS: [Object; 6] = [
     parameter(POSITIONING_OPTION_CODE, "Positioning option code", DataType::Unsigned16, DefaultValue::Zero),
 ];
 
-/// The value rule of pp's object `index` ([`super::objects::rule`]).
+/// The value rule of pp's object `index` ([`super::registry::rule`]).
 pub(crate) fn rule(index: u16) -> Option<Rule> {
     match index {
         MOTION_PROFILE_TYPE if super::PP => Some(Rule::MotionProfileType),

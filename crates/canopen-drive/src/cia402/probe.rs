@@ -381,7 +381,7 @@ impl defmt::Format for Changed {
     }
 }
 
-/// The touch probe's objects (60B8h–60BDh, 60D5h–60D8h), in [`super::objects::PROFILE`] when
+/// The touch probe's objects (60B8h–60BDh, 60D5h–60D8h), in [`super::registry::PROFILE`] when
 /// the build has the touch probe.
 pub(crate) const OBJECTS: [Object; 10] = [
     parameter(TOUCH_PROBE_FUNCTION, "Touch probe function", DataType::Unsigned16, DefaultValue::Zero),
@@ -396,7 +396,7 @@ pub(crate) const OBJECTS: [Object; 10] = [
     actual(TOUCH_PROBE_2_NEGATIVE_EDGE_COUNTER, "Touch probe 2 negative edge counter", DataType::Unsigned16),
 ];
 
-/// The value rule of the touch probe's object `index` ([`super::objects::rule`]): 60B8h
+/// The value rule of the touch probe's object `index` ([`super::registry::rule`]): 60B8h
 /// ([`check_write`]).
 pub(crate) fn rule(index: u16) -> Option<Rule> {
     (super::PROBE && index == TOUCH_PROBE_FUNCTION).then_some(Rule::TouchProbe)

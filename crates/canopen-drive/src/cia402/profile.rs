@@ -45,7 +45,11 @@ use super::objects::*;
 use super::pp;
 #[cfg(feature = "pp")]
 use super::pp::ProfilePosition;
-use super::probe::{Changed, TouchProbe};
+use super::probe::{
+    Changed, TouchProbe, TOUCH_PROBE_1_NEGATIVE_EDGE, TOUCH_PROBE_1_NEGATIVE_EDGE_COUNTER,
+    TOUCH_PROBE_1_POSITIVE_EDGE, TOUCH_PROBE_1_POSITIVE_EDGE_COUNTER, TOUCH_PROBE_2_NEGATIVE_EDGE,
+    TOUCH_PROBE_2_NEGATIVE_EDGE_COUNTER, TOUCH_PROBE_2_POSITIVE_EDGE, TOUCH_PROBE_2_POSITIVE_EDGE_COUNTER,
+};
 use super::pv;
 use super::slots::Slots;
 use super::tq;
@@ -905,7 +909,7 @@ impl Profile {
     /// writes it.
     #[inline]
     pub fn rule(&self, index: u16, sub: u8, pdo: bool) -> Option<Rule> {
-        super::objects::rule(&self.config, self.first_axis_index(index), sub, pdo)
+        super::registry::rule(&self.config, self.first_axis_index(index), sub, pdo)
     }
 
     /// The first axis's index of `index` when it is one of this axis's profile objects (the
@@ -950,7 +954,7 @@ impl Profile {
             Rule::Cascade => crate::control::check_write(od, index, sub, data, self.config.tick_rate.hz()),
             rule => {
                 let index = self.first_axis_index(index);
-                super::objects::check(rule, &self.config, self.supported_modes, index, sub, data)
+                super::registry::check(rule, &self.config, self.supported_modes, index, sub, data)
             }
         }
     }
@@ -2392,6 +2396,7 @@ mod tests {
 #[cfg(all(test, feature = "pp"))]
 mod standstill_tests {
     use super::*;
+    use crate::cia402::registry::PROFILE;
     use crate::od::DeviceInfo;
 
     fn tick(profile: &mut Profile, od: &mut Dictionary<4096>, ms: u64, velocity: i32) -> u16 {
@@ -2444,6 +2449,7 @@ mod standstill_tests {
 #[cfg(test)]
 mod axis_tests {
     use super::*;
+    use crate::cia402::registry::{PROFILE, PROFILE_LEN};
     use crate::od::{DeviceInfo, Object};
 
     const SECOND: Axis = match Axis::new(1) {

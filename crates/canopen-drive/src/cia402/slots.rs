@@ -8,6 +8,7 @@
 //! the same either way. The entries are the profile's axis's ([`Axis::index`]).
 
 use super::objects::*;
+use super::probe::{TOUCH_PROBE_FUNCTION, TOUCH_PROBE_STATUS};
 use super::Axis;
 use crate::od::{Dictionary, IntSlot, Slot};
 

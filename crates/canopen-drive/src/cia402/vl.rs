@@ -889,7 +889,7 @@ pub struct DriveInputs {
     pub axis: Axis,
 }
 
-/// The value rule of vl's object `index` ([`super::objects::rule`]): the factors and ramps
+/// The value rule of vl's object `index` ([`super::registry::rule`]): the factors and ramps
 /// ([`check_write`]).
 pub(crate) fn rule(index: u16) -> Option<Rule> {
     let ruled = matches!(

@@ -104,7 +104,7 @@ pub enum ConfigError {
     },
     /// 6502h ([`DeviceInfo::drive_modes`](super::DeviceInfo)) lists CiA 402 modes this build
     /// does not run (their cargo features are off,
-    /// [`crate::cia402::objects::IMPLEMENTED_MODES`]).
+    /// [`crate::cia402::registry::IMPLEMENTED_MODES`]).
     ModesNotBuilt {
         /// The 6502h bits of the missing modes.
         modes: u32,

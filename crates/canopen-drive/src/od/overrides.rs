@@ -26,7 +26,8 @@
 //! can live in a `static`:
 //!
 //! ```
-//! use canopen_drive::cia402::objects::{PROFILE, SHUTDOWN_OPTION_CODE};
+//! use canopen_drive::cia402::objects::SHUTDOWN_OPTION_CODE;
+//! use canopen_drive::cia402::registry::PROFILE;
 //! use canopen_drive::od::{DataType, EntryOverride};
 //! static OVERRIDES: [EntryOverride; 1] =
 //!     [EntryOverride::of(&PROFILE, SHUTDOWN_OPTION_CODE, 0).data_type(DataType::Unsigned16)];
@@ -58,7 +59,7 @@ impl EntryOverride {
     }
 
     /// Starts from the description of `index`/`sub` in `table` (e.g.
-    /// [`crate::cia402::objects::PROFILE`]), to be changed by the other methods. An entry that
+    /// [`crate::cia402::registry::PROFILE`]), to be changed by the other methods. An entry that
     /// `table` does not have makes an override the dictionary refuses
     /// ([`ConfigError::NoSuchEntry`]).
     pub const fn of(table: &[Object], index: u16, sub: u8) -> Self {
