@@ -331,3 +331,57 @@ fn the_profile_modules_import_no_cycle() {
     assert_eq!(profile_references("use super::{hm, Axis};", &modules, &reexports), ["hm", "objects"]);
     assert_eq!(profile_references("x(crate::cia402::hm::rule(i))", &modules, &reexports), ["hm"]);
 }
+
+/// The functions of `text` before its unit tests: (name, first line, lines), a function running
+/// from its `fn` line to the closing brace at the same indentation.
+fn function_lengths(text: &str) -> Vec<(String, usize, usize)> {
+    let lines: Vec<&str> = text.lines().collect();
+    let end = lines.iter().position(|l| l.trim_start().starts_with("#[cfg(test)]")).unwrap_or(lines.len());
+    let mut found = Vec::new();
+    for (at, line) in lines[..end].iter().enumerate() {
+        let code = line.trim_start();
+        let indent = &line[..line.len() - code.len()];
+        let signature = ["pub(crate) ", "pub(super) ", "pub ", ""]
+            .iter()
+            .find_map(|vis| code.strip_prefix(vis))
+            .map(|rest| rest.strip_prefix("const ").unwrap_or(rest));
+        let Some(name) = signature.and_then(|rest| rest.strip_prefix("fn ")) else { continue };
+        let name: String = name.chars().take_while(|c| c.is_alphanumeric() || *c == '_').collect();
+        let close = format!("{indent}}}");
+        if let Some(last) = lines[at..end].iter().position(|l| *l == close) {
+            found.push((name, at + 1, last + 1));
+        }
+    }
+    found
+}
+
+/// A function of the profile reads in one screen: none in `cia402/` longer than 120 lines, and
+/// the tick (`Profile::tick`, its phases in functions of their own) under 80.
+#[test]
+fn the_profile_functions_are_short() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("src").join("cia402");
+    let mut files = Vec::new();
+    source_files(&dir, &mut files);
+    let mut long = Vec::new();
+    let mut tick = None;
+    for file in &files {
+        let name = file.file_name().unwrap().to_string_lossy().to_string();
+        if name == "tests.rs" || name.ends_with("_tests.rs") {
+            continue;
+        }
+        for (function, line, lines) in function_lengths(&fs::read_to_string(file).unwrap()) {
+            if lines > 120 {
+                long.push(format!("{name}:{line}: `{function}` has {lines} lines"));
+            }
+            if name == "profile.rs" && function == "tick" {
+                tick = Some(lines);
+            }
+        }
+    }
+    assert!(long.is_empty(), "functions over 120 lines in cia402/:\n{}", long.join("\n"));
+    let tick = tick.expect("Profile::tick in cia402/profile.rs");
+    assert!(tick < 80, "Profile::tick has {tick} lines");
+    // The parser measures from the signature to the brace that closes it.
+    let text = "impl A {\n    pub fn f(&self) {\n        if x {\n        }\n    }\n    const fn g() {}\n}\n";
+    assert_eq!(function_lengths(text), [("f".to_string(), 2, 4)]);
+}

@@ -37,7 +37,7 @@
 use super::config::{DirectMode, ProfileConfig, StatusFlag, TravelLimit};
 use super::cyclic::{Bridge, Cycle, CycleStart, Interpolator, Limiter, TickLimits, STREAM_LOST};
 use super::factor::Factors;
-use super::fsa::{Fsa, Options, State, StopKind};
+use super::fsa::{Fsa, Options, State, Step, StopKind};
 use super::hm::{self, HomeOffset, Homing};
 use super::ip::{IpBuffer, Written};
 use super::memo::{Memo, Revised};
@@ -1047,7 +1047,10 @@ impl Profile {
         self.quiet.demand
     }
 
-    /// One control tick. A caller calls [`Self::plan_ahead`] after it.
+    /// One control tick, in phases: the inputs ([`Self::sense`]), the state machine and the
+    /// mode of operation ([`Self::command`]), the active mode's step ([`Self::step_mode`]), and
+    /// the demands, the statusword and what the power stage gets ([`Self::output`]). A caller
+    /// calls [`Self::plan_ahead`] after it.
     pub fn tick<const B: usize>(
         &mut self,
         now: Instant,
@@ -1063,19 +1066,50 @@ impl Profile {
             Some(factors) => factors,
             None => self.refresh(od),
         };
-        let position_sign = factors.position_sign();
-        let velocity_sign = factors.velocity_sign();
-        let actual = i64::from(sample.position);
+        let mut sensed = self.sense(now, sample, od, &factors, &mut report);
+        let command = self.command(now, sample, od, &factors, &sensed, &mut report);
+        let stepped =
+            self.step_mode(now, dt, sample, od, &factors, &mut sensed, &command, cycle, &mut report);
+        let demand = self.output(now, sample, od, &factors, &sensed, &command, stepped, &mut report);
+        // An idle axis: a tick with the same inputs would give the same outputs and leave the
+        // same state (but for the times [`Self::quiet_tick`] keeps).
+        let idle = !demand.drive_enabled
+            && command.step.state == command.before
+            && !command.switched
+            && self.active_mode != mode::HOMING
+            && command.stop.is_none()
+            && report == Report::default()
+            && cycle == SyncInput::default()
+            && !sensed.probe_changed
+            && !self.dynamic_braking
+            && self.forced.is_none()
+            && !matches!(&self.mode, Active::Pv(run) if run.timing());
+        if idle {
+            self.quiet = Quiet { idle: true, sample: *sample, revision: od.revision(), demand };
+        }
+        (demand, report)
+    }
 
-        // Actual values.
+    /// The tick's first phase: the actual values (stored for the bus), the shaft's rest, the
+    /// limit switches, the touch probe and a new hardware fault.
+    #[inline(always)]
+    fn sense<const B: usize>(
+        &mut self,
+        now: Instant,
+        sample: &Sample,
+        od: &mut Dictionary<B>,
+        factors: &Factors,
+        report: &mut Report,
+    ) -> Sensed {
+        let actual = i64::from(sample.position);
         if sample.faults.contains(HardwareFaults::ENCODER) {
             self.homing.forget();
         }
-        let mut actual_user = factors.to_user(actual.saturating_sub(self.origin)) * position_sign;
+        let actual_user = factors.to_user(actual.saturating_sub(self.origin)) * factors.position_sign();
         // 6063h: the encoder count, from the zero homing on the current position may have set.
         od.store(self.slots.position_actual_internal, actual.wrapping_sub(self.internal_origin) as i32);
         od.store(self.slots.position_actual, saturate(actual_user));
-        let velocity_user = factors.velocity_to_user(i64::from(sample.velocity)) * velocity_sign;
+        let velocity_user = factors.velocity_to_user(i64::from(sample.velocity)) * factors.velocity_sign();
         od.store(self.slots.velocity_actual, saturate(velocity_user));
         // The shaft rests: |606Ch| within the velocity threshold 606Fh; with the configuration's
         // option, for longer than the velocity threshold time 6070h, so that a shaft that only
@@ -1113,8 +1147,11 @@ impl Profile {
 
         // Touch probe (digest §10.6): latched in increments, reported in user units. Probe 1's
         // latch of this tick is for touch-probe homing (method 36).
-        let (probe_1, probe_changed) =
-            if super::PROBE { self.tick_probe(od, sample, &factors, position_sign) } else { (None, false) };
+        let (probe, probe_changed) = if super::PROBE {
+            self.tick_probe(od, sample, factors, factors.position_sign())
+        } else {
+            (None, false)
+        };
 
         // Faults: a new one is latched and reported; it stays until a fault reset succeeds.
         let hardware = fault_code(sample.faults);
@@ -1130,7 +1167,22 @@ impl Profile {
                 report.raise = report.raise.or(Some((code, register)));
             }
         }
+        Sensed { actual, actual_user, velocity_user, standstill, probe, probe_changed, hardware }
+    }
 
+    /// The tick's second phase: the controlword (or the board's local control) through the
+    /// state machine, a change of the mode of operation, and the stop the tick makes (the
+    /// state machine's, a halt's or one for a mode change).
+    #[inline(always)]
+    fn command<const B: usize>(
+        &mut self,
+        now: Instant,
+        sample: &Sample,
+        od: &mut Dictionary<B>,
+        factors: &Factors,
+        sensed: &Sensed,
+        report: &mut Report,
+    ) -> Command {
         let options = Options {
             quick_stop: od.load(self.slots.quick_stop_option),
             shutdown: od.load(self.slots.shutdown_option),
@@ -1138,33 +1190,7 @@ impl Profile {
             fault_reaction: od.load(self.slots.fault_reaction_option),
             transition_16: self.config.transition_16,
         };
-        // In local control the controlword is not processed: no command, no mode bits.
-        let local = sample.local_control;
-        let mut controlword =
-            if local { Controlword::empty() } else { Controlword::from_raw(od.load(self.slots.controlword)) };
-        let unavailable = self.active_mode == mode::PROFILE_POSITION
-            && !self.config.change_on_setpoint
-            && controlword.contains(Controlword::CHANGE_ON_SET_POINT);
-        if unavailable != self.unavailable_function {
-            self.unavailable_function = unavailable;
-            report.notices[0] = Some((PARAMETER_ERROR, unavailable));
-        }
-        if unavailable {
-            controlword.remove(Controlword::CHANGE_ON_SET_POINT);
-        }
-        let bit4_rose = controlword.contains(Controlword::MODE_SPECIFIC_4)
-            && !self.previous_controlword.contains(Controlword::MODE_SPECIFIC_4);
-        self.previous_controlword = controlword;
-        let mut commanded = self.forced.take().or((!local).then_some(controlword));
-        if let Some(command) = commanded.as_mut().filter(|c| !c.contains(Controlword::FAULT_RESET)) {
-            // The board's inputs: quick stop (bit 2 = 0), interlock (disable voltage).
-            if sample.inputs.contains(DigitalInputs::QUICK_STOP) {
-                command.remove(Controlword::QUICK_STOP);
-            }
-            if sample.inputs.contains(DigitalInputs::INTERLOCK) {
-                command.remove(Controlword::ENABLE_VOLTAGE);
-            }
-        }
+        let (controlword, commanded, bit4_rose) = self.controlword(sample, od, report);
         let before = self.fsa.state();
         let previous_velocity = self.velocity_demand();
         let at_rest = previous_velocity == 0;
@@ -1174,7 +1200,7 @@ impl Profile {
                 || self.engaging_since.is_some_and(|since| now - since >= self.config.brake_engage_delay));
         let step = self.fsa.step(
             commanded,
-            self.fault.is_some() && !before_fault_cleared(before, hardware),
+            self.fault.is_some() && !before_fault_cleared(before, sensed.hardware),
             stopped,
             &options,
         );
@@ -1211,7 +1237,7 @@ impl Profile {
             crate::fmt::info!("cia402: mode of operation {}", requested);
             self.homing.interrupt();
             self.velocity = Ramp { value: i64::from(sample.velocity), remainder: 0 };
-            self.start_mode(actual, actual_user, i64::from(sample.velocity));
+            self.start_mode(sensed.actual, sensed.actual_user, i64::from(sample.velocity));
         }
         od.store(self.slots.modes_of_operation_display, self.display_mode);
 
@@ -1221,7 +1247,7 @@ impl Profile {
             self.velocity = Ramp { value: i64::from(sample.velocity), remainder: 0 };
             self.torque = Ramp::default();
             self.homing.interrupt();
-            self.restart_mode(actual, actual_user, i64::from(sample.velocity));
+            self.restart_mode(sensed.actual, sensed.actual_user, i64::from(sample.velocity));
         }
         let operation = matches!(step.state, State::OperationEnabled { leaving: None });
         // 605Dh: how a halt stops (`None`: a fault reaction); read once for both uses below.
@@ -1242,13 +1268,88 @@ impl Profile {
                 None
             }
         });
-        let limits = self.motion_limits(od, &factors);
-        let vmax = limits.velocity;
+        let limits = self.motion_limits(od, factors);
         if let Some(kind) = stop.filter(|_| !self.stopping) {
-            self.start_stop(od, &factors, kind, i64::from(sample.velocity));
+            self.start_stop(od, factors, kind, i64::from(sample.velocity));
         }
         self.stopping = stop.is_some();
+        Command {
+            options,
+            controlword,
+            bit4_rose,
+            before,
+            previous_velocity,
+            at_rest,
+            step,
+            enabled,
+            switched,
+            halt,
+            operation,
+            halt_kind: halt_option.unwrap_or(StopKind::SlowDown),
+            stop,
+            limits,
+        }
+    }
 
+    /// The controlword as the tick takes it: none in local control, bit 9 removed where the
+    /// configuration has no change on set-point (reported once), and what the state machine
+    /// is commanded (a forced command first; the board's quick-stop and interlock inputs
+    /// override bits 2 and 1); with whether bit 4 rose since the last tick.
+    #[inline(always)]
+    fn controlword<const B: usize>(
+        &mut self,
+        sample: &Sample,
+        od: &Dictionary<B>,
+        report: &mut Report,
+    ) -> (Controlword, Option<Controlword>, bool) {
+        // In local control the controlword is not processed: no command, no mode bits.
+        let local = sample.local_control;
+        let mut controlword =
+            if local { Controlword::empty() } else { Controlword::from_raw(od.load(self.slots.controlword)) };
+        let unavailable = self.active_mode == mode::PROFILE_POSITION
+            && !self.config.change_on_setpoint
+            && controlword.contains(Controlword::CHANGE_ON_SET_POINT);
+        if unavailable != self.unavailable_function {
+            self.unavailable_function = unavailable;
+            report.notices[0] = Some((PARAMETER_ERROR, unavailable));
+        }
+        if unavailable {
+            controlword.remove(Controlword::CHANGE_ON_SET_POINT);
+        }
+        let bit4_rose = controlword.contains(Controlword::MODE_SPECIFIC_4)
+            && !self.previous_controlword.contains(Controlword::MODE_SPECIFIC_4);
+        self.previous_controlword = controlword;
+        let mut commanded = self.forced.take().or((!local).then_some(controlword));
+        if let Some(command) = commanded.as_mut().filter(|c| !c.contains(Controlword::FAULT_RESET)) {
+            // The board's inputs: quick stop (bit 2 = 0), interlock (disable voltage).
+            if sample.inputs.contains(DigitalInputs::QUICK_STOP) {
+                command.remove(Controlword::QUICK_STOP);
+            }
+            if sample.inputs.contains(DigitalInputs::INTERLOCK) {
+                command.remove(Controlword::ENABLE_VOLTAGE);
+            }
+        }
+        (controlword, commanded, bit4_rose)
+    }
+
+    /// The tick's third phase: the brake, then the set-point of the tick's stop, of the active
+    /// mode, or of a held axis; a limit switch touched by commanded motion.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn step_mode<const B: usize>(
+        &mut self,
+        now: Instant,
+        dt: Duration,
+        sample: &Sample,
+        od: &mut Dictionary<B>,
+        factors: &Factors,
+        sensed: &mut Sensed,
+        command: &Command,
+        cycle: SyncInput,
+        report: &mut Report,
+    ) -> Stepped {
+        let Command { step, enabled, stop, .. } = *command;
+        let (actual, actual_user) = (sensed.actual, sensed.actual_user);
         let mut drive_enabled = enabled;
         let mut status = pp::Status::default();
         self.feed_forward = FeedForward::NONE;
@@ -1268,32 +1369,31 @@ impl Profile {
         let opening = enabled && now - released_at < self.config.brake_release_delay;
         let bit4_rose = if opening {
             // The edge of the enabling command itself starts nothing (testable item 74).
-            self.pending_edge |= bit4_rose && !step.entered_operation;
+            self.pending_edge |= command.bit4_rose && !step.entered_operation;
             false
         } else {
-            bit4_rose
+            command.bit4_rose
                 || core::mem::take(&mut self.pending_edge)
-                    && controlword.contains(Controlword::MODE_SPECIFIC_4)
+                    && command.controlword.contains(Controlword::MODE_SPECIFIC_4)
         };
-        let halt_kind = halt_option.unwrap_or(StopKind::SlowDown);
         let input = ModeInput {
             now,
             dt,
             sample,
-            factors: &factors,
-            controlword,
+            factors,
+            controlword: command.controlword,
             cycle,
-            halt,
-            halt_kind,
+            halt: command.halt,
+            halt_kind: command.halt_kind,
             bit4_rose,
-            operation,
+            operation: command.operation,
             entered_operation: step.entered_operation,
             enabled: drive_enabled,
             actual,
             actual_user,
-            standstill,
-            probe: probe_1,
-            limits,
+            standstill: sensed.standstill,
+            probe: sensed.probe,
+            limits: command.limits,
         };
         self.commanded = 0;
         let mut setpoint = match stop {
@@ -1313,12 +1413,12 @@ impl Profile {
             }
             Some(kind) => self.step_stop(od, &input, kind),
             None if self.mode.is_hm() => {
-                let (setpoint, homed) = self.run_homing(od, &input, &mut report);
-                actual_user = homed.unwrap_or(actual_user);
+                let (setpoint, homed) = self.run_homing(od, &input, report);
+                sensed.actual_user = homed.unwrap_or(actual_user);
                 setpoint
             }
             None if drive_enabled => {
-                let (setpoint, mode_status) = self.run_active(od, &input, &mut report);
+                let (setpoint, mode_status) = self.run_active(od, &input, report);
                 status = mode_status;
                 setpoint
             }
@@ -1346,21 +1446,42 @@ impl Profile {
                 run.held_set_point = true;
             }
         }
-        if let Some(held) = self.trajectory_feed_forward(drive_enabled, vmax, previous_velocity) {
+        let vmax = command.limits.velocity;
+        if let Some(held) = self.trajectory_feed_forward(drive_enabled, vmax, command.previous_velocity) {
             setpoint = held;
         }
+        Stepped { setpoint, status, drive_enabled, opening }
+    }
 
+    /// The tick's last phase: the demand values and the following error (stored for the bus),
+    /// the statusword, the position and velocity loops and what the power stage gets.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn output<const B: usize>(
+        &mut self,
+        now: Instant,
+        sample: &Sample,
+        od: &mut Dictionary<B>,
+        factors: &Factors,
+        sensed: &Sensed,
+        command: &Command,
+        stepped: Stepped,
+        report: &mut Report,
+    ) -> Demand {
+        let Stepped { setpoint, status, drive_enabled, opening } = stepped;
+        let (actual, actual_user) = (sensed.actual, sensed.actual_user);
+        let step = command.step;
         // Demands and the position control function (digest §11).
         let trajectory = self.trajectory();
         let demand_position = trajectory.filter(|_| drive_enabled).map(|state| state.position);
         let demand_internal = demand_position.unwrap_or(actual).saturating_sub(self.origin);
-        let demand_user = factors.to_user(demand_internal) * position_sign;
+        let demand_user = factors.to_user(demand_internal) * factors.position_sign();
         od.store(self.slots.position_demand_internal, demand_internal as i32);
         od.store(self.slots.position_demand, saturate(demand_user));
         let following_error = demand_user.saturating_sub(actual_user);
         od.store(self.slots.following_error_actual, saturate(following_error));
         let velocity_demand_internal = self.velocity_of(trajectory);
-        let velocity_demand = factors.velocity_to_user(velocity_demand_internal) * velocity_sign;
+        let velocity_demand = factors.velocity_to_user(velocity_demand_internal) * factors.velocity_sign();
         od.store(self.slots.velocity_demand, saturate(velocity_demand));
         od.store_int(self.slots.torque_demand, factors.torque_to_user(self.torque.value));
         let following =
@@ -1373,19 +1494,19 @@ impl Profile {
         let status_input = StatusInput {
             state: step.state,
             sample,
-            options,
+            options: command.options,
             pp: status,
-            halt,
-            standstill,
-            operation,
+            halt: command.halt,
+            standstill: sensed.standstill,
+            operation: command.operation,
             drive_enabled,
             following,
             velocity_demand_internal,
             velocity_demand,
-            velocity_user,
+            velocity_user: sensed.velocity_user,
             opening,
-            was_at_rest: at_rest,
-            factors: &factors,
+            was_at_rest: command.at_rest,
+            factors,
             actual,
         };
         let statusword = self.statusword(&status_input, od, now);
@@ -1395,7 +1516,7 @@ impl Profile {
         let outputs = od.load(self.slots.digital_outputs_physical)
             & od.load_or(self.slots.digital_outputs_mask, u32::MAX);
         let setpoint =
-            if drive_enabled { self.close_loops(setpoint, sample, od, &factors) } else { Setpoint::None };
+            if drive_enabled { self.close_loops(setpoint, sample, od, factors) } else { Setpoint::None };
         if !drive_enabled {
             if let Some(cascade) = self.cascade.as_mut() {
                 cascade.reset(0);
@@ -1405,31 +1526,14 @@ impl Profile {
         if drive_enabled || sample.velocity == 0 {
             self.dynamic_braking = false;
         }
-        let demand = Demand {
+        Demand {
             high_voltage: step.state.high_voltage(),
             drive_enabled,
             brake_released: drive_enabled && outputs & 1 == 0 && self.engaging_since.is_none(),
             dynamic_brake: self.dynamic_braking,
             setpoint,
             feed_forward: if drive_enabled { self.feed_forward } else { FeedForward::NONE },
-        };
-        // An idle axis: a tick with the same inputs would give the same outputs and leave the
-        // same state (but for the times [`Self::quiet_tick`] keeps).
-        let idle = !drive_enabled
-            && step.state == before
-            && !switched
-            && self.active_mode != mode::HOMING
-            && stop.is_none()
-            && report == Report::default()
-            && cycle == SyncInput::default()
-            && !probe_changed
-            && !self.dynamic_braking
-            && self.forced.is_none()
-            && !matches!(&self.mode, Active::Pv(run) if run.timing());
-        if idle {
-            self.quiet = Quiet { idle: true, sample: *sample, revision: od.revision(), demand };
         }
-        (demand, report)
     }
 
     /// The motion limits in increments, converted again only when one of their objects (or
@@ -2315,6 +2419,65 @@ struct StatusInput<'a> {
     factors: &'a Factors,
     /// The encoder count.
     actual: i64,
+}
+
+/// What the tick's first phase ([`Profile::sense`]) read from the sample.
+struct Sensed {
+    /// The encoder count.
+    actual: i64,
+    /// 6064h (homing may set it anew in the mode's step).
+    actual_user: i64,
+    /// 606Ch.
+    velocity_user: i64,
+    /// The shaft rests as a halt and homing's completion need it.
+    standstill: bool,
+    /// Probe 1's latch of this tick (increments).
+    probe: Option<i64>,
+    /// A touch probe latched or changed its status in this tick.
+    probe_changed: bool,
+    /// The hardware fault of the sample, if any.
+    hardware: Option<(u16, ErrorRegister)>,
+}
+
+/// What the tick's second phase ([`Profile::command`]) decided.
+#[derive(Clone, Copy)]
+struct Command {
+    options: Options,
+    /// The controlword as the modes see it.
+    controlword: Controlword,
+    /// Controlword bit 4 rose since the last tick.
+    bit4_rose: bool,
+    /// The state before the tick.
+    before: State,
+    /// The velocity demand at the start of the tick, and whether it was 0.
+    previous_velocity: i64,
+    at_rest: bool,
+    step: Step,
+    /// The drive function is enabled.
+    enabled: bool,
+    /// The mode of operation changed in this tick.
+    switched: bool,
+    /// Controlword bit 8.
+    halt: bool,
+    /// Operation enabled, no ramped exit running.
+    operation: bool,
+    /// The stop a halt makes (605Dh).
+    halt_kind: StopKind,
+    /// The stop the tick makes, if any.
+    stop: Option<StopKind>,
+    /// The motion limits in increments.
+    limits: MotionLimits,
+}
+
+/// What the tick's third phase ([`Profile::step_mode`]) produced.
+struct Stepped {
+    setpoint: Setpoint,
+    /// The bits pp or ip reported.
+    status: pp::Status,
+    /// The drive function stays enabled (a coasting stop disables it).
+    drive_enabled: bool,
+    /// The brake is opening.
+    opening: bool,
 }
 
 /// The tick's inputs as the active mode's step sees them ([`Profile::run_active`],
