@@ -9,7 +9,7 @@
 //! |---|---|---|
 //! | `InterruptExecutor` on UART4's (unused) interrupt | P1, above everything else the firmware runs | the 1 kHz control tick: sample the feedback, `SharedDrive::tick`, apply the demand to the power stage |
 //! | FDCAN1 interrupts | embassy-stm32's | the HAL's receive queue and transmit wakers |
-//! | thread-mode executor | lowest | the CAN runner: FDCAN ⇄ drive, `poll` at its deadline, the controller's error state to the drive, an LSS store to flash, and the bit-rate switch an LSS master activates (FDCAN1 closed and reopened) |
+//! | thread-mode executor | lowest | the CAN runner: FDCAN ⇄ drive, `poll` at its deadline, the controller's error state to the drive, an LSS store to flash, and the bit-rate switch an LSS master activates (FDCAN1 closed and reopened); the indicator task: the red LED (PC6) as the CiA 303-3 ERR indicator every 10 ms, and the program requests of 1F51h |
 //!
 //! The discipline is `canopen-drive-embassy`'s (one critical section per call into the
 //! drive). What is the board's to complete is marked `BOARD STUB` in `power.rs`: the FOC
@@ -20,6 +20,12 @@
 //! default build, about 113 KiB; 6502h lists those); the trajectory planner of pp and hm does
 //! not fit besides. The feature `stm32g474ce` builds the same firmware for the pin-compatible
 //! STM32G474CE (512 KiB / 128 KiB) with every mode. README.md has the numbers.
+//!
+//! Program download (CiA 302-3): with the feature `application-image` the firmware is linked
+//! into the program area behind the bootloader (`src/bin/bootloader.rs`, `src/boot.rs`), has
+//! 1F50h-1F57h, reads its 1F56h from the image header there, and resets into the bootloader
+//! for a stop or a reset (1F51h:1 = 0 or 2). What the firmware shares with the bootloader
+//! (layout, identity, CAN, LSS page, LED) is the crate's library, `src/lib.rs`.
 #![no_std]
 #![no_main]
 
