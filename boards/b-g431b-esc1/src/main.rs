@@ -17,7 +17,7 @@
 //! `cargo run --release` (probe-rs over the on-board ST-LINK).
 //!
 //! Modes: the STM32G431CB's 128 KiB hold the drive with csp, csv, cst, pv and tq (the
-//! default build, about 113 KiB; 6502h lists those); the trajectory planner of pp and hm does
+//! default build, about 115 KiB; 6502h lists those); the trajectory planner of pp and hm does
 //! not fit besides. The feature `stm32g474ce` builds the same firmware for the pin-compatible
 //! STM32G474CE (512 KiB / 128 KiB) with every mode. README.md has the numbers.
 //!
