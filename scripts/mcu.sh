@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The MCU part of the suite (issue 7): installs qemu-system-arm if it is missing, builds the
 # QEMU firmware for thumbv7em and thumbv6m (and the real-board firmware for thumbv7em, when it
-# is in the tree), the QEMU bootloader's two application images (program download, issue 35),
+# is in the tree: drive, bootloader, and the STM32G474CE's application image), the QEMU
+# bootloader's two application images (program download, issue 35),
 # runs the python-canopen tests against the firmware in QEMU, the
 # deterministic tick-bound run (how long the drive holds off the tick; that the current loop
 # above the drive's lock keeps its period), and the footprint check against its budgets.
@@ -77,9 +78,11 @@ for build in "1 1.0.0 0x00010000" "2 2.0.0 0x00020000"; do
 done
 
 if [ -f boards/b-g431b-esc1/Cargo.toml ]; then
-    step "boards/b-g431b-esc1: firmware for thumbv7em (embassy-stm32): the STM32G431CB (csp, csv, cst, pv, tq) and the STM32G474CE variant (every mode)"
+    step "boards/b-g431b-esc1: firmware for thumbv7em (embassy-stm32): the drive and the bootloader for the STM32G431CB (csp, csv, cst, pv, tq) and the STM32G474CE variant (every mode)"
     # The board's own STM32G431CB (128 KiB) holds the drive without pp, hm, ip, vl and the touch
     # probe (boards/b-g431b-esc1/README.md); the pin-compatible STM32G474CE runs every mode.
+    # Each build links both bins: the standalone drive and the bootloader (CiA 302-3, whose
+    # link checks that it ends below the program area).
     for features in "" "--no-default-features --features stm32g474ce"; do
         # shellcheck disable=SC2086 # two words of cargo arguments
         (cd boards/b-g431b-esc1 && CARGO_TARGET_DIR="$firmware_target/b-g431b-esc1" \
@@ -88,6 +91,24 @@ if [ -f boards/b-g431b-esc1/Cargo.toml ]; then
         (cd boards/b-g431b-esc1 && CARGO_TARGET_DIR="$firmware_target/b-g431b-esc1" \
             cargo build --release $features)
     done
+
+    step "boards/b-g431b-esc1: the drive as the bootloader's program (feature application-image): linted for both parts, linked and made an image for the STM32G474CE"
+    # On the STM32G431CB the drive does not fit behind the bootloader yet (the README has the
+    # numbers): its application-image build is linted, never linked.
+    # The same target directory as above (the dependencies are built already); the image and
+    # its ELF are kept apart, since the next build of the drive overwrites its output.
+    for features in "--features application-image" "--no-default-features --features stm32g474ce,application-image"; do
+        # shellcheck disable=SC2086
+        (cd boards/b-g431b-esc1 && CARGO_TARGET_DIR="$firmware_target/b-g431b-esc1" \
+            cargo clippy --release $features -- -D warnings)
+    done
+    (cd boards/b-g431b-esc1 && CARGO_TARGET_DIR="$firmware_target/b-g431b-esc1" \
+        cargo build --release --no-default-features --features stm32g474ce,application-image --bin b-g431b-esc1)
+    board_image_dir="$firmware_target/b-g431b-esc1-image"
+    mkdir -p "$board_image_dir"
+    cp "$firmware_target/b-g431b-esc1/thumbv7em-none-eabihf/release/b-g431b-esc1" "$board_image_dir/app-g474ce.elf"
+    python3 boards/qemu-mps2/make_image.py "$board_image_dir/app-g474ce.elf" "$board_image_dir/app-g474ce.img" \
+        --area "$board_image_dir/app-g474ce.area" --payload-offset 0x800
 fi
 
 step "python-canopen against the firmware in QEMU (embassy on mps2-an386 and program download through its bootloader, then the bare-interrupt firmware and the thumbv6m build)"

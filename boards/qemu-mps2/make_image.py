@@ -14,12 +14,14 @@ The image goes to 1F50h:1 as it is; the bootloader puts the header at the start 
 program area and the payload PAYLOAD_OFFSET bytes further, where the application is linked
 (memory/application.x).
 
-    make_image.py APP_ELF IMAGE [--pad-to BYTES]
+    make_image.py APP_ELF IMAGE [--pad-to BYTES] [--area FILE [--payload-offset BYTES]]
 
 --pad-to pads the payload with 0xFF to that length (an image of a given size, to measure a
 download's throughput). --area FILE also writes the program area's contents as a finished
 download leaves them (header, erased bytes up to PAYLOAD_OFFSET, payload), for QEMU to load
-at the area's start: `-device loader,file=FILE,addr=0x10000`.
+at the area's start: `-device loader,file=FILE,addr=0x10000`, or a flash tool to write there.
+--payload-offset BYTES sets PAYLOAD_OFFSET for another board's area (0x800 on the
+B-G431B-ESC1: boards/b-g431b-esc1/src/layout.rs); the image itself does not depend on it.
 
 As a module: `header(payload)`, `image(payload)`, `payload(image)`, `area(image)`.
 """
@@ -61,11 +63,12 @@ def payload(image_bytes: bytes) -> bytes:
     return body
 
 
-def area(image_bytes: bytes) -> bytes:
+def area(image_bytes: bytes, payload_offset: int = PAYLOAD_OFFSET) -> bytes:
     """The program area's first bytes after a download of `image_bytes`: the header, erased
-    bytes (0xFF) up to PAYLOAD_OFFSET, the payload."""
+    bytes (0xFF) up to `payload_offset` (this board's PAYLOAD_OFFSET by default), the
+    payload."""
     body = payload(image_bytes)
-    return image_bytes[:HEADER_LEN] + b"\xff" * (PAYLOAD_OFFSET - HEADER_LEN) + body
+    return image_bytes[:HEADER_LEN] + b"\xff" * (payload_offset - HEADER_LEN) + body
 
 
 def objcopy() -> str:
@@ -96,13 +99,21 @@ def main():
     parser.add_argument("image", type=pathlib.Path, help="the image to write")
     parser.add_argument("--pad-to", type=int, default=0, help="pad the payload with 0xFF to this many bytes")
     parser.add_argument("--area", type=pathlib.Path, help="also write the program area's contents to this file")
+    parser.add_argument(
+        "--payload-offset",
+        type=lambda text: int(text, 0),
+        default=PAYLOAD_OFFSET,
+        help=f"where the payload lies in the program area, for --area (default {PAYLOAD_OFFSET:#x}, this board's)",
+    )
     args = parser.parse_args()
+    if args.payload_offset < HEADER_LEN or args.payload_offset % 8:
+        sys.exit("make_image: --payload-offset must be at least 16 and a multiple of 8")
     body = binary(args.elf)
     if len(body) < args.pad_to:
         body += b"\xff" * (args.pad_to - len(body))
     args.image.write_bytes(image(body))
     if args.area:
-        args.area.write_bytes(area(image(body)))
+        args.area.write_bytes(area(image(body), args.payload_offset))
     print(f"{args.image}: payload {len(body)} bytes, CRC-32 {zlib.crc32(body):08X}")
 
 

@@ -28,12 +28,12 @@ use canopen_drive::wire::crc;
 use canopen_drive::wire::lss::{BitTiming, NODE_ID_UNCONFIGURED};
 use embassy_stm32::flash::{Blocking, Error, Flash, MAX_ERASE_SIZE, WRITE_SIZE};
 
-use crate::storage;
+use crate::layout::{self, THIS_PART};
 
 /// The page: one erase unit (2 KiB on both parts).
-const PAGE_LEN: u32 = 2048;
+const PAGE_LEN: u32 = layout::PAGE;
 /// Where it starts (offset from the start of flash): right below the parameters.
-pub const PAGE_START: u32 = storage::AREA_START - PAGE_LEN;
+pub const PAGE_START: u32 = THIS_PART.lss_page();
 /// A record: one flash write unit.
 const RECORD_LEN: usize = 8;
 const SLOTS: u32 = PAGE_LEN / RECORD_LEN as u32;

@@ -9,7 +9,7 @@
 //! |---|---|---|
 //! | `InterruptExecutor` on UART4's (unused) interrupt | P1, above everything else the firmware runs | the 1 kHz control tick: sample the feedback, `SharedDrive::tick`, apply the demand to the power stage |
 //! | FDCAN1 interrupts | embassy-stm32's | the HAL's receive queue and transmit wakers |
-//! | thread-mode executor | lowest | the CAN runner: FDCAN ⇄ drive, `poll` at its deadline, the controller's error state to the drive, an LSS store to flash, and the bit-rate switch an LSS master activates (FDCAN1 closed and reopened) |
+//! | thread-mode executor | lowest | the CAN runner: FDCAN ⇄ drive, `poll` at its deadline, the controller's error state to the drive, an LSS store to flash, and the bit-rate switch an LSS master activates (FDCAN1 closed and reopened); the indicator task: the red LED (PC6) as the CiA 303-3 ERR indicator every 10 ms, and the program requests of 1F51h |
 //!
 //! The discipline is `canopen-drive-embassy`'s (one critical section per call into the
 //! drive). What is the board's to complete is marked `BOARD STUB` in `power.rs`: the FOC
@@ -17,20 +17,23 @@
 //! `cargo run --release` (probe-rs over the on-board ST-LINK).
 //!
 //! Modes: the STM32G431CB's 128 KiB hold the drive with csp, csv, cst, pv and tq (the
-//! default build, about 113 KiB; 6502h lists those); the trajectory planner of pp and hm does
+//! default build, about 115 KiB; 6502h lists those); the trajectory planner of pp and hm does
 //! not fit besides. The feature `stm32g474ce` builds the same firmware for the pin-compatible
 //! STM32G474CE (512 KiB / 128 KiB) with every mode. README.md has the numbers.
+//!
+//! Program download (CiA 302-3): with the feature `application-image` the firmware is linked
+//! into the program area behind the bootloader (`src/bin/bootloader.rs`, `src/boot.rs`), has
+//! 1F50h-1F57h, reads its 1F56h from the image header there, and resets into the bootloader
+//! for a stop or a reset (1F51h:1 = 0 or 2). What the firmware shares with the bootloader
+//! (layout, identity, CAN, LSS page, LED) is the crate's library, `src/lib.rs`.
 #![no_std]
 #![no_main]
 
-mod can;
-mod lss;
-mod power;
-mod storage;
-
-use canopen_drive::od::DeviceInfo;
+use canopen_drive::comm::program::ProgramRequest;
 use canopen_drive::wire::lss::BitTiming;
 use canopen_drive::{Config, Drive};
+use canopen_drive_b_g431b_esc1::led::{self, ErrLed};
+use canopen_drive_b_g431b_esc1::{boot, can, lss, power, storage, DEVICE, NODE_ID};
 use canopen_drive_embassy::fdcan::FdcanStatus;
 use canopen_drive_embassy::{run_until_bit_rate_change, BusState, RunnerHooks, SharedDrive, TickMonitor};
 use defmt_rtt as _;
@@ -47,8 +50,6 @@ use static_cell::StaticCell;
 /// standard tables), 4 + 4 PDOs, parameters in flash.
 pub type BoardDrive = Drive<(), { canopen_drive::drive::STANDARD_OD_BYTES }, 4, 4, storage::ParameterStore>;
 
-/// Node-ID until an LSS master stores another (`lss.rs`).
-const NODE_ID: u8 = 5;
 /// Layout number of the stored parameters (part of the storage signature).
 const STORAGE_LAYOUT: u16 = 1;
 /// The control tick period (the core's default rate).
@@ -65,26 +66,27 @@ unsafe fn UART4() {
     unsafe { TICK_EXECUTOR.on_interrupt() }
 }
 
-fn device_info() -> DeviceInfo {
-    DeviceInfo {
-        device_name: "canopen-drive B-G431B-ESC1",
-        hardware_version: if cfg!(feature = "stm32g474ce") {
-            "B-G431B-ESC1 (STM32G474CE)"
-        } else {
-            "B-G431B-ESC1 (STM32G431CB)"
-        },
-        vendor_name: "canopen-drive project",
-        ..DeviceInfo::servo_drive()
-    }
-}
-
 #[inline(never)]
-fn make_drive(store: storage::ParameterStore, node_id: u8) -> Option<&'static mut BoardDrive> {
-    let config =
-        Config { device: device_info(), lss_store: true, bit_rates: &can::BIT_RATES, ..Config::new(node_id) };
+fn make_drive(
+    store: storage::ParameterStore,
+    node_id: u8,
+    identification: u32,
+) -> Option<&'static mut BoardDrive> {
+    let config = Config {
+        device: DEVICE,
+        lss_store: true,
+        bit_rates: &can::BIT_RATES,
+        // Behind the bootloader: 1F50h-1F57h, 1F56h the CRC-32 of this image.
+        program_download: cfg!(feature = "application-image"),
+        ..Config::new(node_id)
+    };
     // Built in place: a drive built by value and moved would need several times its size
     // of stack, more than this part's 32 KiB of RAM.
-    Drive::build_in(DRIVE_CELL.uninit(), config, (), store).ok()
+    let drive = Drive::build_in(DRIVE_CELL.uninit(), config, (), store).ok()?;
+    if cfg!(feature = "application-image") {
+        drive.set_program_identification(identification);
+    }
+    Some(drive)
 }
 
 #[embassy_executor::main]
@@ -101,10 +103,14 @@ async fn main(spawner: Spawner) {
         stored
     );
 
-    let Some(store) = storage::open(flash, &device_info(), STORAGE_LAYOUT) else {
+    // The CRC-32 of this image, from the header the bootloader wrote before it.
+    let identification =
+        if cfg!(feature = "application-image") { boot::identification(&mut flash) } else { 0 };
+
+    let Some(store) = storage::open(flash, &DEVICE, STORAGE_LAYOUT) else {
         defmt::panic!("parameter flash area");
     };
-    let Some(drive) = make_drive(store, node_id) else {
+    let Some(drive) = make_drive(store, node_id, identification) else {
         defmt::panic!("drive configuration");
     };
     DRIVE.put(drive);
@@ -136,6 +142,10 @@ async fn main(spawner: Spawner) {
     match can_task(can, Board { status: None, stored }, bit_rate) {
         Ok(token) => spawner.spawn(token),
         Err(_) => defmt::panic!("CAN task"),
+    }
+    match indicator_task(ErrLed::new(p.PC6)) {
+        Ok(token) => spawner.spawn(token),
+        Err(_) => defmt::panic!("indicator task"),
     }
 }
 
@@ -193,6 +203,34 @@ impl RunnerHooks for Board {
             Some(Err(e)) => defmt::error!("LSS: store failed: {}", e),
             None => defmt::error!("LSS: store failed: drive busy"),
         }
+    }
+}
+
+/// How long a program request waits for FDCAN1 to send the answer before the reset: its
+/// three transmit buffers' worth of classic frames (at most 160 bits each) at the slowest
+/// rate, 10 kbit/s, is 48 ms.
+const SEND_DELAY: Duration = Duration::from_millis(100);
+
+/// The red LED as the CiA 303-3 ERR indicator, sampled every 10 ms; and, behind the
+/// bootloader, the program requests of 1F51h:1: a stop (0) resets into the bootloader and
+/// asks it to stay, a reset (2) resets into it to start this program again. The request is
+/// given once its answer has left the drive's queue; the task then gives FDCAN1
+/// [`SEND_DELAY`] to send it. (Without the feature `application-image` the drive has no
+/// 1F51h and never asks.)
+#[embassy_executor::task]
+async fn indicator_task(mut led: ErrLed) {
+    loop {
+        let now = canopen_drive_embassy::now();
+        let state = DRIVE.with(|drive| (drive.node_status(), drive.take_program_request()));
+        if let Some((status, request)) = state {
+            led.show(&status, now);
+            if let Some(request) = request {
+                defmt::info!("program {}: reset into the bootloader", request);
+                Timer::after(SEND_DELAY).await;
+                boot::reset_into_bootloader(request == ProgramRequest::Stop);
+            }
+        }
+        Timer::after_millis(led::PERIOD_MS).await;
     }
 }
 

@@ -1,24 +1,19 @@
 //! Stored parameters (1010h/1011h) in the last two pages of the internal flash (2 × 2 KiB on
 //! the STM32G431CB, 4 × 2 KiB on the STM32G474CE in dual-bank mode), through `embedded-storage`: the core's
 //! power-loss-safe two-bank journal over a `NorFlashArea`. build.rs keeps them (and the LSS
-//! configuration page below them, `lss.rs`) out of the linker's flash region.
+//! configuration page below them, `lss.rs`) out of the linker's flash region (`layout`).
 
 use canopen_drive::od::DeviceInfo;
 use canopen_drive::storage::{device_signature, NorFlashArea, Storage};
 use embassy_stm32::flash::{Blocking, Flash};
 
-/// Its size: two pages, one bank each.
-#[cfg(not(feature = "stm32g474ce"))]
-pub const AREA_LEN: u32 = 4 * 1024;
-/// Its size: four pages, two per bank.
-#[cfg(feature = "stm32g474ce")]
-pub const AREA_LEN: u32 = 8 * 1024;
+use crate::layout::THIS_PART;
+
+/// Its size: two pages (one per journal bank) on the STM32G431CB, four on the STM32G474CE
+/// (`layout::Layout::parameters`).
+pub const AREA_LEN: u32 = THIS_PART.parameters;
 /// Where the parameters live: the end of flash (offsets from the start of flash).
-#[cfg(not(feature = "stm32g474ce"))]
-pub const AREA_START: u32 = 128 * 1024 - AREA_LEN;
-/// Where the parameters live: the end of flash (offsets from the start of flash).
-#[cfg(feature = "stm32g474ce")]
-pub const AREA_START: u32 = 512 * 1024 - AREA_LEN;
+pub const AREA_START: u32 = THIS_PART.parameters_start();
 
 /// The parameter storage of this board.
 pub type ParameterStore = Storage<NorFlashArea<Flash<'static, Blocking>>>;
