@@ -19,7 +19,7 @@ use crate::comm::heartbeat::HeartbeatProducer;
 use crate::comm::indicators::NodeStatus;
 use crate::comm::nmt::{transition, NmtAction, Services};
 use crate::comm::program::{self, ProgramDownload, ProgramRequest, PROGRAM_DATA};
-use crate::comm::sdo_server::{ObjectAccess, SdoServer};
+use crate::comm::sdo_server::{self, ObjectAccess, SdoServer};
 use crate::comm::NmtState;
 use crate::od::standard::{BOOTLOADER_COMMUNICATION, PRODUCER_HEARTBEAT_TIME};
 use crate::od::{storage_bytes, AbortCode, ConfigError, DeviceInfo, Dictionary, Entry, Object};
@@ -118,7 +118,8 @@ impl<F: NonVolatile, const BUF: usize> Bootloader<F, BUF> {
                 self.nmt_action(transition(self.nmt, control.command), now);
             }
         } else if id == 0x600 + u16::from(node_id) && self.nmt.serves_sdo() {
-            let mut access = Access { od: &mut self.od, program: &mut self.program, heartbeat: false };
+            let mut access =
+                Access { od: &mut self.od, program: &mut self.program, nmt: self.nmt, heartbeat: false };
             let response = self.sdo.on_request(data, now, &mut access);
             let heartbeat = access.heartbeat;
             if let Some(response) = response {
@@ -190,7 +191,8 @@ impl<F: NonVolatile, const BUF: usize> Bootloader<F, BUF> {
     fn drain_sdo(&mut self, now: Instant) {
         let id = 0x580 + u16::from(self.od.node_id());
         while self.sdo.deadline().is_some_and(|due| now >= due) && !self.tx.is_full() {
-            let mut access = Access { od: &mut self.od, program: &mut self.program, heartbeat: false };
+            let mut access =
+                Access { od: &mut self.od, program: &mut self.program, nmt: self.nmt, heartbeat: false };
             match self.sdo.poll(now, &mut access) {
                 Some(frame) => self.send(id, &frame),
                 None => break,
@@ -203,6 +205,7 @@ impl<F: NonVolatile, const BUF: usize> Bootloader<F, BUF> {
 struct Access<'a, F: NonVolatile, const B: usize> {
     od: &'a mut Dictionary<B>,
     program: &'a mut ProgramDownload<F>,
+    nmt: NmtState,
     /// 1017h was written.
     heartbeat: bool,
 }
@@ -216,9 +219,8 @@ impl<F: NonVolatile, const B: usize> Access<'_, F, B> {
 
     fn writable(&self, mux: Mux) -> Result<(Entry, bool), AbortCode> {
         let (entry, service) = self.entry(mux)?;
-        if !entry.var.access.writable() {
-            return Err(AbortCode::WriteOfReadOnly);
-        }
+        // No entry of the bootloader's waits for the drive function: it has none.
+        sdo_server::check_download(entry.var, self.nmt, || true)?;
         Ok((entry, service))
     }
 
@@ -232,9 +234,7 @@ impl<F: NonVolatile, const B: usize> Access<'_, F, B> {
 impl<F: NonVolatile, const B: usize> ObjectAccess for Access<'_, F, B> {
     fn upload_len(&mut self, mux: Mux) -> Result<usize, AbortCode> {
         let (entry, service) = self.entry(mux)?;
-        if !entry.var.access.readable() {
-            return Err(AbortCode::ReadOfWriteOnly);
-        }
+        sdo_server::check_upload(entry.var)?;
         if service {
             return Ok(self.service_value(mux).1);
         }

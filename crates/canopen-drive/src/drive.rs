@@ -86,7 +86,7 @@ use crate::comm::lss::{LssHooks, LssSlave, LssState, StoreError, DEFAULT_BIT_RAT
 use crate::comm::nmt::{transition, NmtAction, Services};
 use crate::comm::pdo::{self, FrameSink, PdoEvent, PdoRecord, PdoSet, RpdoFrame, ValueRules};
 use crate::comm::program::{self, ProgramRequest, RunningProgram, PROGRAM_DATA};
-use crate::comm::sdo_server::{upload_in_two_steps, ObjectAccess, SdoServer};
+use crate::comm::sdo_server::{self, upload_in_two_steps, ObjectAccess, SdoServer};
 use crate::comm::sync::{self, Sync, SyncConfig, SyncPoll, SyncReception, SyncSlots};
 use crate::frame::CanFrame;
 use crate::hal::{Demand, Sample};
@@ -95,7 +95,7 @@ use crate::od::standard::{self, HEARTBEAT_CONSUMERS};
 use crate::od::xdd;
 use crate::od::{
     le_u32, AbortCode, ConfigError, DefaultOverride, DeviceInfo, Dictionary, Entry, EntryOverride, Object,
-    ObjectHooks, Owner, WriteRule,
+    ObjectHooks, Owner,
 };
 use crate::storage::{Group, Persistence, SAVE_SIGNATURE};
 use crate::time::{earliest, Duration, Instant};
@@ -488,6 +488,34 @@ struct CycleFlags {
     last_tick: Option<Instant>,
     /// Time from the last tick to the last SYNC.
     phase: Option<Duration>,
+}
+
+impl CycleFlags {
+    /// The set-point that starts the tick's cycle ([`CycleStart::SetPoint`]: an RPDO since the
+    /// last SYNC, taken by this tick; [`CycleStart::Sync`]: none, the SYNC starts it).
+    fn take_set_point(&mut self, start: CycleStart) -> bool {
+        match start {
+            CycleStart::Sync => false,
+            CycleStart::SetPoint => core::mem::take(&mut self.rpdo_since_sync),
+        }
+    }
+
+    /// Whether the next tick would start a cycle on a set-point ([`Self::take_set_point`]
+    /// without taking it).
+    fn has_set_point(&self, start: CycleStart) -> bool {
+        start == CycleStart::SetPoint && self.rpdo_since_sync
+    }
+
+    /// A SYNC arrived: the next tick sees it, fresh when an RPDO came in the cycle before it
+    /// (taken with [`CycleStart::Sync`]; with [`CycleStart::SetPoint`] the set-point stays
+    /// for the tick it starts).
+    fn sync_received(&mut self, start: CycleStart) {
+        let fresh = match start {
+            CycleStart::Sync => core::mem::take(&mut self.rpdo_since_sync),
+            CycleStart::SetPoint => self.rpdo_since_sync,
+        };
+        self.sync = Some(fresh);
+    }
 }
 
 /// What LSS services asked of the drive during one frame.
@@ -1349,10 +1377,7 @@ impl<
             }
         }
         let sync = self.cycle.sync.take();
-        let set_point = match self.cycle_start() {
-            CycleStart::Sync => false,
-            CycleStart::SetPoint => core::mem::take(&mut self.cycle.rpdo_since_sync),
-        };
+        let set_point = self.cycle.take_set_point(self.cycle_start());
         self.cycle.last_tick = Some(now);
         let cycle = crate::cia402::profile::SyncInput {
             sync: sync.is_some(),
@@ -1430,10 +1455,7 @@ impl<
     /// TPDOs' timers are looked at; false when a full tick is needed.
     fn quiet_tick(&mut self, now: Instant, samples: &[Sample; AXES]) -> bool {
         let serves_pdo = self.nmt.serves_pdo();
-        let set_point = match self.cycle_start() {
-            CycleStart::Sync => false,
-            CycleStart::SetPoint => self.cycle.rpdo_since_sync,
-        };
+        let set_point = self.cycle.has_set_point(self.cycle_start());
         let revision = self.od.revision();
         if (serves_pdo && self.pdos.has_ready())
             || self.cycle.sync.is_some()
@@ -1506,12 +1528,8 @@ impl<
             }
             SyncReception::Sync(event) => {
                 self.clear_error(code::SYNC_LENGTH);
-                let fresh = match self.cycle_start() {
-                    CycleStart::Sync => core::mem::take(&mut self.cycle.rpdo_since_sync),
-                    // The set-point starts the cycle: it stays for the tick.
-                    CycleStart::SetPoint => self.cycle.rpdo_since_sync,
-                };
-                self.cycle.sync = Some(fresh);
+                let start = self.cycle_start();
+                self.cycle.sync_received(start);
                 if let Some(tick) = self.cycle.last_tick {
                     let phase = now - tick;
                     self.cycle.phase = Some(phase);
@@ -1972,9 +1990,7 @@ impl<'a, H: ObjectHooks, S: Persistence, const B: usize, const AXES: usize> Acce
     #[inline]
     fn readable_entry(&mut self, mux: Mux) -> Result<(Entry, Owner), AbortCode> {
         let (entry, owner) = self.entry(mux)?;
-        if !entry.var.access.readable() {
-            return Err(AbortCode::ReadOfWriteOnly);
-        }
+        sdo_server::check_upload(entry.var)?;
         if owner == Owner::ErrorHistory {
             emcy::check_history_read(self.od, mux.index, mux.sub)?;
         }
@@ -1984,15 +2000,7 @@ impl<'a, H: ObjectHooks, S: Persistence, const B: usize, const AXES: usize> Acce
     #[inline]
     fn writable_entry(&mut self, mux: Mux) -> Result<(Entry, Owner), AbortCode> {
         let (entry, owner) = self.entry(mux)?;
-        if !entry.var.access.writable() {
-            return Err(AbortCode::WriteOfReadOnly);
-        }
-        if entry.var.rule == WriteRule::NotOperational && self.nmt == NmtState::Operational {
-            return Err(AbortCode::CannotStoreDeviceState);
-        }
-        if entry.var.rule == WriteRule::SwitchOnDisabled && !self.switched_off(owner, mux.index) {
-            return Err(AbortCode::CannotStoreDeviceState);
-        }
+        sdo_server::check_download(entry.var, self.nmt, || self.switched_off(owner, mux.index))?;
         Ok((entry, owner))
     }
 }

@@ -27,7 +27,8 @@
 //! - Timeouts (default 1 s between frames of a transfer) abort with 0x0504_0000.
 
 use super::super::time::{Duration, Instant, ShortDuration};
-use crate::od::AbortCode;
+use super::NmtState;
+use crate::od::{AbortCode, Var, WriteRule};
 use crate::wire::crc;
 use crate::wire::sdo::{BlockSegment, Download, Mux, Request, Response};
 
@@ -84,6 +85,43 @@ pub trait ObjectAccess {
     /// A streamed download ended without its last piece: aborted by either side (a refused
     /// piece included), timed out, or replaced by a new request.
     fn stream_broken(&mut self, _mux: Mux) {}
+}
+
+/// The access rule of an upload from the bus: a write-only entry is refused (0x0601_0001).
+/// Every [`ObjectAccess`] of the crate's nodes checks it before the owner's own rules.
+#[inline]
+pub fn check_upload(var: &Var) -> Result<(), AbortCode> {
+    if var.access.readable() {
+        Ok(())
+    } else {
+        Err(AbortCode::ReadOfWriteOnly)
+    }
+}
+
+/// The access rules of a download from the bus, before the owner's own: a read-only entry is
+/// refused (0x0601_0002), and an entry whose [`WriteRule`] the device's state does not allow
+/// now with 0x0800_0022: [`WriteRule::NotOperational`] in NMT Operational,
+/// [`WriteRule::SwitchOnDisabled`] unless `switched_off()` (the drive function is off where
+/// the value takes effect; asked only for such an entry).
+#[inline]
+pub fn check_download(
+    var: &Var,
+    nmt: NmtState,
+    switched_off: impl FnOnce() -> bool,
+) -> Result<(), AbortCode> {
+    if !var.access.writable() {
+        return Err(AbortCode::WriteOfReadOnly);
+    }
+    let allowed = match var.rule {
+        WriteRule::Always => true,
+        WriteRule::NotOperational => nmt != NmtState::Operational,
+        WriteRule::SwitchOnDisabled => switched_off(),
+    };
+    if allowed {
+        Ok(())
+    } else {
+        Err(AbortCode::CannotStoreDeviceState)
+    }
 }
 
 /// [`ObjectAccess::upload_expedited`] by [`ObjectAccess::upload_len`] then
@@ -803,6 +841,39 @@ mod tests {
     use std::vec::Vec;
 
     const STREAM: Mux = Mux { index: 0x1F50, sub: 1 };
+
+    /// The access rules every node's SDO path applies before an owner's: the abort codes of
+    /// CiA 301 for a write-only, a read-only and a state-bound entry.
+    #[test]
+    fn the_access_rules_give_their_abort_codes() {
+        use crate::od::{Access, DataType};
+        let var = |access| Var::new("x", DataType::Unsigned8).access(access);
+        assert_eq!(check_upload(&var(Access::WriteOnly)), Err(AbortCode::ReadOfWriteOnly));
+        assert_eq!(check_upload(&var(Access::ReadOnly)), Ok(()));
+        let never = || panic!("asked for an entry without the rule");
+        assert_eq!(
+            check_download(&var(Access::ReadOnly), NmtState::PreOperational, never),
+            Err(AbortCode::WriteOfReadOnly)
+        );
+        assert_eq!(
+            check_download(&var(Access::Const), NmtState::PreOperational, never),
+            Err(AbortCode::WriteOfReadOnly)
+        );
+        assert_eq!(check_download(&var(Access::ReadWrite), NmtState::Operational, never), Ok(()));
+        let not_operational = var(Access::ReadWrite).rule(WriteRule::NotOperational);
+        assert_eq!(check_download(&not_operational, NmtState::PreOperational, never), Ok(()));
+        assert_eq!(
+            check_download(&not_operational, NmtState::Operational, never),
+            Err(AbortCode::CannotStoreDeviceState)
+        );
+        let switched_off = var(Access::ReadWrite).rule(WriteRule::SwitchOnDisabled);
+        assert_eq!(check_download(&switched_off, NmtState::Operational, || true), Ok(()));
+        assert_eq!(
+            check_download(&switched_off, NmtState::PreOperational, || false),
+            Err(AbortCode::CannotStoreDeviceState)
+        );
+    }
+
     const SMALL: Mux = Mux { index: 0x2000, sub: 0 };
 
     /// An entry that streams (1F50h:1) and a small staged one (2000h, up to 32 bytes): records
