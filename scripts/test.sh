@@ -145,6 +145,15 @@ step_doc() {
     # As docs.rs builds the core (its [package.metadata.docs.rs]): every feature, and the
     # feature badges of doc_cfg, which needs a nightly compiler (RUSTC_BOOTSTRAP stands in).
     RUSTC_BOOTSTRAP=1 RUSTDOCFLAGS="--cfg docsrs -D warnings" cargo doc --no-deps -p canopen-drive --all-features
+    # The public API as a listing in the repository (docs/public-api/): a change to it is a
+    # reviewed diff; --bless writes it.
+    local api_target
+    api_target="$(cargo_target_dir)/public-api"
+    if $bless; then
+        PUBLIC_API_TARGET_DIR="$api_target" python3 scripts/public_api.py
+    else
+        PUBLIC_API_TARGET_DIR="$api_target" python3 scripts/public_api.py --check
+    fi
 }
 
 step_no_std() {
@@ -279,7 +288,7 @@ else
     steps+=(
         "modes|the core without its optional modes, and with each alone|step_modes"
         "robustness|fault injection, 24 h simulated soak, hostile configuration|step_robustness"
-        "doc|cargo doc without warnings|step_doc"
+        "doc|cargo doc without warnings; the public API listing|step_doc"
         "no-std|the core (with and without defmt) and the SLCAN codec for thumbv6m, thumbv7em, riscv32imac; the firmware example|step_no_std"
         "msrv|the library crates with the declared minimum Rust (rust-version)|step_msrv"
         "publish|cargo publish --dry-run of the library crates|step_publish"

@@ -1047,10 +1047,10 @@ impl Profile {
         self.quiet.demand
     }
 
-    /// One control tick, in phases: the inputs ([`Self::sense`]), the state machine and the
-    /// mode of operation ([`Self::command`]), the active mode's step ([`Self::step_mode`]), and
-    /// the demands, the statusword and what the power stage gets ([`Self::output`]). A caller
-    /// calls [`Self::plan_ahead`] after it.
+    /// One control tick, in phases: the inputs (`sense`), the state machine and the mode of
+    /// operation (`command`), the active mode's step (`step_mode`), and the demands, the
+    /// statusword and what the power stage gets (`output`). A caller calls
+    /// [`Self::plan_ahead`] after it.
     pub fn tick<const B: usize>(
         &mut self,
         now: Instant,
