@@ -59,10 +59,19 @@ fn module_of(src: &Path, file: &Path) -> String {
 
 /// The modules `line` names through `crate::`.
 fn references(line: &str) -> Vec<String> {
+    names_after(line, "crate::")
+        .into_iter()
+        .map(|ident| ROOT_ITEMS.iter().find(|(item, _)| *item == ident).map_or(ident, |(_, m)| m.to_string()))
+        .collect()
+}
+
+/// The first identifier of every path in `line` that starts with `prefix` (each name of a
+/// group: `prefix{a, b::c}` gives `a` and `b`).
+fn names_after(line: &str, prefix: &str) -> Vec<String> {
     let mut found = Vec::new();
     let mut rest = line;
-    while let Some(at) = rest.find("crate::") {
-        rest = &rest[at + "crate::".len()..];
+    while let Some(at) = rest.find(prefix) {
+        rest = &rest[at + prefix.len()..];
         let names: Vec<&str> = if let Some(group) = rest.strip_prefix('{') {
             let end = group.find('}').unwrap_or(group.len());
             group[..end].split(',').map(str::trim).collect()
@@ -71,12 +80,8 @@ fn references(line: &str) -> Vec<String> {
         };
         for name in names {
             let ident: String = name.chars().take_while(|c| c.is_alphanumeric() || *c == '_').collect();
-            let module = ROOT_ITEMS
-                .iter()
-                .find(|(item, _)| *item == ident)
-                .map_or(ident.clone(), |(_, m)| m.to_string());
-            if !module.is_empty() {
-                found.push(module);
+            if !ident.is_empty() {
+                found.push(ident);
             }
         }
     }
@@ -220,28 +225,29 @@ fn object_index(code: &str) -> Option<String> {
 /// `crate::cia402::<module>`, and the items `cia402/mod.rs` re-exports (`super::Axis` is
 /// `objects`).
 fn profile_references(line: &str, modules: &[String], reexports: &[(String, String)]) -> Vec<String> {
-    let mut found = Vec::new();
-    for prefix in ["super::", "crate::cia402::"] {
-        let mut rest = line;
-        while let Some(at) = rest.find(prefix) {
-            rest = &rest[at + prefix.len()..];
-            let names: Vec<&str> = if let Some(group) = rest.strip_prefix('{') {
-                let end = group.find('}').unwrap_or(group.len());
-                group[..end].split(',').map(str::trim).collect()
+    ["super::", "crate::cia402::"]
+        .iter()
+        .flat_map(|prefix| names_after(line, prefix))
+        .filter_map(|ident| {
+            if modules.contains(&ident) {
+                Some(ident)
             } else {
-                vec![rest]
-            };
-            for name in names {
-                let ident: String = name.chars().take_while(|c| c.is_alphanumeric() || *c == '_').collect();
-                if modules.contains(&ident) {
-                    found.push(ident);
-                } else if let Some((_, module)) = reexports.iter().find(|(item, _)| *item == ident) {
-                    found.push(module.clone());
-                }
+                reexports.iter().find(|(item, _)| *item == ident).map(|(_, module)| module.clone())
             }
-        }
-    }
-    found
+        })
+        .collect()
+}
+
+/// The source files of `cia402/` but its unit tests' own files, with their directory.
+fn profile_files() -> (PathBuf, Vec<PathBuf>) {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("src").join("cia402");
+    let mut files = Vec::new();
+    source_files(&dir, &mut files);
+    files.retain(|file| {
+        let name = file.file_name().unwrap().to_string_lossy();
+        !(name == "tests.rs" || name.ends_with("_tests.rs"))
+    });
+    (dir, files)
 }
 
 /// A mode is one file: the modules of `cia402/` import one another without a cycle. The leaf
@@ -250,9 +256,7 @@ fn profile_references(line: &str, modules: &[String], reexports: &[(String, Stri
 /// way round.
 #[test]
 fn the_profile_modules_import_no_cycle() {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("src").join("cia402");
-    let mut files = Vec::new();
-    source_files(&dir, &mut files);
+    let (dir, files) = profile_files();
     let module = |file: &Path| module_of(&dir, file);
     let modules: Vec<String> = files.iter().map(|f| module(f)).filter(|m| m != "mod").collect();
     // What mod.rs re-exports: `pub use <module>::{A, B};` or `pub use <module>::A;`.
@@ -270,7 +274,7 @@ fn the_profile_modules_import_no_cycle() {
     for file in &files {
         let from = module(file);
         let name = file.file_name().unwrap().to_string_lossy();
-        if from == "mod" || name == "tests.rs" || name.ends_with("_tests.rs") {
+        if from == "mod" {
             continue;
         }
         let text = fs::read_to_string(file).unwrap();
@@ -359,16 +363,11 @@ fn function_lengths(text: &str) -> Vec<(String, usize, usize)> {
 /// the tick (`Profile::tick`, its phases in functions of their own) under 80.
 #[test]
 fn the_profile_functions_are_short() {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("src").join("cia402");
-    let mut files = Vec::new();
-    source_files(&dir, &mut files);
+    let (_, files) = profile_files();
     let mut long = Vec::new();
     let mut tick = None;
     for file in &files {
         let name = file.file_name().unwrap().to_string_lossy().to_string();
-        if name == "tests.rs" || name.ends_with("_tests.rs") {
-            continue;
-        }
         for (function, line, lines) in function_lengths(&fs::read_to_string(file).unwrap()) {
             if lines > 120 {
                 long.push(format!("{name}:{line}: `{function}` has {lines} lines"));
