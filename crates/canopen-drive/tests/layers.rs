@@ -88,6 +88,17 @@ fn names_after(line: &str, prefix: &str) -> Vec<String> {
     found
 }
 
+/// The lines of code of a source file before its unit tests (`#[cfg(test)]` closes the file),
+/// comment lines left out: (line number from 1, the line without its indentation).
+fn code_lines(text: &str) -> impl Iterator<Item = (usize, &str)> {
+    text.lines()
+        .map(str::trim_start)
+        .enumerate()
+        .take_while(|(_, code)| !code.starts_with("#[cfg(test)]"))
+        .filter(|(_, code)| !code.starts_with("//"))
+        .map(|(n, code)| (n + 1, code))
+}
+
 #[test]
 fn imports_point_down_the_layers() {
     let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
@@ -106,24 +117,17 @@ fn imports_point_down_the_layers() {
             continue;
         };
         let text = fs::read_to_string(file).unwrap();
-        for (n, line) in text.lines().enumerate() {
-            let code = line.trim_start();
-            if code.starts_with("#[cfg(test)]") {
-                break; // the unit-test module closes the file
-            }
-            if code.starts_with("//") {
-                continue;
-            }
-            for target in references(line) {
+        for (n, code) in code_lines(&text) {
+            for target in references(code) {
                 match layer_of(&target) {
                     Some(layer) if layer > own => upward.push(format!(
                         "{}:{}: `{module}` (layer {own}) names `{target}` (layer {layer}): {}",
                         file.strip_prefix(&src).unwrap().display(),
-                        n + 1,
+                        n,
                         code
                     )),
                     Some(_) => {}
-                    None => unknown.push(format!("{}:{}: unknown module `{target}`", file.display(), n + 1)),
+                    None => unknown.push(format!("{}:{n}: unknown module `{target}`", file.display())),
                 }
             }
         }
@@ -150,16 +154,9 @@ fn the_composer_holds_no_object_index() {
     let file = Path::new(env!("CARGO_MANIFEST_DIR")).join("src").join("drive.rs");
     let text = fs::read_to_string(&file).unwrap();
     let mut found = Vec::new();
-    for (n, line) in text.lines().enumerate() {
-        let code = line.trim_start();
-        if code.starts_with("#[cfg(test)]") {
-            break;
-        }
-        if code.starts_with("//") {
-            continue;
-        }
+    for (n, code) in code_lines(&text) {
         if let Some(hit) = object_index(code) {
-            found.push(format!("drive.rs:{}: {hit}: {code}", n + 1));
+            found.push(format!("drive.rs:{n}: {hit}: {code}"));
         }
     }
     assert!(found.is_empty(), "object indices in the composer:\n{}", found.join("\n"));
@@ -278,18 +275,11 @@ fn the_profile_modules_import_no_cycle() {
             continue;
         }
         let text = fs::read_to_string(file).unwrap();
-        for (n, line) in text.lines().enumerate() {
-            let code = line.trim_start();
-            if code.starts_with("#[cfg(test)]") {
-                break;
-            }
-            if code.starts_with("//") {
-                continue;
-            }
+        for (n, code) in code_lines(&text) {
             let code = code.split("//").next().unwrap_or("");
             for to in profile_references(code, &modules, &reexports) {
                 if to != from && !edges.iter().any(|(a, b, _)| *a == from && *b == to) {
-                    edges.push((from.clone(), to, format!("{name}:{}", n + 1)));
+                    edges.push((from.clone(), to, format!("{name}:{n}")));
                 }
             }
         }
