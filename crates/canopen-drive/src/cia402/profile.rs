@@ -141,9 +141,8 @@ pub struct Profile {
     slots_resolved: bool,
     /// The core's own position/velocity loops ([`ProfileConfig::cascade`]).
     cascade: Option<Cascade>,
-    active_mode: i8,
-    /// The mode 6061h shows: [`Self::active_mode`], or the manufacturer-specific value whose
-    /// direct mode runs as it (the two differ only then).
+    /// The mode 6061h shows: the active mode's number ([`Self::mode`]), or the
+    /// manufacturer-specific value whose direct mode runs as it (the two differ only then).
     display_mode: i8,
     /// Velocity demand (increments/s) of the velocity ramps (pv, stops outside pp).
     velocity: Ramp,
@@ -268,8 +267,8 @@ impl Quiet {
 #[allow(clippy::large_enum_variant)]
 #[derive(Clone, Debug)]
 enum Active {
-    /// No mode (6060h = 0), or one this build does not run: the axis holds still.
-    Idle,
+    /// No mode (6060h = 0), or one this build does not run (its number): the axis holds still.
+    Idle(i8),
     /// Profile position mode ([`pp`]).
     #[cfg(feature = "pp")]
     Pp(ProfilePosition),
@@ -292,6 +291,40 @@ enum Active {
 impl Active {
     // The accessors of the optional modes test their feature first: a build without the mode
     // then has none of its code, though the variant exists.
+
+    /// The mode of operation (6060h value) this is the run of: the one source of the profile's
+    /// active mode (6061h may show a manufacturer-specific mode that runs as a direct mode).
+    fn number(&self) -> i8 {
+        match self {
+            Active::Idle(number) => *number,
+            #[cfg(feature = "pp")]
+            Active::Pp(_) => mode::PROFILE_POSITION,
+            Active::Pv(_) => mode::PROFILE_VELOCITY,
+            Active::Tq => mode::PROFILE_TORQUE,
+            #[cfg(feature = "hm")]
+            Active::Hm => mode::HOMING,
+            Active::Vl(_) => vl::MODE,
+            Active::Ip(_) => mode::INTERPOLATED_POSITION,
+            Active::Cyclic(run) => run.mode,
+        }
+    }
+
+    fn is_pp(&self) -> bool {
+        match self {
+            #[cfg(feature = "pp")]
+            Active::Pp(_) => true,
+            _ => false,
+        }
+    }
+
+    /// pt or cst: the modes whose demand is a torque.
+    fn is_torque(&self) -> bool {
+        match self {
+            Active::Tq => true,
+            Active::Cyclic(run) => run.mode == mode::CYCLIC_TORQUE,
+            _ => false,
+        }
+    }
 
     #[cfg(feature = "pp")]
     fn pp_mut(&mut self) -> Option<&mut ProfilePosition> {
@@ -466,7 +499,6 @@ impl Profile {
             fsa: Fsa::default(),
             factors: None,
             cascade: None,
-            active_mode: 0,
             display_mode: 0,
             velocity: Ramp::default(),
             torque: Ramp::default(),
@@ -477,7 +509,7 @@ impl Profile {
             feed_forward: FeedForward::NONE,
             ip: IpBuffer::for_axis(axis),
             ip_overflow: false,
-            mode: Active::Idle,
+            mode: Active::Idle(0),
             #[cfg(any(feature = "pp", feature = "hm"))]
             planner: None,
             origin: 0,
@@ -539,7 +571,6 @@ impl Profile {
             fsa,
             factors,
             cascade,
-            active_mode,
             display_mode,
             velocity,
             torque,
@@ -586,7 +617,6 @@ impl Profile {
         *fsa = Fsa::default();
         *factors = None;
         *cascade = None;
-        *active_mode = 0;
         *display_mode = 0;
         *velocity = Ramp::default();
         *torque = Ramp::default();
@@ -597,7 +627,7 @@ impl Profile {
         *feed_forward = FeedForward::NONE;
         *ip = IpBuffer::for_axis(*axis);
         *ip_overflow = false;
-        *mode = Active::Idle;
+        *mode = Active::Idle(0);
         *origin = 0;
         *homing_error = false;
         *last_tick = None;
@@ -755,7 +785,7 @@ impl Profile {
     /// The encoder directions (positive, negative) an active limit switch blocks outside
     /// homing ([`ProfileConfig::limit_switches_stop`]).
     fn blocked_directions(&self, inputs: DigitalInputs) -> (bool, bool) {
-        if !self.config.limit_switches_stop || self.active_mode == mode::HOMING {
+        if !self.config.limit_switches_stop || self.mode.is_hm() {
             return (false, false);
         }
         (inputs.contains(DigitalInputs::POSITIVE_LIMIT), inputs.contains(DigitalInputs::NEGATIVE_LIMIT))
@@ -873,10 +903,7 @@ impl Profile {
 
     /// The modes whose demand is a trajectory of positions (pp, hm).
     fn position_mode(&self) -> bool {
-        matches!(
-            self.active_mode,
-            mode::PROFILE_POSITION | mode::HOMING | mode::CYCLIC_POSITION | mode::INTERPOLATED_POSITION
-        )
+        self.mode.is_pp() || self.mode.is_hm() || self.mode.position_limiter().is_some()
     }
 
     /// The trajectory state of the position modes (pp, hm, csp, ip).
@@ -1076,7 +1103,7 @@ impl Profile {
         let idle = !demand.drive_enabled
             && command.step.state == command.before
             && !command.switched
-            && self.active_mode != mode::HOMING
+            && !self.mode.is_hm()
             && command.stop.is_none()
             && report == Report::default()
             && cycle == SyncInput::default()
@@ -1115,7 +1142,7 @@ impl Profile {
         // option, for longer than the velocity threshold time 6070h, so that a shaft that only
         // passes through 0 (a reversal of its settling) is not taken as resting.
         // Read only where asked for: homing's completion, halt with the configuration's option.
-        let homing = self.active_mode == mode::HOMING;
+        let homing = self.mode.is_hm();
         let standstill = if homing || self.config.halt_reached_at_standstill {
             let resting = velocity_user.unsigned_abs() <= u64::from(od.load(self.slots.velocity_threshold));
             if !resting {
@@ -1232,12 +1259,12 @@ impl Profile {
         if switched {
             let direct = self.config.manufacturer_mode(requested);
             self.display_mode = requested;
-            self.active_mode = direct.map_or(requested, DirectMode::cyclic_mode);
+            let number = direct.map_or(requested, DirectMode::cyclic_mode);
             self.mode_changed = true;
             crate::fmt::info!("cia402: mode of operation {}", requested);
             self.homing.interrupt();
             self.velocity = Ramp { value: i64::from(sample.velocity), remainder: 0 };
-            self.start_mode(sensed.actual, sensed.actual_user, i64::from(sample.velocity));
+            self.start_mode(number, sensed.actual, sensed.actual_user, i64::from(sample.velocity));
         }
         od.store(self.slots.modes_of_operation_display, self.display_mode);
 
@@ -1257,7 +1284,8 @@ impl Profile {
             let halting = halt
                 && operation
                 && !self.position_mode()
-                && !matches!(self.active_mode, mode::PROFILE_TORQUE | mode::CYCLIC_TORQUE | vl::MODE);
+                && !self.mode.is_torque()
+                && !matches!(self.mode, Active::Vl(_));
             // (hm halts on its own trajectory, like pp.)
             let for_switch = switching && may_switch && operation;
             if halting {
@@ -1306,7 +1334,7 @@ impl Profile {
         let local = sample.local_control;
         let mut controlword =
             if local { Controlword::empty() } else { Controlword::from_raw(od.load(self.slots.controlword)) };
-        let unavailable = self.active_mode == mode::PROFILE_POSITION
+        let unavailable = self.mode.is_pp()
             && !self.config.change_on_setpoint
             && controlword.contains(Controlword::CHANGE_ON_SET_POINT);
         if unavailable != self.unavailable_function {
@@ -1628,7 +1656,7 @@ impl Profile {
         actual_user: i64,
         inputs: DigitalInputs,
     ) -> Option<TravelLimit> {
-        if self.active_mode != mode::HOMING {
+        if !self.mode.is_hm() {
             if inputs.contains(DigitalInputs::POSITIVE_LIMIT) {
                 return Some(TravelLimit::PositiveSwitch);
             }
@@ -1668,7 +1696,7 @@ impl Profile {
         }
         let velocity_limit = self.motion.velocity;
         // pp's trajectory feeds its velocity forward.
-        let pp = self.active_mode == mode::PROFILE_POSITION && matches!(setpoint, Setpoint::Position(_));
+        let pp = self.mode.is_pp() && matches!(setpoint, Setpoint::Position(_));
         let velocity = self.planner().filter(|_| pp).map_or(0, |planner| planner.state().velocity);
         let Some(cascade) = self.cascade.as_mut() else { return setpoint };
         let torque_limit = od.load(self.slots.max_torque).min(od.load(self.slots.max_current));
@@ -2013,19 +2041,19 @@ impl Profile {
         Setpoint::Velocity(saturate(demand))
     }
 
-    /// The mode [`Self::active_mode`] names becomes active: its variant starts from the axis at
+    /// The mode `number` becomes active: its variant starts from the axis at
     /// `actual` (increments; `user` in user units) and `velocity` (increments/s). Out of line:
     /// the variants are built here, not in the tick's stack frame.
     #[inline(never)]
-    fn start_mode(&mut self, actual: i64, user: i64, velocity: i64) {
+    fn start_mode(&mut self, number: i8, actual: i64, user: i64, velocity: i64) {
         // pp's and hm's trajectory is the profile's planner, reset in place (built on the stack
         // of this tick, it would make it the deepest by 1.2 KiB).
-        match self.active_mode {
+        match number {
             #[cfg(feature = "pp")]
             mode::PROFILE_POSITION => self.mode = Active::Pp(ProfilePosition::new(&self.config)),
             #[cfg(feature = "hm")]
             mode::HOMING => self.mode = Active::Hm,
-            _ => self.start_other_mode(actual, velocity),
+            _ => self.start_other_mode(number, actual, velocity),
         }
         // (Built by `configure`: a profile never configured runs pp and hm without motion.)
         #[cfg(any(feature = "pp", feature = "hm"))]
@@ -2037,16 +2065,16 @@ impl Profile {
     }
 
     /// [`Self::start_mode`] for the modes other than pp and hm.
-    fn start_other_mode(&mut self, actual: i64, velocity: i64) {
-        self.mode = match self.active_mode {
+    fn start_other_mode(&mut self, number: i8, actual: i64, velocity: i64) {
+        self.mode = match number {
             mode::PROFILE_VELOCITY => Active::Pv(pv::Run::start()),
             mode::PROFILE_TORQUE => Active::Tq,
             vl::MODE if super::VL => Active::Vl(vl::Vl::start(self.config.vl, velocity)),
             mode::INTERPOLATED_POSITION if super::IP => Active::Ip(super::ip::Run::start(actual)),
             mode::CYCLIC_POSITION | mode::CYCLIC_VELOCITY | mode::CYCLIC_TORQUE => {
-                Active::Cyclic(super::cyclic::Run::start(self.active_mode, actual, velocity))
+                Active::Cyclic(super::cyclic::Run::start(number, actual, velocity))
             }
-            _ => Active::Idle,
+            _ => Active::Idle(number),
         };
     }
 
@@ -2139,7 +2167,7 @@ impl Profile {
         let (period_ticks, tolerance_ticks) = self.cycle_timing(od);
         let cycle = match self.config.cyclic.cycle_start {
             // A direct mode: the target at every tick.
-            _ if self.display_mode != self.active_mode => {
+            _ if self.display_mode != self.mode.number() => {
                 Cycle { sync: true, fresh: true, period_ticks: 1, tolerance_ticks: u32::MAX }
             }
             CycleStart::Sync => {
@@ -2163,7 +2191,8 @@ impl Profile {
         let max_torque = i64::from(od.load(self.slots.max_torque).min(od.load(self.slots.max_current)));
         let torque_feed_forward = torque_offset.clamp(-max_torque, max_torque) as i16;
         let bridge: Bridge = self.config.cyclic.bridge;
-        let target = match self.active_mode {
+        let number = self.mode.number();
+        let target = match number {
             mode::CYCLIC_POSITION => {
                 let user = i64::from(od.load(self.slots.target_position))
                     + i64::from(od.load(self.slots.position_offset));
@@ -2192,7 +2221,7 @@ impl Profile {
         }
         let fixed = run.interpolator.value_fixed();
         let value = Interpolator::whole(fixed);
-        match self.active_mode {
+        match run.mode {
             mode::CYCLIC_POSITION => {
                 if input.halt && !run.limiter.is_stopping() {
                     run.limiter.stop(&halt_limits);
@@ -2295,7 +2324,7 @@ impl Profile {
         let mut sw = state.statusword();
         sw.set(Statusword::VOLTAGE_ENABLED, state.high_voltage() && input.sample.dc_link_millivolts > 0);
         // Bit 7: a warning of the hardware, or in ip a record dropped with the buffer full.
-        let overflow = self.active_mode == mode::INTERPOLATED_POSITION && self.ip_overflow;
+        let overflow = matches!(self.mode, Active::Ip(_)) && self.ip_overflow;
         sw.set(
             Statusword::WARNING,
             self.config.warning_bit && (!input.sample.warnings.is_empty() || overflow),
@@ -2366,9 +2395,7 @@ impl Profile {
         let transition = input.opening || (matches!(state, State::QuickStopActive) && !input.was_at_rest);
         // The shaft's motion: the velocity demand, or in the torque modes (no velocity demand)
         // the velocity actual beyond the threshold 606Fh.
-        let motion = if input.drive_enabled
-            && matches!(self.active_mode, mode::PROFILE_TORQUE | mode::CYCLIC_TORQUE)
-        {
+        let motion = if input.drive_enabled && self.mode.is_torque() {
             let threshold = i64::from(od.load(self.slots.velocity_threshold));
             Some(i64::from(input.sample.velocity)).filter(|v| v.abs() > threshold).unwrap_or(0)
         } else {
