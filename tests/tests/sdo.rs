@@ -239,6 +239,35 @@ fn block_download_repeats_after_a_lost_segment() {
     assert_eq!(segmented_upload(&mut bench, TEXT, 0), data);
 }
 
+/// A lost segment with the CRC on: the repeated segments count once in the CRC (the server
+/// folds each segment into it when the next arrives in order), and a CRC one bit off is
+/// refused.
+#[test]
+fn block_download_with_crc_repeats_after_a_lost_segment() {
+    for wrong in [false, true] {
+        let mut bench = Bench::new();
+        let data: Vec<u8> = (0..40u8).map(|i| i.wrapping_mul(37)).collect();
+        let init = bench.sdo1(&req(0xC6, TEXT, 0, (data.len() as u32).to_le_bytes()));
+        assert_eq!(init[0], 0xA4);
+        let c: Vec<&[u8]> = data.chunks(7).collect(); // 6 segments
+        let acks =
+            sub_block(&mut bench, &[(1, false, c[0]), (2, false, c[1]), (4, false, c[3]), (6, true, c[5])]);
+        assert_eq!(acks[0][..2], [0xA2, 2]);
+        let acks =
+            sub_block(&mut bench, &[(1, false, c[2]), (2, false, c[3]), (3, false, c[4]), (4, true, c[5])]);
+        assert_eq!(acks[0][..2], [0xA2, 4]);
+        let crc = crc16(&data) ^ u16::from(wrong);
+        let [c0, c1] = crc.to_le_bytes();
+        let end = bench.sdo1(&[0xC1 | (2 << 2), c0, c1, 0, 0, 0, 0, 0]);
+        if wrong {
+            assert_eq!(end, abort(TEXT, 0, CRC));
+        } else {
+            assert_eq!(end, [0xA1, 0, 0, 0, 0, 0, 0, 0]);
+            assert_eq!(segmented_upload(&mut bench, TEXT, 0), data);
+        }
+    }
+}
+
 /// Runs a whole block upload of `index` with the given client block size; returns the data.
 fn block_upload(bench: &mut Bench, index: u16, block_size: u8) -> Vec<u8> {
     let init = bench.sdo1(&req(0xA4, index, 0, [block_size, 0, 0, 0]));

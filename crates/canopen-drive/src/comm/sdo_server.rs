@@ -192,12 +192,19 @@ enum State {
         seq: u8,
         block_size: u8,
         done: bool,
+        /// The CRC of the download's bytes up to `folded` in the buffer (with those of the
+        /// pieces a stream passed on): each segment folds the one before it, so no frame
+        /// computes it over a whole buffer.
+        crc: u16,
+        folded: usize,
     },
     BlockDownloadEnd {
         size: Option<usize>,
         len: usize,
         mux: Mux,
         crc_on: bool,
+        crc: u16,
+        folded: usize,
     },
     BlockUploadInitiated(BlockUpload),
     BlockUploadSending(BlockUpload),
@@ -213,8 +220,6 @@ struct Stream {
     mux: Mux,
     /// Offset in the value of the buffer's first byte (the bytes before it are passed on).
     base: usize,
-    /// Block download: the CRC of the bytes passed on.
-    crc: u16,
     /// The last piece was taken: the transfer ends complete.
     complete: bool,
 }
@@ -426,6 +431,8 @@ impl<const BUF: usize> SdoServer<BUF> {
                             seq: 0,
                             block_size: self.block_size(0),
                             done: false,
+                            crc: 0,
+                            folded: 0,
                         },
                         Some(Response::BlockDownloadInitiated {
                             mux,
@@ -450,7 +457,7 @@ impl<const BUF: usize> SdoServer<BUF> {
                 let mut len = len;
                 if len + n > BUF {
                     // A full buffer: a stream passes it on, anything else is too long.
-                    if let Err(code) = self.pass_on(len, false, false, od) {
+                    if let Err(code) = self.pass_on(len, false, od) {
                         return abort(mux, code);
                     }
                     len = 0;
@@ -472,7 +479,7 @@ impl<const BUF: usize> SdoServer<BUF> {
                 if size.is_some_and(|s| self.streamed() + len < s) {
                     return abort(mux, AbortCode::LengthTooLow);
                 }
-                match self.finish_download(mux, len, false, od) {
+                match self.finish_download(mux, len, od) {
                     Ok(()) => (State::Idle, Some(Response::DownloadSegmentAck { toggle })),
                     Err(code) => abort(mux, code),
                 }
@@ -499,7 +506,7 @@ impl<const BUF: usize> SdoServer<BUF> {
             }
 
             (
-                State::BlockDownloadEnd { mux, crc_on, size, len },
+                State::BlockDownloadEnd { mux, crc_on, size, len, crc, folded },
                 Request::BlockDownloadEnd { unused, crc: client_crc },
             ) => {
                 // The last segment always carried 7 bytes; `unused` of them were padding.
@@ -514,11 +521,11 @@ impl<const BUF: usize> SdoServer<BUF> {
                 if size.is_some_and(|s| total < s) {
                     return abort(mux, AbortCode::LengthTooLow);
                 }
-                let passed = self.stream.map_or(0, |s| s.crc);
-                if crc_on && crc::update(passed, self.buf.get(..len).unwrap_or(&[])) != client_crc {
+                // The last segment's bytes (at most 7) are the only ones the CRC lacks.
+                if crc_on && crc::update(crc, self.buf.get(folded..len).unwrap_or(&[])) != client_crc {
                     return abort(mux, AbortCode::CrcError);
                 }
-                match self.finish_download(mux, len, crc_on, od) {
+                match self.finish_download(mux, len, od) {
                     Ok(()) => (State::Idle, Some(Response::BlockDownloadEnd)),
                     Err(code) => abort(mux, code),
                 }
@@ -578,7 +585,7 @@ impl<const BUF: usize> SdoServer<BUF> {
     ) -> Result<(), AbortCode> {
         od.download_check(mux, size)?;
         if od.begin_stream(mux, size)? {
-            self.stream = Some(Stream { mux, base: 0, crc: 0, complete: false });
+            self.stream = Some(Stream { mux, base: 0, complete: false });
             return Ok(());
         }
         if size.is_some_and(|s| s > BUF) {
@@ -592,23 +599,14 @@ impl<const BUF: usize> SdoServer<BUF> {
         self.stream.map_or(0, |s| s.base)
     }
 
-    /// Passes the buffer's first `len` bytes on as the stream's next piece (`crc_on`: a block
-    /// download whose CRC covers them). Without a stream, the value does not fit the buffer.
-    fn pass_on(
-        &mut self,
-        len: usize,
-        last: bool,
-        crc_on: bool,
-        od: &mut impl ObjectAccess,
-    ) -> Result<(), AbortCode> {
+    /// Passes the buffer's first `len` bytes on as the stream's next piece. Without a stream,
+    /// the value does not fit the buffer.
+    fn pass_on(&mut self, len: usize, last: bool, od: &mut impl ObjectAccess) -> Result<(), AbortCode> {
         let Some(stream) = self.stream.as_mut() else {
             return Err(AbortCode::OutOfMemory);
         };
         let data = self.buf.get(..len).unwrap_or(&[]);
         od.write_piece(stream.mux, stream.base, data, last)?;
-        if crc_on {
-            stream.crc = crc::update(stream.crc, data);
-        }
         stream.base += len;
         stream.complete = last;
         Ok(())
@@ -616,15 +614,9 @@ impl<const BUF: usize> SdoServer<BUF> {
 
     /// The download's last `len` bytes are in the buffer and checked: the value is written, or
     /// the stream's last piece passed on.
-    fn finish_download(
-        &mut self,
-        mux: Mux,
-        len: usize,
-        crc_on: bool,
-        od: &mut impl ObjectAccess,
-    ) -> Result<(), AbortCode> {
+    fn finish_download(&mut self, mux: Mux, len: usize, od: &mut impl ObjectAccess) -> Result<(), AbortCode> {
         if self.stream.is_some() {
-            return self.pass_on(len, true, crc_on, od);
+            return self.pass_on(len, true, od);
         }
         od.write(mux, self.buf.get(..len).unwrap_or(&[]))
     }
@@ -774,14 +766,20 @@ impl<const BUF: usize> SdoServer<BUF> {
 
     /// A block-download sub-block segment.
     fn block_segment(&mut self, segment: BlockSegment, od: &mut impl ObjectAccess) -> Step {
-        let State::BlockDownload { mux, crc_on, size, len, seq, block_size, done } = self.state else {
+        let State::BlockDownload { mux, crc_on, size, len, seq, block_size, done, crc, folded } = self.state
+        else {
             return (self.state, None);
         };
         if segment.seq == 0 || segment.seq > MAX_BLOCK_SIZE {
             return abort(mux, AbortCode::InvalidSequenceNumber);
         }
-        let (mut len, mut seq, mut done) = (len, seq, done);
+        let (mut len, mut seq, mut done, mut crc, mut folded) = (len, seq, done, crc, folded);
         if !done && segment.seq == seq + 1 {
+            // The bytes before this segment are final: into the CRC with them (one segment's).
+            if crc_on {
+                crc = crc::update(crc, self.buf.get(folded..len).unwrap_or(&[]));
+                folded = len;
+            }
             // The last segment may carry up to 6 padding bytes beyond the buffer; only the end
             // frame tells how many, so keep what fits and check the real length there.
             let room = BUF.saturating_sub(len).min(7);
@@ -807,11 +805,15 @@ impl<const BUF: usize> SdoServer<BUF> {
         if segment.seq >= block_size || segment.last {
             if done {
                 let ack = Response::BlockDownloadAck { ack_seq: seq, block_size: self.block_size(len) };
-                return (State::BlockDownloadEnd { mux, crc_on, size, len }, Some(ack));
+                return (State::BlockDownloadEnd { mux, crc_on, size, len, crc, folded }, Some(ack));
             }
             // Every byte of a sub-block before the last is data: a stream passes them on.
             if self.stream.is_some() {
-                if let Err(code) = self.pass_on(len, false, crc_on, od) {
+                if crc_on {
+                    crc = crc::update(crc, self.buf.get(folded..len).unwrap_or(&[]));
+                }
+                folded = 0;
+                if let Err(code) = self.pass_on(len, false, od) {
                     return abort(mux, code);
                 }
                 len = 0;
@@ -826,11 +828,13 @@ impl<const BUF: usize> SdoServer<BUF> {
                     seq: 0,
                     block_size: self.block_size(len),
                     done,
+                    crc,
+                    folded,
                 },
                 Some(ack),
             );
         }
-        (State::BlockDownload { mux, crc_on, size, len, seq, block_size, done }, None)
+        (State::BlockDownload { mux, crc_on, size, len, seq, block_size, done, crc, folded }, None)
     }
 }
 
