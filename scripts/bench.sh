@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Instruction counts of canopen-drive's entry points (issue 8): the control tick in every mode,
 # on_frame (+ pop_tx) for the SDO, PDO, NMT, heartbeat and SYNC paths, and object dictionary
-# look-ups, on a Cortex-M4 (thumbv7em-none-eabihf in QEMU mps2-an386, counted by the project's
+# look-ups, and the bootloader's frame and poll paths (issue 35), on a Cortex-M4 (thumbv7em-none-eabihf in QEMU mps2-an386, counted by the project's
 # plugin tools/qemu-plugins/insncount.c), on a core without FPU and without the v7-M
 # instructions (thumbv6m-none-eabi, the Cortex-M0 instruction set, run by the Cortex-M3 of QEMU
 # mps2-an385) and on x86-64 (callgrind). The scenarios are in
@@ -103,15 +103,19 @@ if [[ ! -f $plugin || $insncount_src -nt $plugin ]]; then
     gcc -O2 -shared -fPIC -fvisibility=hidden -o "$plugin" "$insncount_src"
 fi
 
-# Two builds of each: the single-axis measurements, and (cargo feature `two-axes`, its own
-# target directory) the two-axis ones, so that no image holds two drive types (the compiler
-# would inline the shared code differently and the single-axis counts would not be a
-# single-axis firmware's).
-echo "building benches/drive-bench (host, thumbv7em-none-eabihf, thumbv6m-none-eabi; one and two axes)" >&2
+# Three builds of each: the single-axis measurements, (cargo feature `two-axes`, its own
+# target directory) the two-axis ones, and (feature `bootloader`, its own directory) the
+# bootloader's, so that no image holds two node types (the compiler would inline the shared
+# code differently and the single-axis counts would not be a single-axis firmware's).
+echo "building benches/drive-bench (host, thumbv7em-none-eabihf, thumbv6m-none-eabi; one and two axes, bootloader)" >&2
 axes_dir=$CARGO_TARGET_DIR/two-axes
-for features in "" two-axes; do
-    dir=$CARGO_TARGET_DIR
-    [ -n "$features" ] && dir=$axes_dir
+boot_dir=$CARGO_TARGET_DIR/bootloader
+for features in "" two-axes bootloader; do
+    case $features in
+        two-axes) dir=$axes_dir ;;
+        bootloader) dir=$boot_dir ;;
+        *) dir=$CARGO_TARGET_DIR ;;
+    esac
     for target in "" thumbv7em-none-eabihf thumbv6m-none-eabi; do
         (cd "$bench" && CARGO_TARGET_DIR=$dir cargo build --quiet --release ${target:+--target $target} \
             ${features:+--features $features})
@@ -119,12 +123,15 @@ for features in "" two-axes; do
 done
 host=$CARGO_TARGET_DIR/release/drive-bench
 host_axes=$axes_dir/release/drive-bench
+host_boot=$boot_dir/release/drive-bench
 
-# The two-axis rows follow the single-axis ticks.
+# The two-axis rows follow the single-axis ticks; the bootloader's come last.
 "$host" list >"$out/labels-one.tsv"
 "$host_axes" list >"$out/labels-two.tsv"
+"$host_boot" list >"$out/labels-boot.tsv"
 awk -v two="$out/labels-two.tsv" '{ print } /^tick-cst\t/ { while ((getline line < two) > 0) print line }' \
     "$out/labels-one.tsv" >"$out/labels.tsv"
+cat "$out/labels-boot.tsv" >>"$out/labels.tsv"
 mapfile -t names < <(cut -f1 "$out/labels.tsv")
 # The whole runs (one QEMU run each, per-tick counts) and the measurements repeated n and 2n
 # times (four runs each).
@@ -162,7 +169,7 @@ callgrind_whole() {
 }
 : >"$out/callgrind/wholes.txt"
 (
-    callgrind "$host" one && callgrind "$host_axes" two &&
+    callgrind "$host" one && callgrind "$host_axes" two && callgrind "$host_boot" boot &&
         for name in "${wholes[@]}"; do callgrind_whole "$name" || exit 1; done
 ) &
 callgrind_pid=$!
@@ -171,6 +178,7 @@ callgrind_pid=$!
 elf_of() {
     local dir=$CARGO_TARGET_DIR
     [[ $2 == tick-2-axes-* ]] && dir=$axes_dir
+    [[ $2 == boot-* ]] && dir=$boot_dir
     case $1 in
         m4) echo "$dir/thumbv7em-none-eabihf/release/drive-bench" ;;
         *) echo "$dir/thumbv6m-none-eabi/release/drive-bench" ;;
@@ -207,7 +215,7 @@ qemu_run() {
     sed -n 's/^insncount: total \([0-9]*\) .*/\1/p' <<<"$log" >"$OUT/$arch/$name.$mode.$reps"
 }
 export -f qemu_run elf_of
-export CARGO_TARGET_DIR axes_dir PLUGIN=$plugin OUT=$out MARKS_M4 MARKS_M0
+export CARGO_TARGET_DIR axes_dir boot_dir PLUGIN=$plugin OUT=$out MARKS_M4 MARKS_M0
 for arch in m4 m0; do
     for name in "${names[@]}"; do
         if is_whole "$name"; then
@@ -255,7 +263,7 @@ done
 # Dump k (from 1) of a run is call (k-1) mod 4 of its measurement (k-1) / 4; kept as
 # <name>.<run>.out.
 : >"$out/x86.txt"
-for build in one two; do
+for build in one two boot; do
     mapfile -t order <"$out/callgrind/$build.order"
     k=1
     for name in "${order[@]}"; do

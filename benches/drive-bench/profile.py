@@ -99,8 +99,13 @@ def main():
         if not os.path.exists(plugin) or os.path.getmtime(source) > os.path.getmtime(plugin):
             subprocess.run(["gcc", "-O2", "-shared", "-fPIC", "-fvisibility=hidden", "-o", plugin, source],
                            check=True)
-        # The two-axis measurements are in their own build (scripts/bench.sh).
-        build = os.path.join(target, "two-axes") if name.startswith("tick-2-axes-") else target
+        # The two-axis and the bootloader's measurements are in builds of their own
+        # (scripts/bench.sh).
+        build = target
+        if name.startswith("tick-2-axes-"):
+            build = os.path.join(target, "two-axes")
+        elif name.startswith("boot-"):
+            build = os.path.join(target, "bootloader")
         firmware = os.path.join(build, "thumbv7em-none-eabihf", "release", "drive-bench")
         out = os.path.join(target, "results", f"{name}.blocks")
         measured = block_costs(firmware, plugin, name, "measured", 2 * n, out)

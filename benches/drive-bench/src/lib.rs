@@ -45,10 +45,15 @@ use core::sync::atomic::{AtomicU32, Ordering};
 use canopen_drive::hal::{Demand, Sample};
 use canopen_drive::{CanFrame, Drive, Instant};
 
+#[cfg(all(feature = "two-axes", feature = "bootloader"))]
+compile_error!("the features two-axes and bootloader are two builds of their own: one at a time");
+
 pub mod axis;
+#[cfg(feature = "bootloader")]
+pub mod boot;
 pub mod objects;
 pub mod rig;
-#[cfg_attr(feature = "two-axes", allow(dead_code, unused_imports))]
+#[cfg_attr(any(feature = "two-axes", feature = "bootloader"), allow(dead_code, unused_imports))]
 mod scenarios;
 
 pub use rig::{BenchDrive, Rig, SetupError, TwoAxisDrive};
@@ -102,6 +107,24 @@ pub enum Prepared {
         /// The time of reception.
         now: Instant,
     },
+    /// The bootloader's `node.on_frame(&frame, now)`, then `pop_tx` until the queue is empty.
+    #[cfg(feature = "bootloader")]
+    BootFrame {
+        /// The bootloader before the frame.
+        node: boot::BenchBoot,
+        /// The received frame.
+        frame: CanFrame,
+        /// The time of reception.
+        now: Instant,
+    },
+    /// The bootloader's `node.poll(now)`, then `pop_tx` until the queue is empty.
+    #[cfg(feature = "bootloader")]
+    BootPoll {
+        /// The bootloader before the call.
+        node: boot::BenchBoot,
+        /// The time of the call.
+        now: Instant,
+    },
     /// `drive.od().entry(index, sub)`.
     Lookup {
         /// The drive whose dictionary is searched.
@@ -121,11 +144,14 @@ pub enum Prepared {
     },
 }
 
-/// Room for one copy of a [`BenchDrive`] (and one of a [`TwoAxisDrive`] with `two-axes`).
+/// Room for one copy of a [`BenchDrive`] (and one of a [`TwoAxisDrive`] with `two-axes`, of a
+/// [`boot::BenchBoot`] with `bootloader`).
 pub struct Scratch {
     slot: MaybeUninit<BenchDrive>,
     #[cfg(feature = "two-axes")]
     axes: MaybeUninit<TwoAxisDrive>,
+    #[cfg(feature = "bootloader")]
+    boot: MaybeUninit<boot::BenchBoot>,
 }
 
 impl Scratch {
@@ -135,6 +161,8 @@ impl Scratch {
             slot: MaybeUninit::uninit(),
             #[cfg(feature = "two-axes")]
             axes: MaybeUninit::uninit(),
+            #[cfg(feature = "bootloader")]
+            boot: MaybeUninit::uninit(),
         }
     }
 
@@ -156,6 +184,14 @@ impl Scratch {
     #[inline(always)]
     pub fn copy_of_axes(&mut self, drive: &TwoAxisDrive) -> &mut TwoAxisDrive {
         copy_into(&mut self.axes, drive)
+    }
+
+    /// [`Self::copy_of`] for the bootloader (plain data too: its dictionary, SDO server,
+    /// program service and the RAM program area are held inline).
+    #[cfg(feature = "bootloader")]
+    #[inline(always)]
+    pub fn copy_of_boot(&mut self, node: &boot::BenchBoot) -> &mut boot::BenchBoot {
+        copy_into(&mut self.boot, node)
     }
 }
 
@@ -211,6 +247,32 @@ pub fn run_repetitions(prepared: &Prepared, scratch: &mut Scratch, n: u32, measu
                     copy.on_frame(frame, *now);
                     while let Some(reply) = copy.pop_tx() {
                         black_box(reply);
+                    }
+                }
+                black_box(copy);
+            }
+        }
+        #[cfg(feature = "bootloader")]
+        Prepared::BootFrame { node, frame, now } => {
+            for _ in 0..n {
+                let copy = scratch.copy_of_boot(black_box(node));
+                if measured {
+                    copy.on_frame(frame, *now);
+                    while let Some(reply) = copy.pop_tx() {
+                        black_box(reply);
+                    }
+                }
+                black_box(copy);
+            }
+        }
+        #[cfg(feature = "bootloader")]
+        Prepared::BootPoll { node, now } => {
+            for _ in 0..n {
+                let copy = scratch.copy_of_boot(black_box(node));
+                if measured {
+                    black_box(copy.poll(*now));
+                    while let Some(frame) = copy.pop_tx() {
+                        black_box(frame);
                     }
                 }
                 black_box(copy);

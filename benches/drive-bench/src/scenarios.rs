@@ -28,8 +28,12 @@ pub(crate) static ALL: &[Measurement] = &[
     m("tick-2-axes-csp", "tick: two axes, csp + cascade on both, interpolating", tick_two_axes_csp),
 ];
 
+/// The bootloader's measurements (the `bootloader` build; `scripts/bench.sh` lists them last).
+#[cfg(feature = "bootloader")]
+pub(crate) static ALL: &[Measurement] = crate::boot::ALL;
+
 /// The single-axis measurements.
-#[cfg(not(feature = "two-axes"))]
+#[cfg(not(any(feature = "two-axes", feature = "bootloader")))]
 pub(crate) static ALL: &[Measurement] = &[
     m("tick-idle", "tick: idle (Switch on disabled, NMT Operational, default PDOs)", tick_idle),
     m("tick-pp-trapezoid", "tick: pp moving, trapezoid (accelerating)", tick_pp_trapezoid),

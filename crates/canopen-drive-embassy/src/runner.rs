@@ -8,7 +8,8 @@
 //!   receive loop:  rx.receive().await ─► on_frame ─► LSS store to the hooks; a bit-rate
 //!                  change ends the runner ─► wake the service loop
 //!   service loop:  poll ─► pop_tx ─► tx.transmit().await … ─► sleep until the deadline,
-//!                  a received frame, or a tick that queued frames
+//!                  a received frame, or a tick that queued frames; a deadline already
+//!                  reached: yield to the executor once, then poll again
 //!   bus state:     every BUS_STATE_PERIOD: hooks.bus_state() ─► on_can_state on a change
 //! ```
 
@@ -20,6 +21,7 @@ use canopen_drive::wire::lss::BitTiming;
 use canopen_drive::CanFrame;
 use embassy_futures::join::join;
 use embassy_futures::select::{select, Either};
+use embassy_futures::yield_now;
 use embassy_sync::blocking_mutex::raw::NoopRawMutex;
 use embassy_sync::signal::Signal;
 use embassy_time::{Duration, Timer};
@@ -120,7 +122,10 @@ impl<H: RunnerHooks + ?Sized> RunnerHooks for &mut H {
 ///
 /// - every received frame goes to `on_frame` at once (one critical section);
 /// - `poll` runs after every received frame, every tick that queued frames, and at the
-///   deadline `poll` returned;
+///   deadline `poll` returned; when that deadline has already come (work to do at once: a
+///   bootloader erasing sector by sector, a block upload's next segments), the runner yields
+///   to the executor before it polls again, so that the other tasks run and a received
+///   frame is taken between two such passes;
 /// - queued frames go to the driver one by one, the lock released while the driver waits;
 ///   a frame the driver cannot represent is dropped.
 ///
@@ -231,13 +236,18 @@ where
                     let _ = tx.transmit(&out).await;
                 }
             }
-            let woken = select(received.wait(), drive.kicked());
             match deadline {
+                // Due already (now, or passed while transmitting): another pass, but after the
+                // executor's other tasks and the receive loop have had their turn. A wait here
+                // would be ready at once after a wake-up during the pass (a tick, a frame), and
+                // the loop would not return to the executor while `poll` keeps asking at once.
+                Some(at) if at <= now() => yield_now().await,
                 Some(at) => {
+                    let woken = select(received.wait(), drive.kicked());
                     select(woken, Timer::at(to_embassy(at))).await;
                 }
                 None => {
-                    woken.await;
+                    select(received.wait(), drive.kicked()).await;
                 }
             }
         }
