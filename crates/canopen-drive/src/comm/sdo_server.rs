@@ -192,19 +192,18 @@ enum State {
         seq: u8,
         block_size: u8,
         done: bool,
-        /// The CRC of the download's bytes up to `folded` in the buffer (with those of the
-        /// pieces a stream passed on): each segment folds the one before it, so no frame
-        /// computes it over a whole buffer.
+        /// The CRC of the download's bytes but the last segment's (those of the pieces a
+        /// stream passed on included): each segment folds the one before it into it, so no
+        /// frame computes it over a whole buffer.
         crc: u16,
-        folded: usize,
     },
     BlockDownloadEnd {
         size: Option<usize>,
         len: usize,
         mux: Mux,
         crc_on: bool,
+        /// As in `BlockDownload`: all but the last segment's bytes.
         crc: u16,
-        folded: usize,
     },
     BlockUploadInitiated(BlockUpload),
     BlockUploadSending(BlockUpload),
@@ -432,7 +431,6 @@ impl<const BUF: usize> SdoServer<BUF> {
                             block_size: self.block_size(0),
                             done: false,
                             crc: 0,
-                            folded: 0,
                         },
                         Some(Response::BlockDownloadInitiated {
                             mux,
@@ -506,10 +504,11 @@ impl<const BUF: usize> SdoServer<BUF> {
             }
 
             (
-                State::BlockDownloadEnd { mux, crc_on, size, len, crc, folded },
+                State::BlockDownloadEnd { mux, crc_on, size, len, crc },
                 Request::BlockDownloadEnd { unused, crc: client_crc },
             ) => {
                 // The last segment always carried 7 bytes; `unused` of them were padding.
+                let last = len.saturating_sub(7);
                 let len = len.saturating_sub(usize::from(unused));
                 if len > BUF {
                     return abort(mux, AbortCode::OutOfMemory);
@@ -521,8 +520,8 @@ impl<const BUF: usize> SdoServer<BUF> {
                 if size.is_some_and(|s| total < s) {
                     return abort(mux, AbortCode::LengthTooLow);
                 }
-                // The last segment's bytes (at most 7) are the only ones the CRC lacks.
-                if crc_on && crc::update(crc, self.buf.get(folded..len).unwrap_or(&[])) != client_crc {
+                // The last segment's bytes are the only ones the CRC lacks.
+                if crc_on && crc::update(crc, self.buf.get(last..len).unwrap_or(&[])) != client_crc {
                     return abort(mux, AbortCode::CrcError);
                 }
                 match self.finish_download(mux, len, od) {
@@ -766,19 +765,18 @@ impl<const BUF: usize> SdoServer<BUF> {
 
     /// A block-download sub-block segment.
     fn block_segment(&mut self, segment: BlockSegment, od: &mut impl ObjectAccess) -> Step {
-        let State::BlockDownload { mux, crc_on, size, len, seq, block_size, done, crc, folded } = self.state
-        else {
+        let State::BlockDownload { mux, crc_on, size, len, seq, block_size, done, crc } = self.state else {
             return (self.state, None);
         };
         if segment.seq == 0 || segment.seq > MAX_BLOCK_SIZE {
             return abort(mux, AbortCode::InvalidSequenceNumber);
         }
-        let (mut len, mut seq, mut done, mut crc, mut folded) = (len, seq, done, crc, folded);
+        let (mut len, mut seq, mut done, mut crc) = (len, seq, done, crc);
         if !done && segment.seq == seq + 1 {
-            // The bytes before this segment are final: into the CRC with them (one segment's).
+            // The segment before this one is final: into the CRC with it (a segment is 7 bytes;
+            // the buffer holds whole segments, or a stream's piece restarts it at 0).
             if crc_on {
-                crc = crc::update(crc, self.buf.get(folded..len).unwrap_or(&[]));
-                folded = len;
+                crc = crc::update(crc, self.buf.get(len.saturating_sub(7)..len).unwrap_or(&[]));
             }
             // The last segment may carry up to 6 padding bytes beyond the buffer; only the end
             // frame tells how many, so keep what fits and check the real length there.
@@ -805,14 +803,13 @@ impl<const BUF: usize> SdoServer<BUF> {
         if segment.seq >= block_size || segment.last {
             if done {
                 let ack = Response::BlockDownloadAck { ack_seq: seq, block_size: self.block_size(len) };
-                return (State::BlockDownloadEnd { mux, crc_on, size, len, crc, folded }, Some(ack));
+                return (State::BlockDownloadEnd { mux, crc_on, size, len, crc }, Some(ack));
             }
             // Every byte of a sub-block before the last is data: a stream passes them on.
             if self.stream.is_some() {
                 if crc_on {
-                    crc = crc::update(crc, self.buf.get(folded..len).unwrap_or(&[]));
+                    crc = crc::update(crc, self.buf.get(len.saturating_sub(7)..len).unwrap_or(&[]));
                 }
-                folded = 0;
                 if let Err(code) = self.pass_on(len, false, od) {
                     return abort(mux, code);
                 }
@@ -829,12 +826,11 @@ impl<const BUF: usize> SdoServer<BUF> {
                     block_size: self.block_size(len),
                     done,
                     crc,
-                    folded,
                 },
                 Some(ack),
             );
         }
-        (State::BlockDownload { mux, crc_on, size, len, seq, block_size, done, crc, folded }, None)
+        (State::BlockDownload { mux, crc_on, size, len, seq, block_size, done, crc }, None)
     }
 }
 
