@@ -267,8 +267,9 @@ impl Quiet {
 #[allow(clippy::large_enum_variant)]
 #[derive(Clone, Debug)]
 enum Active {
-    /// No mode (6060h = 0), or one this build does not run (its number): the axis holds still.
-    Idle(i8),
+    /// No mode (6060h = 0), or one this build does not run (the bus cannot select one): the
+    /// axis holds still.
+    Idle,
     /// Profile position mode ([`pp`]).
     #[cfg(feature = "pp")]
     Pp(ProfilePosition),
@@ -296,7 +297,7 @@ impl Active {
     /// active mode (6061h may show a manufacturer-specific mode that runs as a direct mode).
     fn number(&self) -> i8 {
         match self {
-            Active::Idle(number) => *number,
+            Active::Idle => 0,
             #[cfg(feature = "pp")]
             Active::Pp(_) => mode::PROFILE_POSITION,
             Active::Pv(_) => mode::PROFILE_VELOCITY,
@@ -509,7 +510,7 @@ impl Profile {
             feed_forward: FeedForward::NONE,
             ip: IpBuffer::for_axis(axis),
             ip_overflow: false,
-            mode: Active::Idle(0),
+            mode: Active::Idle,
             #[cfg(any(feature = "pp", feature = "hm"))]
             planner: None,
             origin: 0,
@@ -627,7 +628,7 @@ impl Profile {
         *feed_forward = FeedForward::NONE;
         *ip = IpBuffer::for_axis(*axis);
         *ip_overflow = false;
-        *mode = Active::Idle(0);
+        *mode = Active::Idle;
         *origin = 0;
         *homing_error = false;
         *last_tick = None;
@@ -2074,7 +2075,7 @@ impl Profile {
             mode::CYCLIC_POSITION | mode::CYCLIC_VELOCITY | mode::CYCLIC_TORQUE => {
                 Active::Cyclic(super::cyclic::Run::start(number, actual, velocity))
             }
-            _ => Active::Idle(number),
+            _ => Active::Idle,
         };
     }
 
