@@ -100,6 +100,11 @@ pub(crate) static ALL: &[Measurement] = &[
     m("sdo-download", "on_frame + pop_tx: SDO expedited download (6081h)", sdo_download),
     m("sdo-segment", "on_frame + pop_tx: SDO segmented upload, one segment (1008h)", sdo_segment),
     m("sdo-block-segment", "on_frame: SDO block download, one sub-block segment", sdo_block_segment),
+    m(
+        "sdo-block-end",
+        "on_frame + pop_tx: SDO block download end (CRC checked, 21 bytes written)",
+        sdo_block_end,
+    ),
     m("rpdo-1", "on_frame: RPDO, 1 mapped entry (6040h)", rpdo_1),
     m("rpdo-4", "on_frame: RPDO, 4 mapped entries", rpdo_4),
     m("rpdo-8", "on_frame: RPDO, 8 mapped entries", rpdo_8),
@@ -753,6 +758,33 @@ fn sdo_block_segment() -> Result<Prepared, SetupError> {
     let response = rig.sdo([0xC6, lo, hi, 0, 21, 0, 0, 0])?;
     check(response[0] & 0xE3 == 0xA0 && response[4] >= 3, "block download initiated")?;
     on_frame(rig, crate::rig::SDO_RX, &[0x01, b'a', b'b', b'c', b'd', b'e', b'f', b'g'], |t, _| t.frames == 0)
+}
+
+/// A block download of 21 bytes to 2101h with CRC, its one sub-block sent and acknowledged: the
+/// end frame (the CRC of the last segment folded in and checked, the value written).
+fn sdo_block_end() -> Result<Prepared, SetupError> {
+    let mut rig = communication()?;
+    let [lo, hi] = TEXT.to_le_bytes();
+    let response = rig.sdo([0xC6, lo, hi, 0, 21, 0, 0, 0])?;
+    check(response[0] & 0xE3 == 0xA0 && response[4] >= 3, "block download initiated")?;
+    let text = *b"abcdefghijklmnopqrstu";
+    for (seq, chunk) in (1u8..).zip(text.chunks(7)) {
+        let mut segment = [seq | if seq == 3 { 0x80 } else { 0 }, 0, 0, 0, 0, 0, 0, 0];
+        segment[1..].copy_from_slice(chunk);
+        let frame = frame(crate::rig::SDO_RX, &segment)?;
+        rig.drive.on_frame(&frame, rig.now);
+    }
+    let mut ack = None;
+    while let Some(reply) = rig.drive.pop_tx() {
+        ack = ack.or(reply.data().first().copied());
+    }
+    check(ack == Some(0xA2), "sub-block acknowledged")?;
+    let [crc_lo, crc_hi] = canopen_drive::wire::crc::update(0, &text).to_le_bytes();
+    on_frame(rig, crate::rig::SDO_RX, &[0xC1, crc_lo, crc_hi, 0, 0, 0, 0, 0], |t, d| {
+        let mut value = [0u8; 21];
+        let read = d.od().entry(TEXT, 0).map(|entry| d.od().read(&entry, 0, &mut value));
+        sdo_reply(t, 0xA1) && read == Ok(21) && value == text
+    })
 }
 
 fn rpdo_1() -> Result<Prepared, SetupError> {
