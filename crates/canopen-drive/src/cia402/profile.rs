@@ -127,14 +127,24 @@ impl Ramp {
 /// The drive profile's run-time state.
 #[derive(Clone, Debug)]
 pub struct Profile {
+    /// The factor group, re-read after [`Profile::invalidate`]: kept apart from the rest of the
+    /// state, so that the tick borrows it while it changes the rest (a copy of some 90 bytes
+    /// per tick otherwise).
+    factors: Option<Factors>,
+    /// Everything else.
+    run: Runtime,
+}
+
+/// The profile's state but for its factor group ([`Profile`]): the tick's phases are its
+/// methods, and get the factor group as an argument.
+#[derive(Clone, Debug)]
+struct Runtime {
     config: ProfileConfig,
     /// The logical device whose objects this profile runs ([`Profile::for_axis`]).
     axis: Axis,
-    /// 6502h, a fact of the device ([`Profile::set_supported_modes`]).
+    /// 6502h, a fact of the device ([`Profile::configure`]).
     supported_modes: u32,
     fsa: Fsa,
-    /// The factor group, re-read after [`Profile::invalidate`].
-    factors: Option<Factors>,
     /// The per-tick entries, resolved with the factors.
     slots: Slots,
     /// [`Self::slots`] resolved in the drive's dictionary.
@@ -257,7 +267,7 @@ impl Quiet {
 }
 
 /// The state of the operation mode that runs, in that mode's variant: it exists while the mode
-/// is active, is built when the mode becomes active ([`Profile::start_mode`]) and starts over
+/// is active, is built when the mode becomes active ([`Runtime::start_mode`]) and starts over
 /// when the drive enters Operation enabled ([`Active::restart`]).
 ///
 /// What outlives a mode stays in [`Profile`]: the velocity and torque demands (the stop ramps
@@ -277,8 +287,8 @@ enum Active {
     Pv(pv::Run),
     /// Profile torque mode ([`tq`]).
     Tq,
-    /// Homing mode ([`hm`]): the run is [`Profile::homing`], its trajectory
-    /// [`Profile::planner`].
+    /// Homing mode ([`hm`]): the run is [`Runtime::homing`], its trajectory
+    /// [`Runtime::planner`].
     #[cfg(feature = "hm")]
     Hm,
     /// Velocity mode ([`vl`]).
@@ -344,7 +354,7 @@ impl Active {
         }
     }
 
-    /// pp or hm: the modes that move [`Profile::planner`].
+    /// pp or hm: the modes that move [`Runtime::planner`].
     #[cfg(any(feature = "pp", feature = "hm"))]
     fn plans(&self) -> bool {
         match self {
@@ -487,90 +497,37 @@ impl Profile {
     /// A profile at power-on for `axis`: every profile object it reads and writes is that axis's
     /// ([`Axis::index`]), the same description shifted by n × 800h.
     pub fn for_axis(config: ProfileConfig, axis: Axis) -> Self {
-        Profile {
-            // The first axis's entries, by look-up, until the first tick's refresh resolves the
-            // axis's own; nothing reads them before (`preset_position` refreshes first). A
-            // constant: building or resetting a profile then copies a template instead of
-            // computing 80 slots (1.7 KiB of flash).
-            slots: Slots::UNRESOLVED,
-            slots_resolved: false,
-            config,
-            axis,
-            supported_modes: 0,
-            fsa: Fsa::default(),
-            factors: None,
-            cascade: None,
-            display_mode: 0,
-            velocity: Ramp::default(),
-            torque: Ramp::default(),
-            homing: Homing::new(config.homing),
-            probe: TouchProbe::new(),
-            stream_lost: false,
-            cyclic_limited: false,
-            feed_forward: FeedForward::NONE,
-            ip: IpBuffer::for_axis(axis),
-            ip_overflow: false,
-            mode: Active::Idle,
-            #[cfg(any(feature = "pp", feature = "hm"))]
-            planner: None,
-            origin: 0,
-            homing_error: false,
-            last_tick: None,
-            fault: None,
-            stopping: false,
-            mode_changed: false,
-            previous_controlword: Controlword::empty(),
-            following_error_since: None,
-            forced: None,
-            unavailable_function: false,
-            released_at: None,
-            engaging_since: None,
-            pending_edge: false,
-            travel_limit: None,
-            commanded: 0,
-            touching: None,
-            dynamic_braking: false,
-            fault_unreported: false,
-            internal_origin: 0,
-            resting_since: None,
-            blocked: (false, false),
-            limits: Revised::EMPTY,
-            motion: MotionLimits::ZERO,
-            tick_limits: Memo::EMPTY,
-            timing: Revised::EMPTY,
-            pp_limits: Revised::EMPTY,
-            quiet: Quiet::NONE,
-        }
+        Profile { factors: None, run: Runtime::for_axis(config, axis) }
     }
 
     /// The configuration.
     pub fn config(&self) -> &ProfileConfig {
-        &self.config
+        &self.run.config
     }
 
     /// The axis whose objects the profile runs.
     pub fn axis(&self) -> Axis {
-        self.axis
+        self.run.axis
     }
 
     /// The FSA state.
     pub fn state(&self) -> State {
-        self.fsa.state()
+        self.run.fsa.state()
     }
 
     /// Back to power-on (reset application): written in place, field by field, so that an NMT
     /// reset builds no profile of some 3.5 KiB on its stack. The planner is left as it is: it
     /// is reset when pp or homing starts, and nothing reads it before.
     pub fn reset(&mut self) {
+        self.factors = None;
         // Every field named: a field added to the profile must be reset here too.
-        let Profile {
+        let Runtime {
             slots,
             slots_resolved,
             config,
             axis,
             supported_modes: _,
             fsa,
-            factors,
             cascade,
             display_mode,
             velocity,
@@ -612,11 +569,10 @@ impl Profile {
             timing,
             pp_limits,
             quiet,
-        } = self;
+        } = &mut self.run;
         *slots = Slots::UNRESOLVED;
         *slots_resolved = false;
         *fsa = Fsa::default();
-        *factors = None;
         *cascade = None;
         *display_mode = 0;
         *velocity = Ramp::default();
@@ -661,9 +617,287 @@ impl Profile {
     /// Reads the facts of the device the profile keeps (6502h, fixed once the dictionary is
     /// built: 6060h accepts only the modes it lists).
     pub fn configure<const B: usize>(&mut self, od: &Dictionary<B>) {
-        self.quiet.idle = false;
-        self.supported_modes = od.get::<u32>(self.axis.index(SUPPORTED_DRIVE_MODES), 0).unwrap_or(0);
-        self.build_planner();
+        self.run.quiet.idle = false;
+        self.run.supported_modes = od.get::<u32>(self.run.axis.index(SUPPORTED_DRIVE_MODES), 0).unwrap_or(0);
+        self.run.build_planner();
+    }
+
+    /// Presets the position: from the next tick on 6064h reads `user` at the present position
+    /// of the shaft (as after homing on the current position with 607Ch = −`user`). A profile
+    /// position move in progress stops where it is.
+    pub fn preset_position<const B: usize>(&mut self, od: &Dictionary<B>, user: i32) {
+        self.run.quiet.idle = false;
+        let Profile { factors, run } = self;
+        let factors = factors.get_or_insert_with(|| run.refresh(od));
+        // The encoder count of the last tick (6063h counts from `internal_origin`).
+        let actual = i64::from(od.load(self.run.slots.position_actual_internal))
+            .wrapping_add(self.run.internal_origin);
+        self.run.origin =
+            actual.saturating_sub(factors.to_internal(i64::from(user) * factors.position_sign()));
+        self.run.hold_mode(actual, i64::from(user));
+    }
+
+    /// Parameters may have changed (an SDO write, a restore, the firmware's access): the factor
+    /// group is read again at the next tick.
+    pub fn invalidate(&mut self) {
+        self.run.quiet.idle = false;
+        self.factors = None;
+    }
+
+    /// A connection loss, reacted to as 6007h says at the next tick. The reaction applies while
+    /// the drive function is enabled (an idle axis has nothing to stop, and faulting it would
+    /// make every NMT reset leave the drive in Fault).
+    pub fn connection_lost<const B: usize>(&mut self, event: ConnectionEvent, od: &Dictionary<B>) {
+        self.run.quiet.idle = false;
+        if !self.run.fsa.state().drive_function_enabled() {
+            return;
+        }
+        let fault = if event == ConnectionEvent::NmtStopped
+            && self.run.config.nmt_stopped_fault
+            && matches!(self.run.fsa.state(), State::OperationEnabled { .. })
+        {
+            true
+        } else {
+            // (The drive function was enabled: a tick has resolved the slots.)
+            match od.load(self.run.slots.abort_connection) {
+                1 => true,
+                2 => {
+                    self.run.forced = Some(DISABLE_VOLTAGE);
+                    false
+                }
+                3 => {
+                    self.run.forced = Some(QUICK_STOP);
+                    false
+                }
+                _ => false,
+            }
+        };
+        if fault && self.run.fault.is_none() {
+            // Reported (EMCY, 1003h) at the next tick, so its fault reset sends 0000h.
+            self.run.fault = Some(COMMUNICATION_FAULT);
+            self.run.fault_unreported = true;
+        }
+    }
+
+    /// The share of a pp or homing plan in progress for the next tick, after this one's
+    /// [`Self::tick`] (the plan is made over several ticks, a bounded share in each). Its stack
+    /// is then not under the tick's: a board's tick (e.g. [`crate::drive::Drive::tick_axes`])
+    /// calls it once its demands are out.
+    #[inline]
+    pub fn plan_ahead(&mut self) {
+        #[cfg(any(feature = "pp", feature = "hm"))]
+        if let Some(planner) = self.run.planner.as_mut().filter(|_| self.run.mode.plans()) {
+            planner.plan_ahead();
+        }
+    }
+
+    /// The value rule of the profile's object `index`/`sub` ([`Rule`]); `pdo`: as an RPDO
+    /// writes it.
+    #[inline]
+    pub fn rule(&self, index: u16, sub: u8, pdo: bool) -> Option<Rule> {
+        super::registry::rule(&self.run.config, self.run.first_axis_index(index), sub, pdo)
+    }
+
+    /// Checks `data` as the new value of `index`/`sub` under `rule`: the configuration's rules
+    /// and those of the drive's state (a new mode in Operation enabled, the ip buffer, the
+    /// cascade's parameters at the tick rate).
+    pub fn check<const B: usize>(
+        &self,
+        rule: Rule,
+        od: &Dictionary<B>,
+        index: u16,
+        sub: u8,
+        data: &[u8],
+    ) -> Result<(), AbortCode> {
+        match rule {
+            // A device that changes modes only outside Operation enabled refuses a new mode there.
+            Rule::Mode
+                if !self.run.config.mode_change_in_operation
+                    && matches!(self.state(), State::OperationEnabled { .. })
+                    && od.get::<i8>(index, sub).ok() != data.first().map(|b| *b as i8) =>
+            {
+                Err(AbortCode::CannotStoreDeviceState)
+            }
+            Rule::Interpolation | Rule::InterpolationRecord | Rule::InterpolationConfiguration => {
+                super::ip::check_write(od, &self.run.ip, index, sub, data)
+            }
+            Rule::InterpolationRecordPdo => Ok(()),
+            Rule::Cascade => {
+                crate::control::check_write(od, index, sub, data, self.run.config.tick_rate.hz())
+            }
+            rule => {
+                let index = self.run.first_axis_index(index);
+                super::registry::check(rule, &self.run.config, self.run.supported_modes, index, sub, data)
+            }
+        }
+    }
+
+    /// `index`/`sub` was written under `rule` (SDO or RPDO): the ip buffer takes its records and
+    /// its configuration.
+    pub fn written<const B: usize>(&mut self, od: &mut Dictionary<B>, rule: Rule, index: u16, sub: u8) {
+        self.run.quiet.idle = false;
+        if rule.reacts() {
+            self.ip_written(od, index, sub);
+        }
+    }
+
+    /// An SDO download to `index` was stored: the parameters the tick derives are computed again;
+    /// returns whether it was a set-point that counts for the cyclic stream as an RPDO would
+    /// ([`CyclicConfig::sdo_set_points`](super::cyclic::CyclicConfig::sdo_set_points)).
+    pub fn sdo_written(&mut self, index: u16) -> bool {
+        // A set-point or a command changes nothing the profile derives from its configuration.
+        if self.run.axis.relative(index).is_some_and(super::objects::is_process_data) {
+            self.run.quiet.idle = false;
+        } else {
+            self.invalidate();
+        }
+        self.run.config.cyclic.sdo_set_points
+            && matches!(
+                self.run.axis.relative(index),
+                Some(TARGET_POSITION | TARGET_VELOCITY | TARGET_TORQUE)
+            )
+    }
+
+    /// A 60C1h/60C4h entry was written (SDO or RPDO): the ip buffer takes it.
+    pub fn ip_written<const B: usize>(&mut self, od: &mut Dictionary<B>, index: u16, sub: u8) {
+        self.run.quiet.idle = false;
+        if !super::IP {
+            return;
+        }
+        match self.run.ip.written(od, index, sub) {
+            Written::Overflow(_) => self.run.ip_overflow = true,
+            Written::Cleared | Written::Reorganised => self.run.ip_overflow = false,
+            _ => {}
+        }
+    }
+
+    /// Stored parameters were loaded: the ip buffer takes its configuration again.
+    pub fn parameters_loaded<const B: usize>(&mut self, od: &Dictionary<B>) {
+        self.run.quiet.idle = false;
+        self.factors = None;
+        if super::IP {
+            self.run.ip.reload(od);
+        }
+    }
+
+    /// Whether a homing run has completed (statusword bit 12 in hm).
+    pub fn is_homed(&self) -> bool {
+        self.run.homing.is_homed()
+    }
+
+    /// The tick of an idle axis whose inputs have not changed since the last tick: true when
+    /// [`Self::quiet_demand`] is what [`Self::tick`] would return (its steady outputs are in the
+    /// dictionary already), false when a full tick is needed. Idle: the drive function disabled, no
+    /// homing, no stop, no transition, no report, no timed status bit running, the last tick
+    /// without a SYNC or set-point; unchanged: the sample, and the dictionary by its
+    /// [`Dictionary::revision`] (any write to it since, from the bus or the firmware, makes the
+    /// next tick a full one, so a value written between ticks takes effect at the same tick as
+    /// without this path).
+    pub fn quiet_tick(&mut self, now: Instant, sample: &Sample, revision: u32) -> bool {
+        if !self.is_quiet(sample, revision) {
+            return false;
+        }
+        self.pass_quietly(now);
+        true
+    }
+
+    /// Whether [`Self::quiet_tick`] would pass with these inputs (and change nothing): a
+    /// node of several axes asks every axis before it lets any pass.
+    #[inline]
+    pub fn is_quiet(&self, sample: &Sample, revision: u32) -> bool {
+        let quiet = &self.run.quiet;
+        quiet.idle && quiet.revision == revision && quiet.sample == *sample
+    }
+
+    /// The quiet tick of an axis [`Self::is_quiet`] found idle.
+    #[inline]
+    pub fn pass_quietly(&mut self, now: Instant) {
+        // What a full tick of an idle axis changes: the times it keeps.
+        self.run.last_tick = Some(now);
+        self.run.released_at = Some(now);
+    }
+
+    /// The demand of the last idle tick ([`Self::quiet_tick`]).
+    #[inline]
+    pub fn quiet_demand(&self) -> Demand {
+        self.run.quiet.demand
+    }
+
+    /// One control tick, in phases: the inputs (`sense`), the state machine and the mode of
+    /// operation (`command`), the active mode's step (`step_mode`), and the demands, the
+    /// statusword and what the power stage gets (`output`). A caller calls
+    /// [`Self::plan_ahead`] after it.
+    #[inline]
+    pub fn tick<const B: usize>(
+        &mut self,
+        now: Instant,
+        sample: &Sample,
+        od: &mut Dictionary<B>,
+        cycle: SyncInput,
+    ) -> (Demand, Report) {
+        // The factor group borrowed beside the state the tick changes, not copied.
+        let Profile { factors, run } = self;
+        let factors = factors.get_or_insert_with(|| run.refresh(od));
+        run.tick(now, sample, od, cycle, factors)
+    }
+}
+
+impl Runtime {
+    /// [`Profile::for_axis`]'s state.
+    fn for_axis(config: ProfileConfig, axis: Axis) -> Self {
+        Runtime {
+            // The first axis's entries, by look-up, until the first tick's refresh resolves the
+            // axis's own; nothing reads them before (`preset_position` refreshes first). A
+            // constant: building or resetting a profile then copies a template instead of
+            // computing 80 slots (1.7 KiB of flash).
+            slots: Slots::UNRESOLVED,
+            slots_resolved: false,
+            config,
+            axis,
+            supported_modes: 0,
+            fsa: Fsa::default(),
+            cascade: None,
+            display_mode: 0,
+            velocity: Ramp::default(),
+            torque: Ramp::default(),
+            homing: Homing::new(config.homing),
+            probe: TouchProbe::new(),
+            stream_lost: false,
+            cyclic_limited: false,
+            feed_forward: FeedForward::NONE,
+            ip: IpBuffer::for_axis(axis),
+            ip_overflow: false,
+            mode: Active::Idle,
+            #[cfg(any(feature = "pp", feature = "hm"))]
+            planner: None,
+            origin: 0,
+            homing_error: false,
+            last_tick: None,
+            fault: None,
+            stopping: false,
+            mode_changed: false,
+            previous_controlword: Controlword::empty(),
+            following_error_since: None,
+            forced: None,
+            unavailable_function: false,
+            released_at: None,
+            engaging_since: None,
+            pending_edge: false,
+            travel_limit: None,
+            commanded: 0,
+            touching: None,
+            dynamic_braking: false,
+            fault_unreported: false,
+            internal_origin: 0,
+            resting_since: None,
+            blocked: (false, false),
+            limits: Revised::EMPTY,
+            motion: MotionLimits::ZERO,
+            tick_limits: Memo::EMPTY,
+            timing: Revised::EMPTY,
+            pp_limits: Revised::EMPTY,
+            quiet: Quiet::NONE,
+        }
     }
 
     /// [`Self::planner`] built where it is missing, in a frame of its own.
@@ -672,64 +906,6 @@ impl Profile {
         #[cfg(any(feature = "pp", feature = "hm"))]
         if self.planner.is_none() {
             self.planner = Some(PositionPlanner::new(self.config.tick_rate, 0));
-        }
-    }
-
-    /// Presets the position: from the next tick on 6064h reads `user` at the present position
-    /// of the shaft (as after homing on the current position with 607Ch = −`user`). A profile
-    /// position move in progress stops where it is.
-    pub fn preset_position<const B: usize>(&mut self, od: &Dictionary<B>, user: i32) {
-        self.quiet.idle = false;
-        let factors = match self.factors {
-            Some(factors) => factors,
-            None => self.refresh(od),
-        };
-        // The encoder count of the last tick (6063h counts from `internal_origin`).
-        let actual =
-            i64::from(od.load(self.slots.position_actual_internal)).wrapping_add(self.internal_origin);
-        self.origin = actual.saturating_sub(factors.to_internal(i64::from(user) * factors.position_sign()));
-        self.hold_mode(actual, i64::from(user));
-    }
-
-    /// Parameters may have changed (an SDO write, a restore, the firmware's access): the factor
-    /// group is read again at the next tick.
-    pub fn invalidate(&mut self) {
-        self.quiet.idle = false;
-        self.factors = None;
-    }
-
-    /// A connection loss, reacted to as 6007h says at the next tick. The reaction applies while
-    /// the drive function is enabled (an idle axis has nothing to stop, and faulting it would
-    /// make every NMT reset leave the drive in Fault).
-    pub fn connection_lost<const B: usize>(&mut self, event: ConnectionEvent, od: &Dictionary<B>) {
-        self.quiet.idle = false;
-        if !self.fsa.state().drive_function_enabled() {
-            return;
-        }
-        let fault = if event == ConnectionEvent::NmtStopped
-            && self.config.nmt_stopped_fault
-            && matches!(self.fsa.state(), State::OperationEnabled { .. })
-        {
-            true
-        } else {
-            // (The drive function was enabled: a tick has resolved the slots.)
-            match od.load(self.slots.abort_connection) {
-                1 => true,
-                2 => {
-                    self.forced = Some(DISABLE_VOLTAGE);
-                    false
-                }
-                3 => {
-                    self.forced = Some(QUICK_STOP);
-                    false
-                }
-                _ => false,
-            }
-        };
-        if fault && self.fault.is_none() {
-            // Reported (EMCY, 1003h) at the next tick, so its fault reset sends 0000h.
-            self.fault = Some(COMMUNICATION_FAULT);
-            self.fault_unreported = true;
         }
     }
 
@@ -853,18 +1029,6 @@ impl Profile {
         let _ = (actual, user);
     }
 
-    /// The share of a pp or homing plan in progress for the next tick, after this one's
-    /// [`Self::tick`] (the plan is made over several ticks, a bounded share in each). Its stack
-    /// is then not under the tick's: a board's tick (e.g. [`crate::drive::Drive::tick_axes`])
-    /// calls it once its demands are out.
-    #[inline]
-    pub fn plan_ahead(&mut self) {
-        #[cfg(any(feature = "pp", feature = "hm"))]
-        if let Some(planner) = self.planner.as_mut().filter(|_| self.mode.plans()) {
-            planner.plan_ahead();
-        }
-    }
-
     /// The trajectory planner while pp or hm runs.
     fn planner(&self) -> Option<&PositionPlanner> {
         #[cfg(any(feature = "pp", feature = "hm"))]
@@ -933,13 +1097,6 @@ impl Profile {
         }
     }
 
-    /// The value rule of the profile's object `index`/`sub` ([`Rule`]); `pdo`: as an RPDO
-    /// writes it.
-    #[inline]
-    pub fn rule(&self, index: u16, sub: u8, pdo: bool) -> Option<Rule> {
-        super::registry::rule(&self.config, self.first_axis_index(index), sub, pdo)
-    }
-
     /// The first axis's index of `index` when it is one of this axis's profile objects (the
     /// rules are written for 6000h–67FFh); an index outside the profile areas as it is.
     #[inline]
@@ -955,150 +1112,23 @@ impl Profile {
         }
     }
 
-    /// Checks `data` as the new value of `index`/`sub` under `rule`: the configuration's rules
-    /// and those of the drive's state (a new mode in Operation enabled, the ip buffer, the
-    /// cascade's parameters at the tick rate).
-    pub fn check<const B: usize>(
-        &self,
-        rule: Rule,
-        od: &Dictionary<B>,
-        index: u16,
-        sub: u8,
-        data: &[u8],
-    ) -> Result<(), AbortCode> {
-        match rule {
-            // A device that changes modes only outside Operation enabled refuses a new mode there.
-            Rule::Mode
-                if !self.config.mode_change_in_operation
-                    && matches!(self.state(), State::OperationEnabled { .. })
-                    && od.get::<i8>(index, sub).ok() != data.first().map(|b| *b as i8) =>
-            {
-                Err(AbortCode::CannotStoreDeviceState)
-            }
-            Rule::Interpolation | Rule::InterpolationRecord | Rule::InterpolationConfiguration => {
-                super::ip::check_write(od, &self.ip, index, sub, data)
-            }
-            Rule::InterpolationRecordPdo => Ok(()),
-            Rule::Cascade => crate::control::check_write(od, index, sub, data, self.config.tick_rate.hz()),
-            rule => {
-                let index = self.first_axis_index(index);
-                super::registry::check(rule, &self.config, self.supported_modes, index, sub, data)
-            }
-        }
-    }
-
-    /// `index`/`sub` was written under `rule` (SDO or RPDO): the ip buffer takes its records and
-    /// its configuration.
-    pub fn written<const B: usize>(&mut self, od: &mut Dictionary<B>, rule: Rule, index: u16, sub: u8) {
-        self.quiet.idle = false;
-        if rule.reacts() {
-            self.ip_written(od, index, sub);
-        }
-    }
-
-    /// An SDO download to `index` was stored: the parameters the tick derives are computed again;
-    /// returns whether it was a set-point that counts for the cyclic stream as an RPDO would
-    /// ([`CyclicConfig::sdo_set_points`](super::cyclic::CyclicConfig::sdo_set_points)).
-    pub fn sdo_written(&mut self, index: u16) -> bool {
-        // A set-point or a command changes nothing the profile derives from its configuration.
-        if self.axis.relative(index).is_some_and(super::objects::is_process_data) {
-            self.quiet.idle = false;
-        } else {
-            self.invalidate();
-        }
-        self.config.cyclic.sdo_set_points
-            && matches!(self.axis.relative(index), Some(TARGET_POSITION | TARGET_VELOCITY | TARGET_TORQUE))
-    }
-
-    /// A 60C1h/60C4h entry was written (SDO or RPDO): the ip buffer takes it.
-    pub fn ip_written<const B: usize>(&mut self, od: &mut Dictionary<B>, index: u16, sub: u8) {
-        self.quiet.idle = false;
-        if !super::IP {
-            return;
-        }
-        match self.ip.written(od, index, sub) {
-            Written::Overflow(_) => self.ip_overflow = true,
-            Written::Cleared | Written::Reorganised => self.ip_overflow = false,
-            _ => {}
-        }
-    }
-
-    /// Stored parameters were loaded: the ip buffer takes its configuration again.
-    pub fn parameters_loaded<const B: usize>(&mut self, od: &Dictionary<B>) {
-        self.quiet.idle = false;
-        self.factors = None;
-        if super::IP {
-            self.ip.reload(od);
-        }
-    }
-
-    /// Whether a homing run has completed (statusword bit 12 in hm).
-    pub fn is_homed(&self) -> bool {
-        self.homing.is_homed()
-    }
-
-    /// The tick of an idle axis whose inputs have not changed since the last tick: true when
-    /// [`Self::quiet_demand`] is what [`Self::tick`] would return (its steady outputs are in the
-    /// dictionary already), false when a full tick is needed. Idle: the drive function disabled, no
-    /// homing, no stop, no transition, no report, no timed status bit running, the last tick
-    /// without a SYNC or set-point; unchanged: the sample, and the dictionary by its
-    /// [`Dictionary::revision`] (any write to it since, from the bus or the firmware, makes the
-    /// next tick a full one, so a value written between ticks takes effect at the same tick as
-    /// without this path).
-    pub fn quiet_tick(&mut self, now: Instant, sample: &Sample, revision: u32) -> bool {
-        if !self.is_quiet(sample, revision) {
-            return false;
-        }
-        self.pass_quietly(now);
-        true
-    }
-
-    /// Whether [`Self::quiet_tick`] would pass with these inputs (and change nothing): a
-    /// node of several axes asks every axis before it lets any pass.
-    #[inline]
-    pub fn is_quiet(&self, sample: &Sample, revision: u32) -> bool {
-        let quiet = &self.quiet;
-        quiet.idle && quiet.revision == revision && quiet.sample == *sample
-    }
-
-    /// The quiet tick of an axis [`Self::is_quiet`] found idle.
-    #[inline]
-    pub fn pass_quietly(&mut self, now: Instant) {
-        // What a full tick of an idle axis changes: the times it keeps.
-        self.last_tick = Some(now);
-        self.released_at = Some(now);
-    }
-
-    /// The demand of the last idle tick ([`Self::quiet_tick`]).
-    #[inline]
-    pub fn quiet_demand(&self) -> Demand {
-        self.quiet.demand
-    }
-
-    /// One control tick, in phases: the inputs (`sense`), the state machine and the mode of
-    /// operation (`command`), the active mode's step (`step_mode`), and the demands, the
-    /// statusword and what the power stage gets (`output`). A caller calls
-    /// [`Self::plan_ahead`] after it.
-    pub fn tick<const B: usize>(
+    /// [`Profile::tick`] with the factor group, read again if it was invalidated.
+    fn tick<const B: usize>(
         &mut self,
         now: Instant,
         sample: &Sample,
         od: &mut Dictionary<B>,
         cycle: SyncInput,
+        factors: &Factors,
     ) -> (Demand, Report) {
         let dt = self.last_tick.map_or(Duration::ZERO, |t| (now - t).min(MAX_STEP));
         self.last_tick = Some(now);
         self.quiet.idle = false;
         let mut report = Report::default();
-        let factors = match self.factors {
-            Some(factors) => factors,
-            None => self.refresh(od),
-        };
-        let mut sensed = self.sense(now, sample, od, &factors, &mut report);
-        let command = self.command(now, sample, od, &factors, &sensed, &mut report);
-        let stepped =
-            self.step_mode(now, dt, sample, od, &factors, &mut sensed, &command, cycle, &mut report);
-        let demand = self.output(now, sample, od, &factors, &sensed, &command, stepped, &mut report);
+        let mut sensed = self.sense(now, sample, od, factors, &mut report);
+        let command = self.command(now, sample, od, factors, &sensed, &mut report);
+        let stepped = self.step_mode(now, dt, sample, od, factors, &mut sensed, &command, cycle, &mut report);
+        let demand = self.output(now, sample, od, factors, &sensed, &command, stepped, &mut report);
         // An idle axis: a tick with the same inputs would give the same outputs and leave the
         // same state (but for the times [`Self::quiet_tick`] keeps).
         let idle = !demand.drive_enabled
@@ -1613,7 +1643,6 @@ impl Profile {
     #[inline(never)]
     fn refresh<const B: usize>(&mut self, od: &Dictionary<B>) -> Factors {
         let factors = Factors::from_axis(od, self.config.units, self.axis);
-        self.factors = Some(factors);
         self.limits = Revised::EMPTY;
         self.pp_limits = Revised::EMPTY;
         if !self.slots_resolved {
@@ -2419,7 +2448,7 @@ impl Profile {
     }
 }
 
-/// What the statusword of a tick is built from ([`Profile::statusword`]), besides the
+/// What the statusword of a tick is built from ([`Runtime::statusword`]), besides the
 /// profile's own state.
 struct StatusInput<'a> {
     state: State,
@@ -2449,7 +2478,7 @@ struct StatusInput<'a> {
     actual: i64,
 }
 
-/// What the tick's first phase ([`Profile::sense`]) read from the sample.
+/// What the tick's first phase ([`Runtime::sense`]) read from the sample.
 struct Sensed {
     /// The encoder count.
     actual: i64,
@@ -2467,7 +2496,7 @@ struct Sensed {
     hardware: Option<(u16, ErrorRegister)>,
 }
 
-/// What the tick's second phase ([`Profile::command`]) decided.
+/// What the tick's second phase ([`Runtime::command`]) decided.
 #[derive(Clone, Copy)]
 struct Command {
     options: Options,
@@ -2497,7 +2526,7 @@ struct Command {
     limits: MotionLimits,
 }
 
-/// What the tick's third phase ([`Profile::step_mode`]) produced.
+/// What the tick's third phase ([`Runtime::step_mode`]) produced.
 struct Stepped {
     setpoint: Setpoint,
     /// The bits pp or ip reported.
@@ -2508,8 +2537,8 @@ struct Stepped {
     opening: bool,
 }
 
-/// The tick's inputs as the active mode's step sees them ([`Profile::run_active`],
-/// [`Profile::step_stop`], [`Profile::run_homing`]).
+/// The tick's inputs as the active mode's step sees them ([`Runtime::run_active`],
+/// [`Runtime::step_stop`], [`Runtime::run_homing`]).
 #[derive(Clone, Copy)]
 struct ModeInput<'a> {
     now: Instant,
