@@ -231,6 +231,8 @@ struct Runtime {
     timing: Revised<(u8, i8, u32), (u32, u32)>,
     /// [`Self::pp_limits`] for the raw values last seen (emptied with the factor group).
     pp_limits: Revised<pp::LimitObjects, (Limits, u32)>,
+    /// The option codes and the FSA's last step, kept while they stand ([`Steady`]).
+    steady: Steady,
     /// The last tick left the axis idle: what it saw and answered ([`Self::quiet_tick`]).
     quiet: Quiet,
 }
@@ -568,6 +570,7 @@ impl Profile {
             tick_limits,
             timing,
             pp_limits,
+            steady,
             quiet,
         } = &mut self.run;
         *slots = Slots::UNRESOLVED;
@@ -611,6 +614,7 @@ impl Profile {
         *tick_limits = Memo::EMPTY;
         *timing = Revised::EMPTY;
         *pp_limits = Revised::EMPTY;
+        *steady = Steady::NONE;
         *quiet = Quiet::NONE;
     }
 
@@ -642,6 +646,7 @@ impl Profile {
     pub fn invalidate(&mut self) {
         self.run.quiet.idle = false;
         self.factors = None;
+        self.run.steady.option_codes = None;
     }
 
     /// A connection loss, reacted to as 6007h says at the next tick. The reaction applies while
@@ -736,7 +741,11 @@ impl Profile {
     /// its configuration.
     pub fn written<const B: usize>(&mut self, od: &mut Dictionary<B>, rule: Rule, index: u16, sub: u8) {
         self.run.quiet.idle = false;
-        if rule.reacts() {
+        if rule.is_option_code() {
+            // (An RPDO a vendor's description lets write an option code: an SDO write
+            // invalidates the profile's parameters anyway.)
+            self.run.steady.option_codes = None;
+        } else if rule.reacts() {
             self.ip_written(od, index, sub);
         }
     }
@@ -775,6 +784,7 @@ impl Profile {
     pub fn parameters_loaded<const B: usize>(&mut self, od: &Dictionary<B>) {
         self.run.quiet.idle = false;
         self.factors = None;
+        self.run.steady.option_codes = None;
         if super::IP {
             self.run.ip.reload(od);
         }
@@ -896,6 +906,7 @@ impl Runtime {
             tick_limits: Memo::EMPTY,
             timing: Revised::EMPTY,
             pp_limits: Revised::EMPTY,
+            steady: Steady::NONE,
             quiet: Quiet::NONE,
         }
     }
@@ -1241,13 +1252,7 @@ impl Runtime {
         sensed: &Sensed,
         report: &mut Report,
     ) -> Command {
-        let options = Options {
-            quick_stop: od.load(self.slots.quick_stop_option),
-            shutdown: od.load(self.slots.shutdown_option),
-            disable_operation: od.load(self.slots.disable_operation_option),
-            fault_reaction: od.load(self.slots.fault_reaction_option),
-            transition_16: self.config.transition_16,
-        };
+        let (options, halt_option) = self.option_codes(od);
         let (controlword, commanded, bit4_rose) = self.controlword(sample, od, report);
         let before = self.fsa.state();
         let previous_velocity = self.velocity_demand();
@@ -1256,12 +1261,8 @@ impl Runtime {
         let stopped = at_rest
             && (self.config.brake_engage_delay == Duration::ZERO
                 || self.engaging_since.is_some_and(|since| now - since >= self.config.brake_engage_delay));
-        let step = self.fsa.step(
-            commanded,
-            self.fault.is_some() && !before_fault_cleared(before, sensed.hardware),
-            stopped,
-            &options,
-        );
+        let fault = self.fault.is_some() && !before_fault_cleared(before, sensed.hardware);
+        let step = self.step_fsa((commanded, fault, stopped), &options);
         #[cfg(any(feature = "defmt", feature = "log"))]
         if step.state != before {
             if matches!(step.state, State::FaultReactionActive) {
@@ -1308,8 +1309,6 @@ impl Runtime {
             self.restart_mode(sensed.actual, sensed.actual_user, i64::from(sample.velocity));
         }
         let operation = matches!(step.state, State::OperationEnabled { leaving: None });
-        // 605Dh: how a halt stops (`None`: a fault reaction); read once for both uses below.
-        let halt_option = StopKind::halt_or_fault(od.load(self.slots.halt_option));
         let stop = step.stop.or_else(|| {
             // pp halts on its trajectory, tq ramps its torque to 0 (digest §4.1).
             let halting = halt
@@ -1389,6 +1388,58 @@ impl Runtime {
             }
         }
         (controlword, commanded, bit4_rose)
+    }
+
+    /// The option codes 605Ah, 605Bh, 605Ch, 605Eh as the FSA takes them, and 605Dh, how a halt
+    /// stops (`None`: a fault reaction): kept until they may have been written
+    /// ([`Profile::invalidate`], [`Profile::written`]).
+    #[inline(always)]
+    fn option_codes<const B: usize>(&mut self, od: &Dictionary<B>) -> (Options, Option<StopKind>) {
+        match self.steady.option_codes {
+            Some(kept) => kept,
+            None => self.read_option_codes(od),
+        }
+    }
+
+    /// [`Self::option_codes`] read from `od` (out of line: the steady tick holds only the test).
+    #[inline(never)]
+    fn read_option_codes<const B: usize>(&mut self, od: &Dictionary<B>) -> (Options, Option<StopKind>) {
+        let options = Options {
+            quick_stop: od.load(self.slots.quick_stop_option),
+            shutdown: od.load(self.slots.shutdown_option),
+            disable_operation: od.load(self.slots.disable_operation_option),
+            fault_reaction: od.load(self.slots.fault_reaction_option),
+            transition_16: self.config.transition_16,
+        };
+        let kept = (options, StopKind::halt_or_fault(od.load(self.slots.halt_option)));
+        self.steady.option_codes = Some(kept);
+        // The options may differ: the FSA's step is made again.
+        self.steady.fixed = None;
+        kept
+    }
+
+    /// The FSA's step of this tick with `inputs` (the command, a fault present, the stop at
+    /// rest): the last tick's again where that step left the FSA as it was and the inputs and
+    /// the option codes stand (the step is a function of them and the FSA alone), otherwise
+    /// made anew.
+    #[inline(always)]
+    fn step_fsa(&mut self, inputs: (Option<Controlword>, bool, bool), options: &Options) -> Step {
+        if self.steady.fixed == Some(inputs) {
+            return self.steady.step;
+        }
+        self.make_step(inputs, options)
+    }
+
+    /// [`Self::step_fsa`] made anew (out of line, as [`Self::read_option_codes`]).
+    #[inline(never)]
+    fn make_step(&mut self, inputs: (Option<Controlword>, bool, bool), options: &Options) -> Step {
+        let before = self.fsa;
+        let (commanded, fault, stopped) = inputs;
+        let step = self.fsa.step(commanded, fault, stopped, options);
+        let fixed = self.fsa == before && !step.entered_operation && !step.dynamic_brake;
+        self.steady.fixed = fixed.then_some(inputs);
+        self.steady.step = step;
+        step
     }
 
     /// The tick's third phase: the brake, then the set-point of the tick's stop, of the active
@@ -2446,6 +2497,34 @@ impl Runtime {
         }
         sw
     }
+}
+
+/// What the tick's command phase keeps while it stands: the option codes until they may have
+/// been written ([`Runtime::option_codes`]), the FSA's last step while its inputs stand
+/// ([`Runtime::step_fsa`]).
+#[derive(Clone, Copy, Debug)]
+struct Steady {
+    /// 605Ah, 605Bh, 605Ch, 605Eh as [`Options`], and 605Dh; `None`: to be read.
+    option_codes: Option<(Options, Option<StopKind>)>,
+    /// The inputs of [`Self::step`] (command, fault present, stop at rest) where that step left
+    /// the FSA as it found it, under the kept option codes: the same inputs give the same step
+    /// again.
+    fixed: Option<(Option<Controlword>, bool, bool)>,
+    /// The FSA's last step.
+    step: Step,
+}
+
+impl Steady {
+    const NONE: Self = Steady {
+        option_codes: None,
+        fixed: None,
+        step: Step {
+            state: State::NotReadyToSwitchOn,
+            entered_operation: false,
+            stop: None,
+            dynamic_brake: false,
+        },
+    };
 }
 
 /// What the statusword of a tick is built from ([`Runtime::statusword`]), besides the
