@@ -1077,9 +1077,18 @@ impl Runtime {
         None
     }
 
-    /// The modes whose demand is a trajectory of positions (pp, hm).
+    /// The modes whose demand is a trajectory of positions (pp, hm, csp, ip): the modes with a
+    /// [`Self::trajectory`].
     fn position_mode(&self) -> bool {
-        self.mode.is_pp() || self.mode.is_hm() || self.mode.position_limiter().is_some()
+        match &self.mode {
+            #[cfg(feature = "pp")]
+            Active::Pp(_) => true,
+            #[cfg(feature = "hm")]
+            Active::Hm => true,
+            Active::Ip(_) => super::IP,
+            Active::Cyclic(run) => run.mode == mode::CYCLIC_POSITION,
+            _ => false,
+        }
     }
 
     /// The trajectory state of the position modes (pp, hm, csp, ip).
@@ -1094,15 +1103,11 @@ impl Runtime {
         })
     }
 
-    /// Velocity demand of the running motion, increments/s.
+    /// Velocity demand of the running motion, increments/s: the trajectory's in a position
+    /// mode, the velocity ramp's otherwise.
     fn velocity_demand(&self) -> i64 {
-        self.velocity_of(self.trajectory())
-    }
-
-    /// [`Self::velocity_demand`] with the [`Self::trajectory`] of this moment.
-    fn velocity_of(&self, trajectory: Option<MotionState>) -> i64 {
         if self.position_mode() {
-            trajectory.map_or(0, |state| state.velocity)
+            self.trajectory().map_or(0, |state| state.velocity)
         } else {
             self.velocity.value
         }
@@ -1582,20 +1587,30 @@ impl Runtime {
         let (actual, actual_user) = (sensed.actual, sensed.actual_user);
         let step = command.step;
         // Demands and the position control function (digest §11).
-        let trajectory = self.trajectory();
+        // (The other modes have no trajectory to ask.)
+        let position_mode = self.position_mode();
+        let trajectory = if position_mode { self.trajectory() } else { None };
         let demand_position = trajectory.filter(|_| drive_enabled).map(|state| state.position);
         let demand_internal = demand_position.unwrap_or(actual).saturating_sub(self.origin);
-        let demand_user = factors.to_user(demand_internal) * factors.position_sign();
+        // Without a trajectory the demand is the actual position, 6064h already made (from the
+        // origin homing may have moved in this tick).
+        let demand_user = match demand_position {
+            Some(_) => factors.to_user(demand_internal) * factors.position_sign(),
+            None => actual_user,
+        };
         od.store(self.slots.position_demand_internal, demand_internal as i32);
         od.store(self.slots.position_demand, saturate(demand_user));
         let following_error = demand_user.saturating_sub(actual_user);
         od.store(self.slots.following_error_actual, saturate(following_error));
-        let velocity_demand_internal = self.velocity_of(trajectory);
+        let velocity_demand_internal = match trajectory {
+            _ if !position_mode => self.velocity.value,
+            Some(state) => state.velocity,
+            None => 0,
+        };
         let velocity_demand = factors.velocity_to_user(velocity_demand_internal) * factors.velocity_sign();
         od.store(self.slots.velocity_demand, saturate(velocity_demand));
         od.store_int(self.slots.torque_demand, factors.torque_to_user(self.torque.value));
-        let following =
-            self.position_mode() && drive_enabled && self.following_error(od, following_error, now);
+        let following = position_mode && drive_enabled && self.following_error(od, following_error, now);
         if following && self.config.following_error_fault && self.fault.is_none() {
             self.fault = Some(FOLLOWING_ERROR);
             report.raise = report.raise.or(Some((FOLLOWING_ERROR, ErrorRegister::DEVICE_PROFILE)));
