@@ -646,7 +646,7 @@ impl Profile {
     pub fn invalidate(&mut self) {
         self.run.quiet.idle = false;
         self.factors = None;
-        self.run.steady.option_codes = None;
+        self.run.steady.codes_kept = false;
     }
 
     /// A connection loss, reacted to as 6007h says at the next tick. The reaction applies while
@@ -744,7 +744,7 @@ impl Profile {
         if rule.is_option_code() {
             // (An RPDO a vendor's description lets write an option code: an SDO write
             // invalidates the profile's parameters anyway.)
-            self.run.steady.option_codes = None;
+            self.run.steady.codes_kept = false;
         } else if rule.reacts() {
             self.ip_written(od, index, sub);
         }
@@ -784,7 +784,7 @@ impl Profile {
     pub fn parameters_loaded<const B: usize>(&mut self, od: &Dictionary<B>) {
         self.run.quiet.idle = false;
         self.factors = None;
-        self.run.steady.option_codes = None;
+        self.run.steady.codes_kept = false;
         if super::IP {
             self.run.ip.reload(od);
         }
@@ -1257,7 +1257,11 @@ impl Runtime {
         sensed: &Sensed,
         report: &mut Report,
     ) -> Command {
-        let (options, halt_option) = self.option_codes(od);
+        if !self.steady.codes_kept {
+            self.read_option_codes(od);
+        }
+        // (Fields, not the kept codes as a whole: a copy of that is a library call.)
+        let (quick_stop_option, halt_option) = (self.steady.options.quick_stop, self.steady.halt_option);
         let (controlword, commanded, bit4_rose) = self.controlword(sample, od, report);
         let before = self.fsa.state();
         let previous_velocity = self.velocity_demand();
@@ -1267,7 +1271,7 @@ impl Runtime {
             && (self.config.brake_engage_delay == Duration::ZERO
                 || self.engaging_since.is_some_and(|since| now - since >= self.config.brake_engage_delay));
         let fault = self.fault.is_some() && !before_fault_cleared(before, sensed.hardware);
-        let step = self.step_fsa((commanded, fault, stopped), &options);
+        let step = self.step_fsa((commanded, fault, stopped));
         #[cfg(any(feature = "defmt", feature = "log"))]
         if step.state != before {
             if matches!(step.state, State::FaultReactionActive) {
@@ -1337,7 +1341,7 @@ impl Runtime {
         }
         self.stopping = stop.is_some();
         Command {
-            options,
+            quick_stop_option,
             controlword,
             bit4_rose,
             before,
@@ -1396,31 +1400,22 @@ impl Runtime {
     }
 
     /// The option codes 605Ah, 605Bh, 605Ch, 605Eh as the FSA takes them, and 605Dh, how a halt
-    /// stops (`None`: a fault reaction): kept until they may have been written
-    /// ([`Profile::invalidate`], [`Profile::written`]).
-    #[inline(always)]
-    fn option_codes<const B: usize>(&mut self, od: &Dictionary<B>) -> (Options, Option<StopKind>) {
-        match self.steady.option_codes {
-            Some(kept) => kept,
-            None => self.read_option_codes(od),
-        }
-    }
-
-    /// [`Self::option_codes`] read from `od` (out of line: the steady tick holds only the test).
+    /// stops (`None`: a fault reaction), read into [`Self::steady`], where they are kept until
+    /// they may have been written ([`Profile::invalidate`], [`Profile::written`]). Out of line:
+    /// the steady tick holds only the test.
     #[inline(never)]
-    fn read_option_codes<const B: usize>(&mut self, od: &Dictionary<B>) -> (Options, Option<StopKind>) {
-        let options = Options {
+    fn read_option_codes<const B: usize>(&mut self, od: &Dictionary<B>) {
+        self.steady.options = Options {
             quick_stop: od.load(self.slots.quick_stop_option),
             shutdown: od.load(self.slots.shutdown_option),
             disable_operation: od.load(self.slots.disable_operation_option),
             fault_reaction: od.load(self.slots.fault_reaction_option),
             transition_16: self.config.transition_16,
         };
-        let kept = (options, StopKind::halt_or_fault(od.load(self.slots.halt_option)));
-        self.steady.option_codes = Some(kept);
+        self.steady.halt_option = StopKind::halt_or_fault(od.load(self.slots.halt_option));
+        self.steady.codes_kept = true;
         // The options may differ: the FSA's step is made again.
         self.steady.fixed = None;
-        kept
     }
 
     /// The FSA's step of this tick with `inputs` (the command, a fault present, the stop at
@@ -1428,19 +1423,19 @@ impl Runtime {
     /// the option codes stand (the step is a function of them and the FSA alone), otherwise
     /// made anew.
     #[inline(always)]
-    fn step_fsa(&mut self, inputs: (Option<Controlword>, bool, bool), options: &Options) -> Step {
+    fn step_fsa(&mut self, inputs: (Option<Controlword>, bool, bool)) -> Step {
         if self.steady.fixed == Some(inputs) {
             return self.steady.step;
         }
-        self.make_step(inputs, options)
+        self.make_step(inputs)
     }
 
     /// [`Self::step_fsa`] made anew (out of line, as [`Self::read_option_codes`]).
     #[inline(never)]
-    fn make_step(&mut self, inputs: (Option<Controlword>, bool, bool), options: &Options) -> Step {
+    fn make_step(&mut self, inputs: (Option<Controlword>, bool, bool)) -> Step {
         let before = self.fsa;
         let (commanded, fault, stopped) = inputs;
-        let step = self.fsa.step(commanded, fault, stopped, options);
+        let step = self.fsa.step(commanded, fault, stopped, &self.steady.options);
         let fixed = self.fsa == before && !step.entered_operation && !step.dynamic_brake;
         self.steady.fixed = fixed.then_some(inputs);
         self.steady.step = step;
@@ -1619,7 +1614,7 @@ impl Runtime {
         let status_input = StatusInput {
             state: step.state,
             sample,
-            options: command.options,
+            quick_stop_option: command.quick_stop_option,
             pp: status,
             halt: command.halt,
             standstill: sensed.standstill,
@@ -2470,7 +2465,7 @@ impl Runtime {
         };
         let target_reached = match state {
             State::QuickStopActive => {
-                at_rest && StopKind::quick_stop(input.options.quick_stop).is_some_and(|(_, stay)| stay)
+                at_rest && StopKind::quick_stop(input.quick_stop_option).is_some_and(|(_, stay)| stay)
             }
             _ => enabled && reached,
         };
@@ -2515,12 +2510,16 @@ impl Runtime {
 }
 
 /// What the tick's command phase keeps while it stands: the option codes until they may have
-/// been written ([`Runtime::option_codes`]), the FSA's last step while its inputs stand
+/// been written ([`Runtime::read_option_codes`]), the FSA's last step while its inputs stand
 /// ([`Runtime::step_fsa`]).
 #[derive(Clone, Copy, Debug)]
 struct Steady {
-    /// 605Ah, 605Bh, 605Ch, 605Eh as [`Options`], and 605Dh; `None`: to be read.
-    option_codes: Option<(Options, Option<StopKind>)>,
+    /// The option codes below are kept (false: to be read).
+    codes_kept: bool,
+    /// 605Ah, 605Bh, 605Ch, 605Eh.
+    options: Options,
+    /// 605Dh.
+    halt_option: Option<StopKind>,
     /// The inputs of [`Self::step`] (command, fault present, stop at rest) where that step left
     /// the FSA as it found it, under the kept option codes: the same inputs give the same step
     /// again.
@@ -2531,7 +2530,15 @@ struct Steady {
 
 impl Steady {
     const NONE: Self = Steady {
-        option_codes: None,
+        codes_kept: false,
+        options: Options {
+            quick_stop: 0,
+            shutdown: 0,
+            disable_operation: 0,
+            fault_reaction: 0,
+            transition_16: false,
+        },
+        halt_option: None,
         fixed: None,
         step: Step {
             state: State::NotReadyToSwitchOn,
@@ -2547,7 +2554,8 @@ impl Steady {
 struct StatusInput<'a> {
     state: State,
     sample: &'a Sample,
-    options: Options,
+    /// 605Ah.
+    quick_stop_option: i16,
     /// The bits pp or ip reported in this tick.
     pp: pp::Status,
     halt: bool,
@@ -2593,7 +2601,8 @@ struct Sensed {
 /// What the tick's second phase ([`Runtime::command`]) decided.
 #[derive(Clone, Copy)]
 struct Command {
-    options: Options,
+    /// 605Ah.
+    quick_stop_option: i16,
     /// The controlword as the modes see it.
     controlword: Controlword,
     /// Controlword bit 4 rose since the last tick.
