@@ -112,8 +112,14 @@ impl Ramp {
         }
         let budget =
             i64::from(rate_per_s).saturating_mul(dt.as_micros() as i64).saturating_add(self.remainder);
-        let step = budget / 1_000_000;
-        self.remainder = budget % 1_000_000;
+        // A budget within 32 bits (most ticks: a rate below some 4 000 000 per s at 1 ms) is
+        // divided in 32 bits, one instruction on a Cortex-M4 where a 64-bit division is a library
+        // call; the same quotient and remainder.
+        let (step, remainder) = match u32::try_from(budget) {
+            Ok(budget) => (i64::from(budget / 1_000_000), i64::from(budget % 1_000_000)),
+            Err(_) => (budget / 1_000_000, budget % 1_000_000),
+        };
+        self.remainder = remainder;
         let distance = target - self.value;
         if distance.abs() <= step {
             self.value = target;
