@@ -114,6 +114,32 @@ fn standard_entries_may_be_described_as_the_device_documents() {
 }
 
 #[test]
+fn an_option_code_described_as_mappable_takes_effect_when_an_rpdo_writes_it() {
+    // The tick keeps the option codes between writes: an RPDO's write must reach it as an
+    // SDO's does.
+    static DESCRIPTIONS: [EntryOverride; 1] = [EntryOverride::of(&PROFILE, 0x605A, 0).pdo(PdoMapping::Rpdo)];
+    let mut bench = Bench::with_config(|c| Config { entry_overrides: &DESCRIPTIONS, ..c });
+    write_sub(&mut bench, 0x1400, 1, &0x8000_0205u32.to_le_bytes());
+    write_sub(&mut bench, 0x1600, 0, &[0]);
+    write_sub(&mut bench, 0x1600, 1, &0x605A_0010u32.to_le_bytes());
+    write_sub(&mut bench, 0x1600, 0, &[1]);
+    write_sub(&mut bench, 0x1400, 1, &0x0000_0205u32.to_le_bytes());
+    nmt(&mut bench, 0x01);
+    enable_pv(&mut bench);
+    bench.send(frame(0x205, &6i16.to_le_bytes()));
+    bench.advance(Duration::from_millis(2));
+    assert_eq!(bench.drive().od().get::<i16>(0x605A, 0), Ok(6));
+    cw(&mut bench, 0x000B, 5);
+    assert!(is(&mut bench, QSA), "605Ah = 6 by RPDO: the quick stop stays in Quick stop active");
+
+    // The same quick stop with 605Ah = 2, the default, ends in Switch on disabled.
+    let mut standard = Bench::with_config(|c| Config { entry_overrides: &DESCRIPTIONS, ..c });
+    enable_pv(&mut standard);
+    cw(&mut standard, 0x000B, 5);
+    assert!(is(&mut standard, SOD));
+}
+
+#[test]
 fn a_description_override_must_keep_the_entrys_size() {
     // 6072h reserves no wider storage; 6071h does (4 bytes), but not for another signedness
     // or beyond its reserve.

@@ -54,6 +54,10 @@ pub struct Factors {
     /// Velocities: user = internal × velocity_numerator / velocity_denominator.
     velocity_numerator: u128,
     velocity_denominator: u128,
+    /// The position ratio is 1:1 (user units are increments), and the velocity ratio: every
+    /// conversion tests this first, inline (a call of [`scale`] passes two 128-bit values).
+    unity: bool,
+    velocity_unity: bool,
     /// 608Fh sub 1 / sub 2: increments per motor revolution.
     increments: u32,
     revolutions: u32,
@@ -72,6 +76,8 @@ impl Default for Factors {
             denominator: 1,
             velocity_numerator: 1,
             velocity_denominator: 1,
+            unity: true,
+            velocity_unity: true,
             increments: 1,
             revolutions: 1,
             polarity: 0,
@@ -168,6 +174,8 @@ impl Factors {
             denominator,
             velocity_numerator,
             velocity_denominator,
+            unity: numerator == denominator,
+            velocity_unity: velocity_numerator == velocity_denominator,
             increments,
             revolutions,
             polarity: od.get::<u8>(axis.index(POLARITY), 0).unwrap_or(0),
@@ -178,12 +186,20 @@ impl Factors {
     }
 
     /// Internal (increments, increments/s, …) to user units, without polarity.
+    #[inline]
     pub fn to_user(&self, internal: i64) -> i64 {
+        if self.unity && internal != i64::MIN {
+            return internal;
+        }
         scale(internal, self.numerator, self.denominator)
     }
 
     /// User units to internal units, without polarity.
+    #[inline]
     pub fn to_internal(&self, user: i64) -> i64 {
+        if self.unity && user != i64::MIN {
+            return user;
+        }
         scale(user, self.denominator, self.numerator)
     }
 
@@ -194,13 +210,21 @@ impl Factors {
 
     /// A velocity (acceleration, jerk) in increments/s (/s², /s³) to the velocity unit, without
     /// polarity.
+    #[inline]
     pub fn velocity_to_user(&self, internal: i64) -> i64 {
+        if self.velocity_unity && internal != i64::MIN {
+            return internal;
+        }
         scale(internal, self.velocity_numerator, self.velocity_denominator)
     }
 
     /// A velocity (acceleration, jerk) in the velocity unit to increments/s (/s², /s³), without
     /// polarity.
+    #[inline]
     pub fn velocity_to_internal(&self, user: i64) -> i64 {
+        if self.velocity_unity && user != i64::MIN {
+            return user;
+        }
         scale(user, self.velocity_denominator, self.velocity_numerator)
     }
 
@@ -331,6 +355,8 @@ mod tests {
             denominator: denominator / common,
             velocity_numerator: numerator / common,
             velocity_denominator: denominator / common,
+            unity: numerator == denominator,
+            velocity_unity: numerator == denominator,
             increments,
             revolutions,
             polarity: 0,

@@ -430,11 +430,25 @@ impl Rule {
         Rule::ALL.get(usize::from(raw).checked_sub(1)?).copied()
     }
 
-    /// Whether the profile reacts to a value written under this rule (the ip buffer takes it).
+    /// Whether the profile reacts to a value written under this rule (the ip buffer takes it;
+    /// the option codes the tick keeps are read again).
     pub fn reacts(self) -> bool {
+        self.is_option_code()
+            || matches!(
+                self,
+                Rule::InterpolationRecord | Rule::InterpolationRecordPdo | Rule::InterpolationConfiguration
+            )
+    }
+
+    /// An option code the state machine takes (605Ah–605Eh).
+    pub(crate) fn is_option_code(self) -> bool {
         matches!(
             self,
-            Rule::InterpolationRecord | Rule::InterpolationRecordPdo | Rule::InterpolationConfiguration
+            Rule::QuickStopOption
+                | Rule::ShutdownOption
+                | Rule::DisableOperationOption
+                | Rule::HaltOption
+                | Rule::FaultReactionOption
         )
     }
 }

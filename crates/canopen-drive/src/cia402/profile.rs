@@ -112,8 +112,14 @@ impl Ramp {
         }
         let budget =
             i64::from(rate_per_s).saturating_mul(dt.as_micros() as i64).saturating_add(self.remainder);
-        let step = budget / 1_000_000;
-        self.remainder = budget % 1_000_000;
+        // A budget within 32 bits (most ticks: a rate below some 4 000 000 per s at 1 ms) is
+        // divided in 32 bits, one instruction on a Cortex-M4 where a 64-bit division is a library
+        // call; the same quotient and remainder.
+        let (step, remainder) = match u32::try_from(budget) {
+            Ok(budget) => (i64::from(budget / 1_000_000), i64::from(budget % 1_000_000)),
+            Err(_) => (budget / 1_000_000, budget % 1_000_000),
+        };
+        self.remainder = remainder;
         let distance = target - self.value;
         if distance.abs() <= step {
             self.value = target;
@@ -127,14 +133,24 @@ impl Ramp {
 /// The drive profile's run-time state.
 #[derive(Clone, Debug)]
 pub struct Profile {
+    /// The factor group, re-read after [`Profile::invalidate`]: kept apart from the rest of the
+    /// state, so that the tick borrows it while it changes the rest (a copy of some 90 bytes
+    /// per tick otherwise).
+    factors: Option<Factors>,
+    /// Everything else.
+    run: Runtime,
+}
+
+/// The profile's state but for its factor group ([`Profile`]): the tick's phases are its
+/// methods, and get the factor group as an argument.
+#[derive(Clone, Debug)]
+struct Runtime {
     config: ProfileConfig,
     /// The logical device whose objects this profile runs ([`Profile::for_axis`]).
     axis: Axis,
-    /// 6502h, a fact of the device ([`Profile::set_supported_modes`]).
+    /// 6502h, a fact of the device ([`Profile::configure`]).
     supported_modes: u32,
     fsa: Fsa,
-    /// The factor group, re-read after [`Profile::invalidate`].
-    factors: Option<Factors>,
     /// The per-tick entries, resolved with the factors.
     slots: Slots,
     /// [`Self::slots`] resolved in the drive's dictionary.
@@ -221,6 +237,8 @@ pub struct Profile {
     timing: Revised<(u8, i8, u32), (u32, u32)>,
     /// [`Self::pp_limits`] for the raw values last seen (emptied with the factor group).
     pp_limits: Revised<pp::LimitObjects, (Limits, u32)>,
+    /// The option codes and the FSA's last step, kept while they stand ([`Steady`]).
+    steady: Steady,
     /// The last tick left the axis idle: what it saw and answered ([`Self::quiet_tick`]).
     quiet: Quiet,
 }
@@ -257,7 +275,7 @@ impl Quiet {
 }
 
 /// The state of the operation mode that runs, in that mode's variant: it exists while the mode
-/// is active, is built when the mode becomes active ([`Profile::start_mode`]) and starts over
+/// is active, is built when the mode becomes active ([`Runtime::start_mode`]) and starts over
 /// when the drive enters Operation enabled ([`Active::restart`]).
 ///
 /// What outlives a mode stays in [`Profile`]: the velocity and torque demands (the stop ramps
@@ -277,8 +295,8 @@ enum Active {
     Pv(pv::Run),
     /// Profile torque mode ([`tq`]).
     Tq,
-    /// Homing mode ([`hm`]): the run is [`Profile::homing`], its trajectory
-    /// [`Profile::planner`].
+    /// Homing mode ([`hm`]): the run is [`Runtime::homing`], its trajectory
+    /// [`Runtime::planner`].
     #[cfg(feature = "hm")]
     Hm,
     /// Velocity mode ([`vl`]).
@@ -344,7 +362,7 @@ impl Active {
         }
     }
 
-    /// pp or hm: the modes that move [`Profile::planner`].
+    /// pp or hm: the modes that move [`Runtime::planner`].
     #[cfg(any(feature = "pp", feature = "hm"))]
     fn plans(&self) -> bool {
         match self {
@@ -487,90 +505,37 @@ impl Profile {
     /// A profile at power-on for `axis`: every profile object it reads and writes is that axis's
     /// ([`Axis::index`]), the same description shifted by n × 800h.
     pub fn for_axis(config: ProfileConfig, axis: Axis) -> Self {
-        Profile {
-            // The first axis's entries, by look-up, until the first tick's refresh resolves the
-            // axis's own; nothing reads them before (`preset_position` refreshes first). A
-            // constant: building or resetting a profile then copies a template instead of
-            // computing 80 slots (1.7 KiB of flash).
-            slots: Slots::UNRESOLVED,
-            slots_resolved: false,
-            config,
-            axis,
-            supported_modes: 0,
-            fsa: Fsa::default(),
-            factors: None,
-            cascade: None,
-            display_mode: 0,
-            velocity: Ramp::default(),
-            torque: Ramp::default(),
-            homing: Homing::new(config.homing),
-            probe: TouchProbe::new(),
-            stream_lost: false,
-            cyclic_limited: false,
-            feed_forward: FeedForward::NONE,
-            ip: IpBuffer::for_axis(axis),
-            ip_overflow: false,
-            mode: Active::Idle,
-            #[cfg(any(feature = "pp", feature = "hm"))]
-            planner: None,
-            origin: 0,
-            homing_error: false,
-            last_tick: None,
-            fault: None,
-            stopping: false,
-            mode_changed: false,
-            previous_controlword: Controlword::empty(),
-            following_error_since: None,
-            forced: None,
-            unavailable_function: false,
-            released_at: None,
-            engaging_since: None,
-            pending_edge: false,
-            travel_limit: None,
-            commanded: 0,
-            touching: None,
-            dynamic_braking: false,
-            fault_unreported: false,
-            internal_origin: 0,
-            resting_since: None,
-            blocked: (false, false),
-            limits: Revised::EMPTY,
-            motion: MotionLimits::ZERO,
-            tick_limits: Memo::EMPTY,
-            timing: Revised::EMPTY,
-            pp_limits: Revised::EMPTY,
-            quiet: Quiet::NONE,
-        }
+        Profile { factors: None, run: Runtime::for_axis(config, axis) }
     }
 
     /// The configuration.
     pub fn config(&self) -> &ProfileConfig {
-        &self.config
+        &self.run.config
     }
 
     /// The axis whose objects the profile runs.
     pub fn axis(&self) -> Axis {
-        self.axis
+        self.run.axis
     }
 
     /// The FSA state.
     pub fn state(&self) -> State {
-        self.fsa.state()
+        self.run.fsa.state()
     }
 
     /// Back to power-on (reset application): written in place, field by field, so that an NMT
     /// reset builds no profile of some 3.5 KiB on its stack. The planner is left as it is: it
     /// is reset when pp or homing starts, and nothing reads it before.
     pub fn reset(&mut self) {
+        self.factors = None;
         // Every field named: a field added to the profile must be reset here too.
-        let Profile {
+        let Runtime {
             slots,
             slots_resolved,
             config,
             axis,
             supported_modes: _,
             fsa,
-            factors,
             cascade,
             display_mode,
             velocity,
@@ -611,12 +576,12 @@ impl Profile {
             tick_limits,
             timing,
             pp_limits,
+            steady,
             quiet,
-        } = self;
+        } = &mut self.run;
         *slots = Slots::UNRESOLVED;
         *slots_resolved = false;
         *fsa = Fsa::default();
-        *factors = None;
         *cascade = None;
         *display_mode = 0;
         *velocity = Ramp::default();
@@ -655,15 +620,301 @@ impl Profile {
         *tick_limits = Memo::EMPTY;
         *timing = Revised::EMPTY;
         *pp_limits = Revised::EMPTY;
+        *steady = Steady::NONE;
         *quiet = Quiet::NONE;
     }
 
     /// Reads the facts of the device the profile keeps (6502h, fixed once the dictionary is
     /// built: 6060h accepts only the modes it lists).
     pub fn configure<const B: usize>(&mut self, od: &Dictionary<B>) {
-        self.quiet.idle = false;
-        self.supported_modes = od.get::<u32>(self.axis.index(SUPPORTED_DRIVE_MODES), 0).unwrap_or(0);
-        self.build_planner();
+        self.run.quiet.idle = false;
+        self.run.supported_modes = od.get::<u32>(self.run.axis.index(SUPPORTED_DRIVE_MODES), 0).unwrap_or(0);
+        self.run.build_planner();
+    }
+
+    /// Presets the position: from the next tick on 6064h reads `user` at the present position
+    /// of the shaft (as after homing on the current position with 607Ch = −`user`). A profile
+    /// position move in progress stops where it is.
+    pub fn preset_position<const B: usize>(&mut self, od: &Dictionary<B>, user: i32) {
+        self.run.quiet.idle = false;
+        let Profile { factors, run } = self;
+        let factors = factors.get_or_insert_with(|| run.refresh(od));
+        // The encoder count of the last tick (6063h counts from `internal_origin`).
+        let actual = i64::from(od.load(self.run.slots.position_actual_internal))
+            .wrapping_add(self.run.internal_origin);
+        self.run.origin =
+            actual.saturating_sub(factors.to_internal(i64::from(user) * factors.position_sign()));
+        self.run.hold_mode(actual, i64::from(user));
+    }
+
+    /// Parameters may have changed (an SDO write, a restore, the firmware's access): the factor
+    /// group is read again at the next tick.
+    pub fn invalidate(&mut self) {
+        self.run.quiet.idle = false;
+        self.factors = None;
+        self.run.steady.codes_kept = false;
+    }
+
+    /// A connection loss, reacted to as 6007h says at the next tick. The reaction applies while
+    /// the drive function is enabled (an idle axis has nothing to stop, and faulting it would
+    /// make every NMT reset leave the drive in Fault).
+    pub fn connection_lost<const B: usize>(&mut self, event: ConnectionEvent, od: &Dictionary<B>) {
+        self.run.quiet.idle = false;
+        if !self.run.fsa.state().drive_function_enabled() {
+            return;
+        }
+        let fault = if event == ConnectionEvent::NmtStopped
+            && self.run.config.nmt_stopped_fault
+            && matches!(self.run.fsa.state(), State::OperationEnabled { .. })
+        {
+            true
+        } else {
+            // (The drive function was enabled: a tick has resolved the slots.)
+            match od.load(self.run.slots.abort_connection) {
+                1 => true,
+                2 => {
+                    self.run.forced = Some(DISABLE_VOLTAGE);
+                    false
+                }
+                3 => {
+                    self.run.forced = Some(QUICK_STOP);
+                    false
+                }
+                _ => false,
+            }
+        };
+        if fault && self.run.fault.is_none() {
+            // Reported (EMCY, 1003h) at the next tick, so its fault reset sends 0000h.
+            self.run.fault = Some(COMMUNICATION_FAULT);
+            self.run.fault_unreported = true;
+        }
+    }
+
+    /// The share of a pp or homing plan in progress for the next tick, after this one's
+    /// [`Self::tick`] (the plan is made over several ticks, a bounded share in each). Its stack
+    /// is then not under the tick's: a board's tick (e.g. [`crate::drive::Drive::tick_axes`])
+    /// calls it once its demands are out.
+    #[inline]
+    pub fn plan_ahead(&mut self) {
+        #[cfg(any(feature = "pp", feature = "hm"))]
+        if let Some(planner) = self.run.planner.as_mut().filter(|_| self.run.mode.plans()) {
+            planner.plan_ahead();
+        }
+    }
+
+    /// The value rule of the profile's object `index`/`sub` ([`Rule`]); `pdo`: as an RPDO
+    /// writes it.
+    #[inline]
+    pub fn rule(&self, index: u16, sub: u8, pdo: bool) -> Option<Rule> {
+        super::registry::rule(&self.run.config, self.run.first_axis_index(index), sub, pdo)
+    }
+
+    /// Checks `data` as the new value of `index`/`sub` under `rule`: the configuration's rules
+    /// and those of the drive's state (a new mode in Operation enabled, the ip buffer, the
+    /// cascade's parameters at the tick rate).
+    pub fn check<const B: usize>(
+        &self,
+        rule: Rule,
+        od: &Dictionary<B>,
+        index: u16,
+        sub: u8,
+        data: &[u8],
+    ) -> Result<(), AbortCode> {
+        match rule {
+            // A device that changes modes only outside Operation enabled refuses a new mode there.
+            Rule::Mode
+                if !self.run.config.mode_change_in_operation
+                    && matches!(self.state(), State::OperationEnabled { .. })
+                    && od.get::<i8>(index, sub).ok() != data.first().map(|b| *b as i8) =>
+            {
+                Err(AbortCode::CannotStoreDeviceState)
+            }
+            Rule::Interpolation | Rule::InterpolationRecord | Rule::InterpolationConfiguration => {
+                super::ip::check_write(od, &self.run.ip, index, sub, data)
+            }
+            Rule::InterpolationRecordPdo => Ok(()),
+            Rule::Cascade => {
+                crate::control::check_write(od, index, sub, data, self.run.config.tick_rate.hz())
+            }
+            rule => {
+                let index = self.run.first_axis_index(index);
+                super::registry::check(rule, &self.run.config, self.run.supported_modes, index, sub, data)
+            }
+        }
+    }
+
+    /// `index`/`sub` was written under `rule` (SDO or RPDO): the ip buffer takes its records and
+    /// its configuration.
+    pub fn written<const B: usize>(&mut self, od: &mut Dictionary<B>, rule: Rule, index: u16, sub: u8) {
+        self.run.quiet.idle = false;
+        if rule.is_option_code() {
+            // (An RPDO a vendor's description lets write an option code: an SDO write
+            // invalidates the profile's parameters anyway.)
+            self.run.steady.codes_kept = false;
+        } else if rule.reacts() {
+            self.ip_written(od, index, sub);
+        }
+    }
+
+    /// An SDO download to `index` was stored: the parameters the tick derives are computed again;
+    /// returns whether it was a set-point that counts for the cyclic stream as an RPDO would
+    /// ([`CyclicConfig::sdo_set_points`](super::cyclic::CyclicConfig::sdo_set_points)).
+    pub fn sdo_written(&mut self, index: u16) -> bool {
+        // A set-point or a command changes nothing the profile derives from its configuration.
+        if self.run.axis.relative(index).is_some_and(super::objects::is_process_data) {
+            self.run.quiet.idle = false;
+        } else {
+            self.invalidate();
+        }
+        self.run.config.cyclic.sdo_set_points
+            && matches!(
+                self.run.axis.relative(index),
+                Some(TARGET_POSITION | TARGET_VELOCITY | TARGET_TORQUE)
+            )
+    }
+
+    /// A 60C1h/60C4h entry was written (SDO or RPDO): the ip buffer takes it.
+    pub fn ip_written<const B: usize>(&mut self, od: &mut Dictionary<B>, index: u16, sub: u8) {
+        self.run.quiet.idle = false;
+        if !super::IP {
+            return;
+        }
+        match self.run.ip.written(od, index, sub) {
+            Written::Overflow(_) => self.run.ip_overflow = true,
+            Written::Cleared | Written::Reorganised => self.run.ip_overflow = false,
+            _ => {}
+        }
+    }
+
+    /// Stored parameters were loaded: the ip buffer takes its configuration again.
+    pub fn parameters_loaded<const B: usize>(&mut self, od: &Dictionary<B>) {
+        self.run.quiet.idle = false;
+        self.factors = None;
+        self.run.steady.codes_kept = false;
+        if super::IP {
+            self.run.ip.reload(od);
+        }
+    }
+
+    /// Whether a homing run has completed (statusword bit 12 in hm).
+    pub fn is_homed(&self) -> bool {
+        self.run.homing.is_homed()
+    }
+
+    /// The tick of an idle axis whose inputs have not changed since the last tick: true when
+    /// [`Self::quiet_demand`] is what [`Self::tick`] would return (its steady outputs are in the
+    /// dictionary already), false when a full tick is needed. Idle: the drive function disabled, no
+    /// homing, no stop, no transition, no report, no timed status bit running, the last tick
+    /// without a SYNC or set-point; unchanged: the sample, and the dictionary by its
+    /// [`Dictionary::revision`] (any write to it since, from the bus or the firmware, makes the
+    /// next tick a full one, so a value written between ticks takes effect at the same tick as
+    /// without this path).
+    pub fn quiet_tick(&mut self, now: Instant, sample: &Sample, revision: u32) -> bool {
+        if !self.is_quiet(sample, revision) {
+            return false;
+        }
+        self.pass_quietly(now);
+        true
+    }
+
+    /// Whether [`Self::quiet_tick`] would pass with these inputs (and change nothing): a
+    /// node of several axes asks every axis before it lets any pass.
+    #[inline]
+    pub fn is_quiet(&self, sample: &Sample, revision: u32) -> bool {
+        let quiet = &self.run.quiet;
+        quiet.idle && quiet.revision == revision && quiet.sample == *sample
+    }
+
+    /// The quiet tick of an axis [`Self::is_quiet`] found idle.
+    #[inline]
+    pub fn pass_quietly(&mut self, now: Instant) {
+        // What a full tick of an idle axis changes: the times it keeps.
+        self.run.last_tick = Some(now);
+        self.run.released_at = Some(now);
+    }
+
+    /// The demand of the last idle tick ([`Self::quiet_tick`]).
+    #[inline]
+    pub fn quiet_demand(&self) -> Demand {
+        self.run.quiet.demand
+    }
+
+    /// One control tick, in phases: the inputs (`sense`), the state machine and the mode of
+    /// operation (`command`), the active mode's step (`step_mode`), and the demands, the
+    /// statusword and what the power stage gets (`output`). A caller calls
+    /// [`Self::plan_ahead`] after it.
+    #[inline]
+    pub fn tick<const B: usize>(
+        &mut self,
+        now: Instant,
+        sample: &Sample,
+        od: &mut Dictionary<B>,
+        cycle: SyncInput,
+    ) -> (Demand, Report) {
+        // The factor group borrowed beside the state the tick changes, not copied.
+        let Profile { factors, run } = self;
+        let factors = factors.get_or_insert_with(|| run.refresh(od));
+        run.tick(now, sample, od, cycle, factors)
+    }
+}
+
+impl Runtime {
+    /// [`Profile::for_axis`]'s state.
+    fn for_axis(config: ProfileConfig, axis: Axis) -> Self {
+        Runtime {
+            // The first axis's entries, by look-up, until the first tick's refresh resolves the
+            // axis's own; nothing reads them before (`preset_position` refreshes first). A
+            // constant: building or resetting a profile then copies a template instead of
+            // computing 80 slots (1.7 KiB of flash).
+            slots: Slots::UNRESOLVED,
+            slots_resolved: false,
+            config,
+            axis,
+            supported_modes: 0,
+            fsa: Fsa::default(),
+            cascade: None,
+            display_mode: 0,
+            velocity: Ramp::default(),
+            torque: Ramp::default(),
+            homing: Homing::new(config.homing),
+            probe: TouchProbe::new(),
+            stream_lost: false,
+            cyclic_limited: false,
+            feed_forward: FeedForward::NONE,
+            ip: IpBuffer::for_axis(axis),
+            ip_overflow: false,
+            mode: Active::Idle,
+            #[cfg(any(feature = "pp", feature = "hm"))]
+            planner: None,
+            origin: 0,
+            homing_error: false,
+            last_tick: None,
+            fault: None,
+            stopping: false,
+            mode_changed: false,
+            previous_controlword: Controlword::empty(),
+            following_error_since: None,
+            forced: None,
+            unavailable_function: false,
+            released_at: None,
+            engaging_since: None,
+            pending_edge: false,
+            travel_limit: None,
+            commanded: 0,
+            touching: None,
+            dynamic_braking: false,
+            fault_unreported: false,
+            internal_origin: 0,
+            resting_since: None,
+            blocked: (false, false),
+            limits: Revised::EMPTY,
+            motion: MotionLimits::ZERO,
+            tick_limits: Memo::EMPTY,
+            timing: Revised::EMPTY,
+            pp_limits: Revised::EMPTY,
+            steady: Steady::NONE,
+            quiet: Quiet::NONE,
+        }
     }
 
     /// [`Self::planner`] built where it is missing, in a frame of its own.
@@ -672,64 +923,6 @@ impl Profile {
         #[cfg(any(feature = "pp", feature = "hm"))]
         if self.planner.is_none() {
             self.planner = Some(PositionPlanner::new(self.config.tick_rate, 0));
-        }
-    }
-
-    /// Presets the position: from the next tick on 6064h reads `user` at the present position
-    /// of the shaft (as after homing on the current position with 607Ch = −`user`). A profile
-    /// position move in progress stops where it is.
-    pub fn preset_position<const B: usize>(&mut self, od: &Dictionary<B>, user: i32) {
-        self.quiet.idle = false;
-        let factors = match self.factors {
-            Some(factors) => factors,
-            None => self.refresh(od),
-        };
-        // The encoder count of the last tick (6063h counts from `internal_origin`).
-        let actual =
-            i64::from(od.load(self.slots.position_actual_internal)).wrapping_add(self.internal_origin);
-        self.origin = actual.saturating_sub(factors.to_internal(i64::from(user) * factors.position_sign()));
-        self.hold_mode(actual, i64::from(user));
-    }
-
-    /// Parameters may have changed (an SDO write, a restore, the firmware's access): the factor
-    /// group is read again at the next tick.
-    pub fn invalidate(&mut self) {
-        self.quiet.idle = false;
-        self.factors = None;
-    }
-
-    /// A connection loss, reacted to as 6007h says at the next tick. The reaction applies while
-    /// the drive function is enabled (an idle axis has nothing to stop, and faulting it would
-    /// make every NMT reset leave the drive in Fault).
-    pub fn connection_lost<const B: usize>(&mut self, event: ConnectionEvent, od: &Dictionary<B>) {
-        self.quiet.idle = false;
-        if !self.fsa.state().drive_function_enabled() {
-            return;
-        }
-        let fault = if event == ConnectionEvent::NmtStopped
-            && self.config.nmt_stopped_fault
-            && matches!(self.fsa.state(), State::OperationEnabled { .. })
-        {
-            true
-        } else {
-            // (The drive function was enabled: a tick has resolved the slots.)
-            match od.load(self.slots.abort_connection) {
-                1 => true,
-                2 => {
-                    self.forced = Some(DISABLE_VOLTAGE);
-                    false
-                }
-                3 => {
-                    self.forced = Some(QUICK_STOP);
-                    false
-                }
-                _ => false,
-            }
-        };
-        if fault && self.fault.is_none() {
-            // Reported (EMCY, 1003h) at the next tick, so its fault reset sends 0000h.
-            self.fault = Some(COMMUNICATION_FAULT);
-            self.fault_unreported = true;
         }
     }
 
@@ -853,18 +1046,6 @@ impl Profile {
         let _ = (actual, user);
     }
 
-    /// The share of a pp or homing plan in progress for the next tick, after this one's
-    /// [`Self::tick`] (the plan is made over several ticks, a bounded share in each). Its stack
-    /// is then not under the tick's: a board's tick (e.g. [`crate::drive::Drive::tick_axes`])
-    /// calls it once its demands are out.
-    #[inline]
-    pub fn plan_ahead(&mut self) {
-        #[cfg(any(feature = "pp", feature = "hm"))]
-        if let Some(planner) = self.planner.as_mut().filter(|_| self.mode.plans()) {
-            planner.plan_ahead();
-        }
-    }
-
     /// The trajectory planner while pp or hm runs.
     fn planner(&self) -> Option<&PositionPlanner> {
         #[cfg(any(feature = "pp", feature = "hm"))]
@@ -902,9 +1083,18 @@ impl Profile {
         None
     }
 
-    /// The modes whose demand is a trajectory of positions (pp, hm).
+    /// The modes whose demand is a trajectory of positions (pp, hm, csp, ip): the modes with a
+    /// [`Self::trajectory`].
     fn position_mode(&self) -> bool {
-        self.mode.is_pp() || self.mode.is_hm() || self.mode.position_limiter().is_some()
+        match &self.mode {
+            #[cfg(feature = "pp")]
+            Active::Pp(_) => true,
+            #[cfg(feature = "hm")]
+            Active::Hm => true,
+            Active::Ip(_) => super::IP,
+            Active::Cyclic(run) => run.mode == mode::CYCLIC_POSITION,
+            _ => false,
+        }
     }
 
     /// The trajectory state of the position modes (pp, hm, csp, ip).
@@ -919,25 +1109,14 @@ impl Profile {
         })
     }
 
-    /// Velocity demand of the running motion, increments/s.
+    /// Velocity demand of the running motion, increments/s: the trajectory's in a position
+    /// mode, the velocity ramp's otherwise.
     fn velocity_demand(&self) -> i64 {
-        self.velocity_of(self.trajectory())
-    }
-
-    /// [`Self::velocity_demand`] with the [`Self::trajectory`] of this moment.
-    fn velocity_of(&self, trajectory: Option<MotionState>) -> i64 {
         if self.position_mode() {
-            trajectory.map_or(0, |state| state.velocity)
+            self.trajectory().map_or(0, |state| state.velocity)
         } else {
             self.velocity.value
         }
-    }
-
-    /// The value rule of the profile's object `index`/`sub` ([`Rule`]); `pdo`: as an RPDO
-    /// writes it.
-    #[inline]
-    pub fn rule(&self, index: u16, sub: u8, pdo: bool) -> Option<Rule> {
-        super::registry::rule(&self.config, self.first_axis_index(index), sub, pdo)
     }
 
     /// The first axis's index of `index` when it is one of this axis's profile objects (the
@@ -955,150 +1134,23 @@ impl Profile {
         }
     }
 
-    /// Checks `data` as the new value of `index`/`sub` under `rule`: the configuration's rules
-    /// and those of the drive's state (a new mode in Operation enabled, the ip buffer, the
-    /// cascade's parameters at the tick rate).
-    pub fn check<const B: usize>(
-        &self,
-        rule: Rule,
-        od: &Dictionary<B>,
-        index: u16,
-        sub: u8,
-        data: &[u8],
-    ) -> Result<(), AbortCode> {
-        match rule {
-            // A device that changes modes only outside Operation enabled refuses a new mode there.
-            Rule::Mode
-                if !self.config.mode_change_in_operation
-                    && matches!(self.state(), State::OperationEnabled { .. })
-                    && od.get::<i8>(index, sub).ok() != data.first().map(|b| *b as i8) =>
-            {
-                Err(AbortCode::CannotStoreDeviceState)
-            }
-            Rule::Interpolation | Rule::InterpolationRecord | Rule::InterpolationConfiguration => {
-                super::ip::check_write(od, &self.ip, index, sub, data)
-            }
-            Rule::InterpolationRecordPdo => Ok(()),
-            Rule::Cascade => crate::control::check_write(od, index, sub, data, self.config.tick_rate.hz()),
-            rule => {
-                let index = self.first_axis_index(index);
-                super::registry::check(rule, &self.config, self.supported_modes, index, sub, data)
-            }
-        }
-    }
-
-    /// `index`/`sub` was written under `rule` (SDO or RPDO): the ip buffer takes its records and
-    /// its configuration.
-    pub fn written<const B: usize>(&mut self, od: &mut Dictionary<B>, rule: Rule, index: u16, sub: u8) {
-        self.quiet.idle = false;
-        if rule.reacts() {
-            self.ip_written(od, index, sub);
-        }
-    }
-
-    /// An SDO download to `index` was stored: the parameters the tick derives are computed again;
-    /// returns whether it was a set-point that counts for the cyclic stream as an RPDO would
-    /// ([`CyclicConfig::sdo_set_points`](super::cyclic::CyclicConfig::sdo_set_points)).
-    pub fn sdo_written(&mut self, index: u16) -> bool {
-        // A set-point or a command changes nothing the profile derives from its configuration.
-        if self.axis.relative(index).is_some_and(super::objects::is_process_data) {
-            self.quiet.idle = false;
-        } else {
-            self.invalidate();
-        }
-        self.config.cyclic.sdo_set_points
-            && matches!(self.axis.relative(index), Some(TARGET_POSITION | TARGET_VELOCITY | TARGET_TORQUE))
-    }
-
-    /// A 60C1h/60C4h entry was written (SDO or RPDO): the ip buffer takes it.
-    pub fn ip_written<const B: usize>(&mut self, od: &mut Dictionary<B>, index: u16, sub: u8) {
-        self.quiet.idle = false;
-        if !super::IP {
-            return;
-        }
-        match self.ip.written(od, index, sub) {
-            Written::Overflow(_) => self.ip_overflow = true,
-            Written::Cleared | Written::Reorganised => self.ip_overflow = false,
-            _ => {}
-        }
-    }
-
-    /// Stored parameters were loaded: the ip buffer takes its configuration again.
-    pub fn parameters_loaded<const B: usize>(&mut self, od: &Dictionary<B>) {
-        self.quiet.idle = false;
-        self.factors = None;
-        if super::IP {
-            self.ip.reload(od);
-        }
-    }
-
-    /// Whether a homing run has completed (statusword bit 12 in hm).
-    pub fn is_homed(&self) -> bool {
-        self.homing.is_homed()
-    }
-
-    /// The tick of an idle axis whose inputs have not changed since the last tick: true when
-    /// [`Self::quiet_demand`] is what [`Self::tick`] would return (its steady outputs are in the
-    /// dictionary already), false when a full tick is needed. Idle: the drive function disabled, no
-    /// homing, no stop, no transition, no report, no timed status bit running, the last tick
-    /// without a SYNC or set-point; unchanged: the sample, and the dictionary by its
-    /// [`Dictionary::revision`] (any write to it since, from the bus or the firmware, makes the
-    /// next tick a full one, so a value written between ticks takes effect at the same tick as
-    /// without this path).
-    pub fn quiet_tick(&mut self, now: Instant, sample: &Sample, revision: u32) -> bool {
-        if !self.is_quiet(sample, revision) {
-            return false;
-        }
-        self.pass_quietly(now);
-        true
-    }
-
-    /// Whether [`Self::quiet_tick`] would pass with these inputs (and change nothing): a
-    /// node of several axes asks every axis before it lets any pass.
-    #[inline]
-    pub fn is_quiet(&self, sample: &Sample, revision: u32) -> bool {
-        let quiet = &self.quiet;
-        quiet.idle && quiet.revision == revision && quiet.sample == *sample
-    }
-
-    /// The quiet tick of an axis [`Self::is_quiet`] found idle.
-    #[inline]
-    pub fn pass_quietly(&mut self, now: Instant) {
-        // What a full tick of an idle axis changes: the times it keeps.
-        self.last_tick = Some(now);
-        self.released_at = Some(now);
-    }
-
-    /// The demand of the last idle tick ([`Self::quiet_tick`]).
-    #[inline]
-    pub fn quiet_demand(&self) -> Demand {
-        self.quiet.demand
-    }
-
-    /// One control tick, in phases: the inputs (`sense`), the state machine and the mode of
-    /// operation (`command`), the active mode's step (`step_mode`), and the demands, the
-    /// statusword and what the power stage gets (`output`). A caller calls
-    /// [`Self::plan_ahead`] after it.
-    pub fn tick<const B: usize>(
+    /// [`Profile::tick`] with the factor group, read again if it was invalidated.
+    fn tick<const B: usize>(
         &mut self,
         now: Instant,
         sample: &Sample,
         od: &mut Dictionary<B>,
         cycle: SyncInput,
+        factors: &Factors,
     ) -> (Demand, Report) {
         let dt = self.last_tick.map_or(Duration::ZERO, |t| (now - t).min(MAX_STEP));
         self.last_tick = Some(now);
         self.quiet.idle = false;
         let mut report = Report::default();
-        let factors = match self.factors {
-            Some(factors) => factors,
-            None => self.refresh(od),
-        };
-        let mut sensed = self.sense(now, sample, od, &factors, &mut report);
-        let command = self.command(now, sample, od, &factors, &sensed, &mut report);
-        let stepped =
-            self.step_mode(now, dt, sample, od, &factors, &mut sensed, &command, cycle, &mut report);
-        let demand = self.output(now, sample, od, &factors, &sensed, &command, stepped, &mut report);
+        let mut sensed = self.sense(now, sample, od, factors, &mut report);
+        let command = self.command(now, sample, od, factors, &sensed, &mut report);
+        let stepped = self.step_mode(now, dt, sample, od, factors, &mut sensed, &command, cycle, &mut report);
+        let demand = self.output(now, sample, od, factors, &sensed, &command, stepped, &mut report);
         // An idle axis: a tick with the same inputs would give the same outputs and leave the
         // same state (but for the times [`Self::quiet_tick`] keeps).
         let idle = !demand.drive_enabled
@@ -1211,13 +1263,11 @@ impl Profile {
         sensed: &Sensed,
         report: &mut Report,
     ) -> Command {
-        let options = Options {
-            quick_stop: od.load(self.slots.quick_stop_option),
-            shutdown: od.load(self.slots.shutdown_option),
-            disable_operation: od.load(self.slots.disable_operation_option),
-            fault_reaction: od.load(self.slots.fault_reaction_option),
-            transition_16: self.config.transition_16,
-        };
+        if !self.steady.codes_kept {
+            self.read_option_codes(od);
+        }
+        // (Fields, not the kept codes as a whole: a copy of that is a library call.)
+        let (quick_stop_option, halt_option) = (self.steady.options.quick_stop, self.steady.halt_option);
         let (controlword, commanded, bit4_rose) = self.controlword(sample, od, report);
         let before = self.fsa.state();
         let previous_velocity = self.velocity_demand();
@@ -1226,12 +1276,8 @@ impl Profile {
         let stopped = at_rest
             && (self.config.brake_engage_delay == Duration::ZERO
                 || self.engaging_since.is_some_and(|since| now - since >= self.config.brake_engage_delay));
-        let step = self.fsa.step(
-            commanded,
-            self.fault.is_some() && !before_fault_cleared(before, sensed.hardware),
-            stopped,
-            &options,
-        );
+        let fault = self.fault.is_some() && !before_fault_cleared(before, sensed.hardware);
+        let step = self.step_fsa((commanded, fault, stopped));
         #[cfg(any(feature = "defmt", feature = "log"))]
         if step.state != before {
             if matches!(step.state, State::FaultReactionActive) {
@@ -1278,8 +1324,6 @@ impl Profile {
             self.restart_mode(sensed.actual, sensed.actual_user, i64::from(sample.velocity));
         }
         let operation = matches!(step.state, State::OperationEnabled { leaving: None });
-        // 605Dh: how a halt stops (`None`: a fault reaction); read once for both uses below.
-        let halt_option = StopKind::halt_or_fault(od.load(self.slots.halt_option));
         let stop = step.stop.or_else(|| {
             // pp halts on its trajectory, tq ramps its torque to 0 (digest §4.1).
             let halting = halt
@@ -1303,7 +1347,7 @@ impl Profile {
         }
         self.stopping = stop.is_some();
         Command {
-            options,
+            quick_stop_option,
             controlword,
             bit4_rose,
             before,
@@ -1359,6 +1403,49 @@ impl Profile {
             }
         }
         (controlword, commanded, bit4_rose)
+    }
+
+    /// The option codes 605Ah, 605Bh, 605Ch, 605Eh as the FSA takes them, and 605Dh, how a halt
+    /// stops (`None`: a fault reaction), read into [`Self::steady`], where they are kept until
+    /// they may have been written ([`Profile::invalidate`], [`Profile::written`]). Out of line:
+    /// the steady tick holds only the test.
+    #[inline(never)]
+    fn read_option_codes<const B: usize>(&mut self, od: &Dictionary<B>) {
+        self.steady.options = Options {
+            quick_stop: od.load(self.slots.quick_stop_option),
+            shutdown: od.load(self.slots.shutdown_option),
+            disable_operation: od.load(self.slots.disable_operation_option),
+            fault_reaction: od.load(self.slots.fault_reaction_option),
+            transition_16: self.config.transition_16,
+        };
+        self.steady.halt_option = StopKind::halt_or_fault(od.load(self.slots.halt_option));
+        self.steady.codes_kept = true;
+        // The options may differ: the FSA's step is made again.
+        self.steady.fixed = None;
+    }
+
+    /// The FSA's step of this tick with `inputs` (the command, a fault present, the stop at
+    /// rest): the last tick's again where that step left the FSA as it was and the inputs and
+    /// the option codes stand (the step is a function of them and the FSA alone), otherwise
+    /// made anew.
+    #[inline(always)]
+    fn step_fsa(&mut self, inputs: (Option<Controlword>, bool, bool)) -> Step {
+        if self.steady.fixed == Some(inputs) {
+            return self.steady.step;
+        }
+        self.make_step(inputs)
+    }
+
+    /// [`Self::step_fsa`] made anew (out of line, as [`Self::read_option_codes`]).
+    #[inline(never)]
+    fn make_step(&mut self, inputs: (Option<Controlword>, bool, bool)) -> Step {
+        let before = self.fsa;
+        let (commanded, fault, stopped) = inputs;
+        let step = self.fsa.step(commanded, fault, stopped, &self.steady.options);
+        let fixed = self.fsa == before && !step.entered_operation && !step.dynamic_brake;
+        self.steady.fixed = fixed.then_some(inputs);
+        self.steady.step = step;
+        step
     }
 
     /// The tick's third phase: the brake, then the set-point of the tick's stop, of the active
@@ -1501,20 +1588,30 @@ impl Profile {
         let (actual, actual_user) = (sensed.actual, sensed.actual_user);
         let step = command.step;
         // Demands and the position control function (digest §11).
-        let trajectory = self.trajectory();
+        // (The other modes have no trajectory to ask.)
+        let position_mode = self.position_mode();
+        let trajectory = if position_mode { self.trajectory() } else { None };
         let demand_position = trajectory.filter(|_| drive_enabled).map(|state| state.position);
         let demand_internal = demand_position.unwrap_or(actual).saturating_sub(self.origin);
-        let demand_user = factors.to_user(demand_internal) * factors.position_sign();
+        // Without a trajectory the demand is the actual position, 6064h already made (from the
+        // origin homing may have moved in this tick).
+        let demand_user = match demand_position {
+            Some(_) => factors.to_user(demand_internal) * factors.position_sign(),
+            None => actual_user,
+        };
         od.store(self.slots.position_demand_internal, demand_internal as i32);
         od.store(self.slots.position_demand, saturate(demand_user));
         let following_error = demand_user.saturating_sub(actual_user);
         od.store(self.slots.following_error_actual, saturate(following_error));
-        let velocity_demand_internal = self.velocity_of(trajectory);
+        let velocity_demand_internal = match trajectory {
+            _ if !position_mode => self.velocity.value,
+            Some(state) => state.velocity,
+            None => 0,
+        };
         let velocity_demand = factors.velocity_to_user(velocity_demand_internal) * factors.velocity_sign();
         od.store(self.slots.velocity_demand, saturate(velocity_demand));
         od.store_int(self.slots.torque_demand, factors.torque_to_user(self.torque.value));
-        let following =
-            self.position_mode() && drive_enabled && self.following_error(od, following_error, now);
+        let following = position_mode && drive_enabled && self.following_error(od, following_error, now);
         if following && self.config.following_error_fault && self.fault.is_none() {
             self.fault = Some(FOLLOWING_ERROR);
             report.raise = report.raise.or(Some((FOLLOWING_ERROR, ErrorRegister::DEVICE_PROFILE)));
@@ -1523,7 +1620,7 @@ impl Profile {
         let status_input = StatusInput {
             state: step.state,
             sample,
-            options: command.options,
+            quick_stop_option: command.quick_stop_option,
             pp: status,
             halt: command.halt,
             standstill: sensed.standstill,
@@ -1613,7 +1710,6 @@ impl Profile {
     #[inline(never)]
     fn refresh<const B: usize>(&mut self, od: &Dictionary<B>) -> Factors {
         let factors = Factors::from_axis(od, self.config.units, self.axis);
-        self.factors = Some(factors);
         self.limits = Revised::EMPTY;
         self.pp_limits = Revised::EMPTY;
         if !self.slots_resolved {
@@ -2375,7 +2471,7 @@ impl Profile {
         };
         let target_reached = match state {
             State::QuickStopActive => {
-                at_rest && StopKind::quick_stop(input.options.quick_stop).is_some_and(|(_, stay)| stay)
+                at_rest && StopKind::quick_stop(input.quick_stop_option).is_some_and(|(_, stay)| stay)
             }
             _ => enabled && reached,
         };
@@ -2419,12 +2515,53 @@ impl Profile {
     }
 }
 
-/// What the statusword of a tick is built from ([`Profile::statusword`]), besides the
+/// What the tick's command phase keeps while it stands: the option codes until they may have
+/// been written ([`Runtime::read_option_codes`]), the FSA's last step while its inputs stand
+/// ([`Runtime::step_fsa`]).
+#[derive(Clone, Copy, Debug)]
+struct Steady {
+    /// The option codes below are kept (false: to be read).
+    codes_kept: bool,
+    /// 605Ah, 605Bh, 605Ch, 605Eh.
+    options: Options,
+    /// 605Dh.
+    halt_option: Option<StopKind>,
+    /// The inputs of [`Self::step`] (command, fault present, stop at rest) where that step left
+    /// the FSA as it found it, under the kept option codes: the same inputs give the same step
+    /// again.
+    fixed: Option<(Option<Controlword>, bool, bool)>,
+    /// The FSA's last step.
+    step: Step,
+}
+
+impl Steady {
+    const NONE: Self = Steady {
+        codes_kept: false,
+        options: Options {
+            quick_stop: 0,
+            shutdown: 0,
+            disable_operation: 0,
+            fault_reaction: 0,
+            transition_16: false,
+        },
+        halt_option: None,
+        fixed: None,
+        step: Step {
+            state: State::NotReadyToSwitchOn,
+            entered_operation: false,
+            stop: None,
+            dynamic_brake: false,
+        },
+    };
+}
+
+/// What the statusword of a tick is built from ([`Runtime::statusword`]), besides the
 /// profile's own state.
 struct StatusInput<'a> {
     state: State,
     sample: &'a Sample,
-    options: Options,
+    /// 605Ah.
+    quick_stop_option: i16,
     /// The bits pp or ip reported in this tick.
     pp: pp::Status,
     halt: bool,
@@ -2449,7 +2586,7 @@ struct StatusInput<'a> {
     actual: i64,
 }
 
-/// What the tick's first phase ([`Profile::sense`]) read from the sample.
+/// What the tick's first phase ([`Runtime::sense`]) read from the sample.
 struct Sensed {
     /// The encoder count.
     actual: i64,
@@ -2467,10 +2604,11 @@ struct Sensed {
     hardware: Option<(u16, ErrorRegister)>,
 }
 
-/// What the tick's second phase ([`Profile::command`]) decided.
+/// What the tick's second phase ([`Runtime::command`]) decided.
 #[derive(Clone, Copy)]
 struct Command {
-    options: Options,
+    /// 605Ah.
+    quick_stop_option: i16,
     /// The controlword as the modes see it.
     controlword: Controlword,
     /// Controlword bit 4 rose since the last tick.
@@ -2497,7 +2635,7 @@ struct Command {
     limits: MotionLimits,
 }
 
-/// What the tick's third phase ([`Profile::step_mode`]) produced.
+/// What the tick's third phase ([`Runtime::step_mode`]) produced.
 struct Stepped {
     setpoint: Setpoint,
     /// The bits pp or ip reported.
@@ -2508,8 +2646,8 @@ struct Stepped {
     opening: bool,
 }
 
-/// The tick's inputs as the active mode's step sees them ([`Profile::run_active`],
-/// [`Profile::step_stop`], [`Profile::run_homing`]).
+/// The tick's inputs as the active mode's step sees them ([`Runtime::run_active`],
+/// [`Runtime::step_stop`], [`Runtime::run_homing`]).
 #[derive(Clone, Copy)]
 struct ModeInput<'a> {
     now: Instant,
