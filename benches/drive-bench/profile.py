@@ -2,7 +2,7 @@
 """Where the instructions of one measurement go, per function (self cost, inlined code counted
 in the function it was inlined into), per call.
 
-    benches/drive-bench/profile.py <measurement> [--top K] [--m4]
+    benches/drive-bench/profile.py <measurement> [--top K] [--m4 [--lines]]
 
 x86-64 (default): reads the callgrind dumps scripts/bench.sh leaves in
 $CARGO_TARGET_DIR/results/callgrind (default target/drive-bench). --m4: runs the firmware that
@@ -16,7 +16,9 @@ import bisect
 import collections
 import glob
 import os
+import pathlib
 import re
+import shutil
 import subprocess
 import sys
 
@@ -53,9 +55,35 @@ def readable(symbol):
     return symbol
 
 
-def block_costs(firmware, plugin, name, mode, reps, out):
+# Line tables already read, by firmware.
+LINES = {}
+
+
+def line_table(firmware, tool):
+    """Address -> (the innermost source line of the crate's code, address of the next
+    instruction), from the firmware's line table: code of `core` inlined into the crate counts
+    for the crate's line that called it."""
+    listing = subprocess.run([tool, "-d", "--no-show-raw-insn", firmware],
+                             check=True, capture_output=True, text=True).stdout
+    addresses = [int(m.group(1), 16) for m in re.finditer(r"(?m)^\s+([0-9a-f]+):\s", listing)]
+    symbolizer = shutil.which("llvm-symbolizer")
+    if symbolizer is None:
+        sys.exit("--lines needs llvm-symbolizer (Debian: apt install llvm)")
+    frames = subprocess.run([symbolizer, "--inlining", "--no-demangle", "--functions=none", "-e", firmware],
+                            input="\n".join(hex(a) for a in addresses), check=True, capture_output=True,
+                            text=True).stdout.split("\n\n")
+    table = {}
+    for n, (address, chain) in enumerate(zip(addresses, frames)):
+        lines = [re.sub(r":\d+$", "", line) for line in chain.strip().splitlines()]
+        own = [line for line in lines if "/library/" not in line and "/rustc/" not in line]
+        location = re.sub(r"^.*?/src/", "src/", (own or lines or ["?"])[0])
+        table[address] = (location, addresses[n + 1] if n + 1 < len(addresses) else None)
+    return table
+
+
+def block_costs(firmware, plugin, name, mode, reps, out, lines=False):
     """Instructions per function of one QEMU run (self cost: a block counts for the function it
-    starts in)."""
+    starts in), or with `lines` per source line of the crate (`line_table`)."""
     subprocess.run(
         ["qemu-system-arm", "-machine", "mps2-an386", "-cpu", "cortex-m4", "-nographic",
          "-semihosting-config", f"enable=on,target=native,arg=drive-bench,arg={name},arg={reps},arg={mode}",
@@ -74,9 +102,19 @@ def block_costs(firmware, plugin, name, mode, reps, out):
             symbols.append((int(fields[0], 16) & ~1, readable(fields[2])))
     starts = [address for address, _ in symbols]
     costs = collections.Counter()
+    table = LINES.setdefault(firmware, line_table(firmware, str(pathlib.Path(nm[-1]).with_name("llvm-objdump")))) \
+        if lines else None
     with open(out) as f:
         for line in f:
             pc, insns, executions = line.split()
+            if table is not None:
+                address = int(pc, 16)
+                for _ in range(int(insns)):
+                    location, address = table.get(address, ("?", None))
+                    costs[location] += int(executions)
+                    if address is None:
+                        break
+                continue
             index = bisect.bisect_right(starts, int(pc, 16)) - 1
             function = symbols[index][1] if index >= 0 else "?"
             costs[function] += int(insns) * int(executions)
@@ -88,6 +126,8 @@ def main():
     parser.add_argument("measurement")
     parser.add_argument("--top", type=int, default=10)
     parser.add_argument("--m4", action="store_true")
+    parser.add_argument("--lines", action="store_true",
+                        help="with --m4: per source line of the crate (core code inlined counts for its caller)")
     args = parser.parse_args()
     name, n = args.measurement, REPETITIONS
     here = os.path.dirname(os.path.abspath(__file__))
@@ -108,8 +148,8 @@ def main():
             build = os.path.join(target, "bootloader")
         firmware = os.path.join(build, "thumbv7em-none-eabihf", "release", "drive-bench")
         out = os.path.join(target, "results", f"{name}.blocks")
-        measured = block_costs(firmware, plugin, name, "measured", 2 * n, out)
-        base = block_costs(firmware, plugin, name, "base", 2 * n, out)
+        measured = block_costs(firmware, plugin, name, "measured", 2 * n, out, args.lines)
+        base = block_costs(firmware, plugin, name, "base", 2 * n, out, args.lines)
         unit = "Cortex-M4"
     else:
         dumps = os.path.join(target, "results", "callgrind")

@@ -140,6 +140,45 @@ fn an_option_code_described_as_mappable_takes_effect_when_an_rpdo_writes_it() {
 }
 
 #[test]
+fn a_limit_an_rpdo_writes_beside_a_set_point_takes_effect_at_the_next_tick() {
+    // The tick keeps the limits it converted while no configuration was written: an RPDO that
+    // maps only set-points leaves them, one that maps a limit must reach the tick as an SDO
+    // download does.
+    let mut bench = Bench::new();
+    let map = |bench: &mut Bench, pdo: u16, cob: u32, entries: &[u32]| {
+        write_sub(bench, 0x1400 + pdo, 1, &(0x8000_0000 | cob).to_le_bytes());
+        write_sub(bench, 0x1600 + pdo, 0, &[0]);
+        for (sub, entry) in (1..).zip(entries) {
+            write_sub(bench, 0x1600 + pdo, sub, &entry.to_le_bytes());
+        }
+        write_sub(bench, 0x1600 + pdo, 0, &[entries.len() as u8]);
+        write_sub(bench, 0x1400 + pdo, 1, &cob.to_le_bytes());
+    };
+    let target_only = 0x200 + u16::from(NODE);
+    let with_limit = 0x300 + u16::from(NODE);
+    map(&mut bench, 0, u32::from(target_only), &[0x60FF_0020]);
+    map(&mut bench, 1, u32::from(with_limit), &[0x60FF_0020, 0x607F_0020]);
+    for ramp in [0x6083, 0x6084, 0x60C5, 0x60C6] {
+        write(&mut bench, ramp, &10_000_000u32.to_le_bytes());
+    }
+    nmt(&mut bench, 0x01);
+    enable_pv(&mut bench);
+    let demand_after = |bench: &mut Bench, id: u16, data: &[u8]| {
+        bench.send(frame(id, data));
+        bench.advance(Duration::from_millis(20));
+        od_i32(bench, 0x606B)
+    };
+    assert_eq!(demand_after(&mut bench, target_only, &50_000i32.to_le_bytes()), 50_000);
+    let mut both = [0u8; 8];
+    both[..4].copy_from_slice(&50_000i32.to_le_bytes());
+    both[4..].copy_from_slice(&20_000u32.to_le_bytes());
+    assert_eq!(demand_after(&mut bench, with_limit, &both), 20_000, "607Fh = 20 000 by RPDO limits pv");
+    assert_eq!(demand_after(&mut bench, target_only, &60_000i32.to_le_bytes()), 20_000);
+    both[4..].copy_from_slice(&u32::MAX.to_le_bytes());
+    assert_eq!(demand_after(&mut bench, with_limit, &both), 50_000, "607Fh raised by RPDO");
+}
+
+#[test]
 fn a_description_override_must_keep_the_entrys_size() {
     // 6072h reserves no wider storage; 6071h does (4 bytes), but not for another signedness
     // or beyond its reserve.

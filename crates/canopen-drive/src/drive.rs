@@ -475,6 +475,12 @@ impl<const B: usize, const AXES: usize> ValueRules<B> for ProcessDataRules<'_, A
             _ => Ok(()),
         }
     }
+
+    fn is_process_data(&self, entry: &Entry) -> bool {
+        let index = entry.index();
+        owner(index, entry.object, self.0) == Owner::Profile
+            && axis_of(self.0, index).is_some_and(|profile| profile.is_process_data(index))
+    }
 }
 
 /// The SYNC cycle as the tick sees it.

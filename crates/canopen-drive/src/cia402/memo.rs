@@ -3,8 +3,10 @@
 //! The modes convert their objects (through the factor group, into per-tick units) with 64-bit
 //! divisions, library calls of about a hundred instructions each on a Cortex-M, while the
 //! values change only when a master writes them. [`Memo`] keeps the last result with the values
-//! it came from; [`Revised`] adds the dictionary's [`revision`](crate::od::Dictionary::revision),
-//! so that while nothing was written the values are not even read again.
+//! it came from; [`Revised`] adds the dictionary's
+//! [`configuration_revision`](crate::od::Dictionary::configuration_revision), so that while no
+//! configuration was written (an RPDO with set-points alone does not count) the values are not
+//! even read again.
 
 /// The last result of a function, kept with its key: computed again only for another key.
 #[derive(Clone, Copy, Debug)]

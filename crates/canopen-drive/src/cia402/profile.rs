@@ -761,7 +761,7 @@ impl Profile {
     /// ([`CyclicConfig::sdo_set_points`](super::cyclic::CyclicConfig::sdo_set_points)).
     pub fn sdo_written(&mut self, index: u16) -> bool {
         // A set-point or a command changes nothing the profile derives from its configuration.
-        if self.run.axis.relative(index).is_some_and(super::objects::is_process_data) {
+        if self.is_process_data(index) {
             self.run.quiet.idle = false;
         } else {
             self.invalidate();
@@ -771,6 +771,14 @@ impl Profile {
                 self.run.axis.relative(index),
                 Some(TARGET_POSITION | TARGET_VELOCITY | TARGET_TORQUE)
             )
+    }
+
+    /// Whether this axis's object `index` is process data: a set-point or a command a master
+    /// writes while the axis runs, which changes nothing the profile derives from its
+    /// configuration ([`objects::is_process_data`](super::objects::is_process_data)).
+    #[inline]
+    pub fn is_process_data(&self, index: u16) -> bool {
+        self.run.axis.relative(index).is_some_and(super::objects::is_process_data)
     }
 
     /// A 60C1h/60C4h entry was written (SDO or RPDO): the ip buffer takes it.
@@ -1665,7 +1673,7 @@ impl Runtime {
     /// The motion limits in increments, converted again only when one of their objects (or
     /// the factor group) has changed; also [`Self::motion`] for the rest of the tick.
     fn motion_limits<const B: usize>(&mut self, od: &Dictionary<B>, factors: &Factors) -> MotionLimits {
-        if let Some(kept) = self.limits.kept(od.revision()) {
+        if let Some(kept) = self.limits.kept(od.configuration_revision()) {
             self.motion = kept;
             return kept;
         }
@@ -1677,18 +1685,19 @@ impl Runtime {
             od.load(self.slots.profile_deceleration),
             od.load(self.slots.quick_stop_deceleration),
         );
-        self.motion = self.limits.get(raw, od.revision(), || MotionLimits::convert(raw, factors));
+        self.motion =
+            self.limits.get(raw, od.configuration_revision(), || MotionLimits::convert(raw, factors));
         self.motion
     }
 
     /// pp's motion limits ([`pp::LimitObjects::limits`]) and its end velocity 6082h in increments, converted
     /// again only when one of their objects (or the factor group) has changed.
     fn pp_limits<const B: usize>(&mut self, od: &Dictionary<B>, factors: &Factors) -> (Limits, u32) {
-        if let Some(kept) = self.pp_limits.kept(od.revision()) {
+        if let Some(kept) = self.pp_limits.kept(od.configuration_revision()) {
             return kept;
         }
         let objects = pp::LimitObjects::read(od, &self.slots);
-        self.pp_limits.get(objects, od.revision(), || objects.limits(factors))
+        self.pp_limits.get(objects, od.configuration_revision(), || objects.limits(factors))
     }
 
     /// The cyclic limiter's per-tick limits: with the maximum deceleration, and with a halt's.
@@ -2177,14 +2186,14 @@ impl Runtime {
 
     /// Ticks per interpolation period (60C2h) and the SYNC jitter tolerated.
     fn cycle_timing<const B: usize>(&mut self, od: &Dictionary<B>) -> (u32, u32) {
-        if let Some(kept) = self.timing.kept(od.revision()) {
+        if let Some(kept) = self.timing.kept(od.configuration_revision()) {
             return kept;
         }
         let hz = u64::from(self.config.tick_rate.hz());
         let value = od.load_or(self.slots.interpolation_period_value, 1);
         let index = od.load_or(self.slots.interpolation_period_index, -3);
         let window_us: u32 = od.load(self.slots.sync_window);
-        self.timing.get((value, index, window_us), od.revision(), || {
+        self.timing.get((value, index, window_us), od.configuration_revision(), || {
             let period_us = period_micros(value, index);
             let period_ticks = ((period_us * hz + 500_000) / 1_000_000).clamp(1, u64::from(u32::MAX)) as u32;
             let window_ticks = (u64::from(window_us) * hz / 1_000_000).min(u64::from(u32::MAX)) as u32;

@@ -253,11 +253,19 @@ struct Mapping {
     bits: u16,
     /// Some received value has a limit or a rule to pass (RPDOs).
     checked: bool,
+    /// Every entry is process data ([`ValueRules::is_process_data`]; RPDOs): a frame changes no
+    /// configuration ([`Dictionary::touch_process_data`]).
+    process_data: bool,
 }
 
 impl Mapping {
-    const EMPTY: Mapping =
-        Mapping { slots: [Slot::DUMMY; MAX_MAPPED as usize], count: 0, bits: 0, checked: false };
+    const EMPTY: Mapping = Mapping {
+        slots: [Slot::DUMMY; MAX_MAPPED as usize],
+        count: 0,
+        bits: 0,
+        checked: false,
+        process_data: false,
+    };
 
     fn bytes(&self) -> usize {
         usize::from(self.bits).div_ceil(8)
@@ -322,12 +330,13 @@ fn resolve_mapping<const B: usize>(
     if count > MAX_MAPPED {
         return Err(AbortCode::PdoLengthExceeded);
     }
-    let mut mapping = Mapping { count, ..Mapping::EMPTY };
+    let mut mapping = Mapping { count, process_data: record.direction == Direction::Rpdo, ..Mapping::EMPTY };
     for (sub, slot) in (1..=count).zip(mapping.slots.iter_mut()) {
         let (resolved, entry) = resolve(od, od.get::<u32>(index, sub)?, record.direction)?;
         *slot = resolved;
         if let (Some(entry), Direction::Rpdo) = (entry, record.direction) {
             slot.rule |= rules.rule(&entry) & !LIMITS;
+            mapping.process_data &= rules.is_process_data(&entry);
         }
         mapping.bits += u16::from(slot.bits);
         mapping.checked |= slot.rule != 0;
@@ -1005,6 +1014,14 @@ pub trait ValueRules<const B: usize> {
     /// Checks `data` (size and limits already checked) as the new value of `index`/`sub`
     /// under `rule`.
     fn check(&self, od: &Dictionary<B>, rule: u8, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode>;
+
+    /// Whether `entry` is process data, a set-point or a command whose value changes nothing
+    /// derived from configuration: an RPDO that maps only such entries is counted in
+    /// [`Dictionary::revision`] but not in [`Dictionary::configuration_revision`]. None is by
+    /// default.
+    fn is_process_data(&self, _entry: &Entry) -> bool {
+        false
+    }
 }
 
 /// No rules beyond type and limits.
@@ -1056,7 +1073,11 @@ fn apply<const B: usize, V: ValueRules<B>, H: ObjectHooks>(
             }
         }
     }
-    od.touch();
+    if mapping.process_data {
+        od.touch_process_data();
+    } else {
+        od.touch();
+    }
     let mut position = 0;
     for slot in mapping.slots() {
         let bits = usize::from(slot.bits);

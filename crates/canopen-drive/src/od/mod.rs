@@ -387,6 +387,9 @@ pub struct Dictionary<const BYTES: usize> {
     absent: &'static [u16],
     /// Counts the changes of the store ([`Self::revision`]).
     revision: u32,
+    /// Counts the changes of process data alone ([`Self::touch_process_data`]): the
+    /// configuration's revision is [`Self::revision`] without them.
+    process_data_touches: u32,
 }
 
 /// One table of a dictionary: its descriptions and where they lie.
@@ -457,6 +460,7 @@ impl<const BYTES: usize> Dictionary<BYTES> {
             homing: MethodList::EMPTY,
             absent: &[],
             revision: 0,
+            process_data_touches: 0,
         }
     }
 
@@ -975,11 +979,31 @@ impl<const BYTES: usize> Dictionary<BYTES> {
         self.revision
     }
 
-    /// Counts a change in [`Self::revision`] (for a caller about to write through slots or spans
-    /// outside the profile's tick: an RPDO, the firmware's device-side access).
+    /// A number that changes whenever a value that is not process data may have changed:
+    /// [`revision`](Self::revision) but for the writes counted with
+    /// [`touch_process_data`](Self::touch_process_data) (an RPDO that maps only set-points and
+    /// commands). What a reader derives from configuration alone (converted limits, timing)
+    /// stands while it does.
+    #[inline]
+    pub fn configuration_revision(&self) -> u32 {
+        self.revision.wrapping_sub(self.process_data_touches)
+    }
+
+    /// Counts a change in [`Self::revision`] and so in [`Self::configuration_revision`] (for a
+    /// caller about to write through slots or spans outside the profile's tick: an RPDO, the
+    /// firmware's device-side access).
     #[inline]
     pub fn touch(&mut self) {
         self.revision = self.revision.wrapping_add(1);
+    }
+
+    /// Counts a change in [`Self::revision`] only: for a caller about to write process data
+    /// alone (set-points and commands, as the owner of the entries says), which changes
+    /// nothing derived from configuration.
+    #[inline]
+    pub fn touch_process_data(&mut self) {
+        self.revision = self.revision.wrapping_add(1);
+        self.process_data_touches = self.process_data_touches.wrapping_add(1);
     }
 
     /// The store, for a write: counted in [`Self::revision`].
