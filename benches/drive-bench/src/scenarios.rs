@@ -44,6 +44,11 @@ pub(crate) static ALL: &[Measurement] = &[
     m("tick-hm", "tick: hm searching (method 17)", tick_hm),
     m("tick-csp-sync", "tick: csp + cascade, SYNC tick (RPDO applied)", tick_csp_sync),
     m("tick-csp", "tick: csp + cascade, interpolating", tick_csp),
+    m(
+        "tick-csp-sync-units",
+        "tick: csp + cascade, SYNC tick, user units of 0.1° (608Fh = 10 000 increments, 6092h = 3 600 per revolution)",
+        tick_csp_sync_units,
+    ),
     m("tick-csv-sync", "tick: csv + cascade, SYNC tick (RPDO applied)", tick_csv_sync),
     m("tick-csv", "tick: csv + cascade, interpolating", tick_csv),
     m("tick-cst-sync", "tick: cst, SYNC tick (RPDO applied)", tick_cst_sync),
@@ -548,8 +553,19 @@ enum Cyclic {
 /// After 20 SYNC periods the snapshot is taken right after the SYNC (`at_sync`: the tick that
 /// applies the RPDO) or one tick later (interpolating).
 fn cyclic(mode: Cyclic, at_sync: bool) -> Result<Prepared, SetupError> {
+    cyclic_in(mode, at_sync, false)
+}
+
+/// [`cyclic`], with `units` in a factor group that is not 1:1: 0.1° a position unit (608Fh
+/// 10 000 increments per revolution, 6092h 3 600 position units per revolution), so that every
+/// value the tick converts goes through the factor group's division.
+fn cyclic_in(mode: Cyclic, at_sync: bool, units: bool) -> Result<Prepared, SetupError> {
     let cascade = mode != Cyclic::Cst;
     let mut rig = Rig::new(4000, cascade)?;
+    if units {
+        rig.write(0x608F, 1, &10_000u32.to_le_bytes())?;
+        rig.write(0x6092, 1, &3_600u32.to_le_bytes())?;
+    }
     // Velocity loop 0.1 ‰ per increment/s (Q8.24), position loop 20/s (Q16.16).
     rig.write(objects::CASCADE, 2, &1_677_722u32.to_le_bytes())?;
     rig.write(objects::CASCADE, 1, &(20u32 << 16).to_le_bytes())?;
@@ -596,6 +612,10 @@ fn tick_csp_sync() -> Result<Prepared, SetupError> {
 
 fn tick_csp() -> Result<Prepared, SetupError> {
     cyclic(Cyclic::Csp, false)
+}
+
+fn tick_csp_sync_units() -> Result<Prepared, SetupError> {
+    cyclic_in(Cyclic::Csp, true, true)
 }
 
 fn tick_csv_sync() -> Result<Prepared, SetupError> {

@@ -48,16 +48,10 @@ pub const VELOCITY_POLARITY: u8 = 0x40;
 /// The conversion between user units and internal units (increments) of one axis.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Factors {
-    /// user = internal × numerator / denominator.
-    numerator: u128,
-    denominator: u128,
-    /// Velocities: user = internal × velocity_numerator / velocity_denominator.
-    velocity_numerator: u128,
-    velocity_denominator: u128,
-    /// The position ratio is 1:1 (user units are increments), and the velocity ratio: every
-    /// conversion tests this first, inline (a call of [`scale`] passes two 128-bit values).
-    unity: bool,
-    velocity_unity: bool,
+    /// Positions: user = internal × numerator / denominator.
+    position: Ratio,
+    /// Velocities (accelerations, jerks), the same or in motor rpm ([`VelocityUnit`]).
+    velocity: Ratio,
     /// 608Fh sub 1 / sub 2: increments per motor revolution.
     increments: u32,
     revolutions: u32,
@@ -72,12 +66,8 @@ impl Default for Factors {
     /// 1:1 in every object: user units are increments.
     fn default() -> Self {
         Factors {
-            numerator: 1,
-            denominator: 1,
-            velocity_numerator: 1,
-            velocity_denominator: 1,
-            unity: true,
-            velocity_unity: true,
+            position: Ratio::ONE,
+            velocity: Ratio::ONE,
             increments: 1,
             revolutions: 1,
             polarity: 0,
@@ -129,6 +119,115 @@ fn scale(value: i64, numerator: u128, denominator: u128) -> i64 {
     }
 }
 
+/// One ratio of the factor group, both ways: user = internal × numerator / denominator
+/// (reduced).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Ratio {
+    numerator: u128,
+    denominator: u128,
+    /// 1:1 (user units are increments): every conversion tests this first, inline.
+    unity: bool,
+    /// Both terms below 2³²: the reciprocals of the numerator and of the denominator, so that a
+    /// value below 2³² converts with multiplications alone ([`Reciprocal`]): the ticks of a
+    /// drive in user units convert half a dozen values each.
+    narrow: Option<(Reciprocal, Reciprocal)>,
+}
+
+impl Ratio {
+    const ONE: Ratio = Ratio { numerator: 1, denominator: 1, unity: true, narrow: None };
+
+    fn new(numerator: u128, denominator: u128) -> Self {
+        let narrow = match (u32::try_from(numerator), u32::try_from(denominator)) {
+            (Ok(n), Ok(d)) if n != d => Some((Reciprocal::of(n), Reciprocal::of(d))),
+            _ => None,
+        };
+        Ratio { numerator, denominator, unity: numerator == denominator, narrow }
+    }
+
+    /// Internal to user units ([`scale`] by numerator / denominator).
+    #[inline]
+    fn forward(&self, value: i64) -> i64 {
+        if self.unity && value != i64::MIN {
+            return value;
+        }
+        self.forward_scaled(value)
+    }
+
+    /// User to internal units ([`scale`] by denominator / numerator).
+    #[inline]
+    fn backward(&self, value: i64) -> i64 {
+        if self.unity && value != i64::MIN {
+            return value;
+        }
+        self.backward_scaled(value)
+    }
+
+    /// [`Self::forward`] but 1:1, out of line: the places that convert hold only the test.
+    #[inline(never)]
+    fn forward_scaled(&self, value: i64) -> i64 {
+        match self.narrow {
+            Some((numerator, denominator)) => scale_narrow(value, numerator.divisor, denominator),
+            None => None,
+        }
+        .unwrap_or_else(|| scale(value, self.numerator, self.denominator))
+    }
+
+    /// [`Self::backward`] but 1:1, out of line as [`Self::forward_scaled`].
+    #[inline(never)]
+    fn backward_scaled(&self, value: i64) -> i64 {
+        match self.narrow {
+            Some((numerator, denominator)) => scale_narrow(value, denominator.divisor, numerator),
+            None => None,
+        }
+        .unwrap_or_else(|| scale(value, self.denominator, self.numerator))
+    }
+}
+
+/// A 32-bit divisor with its reciprocal: `x / divisor` for any 64-bit `x` as a multiplication
+/// and one correction (a 64-bit division is a library call of 100–200 instructions on a
+/// Cortex-M, which divides 32 bits in hardware).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Reciprocal {
+    divisor: u32,
+    /// ⌊(2⁶⁴ − 1) / divisor⌋.
+    inverse: u64,
+}
+
+impl Reciprocal {
+    /// The reciprocal of `divisor` (0 counts as 1).
+    const fn of(divisor: u32) -> Self {
+        let divisor = if divisor == 0 { 1 } else { divisor };
+        Reciprocal { divisor, inverse: u64::MAX / divisor as u64 }
+    }
+
+    /// ⌊x / divisor⌋. With q = x / d exactly, x · inverse / 2⁶⁴ lies in (q − 1, q): it is at
+    /// least x (2⁶⁴ − d) / (d 2⁶⁴) = q − x / 2⁶⁴ > q − 1 and below q, so the estimate is the
+    /// quotient or one below it, and the remainder tells which.
+    #[inline]
+    fn divide(self, x: u64) -> u64 {
+        let divisor = u64::from(self.divisor);
+        let estimate = ((u128::from(x) * u128::from(self.inverse)) >> 64) as u64;
+        // estimate × divisor ≤ x: no overflow.
+        let remainder = x.wrapping_sub(estimate.wrapping_mul(divisor));
+        if remainder >= divisor {
+            estimate.wrapping_add(1)
+        } else {
+            estimate
+        }
+    }
+}
+
+/// [`scale`] of a value whose magnitude is below 2³² by `multiplier / divisor` (both below
+/// 2³²): `None` for a larger value.
+#[inline]
+fn scale_narrow(value: i64, multiplier: u32, divisor: Reciprocal) -> Option<i64> {
+    let magnitude = u32::try_from(value.unsigned_abs()).ok()?;
+    // (2³² − 1)² + 2³¹ < 2⁶⁴: no overflow; the result may exceed i64 (a divisor of 1).
+    let rounded = u64::from(magnitude) * u64::from(multiplier) + u64::from(divisor.divisor / 2);
+    let result = i64::try_from(divisor.divide(rounded)).unwrap_or(i64::MAX);
+    Some(if value < 0 { -result } else { result })
+}
+
 /// `numerator / denominator` reduced (neither is 0 after).
 fn reduced(numerator: u128, denominator: u128) -> (u128, u128) {
     let common = gcd(numerator, denominator).max(1);
@@ -170,12 +269,8 @@ impl Factors {
             VelocityUnit::MotorRpm => reduced(60 * u128::from(revolutions), u128::from(increments)),
         };
         Factors {
-            numerator,
-            denominator,
-            velocity_numerator,
-            velocity_denominator,
-            unity: numerator == denominator,
-            velocity_unity: velocity_numerator == velocity_denominator,
+            position: Ratio::new(numerator, denominator),
+            velocity: Ratio::new(velocity_numerator, velocity_denominator),
             increments,
             revolutions,
             polarity: od.get::<u8>(axis.index(POLARITY), 0).unwrap_or(0),
@@ -188,19 +283,13 @@ impl Factors {
     /// Internal (increments, increments/s, …) to user units, without polarity.
     #[inline]
     pub fn to_user(&self, internal: i64) -> i64 {
-        if self.unity && internal != i64::MIN {
-            return internal;
-        }
-        scale(internal, self.numerator, self.denominator)
+        self.position.forward(internal)
     }
 
     /// User units to internal units, without polarity.
     #[inline]
     pub fn to_internal(&self, user: i64) -> i64 {
-        if self.unity && user != i64::MIN {
-            return user;
-        }
-        scale(user, self.denominator, self.numerator)
+        self.position.backward(user)
     }
 
     /// [`Self::to_user`] saturated to an INTEGER32 object.
@@ -212,20 +301,14 @@ impl Factors {
     /// polarity.
     #[inline]
     pub fn velocity_to_user(&self, internal: i64) -> i64 {
-        if self.velocity_unity && internal != i64::MIN {
-            return internal;
-        }
-        scale(internal, self.velocity_numerator, self.velocity_denominator)
+        self.velocity.forward(internal)
     }
 
     /// A velocity (acceleration, jerk) in the velocity unit to increments/s (/s², /s³), without
     /// polarity.
     #[inline]
     pub fn velocity_to_internal(&self, user: i64) -> i64 {
-        if self.velocity_unity && user != i64::MIN {
-            return user;
-        }
-        scale(user, self.velocity_denominator, self.velocity_numerator)
+        self.velocity.backward(user)
     }
 
     /// An UNSIGNED32 limit in the velocity unit (velocity, acceleration, jerk) in internal
@@ -350,13 +433,10 @@ mod tests {
         let numerator = u128::from(feed.0) * u128::from(revolutions) * u128::from(gear.1);
         let denominator = u128::from(feed.1) * u128::from(increments) * u128::from(gear.0);
         let common = gcd(numerator, denominator);
+        let ratio = Ratio::new(numerator / common, denominator / common);
         Factors {
-            numerator: numerator / common,
-            denominator: denominator / common,
-            velocity_numerator: numerator / common,
-            velocity_denominator: denominator / common,
-            unity: numerator == denominator,
-            velocity_unity: numerator == denominator,
+            position: ratio,
+            velocity: ratio,
             increments,
             revolutions,
             polarity: 0,
@@ -440,6 +520,58 @@ mod tests {
         }
     }
 
+    /// The reciprocal's quotient is the division's, for divisors and dividends at the edges
+    /// and in between.
+    #[test]
+    fn a_reciprocal_divides_exactly() {
+        extern crate std;
+        use std::vec;
+        let mut divisors =
+            vec![1u32, 2, 3, 7, 10, 360, 1000, 3600, 4096, 65_535, 65_536, 1 << 31, u32::MAX - 1, u32::MAX];
+        let mut dividends =
+            vec![0u64, 1, 2, 3, 359, 360, 361, u64::from(u32::MAX), 1 << 32, u64::MAX - 1, u64::MAX];
+        // A xorshift sequence for the values in between.
+        let mut state = 0x9E37_79B9_7F4A_7C15u64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        for _ in 0..200 {
+            divisors.push(next() as u32 >> (next() % 32));
+            dividends.push(next() >> (next() % 64));
+        }
+        for &d in &divisors {
+            let reciprocal = Reciprocal::of(d);
+            let d = u64::from(d.max(1));
+            for &x in &dividends {
+                assert_eq!(reciprocal.divide(x), x / d, "{x} / {d}");
+                // Around the multiples of the divisor, where an estimate one short shows.
+                let q = x / d;
+                for y in [q * d, (q * d).saturating_sub(1), (q * d).saturating_add(d - 1)] {
+                    assert_eq!(reciprocal.divide(y), y / d, "{y} / {d}");
+                }
+            }
+        }
+    }
+
+    /// Both ways, a ratio converts as [`scale`] does, through its reciprocals or not.
+    #[test]
+    fn a_ratio_converts_as_scale_does() {
+        let values =
+            [0, 1, -1, 179, -180, 65_535, i64::from(i32::MAX), i64::from(u32::MAX), -i64::from(u32::MAX)];
+        let values = values.iter().copied().chain([i64::from(u32::MAX) + 1, i64::MAX, -i64::MAX, i64::MIN]);
+        let ratios = [(1, 1), (9, 25), (3600, 10_000), (u128::from(u32::MAX), 1), (1, 3), (1 << 40, 3)];
+        for value in values {
+            for (n, d) in ratios {
+                let ratio = Ratio::new(n, d);
+                assert_eq!(ratio.forward(value), scale(value, n, d), "{value} × {n} / {d}");
+                assert_eq!(ratio.backward(value), scale(value, d, n), "{value} × {d} / {n}");
+            }
+        }
+    }
+
     #[test]
     fn conversions_do_not_accumulate() {
         // 10000 increments per 3 motor turns, gear 7:2, 1000 user units per output turn: about
@@ -466,7 +598,7 @@ mod tests {
         // 4000 increments per revolution, a gear and feed that do not enter rpm.
         let position = factors(4000, 1, (7, 2), (1000, 1));
         let (n, d) = reduced(60, 4000);
-        let rpm = Factors { velocity_numerator: n, velocity_denominator: d, ..position };
+        let rpm = Factors { velocity: Ratio::new(n, d), ..position };
         assert_eq!(rpm.velocity_to_internal(60), 4000);
         assert_eq!(rpm.velocity_to_user(4000), 60);
         assert_eq!(rpm.limit_to_internal(3000), 200_000);
