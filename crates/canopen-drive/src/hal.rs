@@ -228,7 +228,7 @@ impl Capture {
                 let half = if travel < 0 { -500_000 } else { 500_000 };
                 let delta = (travel + half) / 1_000_000;
                 let at = i64::from(position) - delta;
-                at.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32
+                crate::wide::saturate_i32(at)
             }
         }
     }

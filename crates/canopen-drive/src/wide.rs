@@ -1,4 +1,5 @@
-//! 128-bit division, remainder and multiplication, compiled once.
+//! 128-bit division, remainder and multiplication, compiled once; and the narrowing the
+//! crate's 64-bit values take into 32-bit objects.
 //!
 //! Neither Cortex-M nor RISC-V has a 128-bit divide, and the compiler writes every 128-bit `/`
 //! or `%` out in place as a shift-and-subtract sequence of about a kilobyte of code (a division
@@ -7,6 +8,13 @@
 //! instead: one copy of the sequence for the whole crate, for the price of a call where the
 //! division happens. Same results as the operators, including a panic on a zero divisor (the
 //! callers never divide by zero).
+
+/// `value` saturated to the i32 range: one test of the high word in the usual case (a
+/// `clamp` compares both bounds in 64 bits, some ten instructions on a 32-bit core).
+#[inline]
+pub(crate) fn saturate_i32(value: i64) -> i32 {
+    i32::try_from(value).unwrap_or(if value < 0 { i32::MIN } else { i32::MAX })
+}
 
 /// `(n / d, n % d)`. Operands that fit 64 bits (the usual case) take a 64-bit division, a
 /// library call of about a hundred instructions on a Cortex-M4 instead of several hundred.

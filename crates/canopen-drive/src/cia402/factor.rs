@@ -39,6 +39,7 @@ use super::objects::{
 use super::Axis;
 use crate::od::{AbortCode, Dictionary};
 use crate::od::{Access, DataType, DefaultValue, Object, Var};
+use crate::wide::saturate_i32;
 
 /// 607Eh bit 7: position polarity.
 pub const POSITION_POLARITY: u8 = 0x80;
@@ -234,10 +235,6 @@ fn reduced(numerator: u128, denominator: u128) -> (u128, u128) {
     (crate::wide::udiv(numerator, common).max(1), crate::wide::udiv(denominator, common).max(1))
 }
 
-fn saturate(value: i64) -> i32 {
-    value.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32
-}
-
 fn pair<const B: usize>(od: &Dictionary<B>, index: u16) -> (u32, u32) {
     let sub = |s| od.get::<u32>(index, s).ok().filter(|v| *v != 0).unwrap_or(1);
     (sub(1), sub(2))
@@ -294,7 +291,7 @@ impl Factors {
 
     /// [`Self::to_user`] saturated to an INTEGER32 object.
     pub fn to_user_i32(&self, internal: i64) -> i32 {
-        saturate(self.to_user(internal))
+        saturate_i32(self.to_user(internal))
     }
 
     /// A velocity (acceleration, jerk) in increments/s (/s², /s³) to the velocity unit, without

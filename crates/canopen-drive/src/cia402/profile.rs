@@ -63,6 +63,7 @@ use crate::hal::{Demand, DigitalInputs, FeedForward, HardwareFaults, Sample, Set
 use crate::motion::{Limits, MotionState, PositionPlanner};
 use crate::od::{AbortCode, Dictionary};
 use crate::time::{Duration, Instant};
+use crate::wide::saturate_i32;
 
 /// The longest time step a tick integrates (a stalled board must not cause a jump).
 const MAX_STEP: Duration = Duration::from_millis(100);
@@ -434,10 +435,6 @@ const QUICK_STOP: Controlword = Controlword::ENABLE_VOLTAGE;
 
 /// Parameter error (6320h): a controlword function this configuration does not have.
 const PARAMETER_ERROR: u16 = 0x6320;
-
-fn saturate(value: i64) -> i32 {
-    value.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32
-}
 
 /// What the cyclic limiter's per-tick limits come from: velocity, acceleration, deceleration
 /// and a halt's deceleration in increments (per second, per second²), and the tick rate.
@@ -1081,10 +1078,10 @@ impl Runtime {
             let mut held = None;
             if velocity > u64::from(vmax) && velocity > previous_velocity.unsigned_abs() {
                 planner.reset(state.position);
-                held = Some(Setpoint::Position(saturate(state.position)));
+                held = Some(Setpoint::Position(saturate_i32(state.position)));
                 state.velocity = 0;
             }
-            self.feed_forward.velocity = saturate(state.velocity);
+            self.feed_forward.velocity = saturate_i32(state.velocity);
             return held;
         }
         let _ = (drive_enabled, vmax, previous_velocity);
@@ -1196,9 +1193,9 @@ impl Runtime {
         let actual_user = factors.to_user(actual.saturating_sub(self.origin)) * factors.position_sign();
         // 6063h: the encoder count, from the zero homing on the current position may have set.
         od.store(self.slots.position_actual_internal, actual.wrapping_sub(self.internal_origin) as i32);
-        od.store(self.slots.position_actual, saturate(actual_user));
+        od.store(self.slots.position_actual, saturate_i32(actual_user));
         let velocity_user = factors.velocity_to_user(i64::from(sample.velocity)) * factors.velocity_sign();
-        od.store(self.slots.velocity_actual, saturate(velocity_user));
+        od.store(self.slots.velocity_actual, saturate_i32(velocity_user));
         // The shaft rests: |606Ch| within the velocity threshold 606Fh; with the configuration's
         // option, for longer than the velocity threshold time 6070h, so that a shaft that only
         // passes through 0 (a reversal of its settling) is not taken as resting.
@@ -1608,16 +1605,16 @@ impl Runtime {
             None => actual_user,
         };
         od.store(self.slots.position_demand_internal, demand_internal as i32);
-        od.store(self.slots.position_demand, saturate(demand_user));
+        od.store(self.slots.position_demand, saturate_i32(demand_user));
         let following_error = demand_user.saturating_sub(actual_user);
-        od.store(self.slots.following_error_actual, saturate(following_error));
+        od.store(self.slots.following_error_actual, saturate_i32(following_error));
         let velocity_demand_internal = match trajectory {
             _ if !position_mode => self.velocity.value,
             Some(state) => state.velocity,
             None => 0,
         };
         let velocity_demand = factors.velocity_to_user(velocity_demand_internal) * factors.velocity_sign();
-        od.store(self.slots.velocity_demand, saturate(velocity_demand));
+        od.store(self.slots.velocity_demand, saturate_i32(velocity_demand));
         od.store_int(self.slots.torque_demand, factors.torque_to_user(self.torque.value));
         let following = position_mode && drive_enabled && self.following_error(od, following_error, now);
         if following && self.config.following_error_fault && self.fault.is_none() {
@@ -1810,7 +1807,7 @@ impl Runtime {
         let actual = Actual::from(sample);
         let output = match setpoint {
             Setpoint::Position(position) => {
-                let reference = Reference { position, velocity: saturate(velocity), torque: 0 };
+                let reference = Reference { position, velocity: saturate_i32(velocity), torque: 0 };
                 cascade.step(reference, actual)
             }
             Setpoint::Velocity(velocity) => cascade.step_velocity(velocity, 0, actual.velocity),
@@ -1821,7 +1818,7 @@ impl Runtime {
             }
         };
         let effort = factors.velocity_to_user(i64::from(output.velocity)) * factors.velocity_sign();
-        od.store(self.slots.control_effort, saturate(effort));
+        od.store(self.slots.control_effort, saturate_i32(effort));
         Setpoint::Torque(output.torque)
     }
 
@@ -1845,7 +1842,7 @@ impl Runtime {
             return (None, false);
         }
         let to_user =
-            |p: i32| saturate(factors.to_user(i64::from(p).saturating_sub(self.origin)) * position_sign);
+            |p: i32| saturate_i32(factors.to_user(i64::from(p).saturating_sub(self.origin)) * position_sign);
         let latched = [
             (Changed::PROBE_1_POSITIVE, TOUCH_PROBE_1_POSITIVE_EDGE, probe.positive[0]),
             (Changed::PROBE_1_NEGATIVE, TOUCH_PROBE_1_NEGATIVE_EDGE, probe.negative[0]),
@@ -2057,13 +2054,13 @@ impl Runtime {
                     let user = (factors.to_user(count.saturating_sub(self.origin)) * position_sign)
                         .saturating_add(limit_offset);
                     let sub = if position_sign < 0 { 3 - sub } else { sub };
-                    let _ = od.set::<i32>(self.axis.index(SOFTWARE_POSITION_LIMIT), sub, saturate(user));
+                    let _ = od.set::<i32>(self.axis.index(SOFTWARE_POSITION_LIMIT), sub, saturate_i32(user));
                 }
             }
             // The position values of this tick count from the new zero already: the
             // statusword that says "homed" must not come before them.
             let actual_user = factors.to_user(actual.saturating_sub(self.origin)) * position_sign;
-            od.store(self.slots.position_actual, saturate(actual_user));
+            od.store(self.slots.position_actual, saturate_i32(actual_user));
             homed = Some(actual_user);
             let internal = actual.wrapping_sub(self.internal_origin) as i32;
             od.store(self.slots.position_actual_internal, internal);
@@ -2144,7 +2141,7 @@ impl Runtime {
         let Some(vl) = self.mode.vl_mut() else { return Setpoint::None };
         let demand = vl.step(od, drive);
         self.velocity = Ramp { value: demand, remainder: 0 };
-        Setpoint::Velocity(saturate(demand))
+        Setpoint::Velocity(saturate_i32(demand))
     }
 
     /// The mode `number` becomes active: its variant starts from the axis at
@@ -2255,7 +2252,7 @@ impl Runtime {
         };
         let position = run.limiter.position();
         self.cyclic_limited = limited;
-        self.feed_forward.velocity = saturate(velocity);
+        self.feed_forward.velocity = saturate_i32(velocity);
         (Setpoint::Position(position as i32), status)
     }
 
@@ -2339,7 +2336,8 @@ impl Runtime {
                 // (A limit lowered below the running velocity: the limiter ramps down to it.)
                 let bound = i64::from(self.motion.velocity).max(trajectory.abs());
                 let velocity = trajectory.saturating_add(velocity_offset).clamp(-bound, bound);
-                self.feed_forward = FeedForward { velocity: saturate(velocity), torque: torque_feed_forward };
+                self.feed_forward =
+                    FeedForward { velocity: saturate_i32(velocity), torque: torque_feed_forward };
                 Setpoint::Position(run.limiter.position() as i32)
             }
             mode::CYCLIC_VELOCITY => {
@@ -2355,7 +2353,7 @@ impl Runtime {
                 self.velocity.toward(clamped, rate, input.dt);
                 self.cyclic_limited = clamped != wanted || self.velocity.value != clamped;
                 self.feed_forward.torque = torque_feed_forward;
-                Setpoint::Velocity(saturate(self.velocity.value))
+                Setpoint::Velocity(saturate_i32(self.velocity.value))
             }
             _ => {
                 let max = i64::from(od.load(self.slots.max_torque).min(od.load(self.slots.max_current)));

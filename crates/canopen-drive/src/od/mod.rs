@@ -1127,7 +1127,7 @@ impl<const BYTES: usize> Dictionary<BYTES> {
                 }
             }
             (_, 4) => {
-                let v = value.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32;
+                let v = crate::wide::saturate_i32(value);
                 if let Some(dst) = self.store.get_mut(start..start + 4) {
                     Scalar::to_le(v, dst);
                 }
