@@ -116,6 +116,8 @@ pub mod motion;
 pub mod od;
 pub mod prelude;
 pub mod storage;
+#[cfg(test)]
+mod testing;
 pub mod time;
 mod wide;
 pub mod wire;

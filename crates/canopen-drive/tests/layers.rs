@@ -9,11 +9,11 @@
 use std::fs;
 use std::path::{Path, PathBuf};
 
-/// The layers, lowest first. `wide` (128-bit division) and `fmt` (the logging shim) are
-/// utilities below everything; `can_io` (the embedded-can helper) and `prelude` (re-exports) sit
+/// The layers, lowest first. `wide` (128-bit division), `fmt` (the logging shim) and `testing`
+/// (helpers of the unit tests) are utilities below everything; `can_io` (the embedded-can helper) and `prelude` (re-exports) sit
 /// on top of `drive`.
 const LAYERS: &[&[&str]] = &[
-    &["time", "frame", "wide", "fmt"],
+    &["time", "frame", "wide", "fmt", "testing"],
     &["wire", "motion"],
     &["hal"],
     &["od"],

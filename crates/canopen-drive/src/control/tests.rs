@@ -290,17 +290,9 @@ fn new_refuses_invalid_parameters() {
     assert!((cascade.integral_gain_value() / expected - 1.0).abs() < 1e-6);
 }
 
-/// xorshift64* — a seeded generator for the sweep.
-struct Rng(u64);
+use crate::testing::Rng;
 
 impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
-    }
-
     /// An edge value half of the time, any value otherwise.
     fn u32(&mut self, edges: &[u32]) -> u32 {
         let raw = self.next();

@@ -18,17 +18,9 @@ use super::*;
 
 const TOLERANCE_UNITS: f64 = 17_179_869_184.0; // 2^34 units = 2^-30 per-tick units
 
-/// xorshift64* — a seeded generator for the tests.
-pub(super) struct Rng(pub(super) u64);
+pub(super) use crate::testing::Rng;
 
 impl Rng {
-    pub(super) fn next(&mut self) -> u64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
-    }
-
     /// Uniform in [0, 1).
     pub(super) fn unit(&mut self) -> f64 {
         (self.next() >> 11) as f64 / (1u64 << 53) as f64
