@@ -250,7 +250,8 @@ impl Slot {
 struct Mapping {
     slots: [Slot; MAX_MAPPED as usize],
     count: u8,
-    bits: u16,
+    /// Mapped bits, at most 64 ([`resolve_mapping`] refuses more).
+    bits: u8,
     /// Some received value has a limit or a rule to pass (RPDOs).
     checked: bool,
     /// Every entry is process data ([`ValueRules::is_process_data`]; RPDOs): a frame changes no
@@ -331,6 +332,7 @@ fn resolve_mapping<const B: usize>(
         return Err(AbortCode::PdoLengthExceeded);
     }
     let mut mapping = Mapping { count, process_data: record.direction == Direction::Rpdo, ..Mapping::EMPTY };
+    let mut bits = 0u16;
     for (sub, slot) in (1..=count).zip(mapping.slots.iter_mut()) {
         let (resolved, entry) = resolve(od, od.get::<u32>(index, sub)?, record.direction)?;
         *slot = resolved;
@@ -338,12 +340,10 @@ fn resolve_mapping<const B: usize>(
             slot.rule |= rules.rule(&entry) & !LIMITS;
             mapping.process_data &= rules.is_process_data(&entry);
         }
-        mapping.bits += u16::from(slot.bits);
+        bits += u16::from(slot.bits);
         mapping.checked |= slot.rule != 0;
     }
-    if mapping.bits > 64 {
-        return Err(AbortCode::PdoLengthExceeded);
-    }
+    mapping.bits = u8::try_from(bits).ok().filter(|b| *b <= 64).ok_or(AbortCode::PdoLengthExceeded)?;
     Ok(mapping)
 }
 
@@ -1154,7 +1154,7 @@ mod tests {
             for (slot, raw) in mapping.slots.iter_mut().zip(entries) {
                 *slot = resolve(od, raw, direction).unwrap().0;
                 mapping.count += 1;
-                mapping.bits += u16::from(slot.bits);
+                mapping.bits += slot.bits;
                 mapping.checked |= slot.rule != 0;
             }
             mapping
