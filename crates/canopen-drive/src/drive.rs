@@ -94,8 +94,8 @@ use crate::od::eds::{self, Capabilities, EdsInfo};
 use crate::od::standard::{self, HEARTBEAT_CONSUMERS};
 use crate::od::xdd;
 use crate::od::{
-    le_u32, AbortCode, ConfigError, DefaultOverride, DeviceInfo, Dictionary, Entry, EntryOverride, Object,
-    ObjectHooks, Owner,
+    le_u32, AbortCode, ConfigError, DefaultOverride, DeviceInfo, Dictionary, Entry, EntryOverride,
+    FirstLevel, Object, ObjectHooks, Owner,
 };
 use crate::storage::{Group, Persistence, SAVE_SIGNATURE};
 use crate::time::{earliest, Duration, Instant};
@@ -763,8 +763,12 @@ impl<
     fn configure(&mut self, config: &Config) -> Result<(), ConfigError> {
         // One description of an axis's objects, attached once per axis (a single-axis drive's
         // has no 67FFh and links only `PROFILE`).
-        let profile: &'static [Object] =
-            if AXES > 1 { &crate::cia402::registry::AXIS_PROFILE } else { &crate::cia402::registry::PROFILE };
+        use crate::cia402::registry::{AXIS_PROFILE, AXIS_PROFILE_FIRST_LEVEL, PROFILE, PROFILE_FIRST_LEVEL};
+        let (profile, profile_level): (&'static [Object], &'static FirstLevel) = if AXES > 1 {
+            (&AXIS_PROFILE, &AXIS_PROFILE_FIRST_LEVEL)
+        } else {
+            (&PROFILE, &PROFILE_FIRST_LEVEL)
+        };
         let tables: [&'static [Object]; 6] = [
             &standard::COMMUNICATION,
             config.pdo_objects,
@@ -774,7 +778,10 @@ impl<
             config.extra_profile_objects,
         ];
         let axes = AXES as u8;
-        self.od.attach_copies(&tables, &[1, 1, 1, 1, axes, axes])?;
+        // The crate's own tables come with their first levels of look-up.
+        let first_levels =
+            [Some(&standard::COMMUNICATION_FIRST_LEVEL), None, None, None, Some(profile_level)];
+        self.od.attach_indexed(&tables, &first_levels, &[1, 1, 1, 1, axes, axes])?;
         self.od.set_homing_methods(config.profile.homing.method_list());
         self.od.set_entry_overrides(config.entry_overrides)?;
         self.od.set_default_overrides(config.default_overrides)?;
