@@ -491,8 +491,10 @@ impl<const BYTES: usize> Dictionary<BYTES> {
     }
 
     /// Whether the object at `index` is hidden from the bus ([`Self::set_absent`]).
+    #[inline]
     pub fn is_absent(&self, index: u16) -> bool {
-        self.absent.contains(&index)
+        // Nearly always none: then no scan.
+        !self.absent.is_empty() && self.absent.contains(&index)
     }
 
     /// [`Self::entry`] as the bus sees the dictionary: an absent object does not exist.
