@@ -778,9 +778,9 @@ impl<
             config.extra_profile_objects,
         ];
         let axes = AXES as u8;
-        // The crate's own tables come with their first levels of look-up.
-        let first_levels =
-            [Some(&standard::COMMUNICATION_FIRST_LEVEL), None, None, None, Some(profile_level)];
+        // The drive profile's table, where nearly every request goes, comes with its first level
+        // of look-up (the others' would cost flash for a few steps of search).
+        let first_levels = [None, None, None, None, Some(profile_level)];
         self.od.attach_indexed(&tables, &first_levels, &[1, 1, 1, 1, axes, axes])?;
         self.od.set_homing_methods(config.profile.homing.method_list());
         self.od.set_entry_overrides(config.entry_overrides)?;
@@ -1038,10 +1038,10 @@ impl<
     #[inline(never)]
     fn sdo_request(&mut self, data: &[u8], now: Instant) {
         let node_id = self.node_id();
-        // Between transfers, the expedited requests to plain values and profile objects (nearly
-        // all of them) are answered from their entry, without the access context the others
-        // need; the server stays idle.
-        if self.sdo.is_idle() && self.sdo_plain(data, now) {
+        // Between transfers, an upload of a plain value of 1..=4 bytes (nearly every upload)
+        // is answered from its entry, without the access context the other requests need; the
+        // server stays idle.
+        if self.sdo.is_idle() && self.sdo_plain_upload(data) {
             return;
         }
         let mut access = Access::new(
@@ -1070,53 +1070,19 @@ impl<
         self.drain_sdo(now);
     }
 
-    /// An expedited upload of a plain value of 1..=4 bytes ([`plain_value`]), or an expedited
-    /// download to an entry of the dictionary's or the profile's ([`Self::plain_download`]):
-    /// answered, and `true`; `false` for any other request (the server's to answer).
-    fn sdo_plain(&mut self, data: &[u8], now: Instant) -> bool {
+    /// An expedited upload of a plain value of 1..=4 bytes ([`plain_value`]): answered, and
+    /// `true`; `false` for any other request (the server's to answer).
+    fn sdo_plain_upload(&mut self, data: &[u8]) -> bool {
+        let Some(mux) = sdo_server::upload_request(data) else {
+            return false;
+        };
+        let mut value = [0u8; 4];
+        let Some(n) = plain_value(&self.od, &mut self.hooks, &self.axes, mux, &mut value) else {
+            return false;
+        };
         let id = SDO_TX_BASE + u16::from(self.node_id());
-        if let Some(mux) = sdo_server::upload_request(data) {
-            let mut value = [0u8; 4];
-            let Some(n) = plain_value(&self.od, &mut self.hooks, &self.axes, mux, &mut value) else {
-                return false;
-            };
-            let _ = self.tx.send_array(id, sdo_server::upload_response(mux, value, n), 8);
-            return true;
-        }
-        let Some((mux, value)) = sdo_server::download_request(data) else {
-            return false;
-        };
-        let Some(result) = self.plain_download(mux, value) else {
-            return false;
-        };
-        let _ = self.tx.send_array(id, sdo_server::download_response(mux, result.map(|_| ())), 8);
-        if let Ok((owner, rule)) = result {
-            self.after_write(owner, mux, rule, now);
-        }
+        let _ = self.tx.send_array(id, sdo_server::upload_response(mux, value, n), 8);
         true
-    }
-
-    /// An expedited download of `data` to `mux`, an entry of the dictionary's or the drive
-    /// profile's, with the access rules and checks [`Access`] applies to those (the same abort
-    /// codes): the owner and the profile's rule of the value stored. `None` for a missing
-    /// entry and for another owner's: the access context serves those.
-    fn plain_download(&mut self, mux: Mux, data: &[u8]) -> Option<Result<(Owner, Option<Rule>), AbortCode>> {
-        let entry = self.od.bus_entry(mux.index, mux.sub).ok()?;
-        let owner = owner(entry.index(), entry.object, &self.axes);
-        if !matches!(owner, Owner::Dictionary | Owner::Profile) {
-            return None;
-        }
-        let axes = &self.axes;
-        let checked =
-            sdo_server::check_download(entry.var, self.nmt, || switched_off(axes, owner, mux.index))
-                .and_then(|()| self.od.check_write(&entry, data));
-        let rule = profile_rule(axes, owner, mux);
-        Some(
-            checked
-                .and_then(|()| profile_check(axes, &self.od, rule, mux, data))
-                .and_then(|()| store_checked(&mut self.od, &mut self.hooks, &entry, data))
-                .map(|()| (owner, rule)),
-        )
     }
 
     /// Runs the timers and background work due at `now`; returns when to call again

@@ -255,7 +255,7 @@ fn expedited(data: &[u8], od: &mut impl ObjectAccess) -> Option<[u8; 8]> {
 /// The index and sub-index of an initiate upload request (its other bits are reserved and
 /// ignored, as by the state machine), or `None` for any other frame.
 #[inline]
-pub fn upload_request(data: &[u8]) -> Option<Mux> {
+pub(crate) fn upload_request(data: &[u8]) -> Option<Mux> {
     match data {
         &[command, lo, hi, sub, ..] if command >> 5 == 2 => {
             Some(Mux { index: u16::from_le_bytes([lo, hi]), sub })
@@ -266,7 +266,7 @@ pub fn upload_request(data: &[u8]) -> Option<Mux> {
 
 /// The expedited upload response of `mux` with the value `value[..n]` (1..=4 bytes).
 #[inline]
-pub fn upload_response(mux: Mux, value: [u8; 4], n: usize) -> [u8; 8] {
+pub(crate) fn upload_response(mux: Mux, value: [u8; 4], n: usize) -> [u8; 8] {
     let [lo, hi] = mux.index.to_le_bytes();
     let [a, b, c, d] = value;
     [0x43 | ((4 - n.min(4) as u8) << 2), lo, hi, mux.sub, a, b, c, d]
@@ -275,7 +275,7 @@ pub fn upload_response(mux: Mux, value: [u8; 4], n: usize) -> [u8; 8] {
 /// The index and sub-index of an expedited download request with its size indicated (e = 1,
 /// s = 1), and the value, or `None` for any other frame (or one that lacks bytes of the value).
 #[inline]
-pub fn download_request(data: &[u8]) -> Option<(Mux, &[u8])> {
+fn download_request(data: &[u8]) -> Option<(Mux, &[u8])> {
     let &[command, lo, hi, sub, ref rest @ ..] = data else {
         return None;
     };
@@ -288,7 +288,7 @@ pub fn download_request(data: &[u8]) -> Option<(Mux, &[u8])> {
 
 /// The response to an expedited download of `mux`: its acknowledgement, or the abort with the
 /// code that refused it.
-pub fn download_response(mux: Mux, result: Result<(), AbortCode>) -> [u8; 8] {
+fn download_response(mux: Mux, result: Result<(), AbortCode>) -> [u8; 8] {
     match result {
         Ok(()) => {
             let [lo, hi] = mux.index.to_le_bytes();

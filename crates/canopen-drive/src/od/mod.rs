@@ -491,7 +491,6 @@ impl<const BYTES: usize> Dictionary<BYTES> {
     }
 
     /// Whether the object at `index` is hidden from the bus ([`Self::set_absent`]).
-    #[inline]
     pub fn is_absent(&self, index: u16) -> bool {
         // Nearly always none: then no scan.
         !self.absent.is_empty() && self.absent.contains(&index)
@@ -862,6 +861,7 @@ impl<const BYTES: usize> Dictionary<BYTES> {
 
     /// Copies a stored value of 1..=4 bytes (an expedited SDO upload) into `buf`; `None` for
     /// any other entry (longer, variable or fixed: [`read`](Self::read) serves those).
+    #[inline]
     pub fn read_small(&self, entry: &Entry, buf: &mut [u8; 4]) -> Option<usize> {
         let n = entry.var.data_type.fixed_size().filter(|n| (1..=4).contains(n) && !entry.var.is_fixed())?;
         let start = usize::from(entry.offset);

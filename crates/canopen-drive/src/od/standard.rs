@@ -262,9 +262,6 @@ const COMMUNICATION_COUNT: usize = included_count(&ALL_COMMUNICATION);
 /// The CiA 301 objects of the communication profile area (1000h–1FFFh) this crate implements.
 pub static COMMUNICATION: [Object; COMMUNICATION_COUNT] = layout(select(&ALL_COMMUNICATION));
 
-/// [`COMMUNICATION`]'s first level of look-up (its objects grouped by index).
-pub(crate) static COMMUNICATION_FIRST_LEVEL: super::FirstLevel = super::first_level(&COMMUNICATION);
-
 /// The objects of `all` at `indices` (ascending), in that order.
 // Loop indices are bounded by the array lengths; `get` is not usable in a const fn.
 #[allow(clippy::indexing_slicing)]
