@@ -94,8 +94,8 @@ use crate::od::eds::{self, Capabilities, EdsInfo};
 use crate::od::standard::{self, HEARTBEAT_CONSUMERS};
 use crate::od::xdd;
 use crate::od::{
-    le_u32, AbortCode, ConfigError, DefaultOverride, DeviceInfo, Dictionary, Entry, EntryOverride, Object,
-    ObjectHooks, Owner,
+    le_u32, AbortCode, ConfigError, DefaultOverride, DeviceInfo, Dictionary, Entry, EntryOverride,
+    FirstLevel, Object, ObjectHooks, Owner,
 };
 use crate::storage::{Group, Persistence, SAVE_SIGNATURE};
 use crate::time::{earliest, Duration, Instant};
@@ -769,8 +769,12 @@ impl<
     fn configure(&mut self, config: &Config) -> Result<(), ConfigError> {
         // One description of an axis's objects, attached once per axis (a single-axis drive's
         // has no 67FFh and links only `PROFILE`).
-        let profile: &'static [Object] =
-            if AXES > 1 { &crate::cia402::registry::AXIS_PROFILE } else { &crate::cia402::registry::PROFILE };
+        use crate::cia402::registry::{AXIS_PROFILE, AXIS_PROFILE_FIRST_LEVEL, PROFILE, PROFILE_FIRST_LEVEL};
+        let (profile, profile_level): (&'static [Object], &'static FirstLevel) = if AXES > 1 {
+            (&AXIS_PROFILE, &AXIS_PROFILE_FIRST_LEVEL)
+        } else {
+            (&PROFILE, &PROFILE_FIRST_LEVEL)
+        };
         let tables: [&'static [Object]; 6] = [
             &standard::COMMUNICATION,
             config.pdo_objects,
@@ -780,7 +784,10 @@ impl<
             config.extra_profile_objects,
         ];
         let axes = AXES as u8;
-        self.od.attach_copies(&tables, &[1, 1, 1, 1, axes, axes])?;
+        // The drive profile's table, where nearly every request goes, comes with its first level
+        // of look-up (the others' would cost flash for a few steps of search).
+        let first_levels = [None, None, None, None, Some(profile_level)];
+        self.od.attach_indexed(&tables, &first_levels, &[1, 1, 1, 1, axes, axes])?;
         self.od.set_homing_methods(config.profile.homing.method_list());
         self.od.set_entry_overrides(config.entry_overrides)?;
         self.od.set_default_overrides(config.default_overrides)?;
@@ -1037,6 +1044,12 @@ impl<
     #[inline(never)]
     fn sdo_request(&mut self, data: &[u8], now: Instant) {
         let node_id = self.node_id();
+        // Between transfers, an upload of a plain value of 1..=4 bytes (nearly every upload)
+        // is answered from its entry, without the access context the other requests need; the
+        // server stays idle.
+        if self.sdo.is_idle() && self.sdo_plain_upload(data) {
+            return;
+        }
         let mut access = Access::new(
             &mut self.od,
             &mut self.hooks,
@@ -1061,6 +1074,21 @@ impl<
             self.clear_error(code::DATA_SET);
         }
         self.drain_sdo(now);
+    }
+
+    /// An expedited upload of a plain value of 1..=4 bytes ([`plain_value`]): answered, and
+    /// `true`; `false` for any other request (the server's to answer).
+    fn sdo_plain_upload(&mut self, data: &[u8]) -> bool {
+        let Some(mux) = sdo_server::upload_request(data) else {
+            return false;
+        };
+        let mut value = [0u8; 4];
+        let Some(n) = plain_value(&self.od, &mut self.hooks, &self.axes, mux, &mut value) else {
+            return false;
+        };
+        let id = SDO_TX_BASE + u16::from(self.node_id());
+        let _ = self.tx.send_array(id, sdo_server::upload_response(mux, value, n), 8);
+        true
     }
 
     /// Runs the timers and background work due at `now`; returns when to call again
@@ -1853,6 +1881,82 @@ impl<
     }
 }
 
+/// The value of 1..=4 bytes of `mux` when the bus may read it and the dictionary's store holds
+/// it as it is: no command object of the store (1010h/1011h), no program download object, no
+/// error history (whose sub-indices above the count are refused), no value of the firmware's
+/// hooks. `None` for any other entry, and for one the bus may not read: the full access rules
+/// ([`Access`]) answer those, with their abort codes.
+#[inline]
+fn plain_value<H: ObjectHooks, const B: usize, const AXES: usize>(
+    od: &Dictionary<B>,
+    hooks: &mut H,
+    axes: &[Profile; AXES],
+    mux: Mux,
+    value: &mut [u8; 4],
+) -> Option<usize> {
+    let entry = od.bus_entry(mux.index, mux.sub).ok()?;
+    sdo_server::check_upload(entry.var).ok()?;
+    let owner = owner(entry.index(), entry.object, axes);
+    if matches!(owner, Owner::Storage | Owner::Program | Owner::ErrorHistory)
+        || hooks.read_len(mux.index, mux.sub).is_some()
+    {
+        return None;
+    }
+    od.read_small(&entry, value)
+}
+
+/// The profile's rule of a write from the bus to `mux`, an object of `owner` (`None` for an
+/// object the profile does not own, or one without a rule).
+#[inline]
+fn profile_rule<const AXES: usize>(axes: &[Profile; AXES], owner: Owner, mux: Mux) -> Option<Rule> {
+    match owner {
+        Owner::Profile => axis_of(axes, mux.index).and_then(|p| p.rule(mux.index, mux.sub, false)),
+        _ => None,
+    }
+}
+
+/// The profile's check of a value from the bus for its object `mux` with `rule` (none: no
+/// check beyond type, access and limits).
+#[inline]
+fn profile_check<const B: usize, const AXES: usize>(
+    axes: &[Profile; AXES],
+    od: &Dictionary<B>,
+    rule: Option<Rule>,
+    mux: Mux,
+    data: &[u8],
+) -> Result<(), AbortCode> {
+    match (rule, axis_of(axes, mux.index)) {
+        (Some(rule), Some(profile)) => profile.check(rule, od, mux.index, mux.sub, data),
+        _ => Ok(()),
+    }
+}
+
+/// A value from the bus that passed every rule of the drive: to the firmware's check, then
+/// into the store, and the firmware told.
+#[inline]
+fn store_checked<H: ObjectHooks, const B: usize>(
+    od: &mut Dictionary<B>,
+    hooks: &mut H,
+    entry: &Entry,
+    data: &[u8],
+) -> Result<(), AbortCode> {
+    let (index, sub) = (entry.index(), entry.sub);
+    hooks.validate(index, sub, data)?;
+    od.commit(entry, data);
+    hooks.written(index, sub, data);
+    Ok(())
+}
+
+/// Whether the drive function is off where a write to `index` (an object of `owner`) takes
+/// effect: in the axis of a profile object, in every axis for another object.
+fn switched_off<const AXES: usize>(axes: &[Profile; AXES], owner: Owner, index: u16) -> bool {
+    let off = |p: &Profile| matches!(p.state(), State::SwitchOnDisabled | State::NotReadyToSwitchOn);
+    match owner {
+        Owner::Profile => axis_of(axes, index).is_none_or(off),
+        _ => axes.iter().all(off),
+    }
+}
+
 /// The dictionary with the access rules of the bus (CiA 301 §7.2.4).
 struct Access<'a, H, S, const B: usize, const AXES: usize> {
     od: &'a mut Dictionary<B>,
@@ -1976,20 +2080,7 @@ impl<'a, H: ObjectHooks, S: Persistence, const B: usize, const AXES: usize> Acce
             Owner::Sync => sync::check_write(od, index, data),
             Owner::HeartbeatConsumer => check_consumer_write(od, sub, data),
             Owner::Pdo => pdo::check_write(od, index, sub, data, self.remap_while_valid),
-            Owner::Profile => match (rule, axis_of(self.axes, index)) {
-                (Some(rule), Some(profile)) => profile.check(rule, od, index, sub, data),
-                _ => Ok(()),
-            },
-        }
-    }
-
-    /// Whether the drive function is off where a write to `index` takes effect: in the axis
-    /// of a profile object, in every axis for another object.
-    fn switched_off(&self, owner: Owner, index: u16) -> bool {
-        let off = |p: &Profile| matches!(p.state(), State::SwitchOnDisabled | State::NotReadyToSwitchOn);
-        match owner {
-            Owner::Profile => axis_of(self.axes, index).is_none_or(off),
-            _ => self.axes.iter().all(off),
+            Owner::Profile => profile_check(self.axes, od, rule, Mux { index, sub }, data),
         }
     }
 
@@ -2006,7 +2097,7 @@ impl<'a, H: ObjectHooks, S: Persistence, const B: usize, const AXES: usize> Acce
     #[inline]
     fn writable_entry(&mut self, mux: Mux) -> Result<(Entry, Owner), AbortCode> {
         let (entry, owner) = self.entry(mux)?;
-        sdo_server::check_download(entry.var, self.nmt, || self.switched_off(owner, mux.index))?;
+        sdo_server::check_download(entry.var, self.nmt, || switched_off(self.axes, owner, mux.index))?;
         Ok((entry, owner))
     }
 }
@@ -2054,12 +2145,10 @@ impl<H: ObjectHooks, S: Persistence, const B: usize, const AXES: usize> ObjectAc
     }
 
     fn upload_expedited(&mut self, mux: Mux, buf: &mut [u8; 4]) -> Result<Option<usize>, AbortCode> {
-        let (entry, owner) = self.readable_entry(mux)?;
-        // A plain value of the store: one look-up, no second pass through the hooks.
-        // (The store's command objects and the program's answer with values of their own.)
-        let plain = !matches!(owner, Owner::Storage | Owner::Program)
-            && self.hooks.read_len(mux.index, mux.sub).is_none();
-        match plain.then(|| self.od.read_small(&entry, buf)).flatten() {
+        // A plain value of the store: one look-up, no second pass through the hooks. (The
+        // store's command objects and the program's answer with values of their own; a refusal
+        // comes with its code from the two steps.)
+        match plain_value(self.od, self.hooks, self.axes, mux, buf) {
             Some(n) => Ok(Some(n)),
             None => upload_in_two_steps(self, mux, buf),
         }
@@ -2094,14 +2183,9 @@ impl<H: ObjectHooks, S: Persistence, const B: usize, const AXES: usize> ObjectAc
         if self.command_capability(&entry, owner).is_some() {
             return self.storage_command(mux, data);
         }
-        let rule = match owner {
-            Owner::Profile => axis_of(self.axes, mux.index).and_then(|p| p.rule(mux.index, mux.sub, false)),
-            _ => None,
-        };
+        let rule = profile_rule(self.axes, owner, mux);
         self.check_owned(&entry, owner, rule, data)?;
-        self.hooks.validate(mux.index, mux.sub, data)?;
-        self.od.commit(&entry, data);
-        self.hooks.written(mux.index, mux.sub, data);
+        store_checked(self.od, self.hooks, &entry, data)?;
         self.written = Some((owner, mux, rule));
         Ok(())
     }

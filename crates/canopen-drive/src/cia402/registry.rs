@@ -9,8 +9,8 @@
 use super::config::{OptionCodes, ProfileConfig};
 use super::objects::*;
 use crate::od::{
-    layout, AbortCode, Access, DataType, DefaultValue, DeviceField, DeviceInfo, Dictionary, Object,
-    PdoMapping, Var,
+    first_level, layout, AbortCode, Access, DataType, DefaultValue, DeviceField, DeviceInfo, Dictionary,
+    FirstLevel, Object, PdoMapping, Var,
 };
 
 /// The modes this build runs (the default of [`crate::od::DeviceInfo::drive_modes`], and the
@@ -211,6 +211,9 @@ const PROBE: &[Object] = if super::PROBE { &super::probe::OBJECTS } else { &[] }
 pub static PROFILE: [Object; PROFILE_LEN] =
     layout(merged(&[&COMMON, &super::factor::OBJECTS, PP, HM, IP, VL, PROBE]));
 
+/// [`PROFILE`]'s first level of look-up (its objects grouped by index).
+pub(crate) static PROFILE_FIRST_LEVEL: FirstLevel = first_level(&PROFILE);
+
 /// 67FFh: the device type of one logical device (axis) of a node with several (CiA 402 §4.2:
 /// each axis at 67FFh + n × 800h; 1000h then carries the multi-device marker).
 pub const LOGICAL_DEVICE_TYPE: u16 = 0x67FF;
@@ -228,6 +231,9 @@ const DEVICE_TYPE_OF_AXIS: [Object; 1] = [Object::var(
 /// ([`Dictionary::attach_copies`]); a single-axis drive links [`PROFILE`] only.
 pub static AXIS_PROFILE: [Object; PROFILE_LEN + 1] =
     layout(merged(&[&COMMON, &super::factor::OBJECTS, PP, HM, IP, VL, PROBE, &DEVICE_TYPE_OF_AXIS]));
+
+/// [`AXIS_PROFILE`]'s first level of look-up.
+pub(crate) static AXIS_PROFILE_FIRST_LEVEL: FirstLevel = first_level(&AXIS_PROFILE);
 
 /// The objects of `parts` in one table ascending by index (at compile time). `N` must be
 /// their number, and no index may come twice.

@@ -240,31 +240,62 @@ pub struct SdoServer<const BUF: usize> {
 /// size indicated and all of its bytes in the frame. `None` for any other request, or when the
 /// value turns out longer: the state machine takes it from the start.
 fn expedited(data: &[u8], od: &mut impl ObjectAccess) -> Option<[u8; 8]> {
+    if let Some(mux) = upload_request(data) {
+        let mut value = [0u8; 4];
+        return match od.upload_expedited(mux, &mut value) {
+            Ok(None) => None,
+            Ok(Some(n)) => Some(upload_response(mux, value, n)),
+            Err(code) => Some(refusal(mux, code).emit()),
+        };
+    }
+    let (mux, value) = download_request(data)?;
+    Some(download_response(mux, od.download_expedited(mux, value)))
+}
+
+/// The index and sub-index of an initiate upload request (its other bits are reserved and
+/// ignored, as by the state machine), or `None` for any other frame.
+#[inline]
+pub(crate) fn upload_request(data: &[u8]) -> Option<Mux> {
+    match data {
+        &[command, lo, hi, sub, ..] if command >> 5 == 2 => {
+            Some(Mux { index: u16::from_le_bytes([lo, hi]), sub })
+        }
+        _ => None,
+    }
+}
+
+/// The expedited upload response of `mux` with the value `value[..n]` (1..=4 bytes).
+#[inline]
+pub(crate) fn upload_response(mux: Mux, value: [u8; 4], n: usize) -> [u8; 8] {
+    let [lo, hi] = mux.index.to_le_bytes();
+    let [a, b, c, d] = value;
+    [0x43 | ((4 - n.min(4) as u8) << 2), lo, hi, mux.sub, a, b, c, d]
+}
+
+/// The index and sub-index of an expedited download request with its size indicated (e = 1,
+/// s = 1), and the value, or `None` for any other frame (or one that lacks bytes of the value).
+#[inline]
+fn download_request(data: &[u8]) -> Option<(Mux, &[u8])> {
     let &[command, lo, hi, sub, ref rest @ ..] = data else {
         return None;
     };
-    let mux = Mux { index: u16::from_le_bytes([lo, hi]), sub };
-    let result = match command >> 5 {
-        // Initiate upload (its other bits are reserved and ignored, as by the state machine).
-        2 => {
-            let mut value = [0u8; 4];
-            match od.upload_expedited(mux, &mut value) {
-                Ok(None) => return None,
-                Ok(Some(n)) => {
-                    let [a, b, c, d] = value;
-                    Ok([0x43 | ((4 - n.min(4) as u8) << 2), lo, hi, sub, a, b, c, d])
-                }
-                Err(code) => Err(code),
-            }
+    if command >> 5 != 1 || command & 0x03 != 0x03 {
+        return None;
+    }
+    let value = rest.get(..4 - usize::from((command >> 2) & 0x03))?;
+    Some((Mux { index: u16::from_le_bytes([lo, hi]), sub }, value))
+}
+
+/// The response to an expedited download of `mux`: its acknowledgement, or the abort with the
+/// code that refused it.
+fn download_response(mux: Mux, result: Result<(), AbortCode>) -> [u8; 8] {
+    match result {
+        Ok(()) => {
+            let [lo, hi] = mux.index.to_le_bytes();
+            [0x60, lo, hi, mux.sub, 0, 0, 0, 0]
         }
-        // Initiate download, expedited (e = 1) with the size indicated (s = 1).
-        1 if command & 0x03 == 0x03 => {
-            let value = rest.get(..4 - usize::from((command >> 2) & 0x03))?;
-            od.download_expedited(mux, value).map(|()| [0x60, lo, hi, sub, 0, 0, 0, 0])
-        }
-        _ => return None,
-    };
-    Some(result.unwrap_or_else(|code| refusal(mux, code).emit()))
+        Err(code) => refusal(mux, code).emit(),
+    }
 }
 
 /// What a step of the state machine produces.

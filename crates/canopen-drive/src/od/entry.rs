@@ -639,6 +639,7 @@ impl Object {
     }
 
     /// The description of sub-index `sub` and its byte offset inside the object's storage.
+    #[inline]
     pub fn sub(&self, sub: u8) -> Option<(&Var, usize)> {
         match &self.kind {
             Kind::Var(v) => (sub == 0).then_some((v, 0)),

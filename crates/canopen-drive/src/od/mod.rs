@@ -17,6 +17,7 @@ mod check;
 mod description;
 pub mod eds;
 mod entry;
+mod first_level;
 mod overrides;
 pub mod persist;
 pub mod standard;
@@ -28,6 +29,7 @@ pub use entry::{
     layout, owned, Access, Bound, DataType, DefaultValue, DeviceField, Kind, Object, Owner, PdoMapping, Var,
     WriteRule,
 };
+pub(crate) use first_level::{first_level, FirstLevel};
 pub use overrides::EntryOverride;
 
 use core::ops::RangeInclusive;
@@ -395,7 +397,7 @@ pub struct Dictionary<const BYTES: usize> {
 /// One table of a dictionary: its descriptions and where they lie.
 #[derive(Clone, Copy)]
 pub(crate) struct Table {
-    pub(crate) objects: &'static [Object],
+    descriptions: Descriptions,
     /// The first and the last index of every copy (an empty table: an empty range), so that
     /// a look-up picks its table without reading the descriptions.
     first: u16,
@@ -410,12 +412,32 @@ pub(crate) struct Table {
 }
 
 impl Table {
-    const EMPTY: Table = Table { objects: &[], first: 1, last: 0, region: 0, span: 0, copies: 1 };
+    const EMPTY: Table =
+        Table { descriptions: Descriptions::Plain(&[]), first: 1, last: 0, region: 0, span: 0, copies: 1 };
+
+    /// The table's descriptions.
+    #[inline]
+    pub(crate) fn objects(&self) -> &'static [Object] {
+        match self.descriptions {
+            Descriptions::Plain(objects) => objects,
+            Descriptions::Indexed(level) => level.objects(),
+        }
+    }
 
     /// Where copy `k`'s values start.
     pub(crate) fn region_of(&self, k: u16) -> usize {
         usize::from(self.region) + usize::from(self.span) * usize::from(k)
     }
+}
+
+/// A table's descriptions, and how a look-up finds one of them. (An enum in the size of the
+/// slice: a table's first level costs no RAM.)
+#[derive(Clone, Copy)]
+enum Descriptions {
+    /// Binary-searched.
+    Plain(&'static [Object]),
+    /// Grouped by index ([`FirstLevel`]): a look-up scans the group of its index.
+    Indexed(&'static FirstLevel),
 }
 
 /// A default value resolved to bytes.
@@ -474,7 +496,8 @@ impl<const BYTES: usize> Dictionary<BYTES> {
 
     /// Whether the object at `index` is hidden from the bus ([`Self::set_absent`]).
     pub fn is_absent(&self, index: u16) -> bool {
-        self.absent.contains(&index)
+        // Nearly always none: then no scan.
+        !self.absent.is_empty() && self.absent.contains(&index)
     }
 
     /// [`Self::entry`] as the bus sees the dictionary: an absent object does not exist.
@@ -497,6 +520,19 @@ impl<const BYTES: usize> Dictionary<BYTES> {
     /// copy k at the table's indices + k × [`COPY_STRIDE`] with values of its own (CiA 402:
     /// axis k's profile area). A table with copies lies inside one stride.
     pub fn attach_copies(&mut self, tables: &[&'static [Object]], copies: &[u8]) -> Result<(), ConfigError> {
+        self.attach_indexed(tables, &[], copies)
+    }
+
+    /// [`attach_copies`](Self::attach_copies), with `first_levels[t]` the first level of table
+    /// `t` (made by [`first_level`] at compile time), where it has one: a look-up of its objects
+    /// scans the group of its index instead of binary-searching the table. A first level made
+    /// for another table is left unused.
+    pub(crate) fn attach_indexed(
+        &mut self,
+        tables: &[&'static [Object]],
+        first_levels: &[Option<&'static FirstLevel>],
+        copies: &[u8],
+    ) -> Result<(), ConfigError> {
         self.table_count = 0;
         if tables.len() > MAX_TABLES {
             return Err(ConfigError::TooManyTables);
@@ -538,8 +574,14 @@ impl<const BYTES: usize> Dictionary<BYTES> {
             let too_small = |needed| ConfigError::StorageTooSmall { needed };
             let slot = self.tables.get_mut(count).ok_or(ConfigError::TooManyTables)?;
             count += 1;
+            let descriptions = match first_levels.get(t).copied().flatten() {
+                Some(level) if level.is_some() && core::ptr::eq(level.objects(), *table) => {
+                    Descriptions::Indexed(level)
+                }
+                _ => Descriptions::Plain(table),
+            };
             *slot = Table {
-                objects: table,
+                descriptions,
                 first,
                 last: if table.is_empty() { 0 } else { top },
                 region: u16::try_from(region).map_err(|_| too_small(region))?,
@@ -678,7 +720,7 @@ impl<const BYTES: usize> Dictionary<BYTES> {
             (0..u16::from(table.copies)).flat_map(move |k| {
                 let region = table.region_of(k) as u16;
                 table
-                    .objects
+                    .objects()
                     .iter()
                     .map(move |o| (o.index.wrapping_add(COPY_STRIDE.wrapping_mul(k)), o, region))
             })
@@ -693,10 +735,11 @@ impl<const BYTES: usize> Dictionary<BYTES> {
 
     /// The object at `index`.
     pub fn object(&self, index: u16) -> Option<(&'static Object, u16)> {
-        // The ranges ascend and do not overlap (`attach` checks): the first one that ends at or
-        // after `index` is the only one that can hold it.
-        let table = self.attached().iter().find(|t| index <= t.last)?;
-        if table.first > index {
+        // The ranges ascend and do not overlap (`attach` checks): the last one that starts at or
+        // below `index` is the only one that can hold it. (From the top: the drive profile's
+        // objects, those of nearly every request, are in the last table or the one below.)
+        let table = self.attached().iter().rfind(|t| t.first <= index)?;
+        if index > table.last {
             return None;
         }
         // (Compared as u32: a u16 key the copy arithmetic made would be re-extended on every
@@ -708,9 +751,18 @@ impl<const BYTES: usize> Dictionary<BYTES> {
             key -= u32::from(k * COPY_STRIDE);
             region += k * table.span;
         }
-        let table = table.objects;
-        let pos = table.binary_search_by_key(&key, |o| u32::from(o.index)).ok()?;
-        table.get(pos).map(|o| (o, region))
+        let object = match table.descriptions {
+            // The group of the index: a few objects at most (the drive profile's: up to 8).
+            Descriptions::Indexed(level) => {
+                let group = level.objects().get(level.group(key as u16)?)?;
+                group.iter().find(|o| u32::from(o.index) == key)?
+            }
+            Descriptions::Plain(objects) => {
+                let pos = objects.binary_search_by_key(&key, |o| u32::from(o.index)).ok()?;
+                objects.get(pos)?
+            }
+        };
+        Some((object, region))
     }
 
     /// Resolves `index`/`sub`, or answers 0x0602_0000 / 0x0609_0011.
@@ -813,6 +865,7 @@ impl<const BYTES: usize> Dictionary<BYTES> {
 
     /// Copies a stored value of 1..=4 bytes (an expedited SDO upload) into `buf`; `None` for
     /// any other entry (longer, variable or fixed: [`read`](Self::read) serves those).
+    #[inline]
     pub fn read_small(&self, entry: &Entry, buf: &mut [u8; 4]) -> Option<usize> {
         let n = entry.var.data_type.fixed_size().filter(|n| (1..=4).contains(n) && !entry.var.is_fixed())?;
         let start = usize::from(entry.offset);
@@ -1164,7 +1217,7 @@ impl<const BYTES: usize> Dictionary<BYTES> {
             let Some(&table) = self.tables.get(t) else { break };
             for k in 0..u16::from(table.copies) {
                 let region = table.region_of(k);
-                for object in table.objects.iter() {
+                for object in table.objects().iter() {
                     let index = object.index.wrapping_add(k.wrapping_mul(COPY_STRIDE));
                     if !range.contains(&index) {
                         continue;

@@ -122,7 +122,7 @@ impl<const BYTES: usize> Iterator for Parameters<'_, BYTES> {
             let shift = u16::from(self.copy) * COPY_STRIDE;
             let region = table.region_of(u16::from(self.copy));
             let copies = table.copies;
-            let table = table.objects;
+            let table = table.objects();
             let Some(object) = table.get(self.object) else {
                 if self.copy + 1 < copies {
                     self.copy += 1;
