@@ -1777,8 +1777,7 @@ impl<
         self.boot_if_pending(now);
     }
 
-    /// The reaction of the object's owner to a value written from the bus by SDO.
-    /// The reaction of `owner` to a value the bus wrote to `mux` (`rule`: the profile's rule
+    /// The reaction of `owner` to a value the bus wrote to `mux` by SDO (`rule`: the profile's rule
     /// of the entry, found when the write was checked).
     fn after_write(&mut self, owner: Owner, mux: Mux, rule: Option<Rule>, now: Instant) {
         // Every axis derives its parameters again (the cascade's record is every axis's).
